@@ -1,0 +1,2 @@
+//! firmware (skeleton; see its issue).
+#![no_std]

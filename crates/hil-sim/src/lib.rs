@@ -1,0 +1,1 @@
+//! hil-sim (skeleton; see its issue).

@@ -1,0 +1,2 @@
+//! `host-tool`: the command line of the Yoshimura crane.
+fn main() {}

@@ -1,0 +1,1 @@
+//! planner (skeleton; see its issue).

@@ -1,0 +1,2 @@
+//! protocol (skeleton; see its issue).
+#![no_std]

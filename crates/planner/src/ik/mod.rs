@@ -1,0 +1,1 @@
+//! Shape inverse kinematics (skeleton).

@@ -1,0 +1,586 @@
+//! Every message that crosses the serial link.
+//!
+//! The host sends [`Request`]s; the device answers each with exactly one
+//! [`DeviceMessage::Response`] echoing the request's sequence number, and sends
+//! [`DeviceMessage::Event`]s unprompted.
+//!
+//! The schema identity ([`crate::SCHEMA_ID`]) is a hash over this file's source text: any change
+//! here changes it, and a host and device built from different definitions refuse each other at
+//! the handshake. Changes must be deliberate: the golden byte tests pin the wire form.
+
+use geometry::TrunkState;
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+/// Most steps one uploaded plan may hold (the six-state graph never needs more than five).
+pub const MAX_PLAN_STEPS: usize = 8;
+/// Most actuation primitives one plan step may hold.
+pub const MAX_STEP_PRIMITIVES: usize = 4;
+
+// ---------------------------------------------------------------------------------------------
+// Host → device
+// ---------------------------------------------------------------------------------------------
+
+/// A request from the host. Every request gets exactly one response with the same `seq`.
+///
+/// A request repeated with the same `seq` (a retry after a lost response) is not executed twice:
+/// the device answers it again with the response it gave the first time.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Request {
+    /// Sequence number chosen by the host, echoed in the response.
+    pub seq: u16,
+    /// What the host asks for.
+    pub body: RequestBody,
+}
+
+/// What a request asks for.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum RequestBody {
+    /// Handshake. The device answers with [`ResponseBody::Hello`] (its versions, board and trunk
+    /// configuration); it rejects with [`RejectReason::VersionMismatch`] when either the protocol
+    /// version or the schema identity differs, and still includes its own identity.
+    Hello {
+        /// The host's [`crate::PROTOCOL_VERSION`].
+        protocol_version: u16,
+        /// The host's [`crate::SCHEMA_ID`].
+        schema_id: u32,
+    },
+    /// Ask for a [`Status`] snapshot.
+    GetStatus,
+    /// The host is alive. While a plan runs, a silent host (no request of any kind for
+    /// [`ParamId::LinkTimeoutMs`]) makes the device abort to the safe state.
+    Heartbeat,
+    /// Upload a whole plan atomically (it replaces any idle plan; rejected while one runs).
+    UploadPlan(Plan),
+    /// Start the uploaded plan with this id.
+    StartPlan {
+        /// Must match the uploaded plan's id.
+        plan_id: u16,
+    },
+    /// Run a single step now (as a one-step plan with id 0).
+    RunStep(Step),
+    /// Abort whatever runs and go to the safe state (not latched, unlike e-stop).
+    Abort,
+    /// The operator has done the manual step the device asked for.
+    ConfirmManual,
+    /// Clear faults whose cause is gone (and the e-stop latch, once the button is released).
+    ResetFaults,
+    /// Tell the device the trunk's true state (after it was handled by hand, or at first use).
+    /// Recorded as confirmed and persisted.
+    DeclareState(TrunkState),
+    /// Read a parameter.
+    GetParam(ParamId),
+    /// Write a parameter; rejected with [`RejectReason::OutOfRange`] outside [`ParamId::range`].
+    SetParam {
+        /// Which parameter.
+        id: ParamId,
+        /// New value, in the parameter's unit.
+        value: f32,
+    },
+}
+
+/// A plan: steps executed in order, each a transition between trunk states.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// Identifier chosen by the host (non-zero; 0 is reserved for [`RequestBody::RunStep`]).
+    pub plan_id: u16,
+    /// The steps, in order.
+    pub steps: Vec<Step, MAX_PLAN_STEPS>,
+}
+
+/// One step of a plan: a transition `from` → `to` made by a short sequence of primitives.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Step {
+    /// How the transition is actuated (for people and for reports).
+    pub kind: StepKind,
+    /// The state the trunk must be in when the step starts (checked by the device).
+    pub from: TrunkState,
+    /// The state the step should reach, confirmed by the device from its sensors.
+    pub to: TrunkState,
+    /// What to do, in order.
+    pub primitives: Vec<Primitive, MAX_STEP_PRIMITIVES>,
+    /// Time limit for the whole step; the device faults with [`FaultCode::StepTimeout`] after it.
+    pub timeout_ms: u32,
+}
+
+/// How a step is actuated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum StepKind {
+    /// Pressurised air lengthens the trunk.
+    Pneumatic,
+    /// Tendons shorten the trunk.
+    Tendon,
+    /// A person folds panels by hand.
+    Manual,
+}
+
+/// An actuation primitive the device executes with its own interlocks.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Primitive {
+    /// Raise the pressure toward `pressure_kpa` (closed loop, inlet valve), hold it there with
+    /// hysteresis, and finish after `snaps` snap-throughs have been detected (0: finish when the
+    /// pressure is reached). Never exceeds the pressure limit.
+    Inflate {
+        /// Target gauge pressure.
+        pressure_kpa: f32,
+        /// Snap-throughs to wait for.
+        snaps: u8,
+    },
+    /// Open the exhaust until the pressure is at or below `pressure_kpa`.
+    Vent {
+        /// Target gauge pressure.
+        pressure_kpa: f32,
+    },
+    /// Pull all three tendons in by up to `length_mm` (slew-limited), finishing after `snaps`
+    /// snap-throughs (0: finish at the length).
+    TendonPull {
+        /// Tendon shortening from slack.
+        length_mm: f32,
+        /// Snap-throughs to wait for.
+        snaps: u8,
+    },
+    /// Let the tendons out to `length_mm` of shortening (0: fully slack).
+    TendonRelease {
+        /// Remaining tendon shortening.
+        length_mm: f32,
+    },
+    /// Keep everything as it is for a while.
+    Hold {
+        /// How long.
+        duration_ms: u32,
+    },
+    /// Wait for one snap-through, with its own time limit.
+    WaitSnap {
+        /// How long to wait.
+        timeout_ms: u32,
+    },
+    /// Ask a person to do something by hand, and wait for the confirm button or the host.
+    Manual(ManualTask),
+    /// Open or close the gripper.
+    Gripper {
+        /// `true` to close.
+        close: bool,
+    },
+    /// Bend a flexible trunk by differential tendon pull (constant-curvature kinematics).
+    Bend {
+        /// Direction of the bend in the base frame (0° = toward tendon 0).
+        direction_deg: f32,
+        /// Bend angle of the trunk's tip axis.
+        angle_deg: f32,
+    },
+}
+
+/// What a manual step asks a person to do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ManualTask {
+    /// Fold the panels of the bottom module's two lowest units back into self-packing.
+    PackBottomModule,
+    /// Fold the top module's panels (pop it back from deployed to folded) by hand.
+    FoldTopModule,
+    /// Fold the bottom module from deployed to folded by hand.
+    FoldBottomModule,
+}
+
+/// A tunable parameter with a unit and a valid range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ParamId {
+    /// Pressure cap in kPa (configurable up to the hard maximum).
+    PressureLimitKpa,
+    /// Lowest servo angle, degrees.
+    ServoMinDeg,
+    /// Highest servo angle, degrees.
+    ServoMaxDeg,
+    /// Servo slew-rate limit, degrees per second.
+    ServoSlewDegPerS,
+    /// Telemetry rate in Hz (0: off).
+    TelemetryHz,
+    /// Host silence that counts as link loss while a plan runs, ms.
+    LinkTimeoutMs,
+}
+
+impl ParamId {
+    /// All parameters.
+    pub const ALL: [ParamId; 6] = [
+        ParamId::PressureLimitKpa,
+        ParamId::ServoMinDeg,
+        ParamId::ServoMaxDeg,
+        ParamId::ServoSlewDegPerS,
+        ParamId::TelemetryHz,
+        ParamId::LinkTimeoutMs,
+    ];
+
+    /// The inclusive valid range of the parameter's value.
+    pub const fn range(self) -> (f32, f32) {
+        match self {
+            ParamId::PressureLimitKpa => (0.0, crate::HARD_MAX_PRESSURE_KPA),
+            ParamId::ServoMinDeg => (0.0, 180.0),
+            ParamId::ServoMaxDeg => (0.0, 180.0),
+            ParamId::ServoSlewDegPerS => (1.0, 600.0),
+            ParamId::TelemetryHz => (0.0, 50.0),
+            ParamId::LinkTimeoutMs => (200.0, 60_000.0),
+        }
+    }
+
+    /// Whether `value` is finite and within [`ParamId::range`].
+    pub fn accepts(self, value: f32) -> bool {
+        let (lo, hi) = self.range();
+        value.is_finite() && value >= lo && value <= hi
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Device → host
+// ---------------------------------------------------------------------------------------------
+
+/// A message from the device.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum DeviceMessage {
+    /// The one answer to the request with sequence number `seq`.
+    Response {
+        /// The request's sequence number.
+        seq: u16,
+        /// Outcome.
+        result: ResultCode,
+        /// Data, when the request asks for some.
+        body: ResponseBody,
+    },
+    /// Sent unprompted.
+    Event(Event),
+}
+
+/// Outcome of a request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ResultCode {
+    /// Done.
+    Ok,
+    /// Refused; nothing changed.
+    Rejected(RejectReason),
+    /// The device is busy with something that must finish first (e.g. a running plan).
+    Busy,
+    /// Accepted and started; completion is reported by events and status.
+    InProgress,
+}
+
+/// Why a request was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RejectReason {
+    /// Protocol version or schema identity differ (the response carries the device's).
+    VersionMismatch,
+    /// No successful handshake yet on this link.
+    NoHandshake,
+    /// The e-stop is latched.
+    EStopLatched,
+    /// A fault is active; reset it first.
+    Faulted,
+    /// The plan is empty, too long, or its steps do not chain (`to` of one ≠ `from` of next).
+    InvalidPlan,
+    /// No uploaded plan has this id.
+    UnknownPlan,
+    /// The step's `from` is not the device's current (confirmed) state.
+    WrongState,
+    /// A value is out of range or not finite.
+    OutOfRange,
+    /// There is no manual step waiting for confirmation.
+    NoManualPending,
+    /// The request is not allowed now (e.g. `ResetFaults` with the e-stop still pressed).
+    NotAllowed,
+}
+
+/// Data carried by a response.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum ResponseBody {
+    /// No data.
+    None,
+    /// The device's identity, answering [`RequestBody::Hello`] (also on a version mismatch).
+    Hello(DeviceInfo),
+    /// A status snapshot.
+    Status(Status),
+    /// A parameter's current value.
+    Param {
+        /// Which parameter.
+        id: ParamId,
+        /// Its value.
+        value: f32,
+    },
+}
+
+/// Who the device is.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DeviceInfo {
+    /// The device's [`crate::PROTOCOL_VERSION`].
+    pub protocol_version: u16,
+    /// The device's [`crate::SCHEMA_ID`].
+    pub schema_id: u32,
+    /// Firmware version, `[major, minor, patch]`.
+    pub firmware_version: [u8; 3],
+    /// The board it runs on.
+    pub board: Board,
+    /// The trunk it drives.
+    pub trunk: TrunkConfig,
+}
+
+/// Hardware the firmware runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Board {
+    /// Arduino UNO R4 WiFi (host link through the ESP32-S3 USB bridge).
+    UnoR4Wifi,
+    /// Arduino UNO R4 Minima.
+    UnoR4Minima,
+    /// The hil-sim simulator.
+    Simulator,
+}
+
+/// The trunk configuration the device is built for.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TrunkConfig {
+    /// The bottom module.
+    pub bottom: ModuleConfig,
+    /// The top module.
+    pub top: ModuleConfig,
+    /// Current pressure cap.
+    pub pressure_limit_kpa: f32,
+}
+
+/// One module of the trunk.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ModuleConfig {
+    /// Polygon sides.
+    pub n: u8,
+    /// Fold angle β.
+    pub beta_deg: f32,
+    /// Valley-fold (polygon edge) length.
+    pub edge_mm: f32,
+    /// Number of unit layers stacked in the module.
+    pub layers: u8,
+}
+
+/// What the device is doing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mode {
+    /// Standalone: joystick and buttons drive the crane; no plan.
+    Standalone,
+    /// A plan (or single step) is running.
+    Running,
+    /// A plan waits for a person to do a manual step.
+    WaitingManual,
+    /// Safe state after a fault or abort; actuators frozen/closed.
+    Safe,
+    /// E-stop latched.
+    EStop,
+}
+
+/// Snapshot of the device.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Status {
+    /// The state the device believes the trunk is in.
+    pub state: TrunkState,
+    /// Whether that state was confirmed from sensors (or declared) rather than assumed.
+    pub state_confirmed: bool,
+    /// What the device is doing.
+    pub mode: Mode,
+    /// Measured gauge pressure.
+    pub pressure_kpa: f32,
+    /// Commanded servo angles of the three tendon servos.
+    pub servo_deg: [f32; 3],
+    /// Inlet valve open.
+    pub inlet_open: bool,
+    /// Exhaust valve open.
+    pub exhaust_open: bool,
+    /// Gripper closed.
+    pub gripper_closed: bool,
+    /// E-stop latched.
+    pub estop: bool,
+    /// The active (or last) plan.
+    pub plan: Option<PlanStatus>,
+    /// Active faults, one bit per [`FaultCode`] (`1 << code as u16`).
+    pub faults: u16,
+    /// Frames received and decoded.
+    pub frames_rx: u32,
+    /// Frames dropped (corrupt, oversized, undecodable).
+    pub frames_dropped: u32,
+    /// Device uptime.
+    pub uptime_ms: u32,
+}
+
+/// Progress of the active or last plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlanStatus {
+    /// Its id.
+    pub plan_id: u16,
+    /// Index of the step running now (or the last one run).
+    pub step: u8,
+    /// Steps in the plan.
+    pub steps: u8,
+    /// Where it is.
+    pub phase: PlanPhase,
+}
+
+/// Phase of a plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PlanPhase {
+    /// Uploaded, not started.
+    Ready,
+    /// Executing `step`.
+    Running,
+    /// Waiting for a manual step's confirmation.
+    WaitingManual,
+    /// All steps done; the target state is confirmed.
+    Done,
+    /// Stopped by a fault at `step`.
+    Failed(FaultCode),
+    /// Aborted by the host or a button.
+    Aborted,
+}
+
+/// Every fault the device can raise. Each has a code (its discriminant), an event and a
+/// display message (`E-xx`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[repr(u8)]
+pub enum FaultCode {
+    /// Pressure above the cap: vented immediately.
+    OverPressure = 1,
+    /// The pressure sensor reads out of range or stopped changing when it must.
+    PressureSensor = 2,
+    /// A step exceeded its time limit.
+    StepTimeout = 3,
+    /// A step ended but its transition was not confirmed by the sensors.
+    TransitionNotConfirmed = 4,
+    /// No host heartbeat while a plan ran.
+    LinkLoss = 5,
+    /// The e-stop button was pressed.
+    EStop = 6,
+    /// A servo command was outside the configured limits (clamped; step aborted).
+    ServoLimit = 7,
+    /// Pressure decays faster than the trunk's leak allowance with valves closed.
+    Leak = 8,
+    /// The board restarted through its watchdog.
+    Watchdog = 9,
+    /// The persisted state could not be read; the state is unconfirmed.
+    StateStorage = 10,
+}
+
+impl FaultCode {
+    /// All faults.
+    pub const ALL: [FaultCode; 10] = [
+        FaultCode::OverPressure,
+        FaultCode::PressureSensor,
+        FaultCode::StepTimeout,
+        FaultCode::TransitionNotConfirmed,
+        FaultCode::LinkLoss,
+        FaultCode::EStop,
+        FaultCode::ServoLimit,
+        FaultCode::Leak,
+        FaultCode::Watchdog,
+        FaultCode::StateStorage,
+    ];
+
+    /// The numeric code shown on the display as `E-xx`.
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The bit of this fault in [`Status::faults`].
+    pub const fn bit(self) -> u16 {
+        1 << (self as u16)
+    }
+
+    /// A short human description.
+    pub const fn description(self) -> &'static str {
+        match self {
+            FaultCode::OverPressure => "pressure above the limit; vented",
+            FaultCode::PressureSensor => "pressure sensor out of range or not responding",
+            FaultCode::StepTimeout => "step exceeded its time limit",
+            FaultCode::TransitionNotConfirmed => "transition not confirmed by the sensors",
+            FaultCode::LinkLoss => "host link lost during a plan",
+            FaultCode::EStop => "emergency stop pressed",
+            FaultCode::ServoLimit => "servo command outside its limits",
+            FaultCode::Leak => "pressure leak detected",
+            FaultCode::Watchdog => "restarted by the watchdog",
+            FaultCode::StateStorage => "stored trunk state unreadable",
+        }
+    }
+}
+
+/// A message the device sends unprompted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Event {
+    /// Sent every [`crate::HEARTBEAT_PERIOD_MS`].
+    Heartbeat {
+        /// Device uptime.
+        uptime_ms: u32,
+        /// Current mode.
+        mode: Mode,
+    },
+    /// Sent at the requested telemetry rate.
+    Telemetry(Telemetry),
+    /// A step is running (sent with telemetry, at most every 100 ms).
+    StepProgress {
+        /// Plan id.
+        plan_id: u16,
+        /// Step index.
+        step: u8,
+        /// Index of the primitive running within the step.
+        primitive: u8,
+        /// Time since the step started.
+        elapsed_ms: u32,
+    },
+    /// A step finished.
+    StepDone {
+        /// Plan id.
+        plan_id: u16,
+        /// Step index.
+        step: u8,
+        /// `true` when its target state was confirmed.
+        ok: bool,
+        /// The state the device now believes.
+        state: TrunkState,
+        /// How long the step took.
+        duration_ms: u32,
+    },
+    /// The whole plan finished.
+    PlanDone {
+        /// Plan id.
+        plan_id: u16,
+        /// `true` when every step succeeded.
+        ok: bool,
+        /// Final state.
+        state: TrunkState,
+    },
+    /// The trunk's state changed (confirmed from sensors or declared).
+    StateReached {
+        /// The new state.
+        state: TrunkState,
+        /// Whether it was confirmed.
+        confirmed: bool,
+    },
+    /// A manual step needs a person; confirm with the button or [`RequestBody::ConfirmManual`].
+    ManualRequired {
+        /// Plan id.
+        plan_id: u16,
+        /// Step index.
+        step: u8,
+        /// What to do.
+        task: ManualTask,
+    },
+    /// A fault became active.
+    FaultRaised(FaultCode),
+    /// A fault was cleared.
+    FaultCleared(FaultCode),
+}
+
+/// Periodic measurements.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Device uptime.
+    pub uptime_ms: u32,
+    /// Measured gauge pressure.
+    pub pressure_kpa: f32,
+    /// Commanded servo angles.
+    pub servo_deg: [f32; 3],
+    /// Inlet valve open.
+    pub inlet_open: bool,
+    /// Exhaust valve open.
+    pub exhaust_open: bool,
+    /// Current state.
+    pub state: TrunkState,
+}

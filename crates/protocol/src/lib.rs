@@ -15,6 +15,7 @@
 
 pub mod frame;
 pub mod messages;
+pub mod transitions;
 
 pub use frame::{encode, DecoderStats, FrameDecoder, FrameError, MAX_FRAME_LEN};
 pub use messages::*;

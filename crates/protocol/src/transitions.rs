@@ -1,0 +1,222 @@
+//! The PDF trunk's nominal transitions: which state changes each actuation makes, and the
+//! primitives (with their parameters) that make them.
+//!
+//! This is the shared catalogue: the planner builds its graph from it, the firmware's standalone
+//! buttons step along it, and the simulator's transition discovery must agree with it (a test in
+//! `hil-sim`). The thresholds behind these numbers are the simulator's calibrated physics
+//! (`docs/simulator.md`); the paper gives the ordering, not the values (DESIGN.md, §5–6):
+//!
+//! - Pressure from `F&P`: the 35° bottom module leaves self-packing first (`F&F`), then the
+//!   31.72° top module pops out (`D&F`), then the bottom deploys (`D&D`).
+//! - Tendons from `D&D`: the smaller-β top module buckles first (`F&D`); the bottom then goes
+//!   deployed → folded, and folded → self-packed layer by layer (two snaps).
+//! - `D&P` cannot be reached by pressure (the bottom unpacks first) nor by tendons (the top
+//!   buckles first), so the bottom is packed by hand from `D&F`.
+//!
+//! Every step stops at the first `snaps` snap-throughs and then releases its actuator (vents or
+//! slackens): the origami holds its state without power.
+//!
+//! Tendon lengths are shortening from the slack position of the fully deployed trunk, in mm.
+
+use geometry::{BottomState, TopState, TrunkState};
+
+use crate::messages::{ManualTask, Primitive, Step, StepKind, MAX_STEP_PRIMITIVES};
+
+/// One directed edge of the trunk's state graph.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transition {
+    /// Start state.
+    pub from: TrunkState,
+    /// End state.
+    pub to: TrunkState,
+    /// How it is actuated.
+    pub kind: StepKind,
+    /// What the device does, in order.
+    pub primitives: &'static [Primitive],
+    /// Time limit of the step.
+    pub timeout_ms: u32,
+}
+
+const fn st(top: TopState, bottom: BottomState) -> TrunkState {
+    TrunkState::new(top, bottom)
+}
+
+const FP: TrunkState = st(TopState::Folded, BottomState::Packed);
+const FF: TrunkState = st(TopState::Folded, BottomState::Folded);
+const FD: TrunkState = st(TopState::Folded, BottomState::Deployed);
+const DP: TrunkState = st(TopState::Deployed, BottomState::Packed);
+const DF: TrunkState = st(TopState::Deployed, BottomState::Folded);
+const DD: TrunkState = st(TopState::Deployed, BottomState::Deployed);
+
+/// Inflate until the first snap, then vent: the lowest-threshold module moves one state up.
+const fn inflate(pressure_kpa: f32) -> [Primitive; 2] {
+    [
+        Primitive::Inflate {
+            pressure_kpa,
+            snaps: 1,
+        },
+        Primitive::Vent { pressure_kpa: 0.0 },
+    ]
+}
+
+/// Pull the tendons until `snaps` snap-throughs (at most `length_mm`), then slacken them.
+const fn pull(length_mm: f32, snaps: u8) -> [Primitive; 2] {
+    [
+        Primitive::TendonPull { length_mm, snaps },
+        Primitive::TendonRelease { length_mm: 0.0 },
+    ]
+}
+
+const PNEUMATIC_TIMEOUT_MS: u32 = 30_000;
+const TENDON_TIMEOUT_MS: u32 = 30_000;
+const MANUAL_TIMEOUT_MS: u32 = 600_000;
+
+/// Pressure that unpacks the bottom module (P → F) with margin.
+pub const UNPACK_KPA: f32 = 14.0;
+/// Pressure that pops the top module out (F → D) with margin, below the bottom's F → D.
+pub const POP_TOP_KPA: f32 = 22.0;
+/// Pressure that deploys the bottom module (F → D) with margin.
+pub const DEPLOY_BOTTOM_KPA: f32 = 34.0;
+
+static UNPACK: [Primitive; 2] = inflate(UNPACK_KPA);
+static POP_TOP: [Primitive; 2] = inflate(POP_TOP_KPA);
+static DEPLOY_BOTTOM: [Primitive; 2] = inflate(DEPLOY_BOTTOM_KPA);
+static FOLD_TOP: [Primitive; 2] = pull(90.0, 1);
+static FOLD_BOTTOM: [Primitive; 2] = pull(130.0, 1);
+static PACK_BOTTOM: [Primitive; 2] = pull(175.0, 2);
+static PACK_BY_HAND: [Primitive; 1] = [Primitive::Manual(ManualTask::PackBottomModule)];
+
+const fn edge(
+    from: TrunkState,
+    to: TrunkState,
+    kind: StepKind,
+    primitives: &'static [Primitive],
+) -> Transition {
+    let timeout_ms = match kind {
+        StepKind::Pneumatic => PNEUMATIC_TIMEOUT_MS,
+        StepKind::Tendon => TENDON_TIMEOUT_MS,
+        StepKind::Manual => MANUAL_TIMEOUT_MS,
+    };
+    Transition {
+        from,
+        to,
+        kind,
+        primitives,
+        timeout_ms,
+    }
+}
+
+/// Every nominal transition of the PDF trunk.
+pub static TRANSITIONS: [Transition; 11] = [
+    // Pressure: one module one state up, lowest threshold first.
+    edge(FP, FF, StepKind::Pneumatic, &UNPACK),
+    edge(DP, DF, StepKind::Pneumatic, &UNPACK),
+    edge(FF, DF, StepKind::Pneumatic, &POP_TOP),
+    edge(FD, DD, StepKind::Pneumatic, &POP_TOP),
+    edge(DF, DD, StepKind::Pneumatic, &DEPLOY_BOTTOM),
+    // Tendons: the smaller-β top module buckles first.
+    edge(DD, FD, StepKind::Tendon, &FOLD_TOP),
+    edge(DF, FF, StepKind::Tendon, &FOLD_TOP),
+    edge(DP, FP, StepKind::Tendon, &FOLD_TOP),
+    edge(FD, FF, StepKind::Tendon, &FOLD_BOTTOM),
+    edge(FF, FP, StepKind::Tendon, &PACK_BOTTOM),
+    // By hand: pack the bottom under a deployed top.
+    edge(DF, DP, StepKind::Manual, &PACK_BY_HAND),
+];
+
+/// The nominal transition `from` → `to`, if one exists.
+pub fn transition(from: TrunkState, to: TrunkState) -> Option<&'static Transition> {
+    TRANSITIONS.iter().find(|t| t.from == from && t.to == to)
+}
+
+/// The transition the standalone "step up" (deploy) button makes from `state`: the pneumatic one.
+pub fn step_up(state: TrunkState) -> Option<&'static Transition> {
+    TRANSITIONS
+        .iter()
+        .find(|t| t.from == state && t.kind == StepKind::Pneumatic)
+}
+
+/// The transition the standalone "step down" (retract) button makes from `state`: the tendon one.
+pub fn step_down(state: TrunkState) -> Option<&'static Transition> {
+    TRANSITIONS
+        .iter()
+        .find(|t| t.from == state && t.kind == StepKind::Tendon)
+}
+
+impl Transition {
+    /// The wire form of this transition as one plan step.
+    pub fn step(&self) -> Step {
+        let mut primitives = heapless::Vec::new();
+        for p in self.primitives.iter().take(MAX_STEP_PRIMITIVES) {
+            // Cannot fail: `take` bounds the count by the capacity.
+            let _ = primitives.push(*p);
+        }
+        Step {
+            kind: self.kind,
+            from: self.from,
+            to: self.to,
+            primitives,
+            timeout_ms: self.timeout_ms,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_state_reaches_every_other_state() {
+        for from in TrunkState::ALL {
+            let mut reached = [false; 6];
+            reached[from.index()] = true;
+            let mut changed = true;
+            while changed {
+                changed = false;
+                for t in &TRANSITIONS {
+                    if reached[t.from.index()] && !reached[t.to.index()] {
+                        reached[t.to.index()] = true;
+                        changed = true;
+                    }
+                }
+            }
+            assert_eq!(reached, [true; 6], "from {from}");
+        }
+    }
+
+    #[test]
+    fn d_and_p_is_reached_only_by_hand() {
+        let into_dp: usize = TRANSITIONS.iter().filter(|t| t.to == DP).count();
+        assert_eq!(into_dp, 1);
+        assert_eq!(transition(DF, DP).map(|t| t.kind), Some(StepKind::Manual));
+    }
+
+    #[test]
+    fn edges_are_unique_and_fit_a_step() {
+        for (i, a) in TRANSITIONS.iter().enumerate() {
+            assert!(a.primitives.len() <= MAX_STEP_PRIMITIVES);
+            assert_ne!(a.from, a.to);
+            for b in &TRANSITIONS[i + 1..] {
+                assert!(
+                    !(a.from == b.from && a.to == b.to),
+                    "{} -> {} twice",
+                    a.from,
+                    a.to
+                );
+            }
+            let step = a.step();
+            assert_eq!(step.primitives.len(), a.primitives.len());
+            assert_eq!((step.from, step.to, step.kind), (a.from, a.to, a.kind));
+        }
+    }
+
+    #[test]
+    fn pressure_thresholds_follow_the_papers_order() {
+        assert!(UNPACK_KPA < POP_TOP_KPA && POP_TOP_KPA < DEPLOY_BOTTOM_KPA);
+        assert!(DEPLOY_BOTTOM_KPA < crate::HARD_MAX_PRESSURE_KPA);
+        assert_eq!(step_up(FP).map(|t| t.to), Some(FF));
+        assert_eq!(step_down(DD).map(|t| t.to), Some(FD));
+        assert!(step_up(DD).is_none());
+        assert!(step_down(FP).is_none());
+    }
+}

@@ -47,7 +47,10 @@ pub struct ParseTrunkStateError;
 
 impl fmt::Display for ParseTrunkStateError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "unknown trunk state; valid states are {VALID_STATES_TEXT}")
+        write!(
+            f,
+            "unknown trunk state; valid states are {VALID_STATES_TEXT}"
+        )
     }
 }
 
@@ -185,7 +188,11 @@ mod tests {
     #[test]
     fn parse_rejects_invalid_states() {
         for bad in ["", "D&", "P&D", "F&X", "DD", "D&DD", "F&Pé", "é&P"] {
-            assert_eq!(bad.parse::<TrunkState>(), Err(ParseTrunkStateError), "{bad}");
+            assert_eq!(
+                bad.parse::<TrunkState>(),
+                Err(ParseTrunkStateError),
+                "{bad}"
+            );
         }
         let mut buf = [0u8; 128];
         let msg = {
@@ -194,7 +201,10 @@ mod tests {
             impl Write for W<'_> {
                 fn write_str(&mut self, s: &str) -> fmt::Result {
                     let end = self.1 + s.len();
-                    self.0.get_mut(self.1..end).ok_or(fmt::Error)?.copy_from_slice(s.as_bytes());
+                    self.0
+                        .get_mut(self.1..end)
+                        .ok_or(fmt::Error)?
+                        .copy_from_slice(s.as_bytes());
                     self.1 = end;
                     Ok(())
                 }

@@ -10,8 +10,6 @@ use clap::{Parser, Subcommand};
 mod cmd;
 mod failure;
 
-use failure::Failure;
-
 /// Design, plan and command Yoshimura-origami cranes (or their simulator).
 #[derive(Debug, Parser)]
 #[command(name = "host-tool", version, about, propagate_version = true)]

@@ -1,12 +1,134 @@
-//! `host-tool fk` (skeleton; filled in by its issue).
+//! `host-tool fk`: forward kinematics of a stack of modules, the tip of each module.
 
+use geometry::{fk, ModuleDesign, Pose, ShapeState, SymmetricState};
+use serde_json::Value;
+
+use super::states::{design_from, ordered_object, parse_beta, parse_n};
 use crate::failure::Failure;
 
 /// Arguments of `host-tool fk`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Number of polygon sides n of every module (an integer in [3, 64]).
+    #[arg(long, allow_hyphen_values = true)]
+    pub n: String,
+    /// Fold angle(s) β in degrees: one for all modules or one per module, comma-separated,
+    /// bottom module first.
+    #[arg(long, allow_hyphen_values = true)]
+    pub beta: String,
+    /// State of each module, comma-separated, bottom module first: deployed, folded,
+    /// edge-<i>, vertex-<i> (0 ≤ i < n), or self-packed / flat-folded where β allows.
+    #[arg(long, allow_hyphen_values = true)]
+    pub states: String,
+    /// Print JSON (`{"tips": [[x, y, z], …]}`) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One module of the stack, validated.
+struct Module {
+    design: ModuleDesign,
+    name: String,
+    pose: Pose,
+}
+
+fn parse_state(design: &ModuleDesign, name: &str) -> Result<Pose, Failure> {
+    let trimmed = name.trim();
+    for sym in [SymmetricState::SelfPacked, SymmetricState::FlatFolded] {
+        if trimmed.eq_ignore_ascii_case(sym.name()) {
+            return design.symmetric_pose(sym).ok_or_else(|| {
+                Failure::usage(format!(
+                    "state '{trimmed}' does not exist for β = {}° (self-packed needs β in ({:.4}°, 45°], flat-folded needs β = {:.4}°)",
+                    design.beta_deg(),
+                    design.flat_foldable_beta_deg(),
+                    design.flat_foldable_beta_deg()
+                ))
+            });
+        }
+    }
+    let state = ShapeState::parse(trimmed, design.n()).map_err(|e| {
+        Failure::usage(format!(
+            "'{name}': {e} (and self-packed, flat-folded where β allows)"
+        ))
+    })?;
+    Ok(design.pose(state))
+}
+
+fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
+    let n = parse_n(&args.n)?;
+    let names: Vec<&str> = args.states.split(',').collect();
+    if names.iter().any(|s| s.trim().is_empty()) {
+        return Err(Failure::usage(
+            "--states must be a comma-separated list of state names, one per module (e.g. deployed,edge-0,folded)",
+        ));
+    }
+    let betas = args
+        .beta
+        .split(',')
+        .map(parse_beta)
+        .collect::<Result<Vec<f64>, Failure>>()?;
+    if betas.len() != 1 && betas.len() != names.len() {
+        return Err(Failure::usage(format!(
+            "--beta has {} values but --states has {} modules; give one β for all modules or one per module",
+            betas.len(),
+            names.len()
+        )));
+    }
+    names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let beta = if betas.len() == 1 { betas[0] } else { betas[k] };
+            let design = design_from(n, beta)?;
+            let pose = parse_state(&design, name)?;
+            Ok(Module {
+                design,
+                name: name.trim().to_ascii_lowercase(),
+                pose,
+            })
+        })
+        .collect()
+}
 
 /// Runs `host-tool fk`.
-pub fn run(_args: Args) -> Result<(), Failure> {
-    Err(Failure::Runtime(anyhow::anyhow!("`fk` is not implemented yet")))
+pub fn run(args: Args) -> Result<(), Failure> {
+    let stack = modules(&args)?;
+    let tips: Vec<_> = fk::tips(stack.iter().map(|m| m.pose)).collect();
+    if args.json {
+        let list: Vec<String> = tips
+            .iter()
+            .map(|p| {
+                let xyz: Vec<String> = [p.x, p.y, p.z]
+                    .iter()
+                    .map(|v| Value::from(*v).to_string())
+                    .collect();
+                format!("[{}]", xyz.join(","))
+            })
+            .collect();
+        println!(
+            "{}",
+            ordered_object(&[("tips", format!("[{}]", list.join(",")))])
+        );
+        return Ok(());
+    }
+    println!(
+        "tips of a {}-module stack (units of the edge l, bottom module first)",
+        stack.len()
+    );
+    println!(
+        "  {:>3}  {:<12} {:>8} {:>10} {:>10} {:>10}",
+        "#", "state", "β (°)", "x", "y", "z"
+    );
+    for (k, (m, p)) in stack.iter().zip(&tips).enumerate() {
+        println!(
+            "  {:>3}  {:<12} {:>8.3} {:>10.5} {:>10.5} {:>10.5}",
+            k + 1,
+            m.name,
+            m.design.beta_deg(),
+            p.x,
+            p.y,
+            p.z
+        );
+    }
+    Ok(())
 }

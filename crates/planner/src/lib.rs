@@ -2,6 +2,8 @@
 //!
 //! - [`ik`]: shape inverse kinematics (paper §4.2): choose one metastable state per module so a
 //!   stacked boom follows a target curve.
-//! - `graph` (PDF trunk transition planning) lands with its issue.
+//! - [`graph`]: PDF trunk transition planning (paper §6.2): the six-state graph built from the
+//!   protocol's transition catalogue, cheapest plans by Dijkstra, replanning.
 
+pub mod graph;
 pub mod ik;

@@ -2,6 +2,9 @@
 //!
 //! `cargo bench -p geometry --bench fk`
 
+// `criterion_group!` generates an undocumented `pub fn benches`.
+#![allow(missing_docs)]
+
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use geometry::{fk, ModuleDesign, Pose, ShapeState};
 use nalgebra::Point3;

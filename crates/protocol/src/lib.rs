@@ -1,23 +1,72 @@
 //! The serial protocol of the Yoshimura crane: the one place where wire types live.
 //!
-//! - [`messages`]: every message host and device exchange ([`Request`], [`DeviceMessage`]).
-//! - [`frame`]: framing — postcard payload, CRC-16, COBS with a `0x00` delimiter — and a
-//!   streaming decoder that never panics and never allocates.
-//! - Versioning: [`PROTOCOL_VERSION`] and [`SCHEMA_ID`] are exchanged in the handshake; a peer
-//!   with different values is refused.
+//! Host tool, firmware and simulator all import these types; nothing else defines a message.
+//! The full description (message table, timing, retry policy, measured sizes) is
+//! `docs/protocol.md`.
 //!
-//! This crate is `no_std`, performs no I/O and never allocates.
+//! # Map
+//!
+//! - [`messages`]: every message host and device exchange. The host sends a [`Request`]
+//!   (`seq` + [`RequestBody`]); the device answers each with exactly one
+//!   [`DeviceMessage::Response`] echoing `seq`, and sends [`DeviceMessage::Event`]s unprompted.
+//! - [`frame`]: framing — `COBS(postcard ‖ CRC-16) ‖ 0x00` — with [`encode`], a one-shot
+//!   [`decode`] and the streaming [`FrameDecoder`] (byte by byte or chunk by chunk), which
+//!   counts and drops bad frames and resynchronises at the next delimiter.
+//! - Versioning: [`PROTOCOL_VERSION`] and [`SCHEMA_ID`] are exchanged in the handshake
+//!   ([`RequestBody::Hello`] / [`DeviceInfo`]); [`check_hello`] is the one comparison both
+//!   sides use, and a peer with different values is refused.
+//! - Timing: [`HEARTBEAT_PERIOD_MS`], [`HOST_HEARTBEAT_PERIOD_MS`],
+//!   [`DEFAULT_LINK_TIMEOUT_MS`], [`RESPONSE_TIMEOUT_MS`], [`MAX_RETRIES`].
+//! - [`transitions`]: the nominal trunk transition catalogue (owned by the simulator's
+//!   calibration; shared so planner, firmware and simulator agree).
+//!
+//! # What this crate must not do
+//!
+//! - No I/O, no clock, no allocation, no `std`: it builds for `thumbv7em-none-eabihf`.
+//! - No panic on any input: every byte sequence fed to the decoder yields a message, a counted
+//!   drop or nothing (property tests and the `fuzz/` target hold it to that).
+//! - No strings in errors: [`FrameError`] and [`VersionMismatch`] are small `Copy` values;
+//!   turning them into sentences is the host tool's job.
+//! - No silent format change: golden byte tests in `tests/wire/golden.rs` pin every message.
+//!
+//! # Example
+//!
+//! ```
+//! use protocol::{encode, FrameDecoder, Request, RequestBody, MAX_FRAME_LEN};
+//!
+//! let req = Request { seq: 1, body: RequestBody::GetStatus };
+//! let mut frame = [0u8; MAX_FRAME_LEN];
+//! let n = encode(&req, &mut frame).unwrap();
+//! assert_eq!(frame[n - 1], 0x00); // the delimiter
+//!
+//! // The receiver sees the bytes in whatever chunks the serial port delivers.
+//! let mut dec = FrameDecoder::new();
+//! let (a, b) = frame[..n].split_at(2);
+//! assert_eq!(dec.feed::<Request>(a).count(), 0);
+//! let got: Vec<_> = dec.feed::<Request>(b).collect();
+//! assert_eq!(got, vec![Ok(req)]);
+//! assert_eq!(dec.stats().frames_ok, 1);
+//! ```
 #![no_std]
+#![deny(missing_docs)]
 #![cfg_attr(
     not(test),
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
+// Wire types are plain values: no `Box` in no_std, and a large request (`UploadPlan`) is built
+// once per send, so the size difference between variants costs nothing that matters.
+#![allow(clippy::large_enum_variant)]
+// `transitions.rs` (owned by the simulator engineer) checks its constant ordering with plain
+// `assert!` in its tests; remove this once those become `const { assert!(..) }`.
+#![cfg_attr(test, allow(clippy::assertions_on_constants))]
 
 pub mod frame;
 pub mod messages;
 pub mod transitions;
 
-pub use frame::{encode, DecoderStats, FrameDecoder, FrameError, MAX_FRAME_LEN};
+pub use frame::{
+    decode, encode, DecoderStats, Feed, FrameDecoder, FrameError, MAX_FRAME_LEN, MAX_RAW_LEN,
+};
 pub use messages::*;
 
 /// Protocol version: bumped on any incompatible change of framing or semantics.
@@ -36,6 +85,76 @@ pub const DEFAULT_LINK_TIMEOUT_MS: u32 = 3_000;
 /// The pressure cap can never be configured above this (the trunk's burst margin).
 pub const HARD_MAX_PRESSURE_KPA: f32 = 60.0;
 
+/// How long the host waits for the response to a request before sending it again with the same
+/// `seq`. The largest frame takes ≈ 34 ms at 115 200 Bd and the device answers within one
+/// control-loop pass, so this leaves a wide margin while still detecting loss quickly.
+pub const RESPONSE_TIMEOUT_MS: u32 = 250;
+/// Resends of one request (same `seq`) before the host declares the link lost. With
+/// [`RESPONSE_TIMEOUT_MS`] this gives up after 1 s, well inside [`DEFAULT_LINK_TIMEOUT_MS`].
+pub const MAX_RETRIES: u8 = 3;
+
+/// The two sides' versions when a handshake fails. No `Display` here (no_std, no strings): the
+/// host tool formats it, naming both versions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VersionMismatch {
+    /// This build's [`PROTOCOL_VERSION`].
+    pub local_protocol_version: u16,
+    /// This build's [`SCHEMA_ID`].
+    pub local_schema_id: u32,
+    /// The peer's protocol version.
+    pub peer_protocol_version: u16,
+    /// The peer's schema identity.
+    pub peer_schema_id: u32,
+}
+
+impl VersionMismatch {
+    /// Whether the protocol versions differ (otherwise only the message definitions do).
+    pub const fn protocol_differs(&self) -> bool {
+        self.local_protocol_version != self.peer_protocol_version
+    }
+
+    /// Whether the schema identities differ.
+    pub const fn schema_differs(&self) -> bool {
+        self.local_schema_id != self.peer_schema_id
+    }
+}
+
+/// The handshake check both sides make: the device on [`RequestBody::Hello`] (answering
+/// [`RejectReason::VersionMismatch`] on `Err`), the host on the [`DeviceInfo`] it gets back.
+/// Both the protocol version and the schema identity must be equal to this build's.
+pub const fn check_hello(
+    peer_protocol_version: u16,
+    peer_schema_id: u32,
+) -> Result<(), VersionMismatch> {
+    if peer_protocol_version == PROTOCOL_VERSION && peer_schema_id == SCHEMA_ID {
+        Ok(())
+    } else {
+        Err(VersionMismatch {
+            local_protocol_version: PROTOCOL_VERSION,
+            local_schema_id: SCHEMA_ID,
+            peer_protocol_version,
+            peer_schema_id,
+        })
+    }
+}
+
+impl RequestBody {
+    /// The handshake request carrying this build's versions.
+    pub const fn hello() -> Self {
+        RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_id: SCHEMA_ID,
+        }
+    }
+}
+
+impl DeviceInfo {
+    /// Host side of the handshake: [`check_hello`] on the device's versions.
+    pub const fn check(&self) -> Result<(), VersionMismatch> {
+        check_hello(self.protocol_version, self.schema_id)
+    }
+}
+
 const fn fnv1a32(bytes: &[u8]) -> u32 {
     let mut hash: u32 = 0x811c_9dc5;
     let mut i = 0;
@@ -45,4 +164,17 @@ const fn fnv1a32(bytes: &[u8]) -> u32 {
         i += 1;
     }
     hash
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a32_matches_the_reference_vectors() {
+        // Published FNV-1a 32-bit test vectors.
+        assert_eq!(fnv1a32(b""), 0x811c_9dc5);
+        assert_eq!(fnv1a32(b"a"), 0xe40c_292c);
+        assert_eq!(fnv1a32(b"foobar"), 0xbf9c_f968);
+    }
 }

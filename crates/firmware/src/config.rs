@@ -91,7 +91,8 @@ pub struct SnapConfig {
     pub window_ms: u32,
     /// The linear trend is estimated over this span just before the window.
     pub trend_ms: u32,
-    /// After a snap, further snaps are ignored for this long (one snap, one count).
+    /// After a snap, further snaps are ignored for this long (one snap, one count); at least
+    /// `window_ms + trend_ms + 10`. Two real snaps must be further apart than this.
     pub refractory_ms: u32,
     /// After a primitive reached its pressure or length, how long it waits for missing snaps
     /// before raising TransitionNotConfirmed.
@@ -103,8 +104,10 @@ pub struct SnapConfig {
 pub struct LeakConfig {
     /// Largest pressure decay accepted with both valves closed and the servos still.
     pub allowance_kpa_per_s: f32,
-    /// Sealed time over which the decay is measured.
-    pub window_ms: u32,
+    /// Shortest sealed time over which a decay is judged.
+    pub min_window_ms: u32,
+    /// Pressure noise margin added to the allowed decay (filtered sensor noise is ~0.05 kPa).
+    pub margin_kpa: f32,
     /// Below this pressure the trunk is not considered to be holding (no leak check).
     pub min_pressure_kpa: f32,
 }
@@ -147,10 +150,9 @@ pub struct CraneConfig {
     pub overpressure_vent_to_kpa: f32,
     /// Servos and tendon winches.
     pub servo: ServoConfig,
-    /// Radial distance of the tendons from the trunk axis (differential bending).
+    /// Radial distance of the tendons from the trunk axis (differential bending; the tendons
+    /// sit at 0°, 120°, 240°, [`geometry::tendon::TENDON_ANGLES`]).
     pub tendon_radius_mm: f32,
-    /// Azimuth of tendon `i` in the base frame (0°, 120°, 240°).
-    pub tendon_azimuth_deg: [f32; 3],
     /// Longest tendon shortening any primitive may ask for.
     pub max_tendon_mm: f32,
     /// Snap-through detector.
@@ -212,18 +214,18 @@ impl Default for CraneConfig {
                 spool_radius_mm: 60.0,
             },
             tendon_radius_mm: 60.0,
-            tendon_azimuth_deg: [0.0, 120.0, 240.0],
             max_tendon_mm: 185.0,
             snap: SnapConfig {
                 threshold_kpa: 1.5,
                 window_ms: 50,
                 trend_ms: 100,
-                refractory_ms: 300,
+                refractory_ms: 200,
                 settle_ms: 1_500,
             },
             leak: LeakConfig {
                 allowance_kpa_per_s: 2.0,
-                window_ms: 400,
+                min_window_ms: 100,
+                margin_kpa: 0.3,
                 min_pressure_kpa: 3.0,
             },
             joystick: JoystickConfig {
@@ -331,8 +333,8 @@ mod tests {
     #[test]
     fn winch_geometry_round_trips() {
         let s = CraneConfig::default().servo;
-        // 60 mm spool: 1.047 mm per degree; 175 mm (pack the bottom) fits in 180°.
-        assert!((s.mm_per_deg() - 1.047_2).abs() < 1e-3);
+        // 60 mm spool: 60·π/180 = 1.047 mm per degree; 175 mm (pack the bottom) fits in 180°.
+        assert!((s.mm_per_deg() - core::f32::consts::FRAC_PI_3).abs() < 1e-5);
         assert!(s.allows(s.angle_for_length(0, 175.0)));
         assert!((s.length_for_angle(1, s.angle_for_length(1, 42.0)) - 42.0).abs() < 1e-3);
     }

@@ -1,13 +1,51 @@
-//! The sans-IO crane controller (skeleton: API stable, behaviour landing).
+//! The sans-IO crane controller.
+//!
+//! [`Controller`] is fed with `handle_rx` (host bytes), `handle_inputs` (one sample of every
+//! sensor and button) and `handle_time` (the control-loop tick), each with `now_ms`; it is read
+//! with `poll_tx`, `poll_outputs`, `poll_display`, `poll_store` and `poll_deadline`.
+//!
+//! Inside:
+//! - `requests`: every protocol request (handshake, plans, parameters, faults, declared state),
+//!   each answered by exactly one response; a retried request (same `seq`, same bytes) gets
+//!   the cached response and is not executed twice.
+//! - `exec`: plan execution, one step at a time, primitive by primitive, with the step's
+//!   time limit; state confirmation from snaps (or the person, for manual steps).
+//! - [`snap`]: the snap-through detector on the filtered pressure.
+//! - this module: sensors (pressure filter, dropout, over-pressure, leak), buttons and joystick,
+//!   servo slewing, the valve overlay of the safe state, periodic events, the display.
+//!
+//! The full behaviour, with every number, is in `docs/firmware.md`.
+
+mod exec;
+pub mod link;
+mod requests;
+pub mod snap;
+
+#[cfg(test)]
+mod tests;
 
 use geometry::TrunkState;
-use protocol::{FaultCode, Mode, Status};
+use heapless::Vec;
+use protocol::{
+    DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request, Status,
+    Telemetry, MAX_FRAME_LEN,
+};
 
 use crate::config::CraneConfig;
 use crate::store::{BootRecord, StoredState};
+use exec::Exec;
+use link::{Fingerprint, ResponseCache, TxQueue, RESPONSE_RESERVE};
+use snap::{SnapDetector, SnapSign};
 
-/// The state of every button (`true` = pressed), already debounced or not: the controller acts
-/// on rising edges and debounces by ignoring edges closer than 20 ms apart.
+/// A button press must be stable this long to count (the e-stop acts at once).
+pub const DEBOUNCE_MS: u64 = 20;
+/// Consecutive unfiltered samples above the cap that trip the over-pressure at once.
+pub const OVERPRESSURE_SAMPLES: u8 = 3;
+/// Step progress events are sent at most this often.
+pub const PROGRESS_PERIOD_MS: u64 = 100;
+
+/// The state of every button (`true` = pressed). The controller debounces (a change must be
+/// stable for [`DEBOUNCE_MS`]) and acts on presses; the e-stop acts at once, on the level.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Buttons {
     /// Step up (deploy: the pneumatic transition from the current state).
@@ -49,7 +87,7 @@ impl Inputs {
 /// Actuator commands.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outputs {
-    /// Servo angles of tendons 0, 1, 2 (already within the limits and slew-limited).
+    /// Servo angles of tendons 0, 1, 2 (within the limits and slew-limited).
     pub servo_deg: [f32; 3],
     /// Inlet valve open.
     pub inlet_open: bool,
@@ -59,79 +97,241 @@ pub struct Outputs {
     pub gripper_closed: bool,
 }
 
+/// Pressure measurement state.
+#[derive(Debug, Clone, Copy)]
+struct Pressure {
+    /// Filtered gauge pressure (the value every decision uses).
+    filt_kpa: f32,
+    /// Last unfiltered sample.
+    raw_kpa: f32,
+    /// A valid sample has been seen.
+    init: bool,
+    last_ms: u64,
+    /// Since when the raw value sits at a rail.
+    rail_since_ms: Option<u64>,
+    /// The latest raw sample is at a rail.
+    at_rail: bool,
+    /// Consecutive unfiltered samples above the cap.
+    above_cap: u8,
+}
+
+/// Debounced buttons (up, down, gripper, confirm).
+#[derive(Debug, Clone, Copy, Default)]
+struct Debounce {
+    raw: [bool; 4],
+    stable: [bool; 4],
+    since_ms: [u64; 4],
+}
+
+/// Leak watch: a sealed, still trunk losing pressure faster than the allowance.
+#[derive(Debug, Clone, Copy, Default)]
+struct LeakWatch {
+    start: Option<(u64, f32)>,
+    suspect_since_ms: Option<u64>,
+}
+
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
 #[derive(Debug)]
 pub struct Controller {
-    config: CraneConfig,
-    state: TrunkState,
-    confirmed: bool,
-    faults: u16,
+    cfg: CraneConfig,
     now_ms: u64,
     boot_ms: u64,
-    outputs: Outputs,
+    last_tick_ms: u64,
+
+    // Trunk state.
+    state: TrunkState,
+    confirmed: bool,
     pending_store: Option<StoredState>,
+
+    // Modes and faults.
+    faults: u16,
+    last_fault: Option<FaultCode>,
+    estop_latched: bool,
+    /// Safe state (after a fault or an abort) until reset.
+    safe: bool,
+    /// Exhaust held open for safety (over-pressure until below the vent-to pressure).
+    venting_for_safety: bool,
+
+    // Sensors.
+    pressure: Pressure,
+    snap: SnapDetector,
+    last_snap_ms: Option<u64>,
+    leak: LeakWatch,
+    buttons: Buttons,
+    debounce: Debounce,
+    joystick_raw: [u16; 2],
+    joystick_used_raw: Option<[u16; 2]>,
+    joystick_armed: bool,
+
+    // Actuators.
+    servo_deg: [f32; 3],
+    servo_target_deg: [f32; 3],
+    gripper_closed: bool,
+    want_inlet: bool,
+    want_exhaust: bool,
+    outputs: Outputs,
+
+    // Plans.
+    uploaded: Option<protocol::Plan>,
+    exec: Option<Exec>,
+    plan_status: Option<PlanStatus>,
+
+    // Link.
+    decoder: FrameDecoder,
+    fingerprint: Fingerprint,
+    handshake: bool,
+    last_rx_ms: u64,
+    cache: ResponseCache,
+    tx: TxQueue,
+    defer_events: bool,
+    deferred: Vec<Event, 8>,
+    next_heartbeat_ms: u64,
+    next_telemetry_ms: u64,
+    last_progress_ms: u64,
 }
 
 impl Controller {
-    /// A controller booting at `now_ms` with what the state store held.
+    /// A controller booting at `now_ms` with what the state store held: `Empty` boots in the
+    /// manufactured state `F&P`, confirmed; `Stored` in the stored state; `Corrupt` in `F&P`,
+    /// unconfirmed, with the StateStorage fault (cleared by DeclareState or ResetFaults).
+    ///
+    /// The configuration is [validated](CraneConfig::validated) first.
     pub fn new(config: CraneConfig, boot: BootRecord, now_ms: u64) -> Self {
-        let config = config.validated();
-        let (state, confirmed, faults) = match boot {
-            BootRecord::Empty => (TrunkState::AS_MANUFACTURED, true, 0),
-            BootRecord::Stored(s) => (s.state, s.confirmed, 0),
+        let cfg = config.validated();
+        let (state, confirmed, faults, last_fault) = match boot {
+            BootRecord::Empty => (TrunkState::AS_MANUFACTURED, true, 0, None),
+            BootRecord::Stored(s) => (s.state, s.confirmed, 0, None),
             BootRecord::Corrupt => (
                 TrunkState::AS_MANUFACTURED,
                 false,
                 FaultCode::StateStorage.bit(),
+                Some(FaultCode::StateStorage),
             ),
         };
         let mut servo_deg = [0.0; 3];
         for (i, d) in servo_deg.iter_mut().enumerate() {
-            *d = config
+            *d = cfg
                 .servo
                 .angle_for_length(i, 0.0)
-                .clamp(config.servo.min_deg, config.servo.max_deg);
+                .clamp(cfg.servo.min_deg, cfg.servo.max_deg);
         }
-        Self {
-            config,
-            state,
-            confirmed,
-            faults,
+        let mut ctl = Self {
+            cfg,
             now_ms,
             boot_ms: now_ms,
+            last_tick_ms: now_ms,
+            state,
+            confirmed,
+            pending_store: None,
+            faults,
+            last_fault,
+            estop_latched: false,
+            safe: faults != 0,
+            venting_for_safety: false,
+            pressure: Pressure {
+                filt_kpa: 0.0,
+                raw_kpa: 0.0,
+                init: false,
+                last_ms: now_ms,
+                rail_since_ms: None,
+                at_rail: false,
+                above_cap: 0,
+            },
+            snap: SnapDetector::new(),
+            last_snap_ms: None,
+            leak: LeakWatch::default(),
+            buttons: Buttons::default(),
+            debounce: Debounce::default(),
+            joystick_raw: cfg.joystick.center_raw,
+            joystick_used_raw: None,
+            joystick_armed: false,
+            servo_deg,
+            servo_target_deg: servo_deg,
+            gripper_closed: false,
+            want_inlet: false,
+            want_exhaust: false,
             outputs: Outputs {
                 servo_deg,
                 inlet_open: false,
                 exhaust_open: false,
                 gripper_closed: false,
             },
-            pending_store: None,
+            uploaded: None,
+            exec: None,
+            plan_status: None,
+            decoder: FrameDecoder::new(),
+            fingerprint: Fingerprint::START,
+            handshake: false,
+            last_rx_ms: now_ms,
+            cache: ResponseCache::new(),
+            tx: TxQueue::new(),
+            defer_events: false,
+            deferred: Vec::new(),
+            next_heartbeat_ms: now_ms,
+            next_telemetry_ms: now_ms,
+            last_progress_ms: now_ms,
+        };
+        ctl.update_outputs();
+        ctl
+    }
+
+    /// The board restarted through its watchdog: raises the Watchdog fault (safe state until
+    /// reset). Call once after [`Controller::new`].
+    pub fn report_watchdog_reset(&mut self) {
+        self.raise(FaultCode::Watchdog);
+    }
+
+    fn advance_clock(&mut self, now_ms: u64) {
+        // Time never runs backwards inside the controller, whatever the caller passes.
+        self.now_ms = self.now_ms.max(now_ms);
+    }
+
+    /// Bytes received from the host link, in any chunking. Bad frames are counted and dropped.
+    pub fn handle_rx(&mut self, bytes: &[u8], now_ms: u64) {
+        self.advance_clock(now_ms);
+        for &b in bytes {
+            if b != 0 {
+                self.fingerprint = self.fingerprint.with(b);
+            }
+            let decoded = self.decoder.push::<Request>(b);
+            if b == 0 {
+                let fp = core::mem::replace(&mut self.fingerprint, Fingerprint::START);
+                if let Some(Ok(req)) = decoded {
+                    self.on_request(req, fp.0);
+                }
+            }
         }
     }
 
-    /// The board restarted through its watchdog: raises the Watchdog fault.
-    pub fn report_watchdog_reset(&mut self) {
-        self.faults |= FaultCode::Watchdog.bit();
-    }
-
-    /// Bytes received from the host link, in any chunking.
-    pub fn handle_rx(&mut self, _bytes: &[u8], now_ms: u64) {
-        self.now_ms = self.now_ms.max(now_ms);
-    }
-
     /// One sample of every sensor and button.
-    pub fn handle_inputs(&mut self, _inputs: &Inputs, now_ms: u64) {
-        self.now_ms = self.now_ms.max(now_ms);
+    pub fn handle_inputs(&mut self, inputs: &Inputs, now_ms: u64) {
+        self.advance_clock(now_ms);
+        self.on_pressure(inputs.pressure_raw);
+        self.on_buttons(inputs.buttons);
+        self.joystick_raw = inputs.joystick_raw;
+        self.update_outputs();
     }
 
-    /// The passage of time: runs the control loop.
+    /// The passage of time: runs the control loop (plan steps, time limits, link watch, servo
+    /// slewing, periodic events).
     pub fn handle_time(&mut self, now_ms: u64) {
-        self.now_ms = self.now_ms.max(now_ms);
+        self.advance_clock(now_ms);
+        let dt_ms = self.now_ms.saturating_sub(self.last_tick_ms);
+        self.last_tick_ms = self.now_ms;
+        self.check_link();
+        if self.exec.is_some() {
+            self.advance_exec();
+        } else {
+            self.standalone_joystick();
+        }
+        self.slew(dt_ms);
+        self.update_outputs();
+        self.periodic_events();
     }
 
     /// Moves bytes to send to the host into `out`; returns how many (0: nothing to send).
-    pub fn poll_tx(&mut self, _out: &mut [u8]) -> usize {
-        0
+    pub fn poll_tx(&mut self, out: &mut [u8]) -> usize {
+        self.tx.pop_into(out)
     }
 
     /// The actuator commands now.
@@ -139,9 +339,41 @@ impl Controller {
         self.outputs
     }
 
-    /// The display content now.
+    /// The display content now, in priority order: the pressure while show-pressure is held;
+    /// `E-xx` for the most recent active fault; `SAFE` after an abort; `HAnd` while a manual step
+    /// waits; otherwise the trunk state (`F-P ` …), with the last decimal point lit while a
+    /// plan runs and the first one lit while the state is unconfirmed.
     pub fn poll_display(&self) -> [u8; 4] {
-        crate::display::text(self.state.display_text())
+        use crate::display;
+        if self.buttons.show_pressure {
+            if self.pressure_valid() {
+                return display::pressure(self.pressure.filt_kpa);
+            }
+            return display::text("----");
+        }
+        if self.faults != 0 {
+            let code = self
+                .last_fault
+                .filter(|f| self.fault_active(*f))
+                .or_else(|| FaultCode::ALL.into_iter().find(|f| self.fault_active(*f)));
+            if let Some(f) = code {
+                return display::fault(f.code());
+            }
+        }
+        if self.safe || self.estop_latched {
+            return display::text("SAFE");
+        }
+        if self.exec.as_ref().is_some_and(|e| e.waiting_manual) {
+            return display::text("HAnd");
+        }
+        let mut seg = display::text(self.state.display_text());
+        if self.exec.is_some() {
+            seg[3] |= display::DP;
+        }
+        if !self.confirmed {
+            seg[0] |= display::DP;
+        }
+        seg
     }
 
     /// The state to persist, once per change.
@@ -149,33 +381,523 @@ impl Controller {
         self.pending_store.take()
     }
 
-    /// The next `now_ms` at which [`Controller::handle_time`] must run.
+    /// The next `now_ms` at which [`Controller::handle_time`] must run: one control period
+    /// ahead while anything moves or a plan runs, else the next heartbeat, telemetry or link
+    /// deadline (at most one second ahead).
     pub fn poll_deadline(&self) -> u64 {
-        self.now_ms + self.config.control_period_ms as u64
+        let now = self.now_ms;
+        let moving = self.servo_deg != self.servo_target_deg;
+        let active = self.exec.is_some()
+            || moving
+            || self.outputs.inlet_open
+            || self.outputs.exhaust_open
+            || self.joystick_armed;
+        let mut d = if active {
+            now + self.cfg.control_period_ms as u64
+        } else {
+            now + 1_000
+        };
+        if self.handshake {
+            d = d.min(self.next_heartbeat_ms.max(now));
+            if self.cfg.telemetry_hz > 0.0 {
+                d = d.min(self.next_telemetry_ms.max(now));
+            }
+        }
+        d
     }
 
     /// The status snapshot (the one `GetStatus` returns).
     pub fn status(&self) -> Status {
+        let stats = self.decoder.stats();
         Status {
             state: self.state,
             state_confirmed: self.confirmed,
-            mode: Mode::Standalone,
-            pressure_kpa: 0.0,
+            mode: self.mode(),
+            pressure_kpa: self.pressure.filt_kpa,
             servo_deg: self.outputs.servo_deg,
             inlet_open: self.outputs.inlet_open,
             exhaust_open: self.outputs.exhaust_open,
             gripper_closed: self.outputs.gripper_closed,
-            estop: false,
-            plan: None,
+            estop: self.estop_latched,
+            plan: self.plan_status,
             faults: self.faults,
-            frames_rx: 0,
-            frames_dropped: 0,
-            uptime_ms: (self.now_ms - self.boot_ms) as u32,
+            frames_rx: stats.frames_ok,
+            frames_dropped: stats.frames_dropped,
+            uptime_ms: self.uptime_ms(),
+        }
+    }
+
+    /// What the controller is doing.
+    pub fn mode(&self) -> Mode {
+        if self.estop_latched {
+            Mode::EStop
+        } else if self.safe {
+            Mode::Safe
+        } else if let Some(e) = &self.exec {
+            if e.waiting_manual {
+                Mode::WaitingManual
+            } else {
+                Mode::Running
+            }
+        } else {
+            Mode::Standalone
         }
     }
 
     /// The configuration in force (after validation and parameter changes).
     pub fn config(&self) -> &CraneConfig {
-        &self.config
+        &self.cfg
+    }
+
+    /// The filtered gauge pressure the controller acts on.
+    pub fn pressure_kpa(&self) -> f32 {
+        self.pressure.filt_kpa
+    }
+
+    /// Frames dropped from the transmit queue for lack of space (events only; a response that
+    /// does not fit is re-sent from the cache when the host retries).
+    pub fn tx_dropped(&self) -> u32 {
+        self.tx.dropped
+    }
+
+    fn uptime_ms(&self) -> u32 {
+        self.now_ms.saturating_sub(self.boot_ms) as u32
+    }
+
+    fn fault_active(&self, f: FaultCode) -> bool {
+        self.faults & f.bit() != 0
+    }
+
+    fn pressure_valid(&self) -> bool {
+        self.pressure.init
+            && !self.pressure.at_rail
+            && !self.fault_active(FaultCode::PressureSensor)
+    }
+
+    // -----------------------------------------------------------------------------------------
+    // State tracking
+    // -----------------------------------------------------------------------------------------
+
+    fn set_state(&mut self, state: TrunkState, confirmed: bool) {
+        let changed = state != self.state || confirmed != self.confirmed;
+        self.state = state;
+        self.confirmed = confirmed;
+        if changed {
+            self.pending_store = Some(StoredState { state, confirmed });
+        }
+        self.emit(Event::StateReached { state, confirmed });
+    }
+
+    // -----------------------------------------------------------------------------------------
+    // Faults and the safe state
+    // -----------------------------------------------------------------------------------------
+
+    /// Raises `code` (event once per activation) and goes to the safe state.
+    fn raise(&mut self, code: FaultCode) {
+        if !self.fault_active(code) {
+            self.faults |= code.bit();
+            self.emit(Event::FaultRaised(code));
+        }
+        self.last_fault = Some(code);
+        self.enter_safe(PlanPhase::Failed(code));
+    }
+
+    /// Stops whatever runs (ending its plan with `phase`), freezes the servos where they are and
+    /// closes the valves (the exhaust stays open while venting for safety).
+    fn enter_safe(&mut self, phase: PlanPhase) {
+        self.end_plan(phase);
+        self.safe = true;
+        self.freeze_servos();
+        self.joystick_armed = false;
+        self.want_inlet = false;
+        self.want_exhaust = false;
+        self.update_outputs();
+    }
+
+    fn freeze_servos(&mut self) {
+        self.servo_target_deg = self.servo_deg;
+    }
+
+    /// Clears every fault whose cause is gone; leaves the safe state when none is left.
+    /// Returns whether everything cleared.
+    fn reset_faults(&mut self) -> bool {
+        if self.buttons.estop {
+            return false;
+        }
+        for f in FaultCode::ALL {
+            if !self.fault_active(f) {
+                continue;
+            }
+            let cause_present = match f {
+                FaultCode::EStop => self.buttons.estop,
+                // Until the safety vent is done.
+                FaultCode::OverPressure => {
+                    self.venting_for_safety || self.pressure.filt_kpa > self.cfg.pressure_limit_kpa
+                }
+                FaultCode::PressureSensor => self.pressure.at_rail,
+                _ => false,
+            };
+            if !cause_present {
+                self.faults &= !f.bit();
+                self.emit(Event::FaultCleared(f));
+            }
+        }
+        if self.fault_active(FaultCode::EStop) {
+            return false;
+        }
+        self.estop_latched = false;
+        if self.faults == 0 {
+            self.safe = false;
+            self.leak = LeakWatch::default();
+            true
+        } else {
+            false
+        }
+    }
+
+    // -----------------------------------------------------------------------------------------
+    // Sensors
+    // -----------------------------------------------------------------------------------------
+
+    fn on_pressure(&mut self, raw: u16) {
+        let now = self.now_ms;
+        let cal = self.cfg.pressure_sensor;
+        let at_rail = raw <= cal.rail_low_raw || raw >= cal.rail_high_raw;
+        self.pressure.at_rail = at_rail;
+        if at_rail {
+            let since = *self.pressure.rail_since_ms.get_or_insert(now);
+            if now.saturating_sub(since) >= cal.dropout_ms as u64
+                && !self.fault_active(FaultCode::PressureSensor)
+            {
+                self.raise(FaultCode::PressureSensor);
+            }
+            self.snap.reset();
+            self.leak = LeakWatch::default();
+            return;
+        }
+        self.pressure.rail_since_ms = None;
+        let kpa = cal.kpa(raw);
+        let dt = now.saturating_sub(self.pressure.last_ms) as f32;
+        self.pressure.last_ms = now;
+        self.pressure.raw_kpa = kpa;
+        if !self.pressure.init {
+            self.pressure.filt_kpa = kpa;
+            self.pressure.init = true;
+        } else {
+            let alpha = if cal.filter_tau_ms <= 0.0 {
+                1.0
+            } else {
+                dt / (cal.filter_tau_ms + dt)
+            };
+            self.pressure.filt_kpa += alpha * (kpa - self.pressure.filt_kpa);
+        }
+        if self.fault_active(FaultCode::PressureSensor) {
+            // Readings resumed, but the fault stays until reset: keep venting, detect nothing.
+            return;
+        }
+        let p = self.pressure.filt_kpa;
+
+        // Over-pressure: vent at once, whatever runs. The filtered value lags a fast rise by
+        // the filter's time constant, so a run of unfiltered samples above the cap also
+        // counts (a single glitched sample does not).
+        if kpa > self.cfg.pressure_limit_kpa {
+            self.pressure.above_cap = self.pressure.above_cap.saturating_add(1);
+        } else {
+            self.pressure.above_cap = 0;
+        }
+        if p > self.cfg.pressure_limit_kpa || self.pressure.above_cap >= OVERPRESSURE_SAMPLES {
+            self.venting_for_safety = true;
+            if !self.fault_active(FaultCode::OverPressure) {
+                self.raise(FaultCode::OverPressure);
+            }
+        } else if self.venting_for_safety {
+            let vent_to = self
+                .cfg
+                .overpressure_vent_to_kpa
+                .min(self.cfg.pressure_limit_kpa * 0.5);
+            if p <= vent_to {
+                self.venting_for_safety = false;
+            }
+        }
+
+        // Snap-throughs.
+        if let Some(s) = self.snap.feed(p, now, &self.cfg.snap) {
+            self.last_snap_ms = Some(now);
+            self.leak = LeakWatch::default();
+            self.on_snap(s.sign);
+        }
+
+        self.check_leak(p);
+    }
+
+    fn check_leak(&mut self, p: f32) {
+        let now = self.now_ms;
+        let lc = self.cfg.leak;
+        let still = self.servo_deg == self.servo_target_deg;
+        let sealed = !self.outputs.inlet_open && !self.outputs.exhaust_open;
+        if !(sealed && still && p >= lc.min_pressure_kpa) {
+            self.leak = LeakWatch::default();
+            return;
+        }
+        let (t0, p0) = *self.leak.start.get_or_insert((now, p));
+        let elapsed_ms = now.saturating_sub(t0);
+        if elapsed_ms < lc.min_window_ms as u64 {
+            return;
+        }
+        let allowed = lc.allowance_kpa_per_s * elapsed_ms as f32 / 1_000.0 + lc.margin_kpa;
+        if p0 - p > allowed {
+            // A snap also drops the pressure at once: wait until the snap detector has had a
+            // full window to claim the drop before calling it a leak.
+            let since = *self.leak.suspect_since_ms.get_or_insert(now);
+            let confirm_ms = self.cfg.snap.window_ms as u64 + 2 * snap::SLOT_MS;
+            if now.saturating_sub(since) >= confirm_ms {
+                self.leak = LeakWatch::default();
+                self.raise(FaultCode::Leak);
+            }
+        } else {
+            self.leak.suspect_since_ms = None;
+        }
+    }
+
+    fn on_snap(&mut self, sign: SnapSign) {
+        let counted = self.exec.as_mut().is_some_and(|e| e.on_snap(sign));
+        if counted {
+            self.advance_exec();
+        }
+    }
+
+    fn on_buttons(&mut self, b: Buttons) {
+        let now = self.now_ms;
+        self.buttons = b;
+        if b.estop && !self.estop_latched {
+            self.estop_latched = true;
+            self.raise(FaultCode::EStop);
+        }
+        let raw = [b.up, b.down, b.gripper, b.confirm];
+        let mut pressed = [false; 4];
+        for (i, r) in raw.into_iter().enumerate() {
+            if r != self.debounce.raw[i] {
+                self.debounce.raw[i] = r;
+                self.debounce.since_ms[i] = now;
+            }
+            if self.debounce.stable[i] != r
+                && now.saturating_sub(self.debounce.since_ms[i]) >= DEBOUNCE_MS
+            {
+                self.debounce.stable[i] = r;
+                pressed[i] = r;
+            }
+        }
+        let [up, down, grip, confirm] = pressed;
+        if confirm {
+            if let Some(e) = self.exec.as_mut().filter(|e| e.waiting_manual) {
+                e.manual_confirmed = true;
+                self.advance_exec();
+            } else if self.safe || self.estop_latched {
+                self.reset_faults();
+            }
+        }
+        let idle = self.mode() == Mode::Standalone;
+        if idle && grip {
+            self.gripper_closed = !self.gripper_closed;
+        }
+        if idle && (up || down) && self.confirmed {
+            let t = if up {
+                protocol::transitions::step_up(self.state)
+            } else {
+                protocol::transitions::step_down(self.state)
+            };
+            if let Some(t) = t {
+                self.start_local_step(t);
+            }
+        }
+    }
+
+    // -----------------------------------------------------------------------------------------
+    // Actuators
+    // -----------------------------------------------------------------------------------------
+
+    /// The servo angles of a set of tendon shortenings, or `None` if one is outside the limits.
+    fn angles_for(&self, length_mm: [f32; 3]) -> Option<[f32; 3]> {
+        let mut a = [0.0; 3];
+        for (i, l) in length_mm.iter().enumerate() {
+            if !(l.is_finite() && *l >= 0.0 && *l <= self.cfg.max_tendon_mm) {
+                return None;
+            }
+            a[i] = self.cfg.servo.angle_for_length(i, *l);
+            if !self.cfg.servo.allows(a[i]) {
+                return None;
+            }
+        }
+        Some(a)
+    }
+
+    /// Tendon shortenings for a constant-curvature bend (`geometry::tendon`): the tendon on the
+    /// inside of the bend is reeled in by r_t·θ·cos(φ − φ_i); the others pay out, and a tendon
+    /// cannot push, so they go slack (clamped at 0).
+    fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> [f32; 3] {
+        let bend = geometry::tendon::Bend::new(direction_rad, angle_rad);
+        let dl = match geometry::tendon::TendonGeometry::new(self.cfg.tendon_radius_mm as f64) {
+            Ok(g) => g.length_changes(bend),
+            Err(_) => [0.0; 3],
+        };
+        dl.map(|d| (-d).max(0.0) as f32)
+    }
+
+    fn standalone_joystick(&mut self) {
+        if self.mode() != Mode::Standalone || !self.state.is_flexible() || !self.confirmed {
+            self.joystick_armed = false;
+            self.joystick_used_raw = None;
+            return;
+        }
+        let raw = self.joystick_raw;
+        if self.joystick_used_raw == Some(raw) {
+            return;
+        }
+        let jc = self.cfg.joystick;
+        let x = (raw[0] as f32 - jc.center_raw[0] as f32) / jc.half_range_raw;
+        let y = (raw[1] as f32 - jc.center_raw[1] as f32) / jc.half_range_raw;
+        let m = libm::hypotf(x, y);
+        if m > jc.dead_zone {
+            // The joystick takes the servos only once it has been moved: entering standalone
+            // (after a plan or an abort) never moves the tendons by itself.
+            self.joystick_armed = true;
+        }
+        if !self.joystick_armed {
+            return;
+        }
+        self.joystick_used_raw = Some(raw);
+        let map = geometry::tendon::JoystickMap::new(
+            (jc.max_bend_deg as f64).to_radians(),
+            jc.dead_zone as f64,
+        );
+        let bend = match map {
+            Ok(map) => map.bend(x as f64, y as f64),
+            Err(_) => geometry::tendon::Bend::STRAIGHT,
+        };
+        let lengths = self.bend_lengths(bend.direction, bend.angle);
+        for (i, l) in lengths.iter().enumerate() {
+            // Human input is clamped silently to the limits (a plan's would fault instead).
+            let l = l.min(self.cfg.max_tendon_mm);
+            self.servo_target_deg[i] = self
+                .cfg
+                .servo
+                .angle_for_length(i, l)
+                .clamp(self.cfg.servo.min_deg, self.cfg.servo.max_deg);
+        }
+    }
+
+    fn slew(&mut self, dt_ms: u64) {
+        if self.safe || self.estop_latched {
+            self.freeze_servos();
+            return;
+        }
+        let max_step = self.cfg.servo.slew_deg_per_s * dt_ms as f32 / 1_000.0;
+        let (lo, hi) = (self.cfg.servo.min_deg, self.cfg.servo.max_deg);
+        for i in 0..3 {
+            let target = self.servo_target_deg[i].clamp(lo, hi);
+            self.servo_target_deg[i] = target;
+            let d = target - self.servo_deg[i];
+            self.servo_deg[i] = if d.abs() <= max_step {
+                target
+            } else {
+                self.servo_deg[i] + max_step.copysign(d)
+            };
+        }
+    }
+
+    fn servos_at_target(&self) -> bool {
+        self.servo_deg == self.servo_target_deg
+    }
+
+    /// Computes the outputs from the wanted valve states and the safety overlay.
+    fn update_outputs(&mut self) {
+        let vent = self.venting_for_safety || self.fault_active(FaultCode::PressureSensor);
+        let running = self.exec.is_some() && !self.safe && !self.estop_latched;
+        // Never open the inlet at or above the cap, whatever asked for it.
+        let below_cap = self.pressure.filt_kpa < self.cfg.pressure_limit_kpa;
+        self.outputs = Outputs {
+            servo_deg: self.servo_deg,
+            inlet_open: running && self.want_inlet && !vent && below_cap && self.pressure_valid(),
+            exhaust_open: vent || (running && self.want_exhaust),
+            gripper_closed: self.gripper_closed,
+        };
+    }
+
+    // -----------------------------------------------------------------------------------------
+    // Link
+    // -----------------------------------------------------------------------------------------
+
+    fn check_link(&mut self) {
+        let host_plan = self
+            .exec
+            .as_ref()
+            .is_some_and(|e| e.origin == exec::Origin::Host);
+        if host_plan
+            && self.now_ms.saturating_sub(self.last_rx_ms) >= self.cfg.link_timeout_ms as u64
+        {
+            self.raise(FaultCode::LinkLoss);
+        }
+    }
+
+    /// Queues an event (only once a host has shaken hands: nobody listens before).
+    fn emit(&mut self, ev: Event) {
+        if !self.handshake {
+            return;
+        }
+        if self.defer_events {
+            if let Err(ev) = self.deferred.push(ev) {
+                self.send_event(ev);
+            }
+            return;
+        }
+        self.send_event(ev);
+    }
+
+    fn send_event(&mut self, ev: Event) {
+        let mut scratch = [0u8; MAX_FRAME_LEN];
+        let n = link::encode(&DeviceMessage::Event(ev), &mut scratch);
+        if n > 0 {
+            self.tx.push_frame(&scratch[..n], RESPONSE_RESERVE);
+        }
+    }
+
+    fn periodic_events(&mut self) {
+        if !self.handshake {
+            return;
+        }
+        let now = self.now_ms;
+        let mut progress_due = false;
+        if now >= self.next_heartbeat_ms {
+            self.next_heartbeat_ms = now + protocol::HEARTBEAT_PERIOD_MS as u64;
+            let (uptime_ms, mode) = (self.uptime_ms(), self.mode());
+            self.emit(Event::Heartbeat { uptime_ms, mode });
+            progress_due = true;
+        }
+        if self.cfg.telemetry_hz > 0.0 && now >= self.next_telemetry_ms {
+            let period = (1_000.0 / self.cfg.telemetry_hz) as u64;
+            self.next_telemetry_ms = now + period.max(1);
+            let t = Telemetry {
+                uptime_ms: self.uptime_ms(),
+                pressure_kpa: self.pressure.filt_kpa,
+                servo_deg: self.outputs.servo_deg,
+                inlet_open: self.outputs.inlet_open,
+                exhaust_open: self.outputs.exhaust_open,
+                state: self.state,
+            };
+            self.emit(Event::Telemetry(t));
+            progress_due = true;
+        }
+        if progress_due && now.saturating_sub(self.last_progress_ms) >= PROGRESS_PERIOD_MS {
+            if let Some(e) = &self.exec {
+                let ev = Event::StepProgress {
+                    plan_id: e.plan.plan_id,
+                    step: e.step,
+                    primitive: e.prim,
+                    elapsed_ms: now.saturating_sub(e.step_start_ms) as u32,
+                };
+                self.last_progress_ms = now;
+                self.emit(ev);
+            }
+        }
     }
 }

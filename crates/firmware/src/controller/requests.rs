@@ -1,0 +1,316 @@
+//! Protocol requests: one response each, echoing `seq`.
+
+use heapless::Vec;
+use protocol::{
+    DeviceInfo, DeviceMessage, FaultCode, ParamId, Plan, PlanPhase, PlanStatus, Primitive,
+    RejectReason, Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN,
+    PROTOCOL_VERSION, SCHEMA_ID,
+};
+
+use super::exec::Origin;
+use super::link;
+use super::Controller;
+
+/// Longest step time limit accepted (one hour).
+pub const MAX_STEP_TIMEOUT_MS: u32 = 3_600_000;
+
+type Answer = (ResultCode, ResponseBody);
+
+fn ok() -> Answer {
+    (ResultCode::Ok, ResponseBody::None)
+}
+
+fn reject(r: RejectReason) -> Answer {
+    (ResultCode::Rejected(r), ResponseBody::None)
+}
+
+impl Controller {
+    pub(super) fn on_request(&mut self, req: Request, fingerprint: u32) {
+        self.last_rx_ms = self.now_ms;
+        if let Some(frame) = self.cache.lookup(req.seq, fingerprint) {
+            // A retry of the request just answered: the same answer, not a second execution.
+            let mut copy = [0u8; link::CACHE_LEN];
+            let n = frame.len();
+            copy[..n].copy_from_slice(frame);
+            self.tx.push_frame(&copy[..n], 0);
+            return;
+        }
+        self.defer_events = true;
+        let (result, body) = self.dispatch(req.body);
+        self.defer_events = false;
+        let msg = DeviceMessage::Response {
+            seq: req.seq,
+            result,
+            body,
+        };
+        let mut scratch = [0u8; MAX_FRAME_LEN];
+        let n = link::encode(&msg, &mut scratch);
+        if n > 0 {
+            self.cache.store(req.seq, fingerprint, &scratch[..n]);
+            self.tx.push_frame(&scratch[..n], 0);
+        }
+        // Events caused by the request follow its response.
+        let deferred = core::mem::take(&mut self.deferred);
+        for ev in deferred {
+            self.emit(ev);
+        }
+        self.update_outputs();
+    }
+
+    fn device_info(&self) -> DeviceInfo {
+        DeviceInfo {
+            protocol_version: PROTOCOL_VERSION,
+            schema_id: SCHEMA_ID,
+            firmware_version: self.cfg.firmware_version,
+            board: self.cfg.board,
+            trunk: self.cfg.trunk,
+        }
+    }
+
+    fn dispatch(&mut self, body: RequestBody) -> Answer {
+        if let RequestBody::Hello {
+            protocol_version,
+            schema_id,
+        } = body
+        {
+            let info = ResponseBody::Hello(self.device_info());
+            if protocol_version == PROTOCOL_VERSION && schema_id == SCHEMA_ID {
+                let first = !self.handshake;
+                self.handshake = true;
+                if first {
+                    self.next_heartbeat_ms = self.now_ms;
+                    self.next_telemetry_ms = self.now_ms;
+                }
+                return (ResultCode::Ok, info);
+            }
+            self.handshake = false;
+            return (ResultCode::Rejected(RejectReason::VersionMismatch), info);
+        }
+        if !self.handshake {
+            return reject(RejectReason::NoHandshake);
+        }
+        match body {
+            RequestBody::Hello { .. } => ok(), // handled above
+            RequestBody::GetStatus => (ResultCode::Ok, ResponseBody::Status(self.status())),
+            RequestBody::Heartbeat => ok(),
+            RequestBody::UploadPlan(plan) => self.upload(plan),
+            RequestBody::StartPlan { plan_id } => self.start_uploaded(plan_id),
+            RequestBody::RunStep(step) => self.run_step(step),
+            RequestBody::Abort => {
+                self.enter_safe(PlanPhase::Aborted);
+                ok()
+            }
+            RequestBody::ConfirmManual => match self.exec.as_mut() {
+                Some(e) if e.waiting_manual => {
+                    e.manual_confirmed = true;
+                    self.advance_exec();
+                    ok()
+                }
+                _ => reject(RejectReason::NoManualPending),
+            },
+            RequestBody::ResetFaults => {
+                if self.buttons.estop {
+                    return reject(RejectReason::NotAllowed);
+                }
+                if self.reset_faults() {
+                    ok()
+                } else {
+                    reject(RejectReason::NotAllowed)
+                }
+            }
+            RequestBody::DeclareState(state) => {
+                if self.exec.is_some() {
+                    return (ResultCode::Busy, ResponseBody::None);
+                }
+                self.set_state(state, true);
+                if self.fault_active(FaultCode::StateStorage) {
+                    self.faults &= !FaultCode::StateStorage.bit();
+                    self.emit(protocol::Event::FaultCleared(FaultCode::StateStorage));
+                    if self.faults == 0 && !self.estop_latched {
+                        self.safe = false;
+                    }
+                }
+                ok()
+            }
+            RequestBody::GetParam(id) => (
+                ResultCode::Ok,
+                ResponseBody::Param {
+                    id,
+                    value: self.param(id),
+                },
+            ),
+            RequestBody::SetParam { id, value } => self.set_param(id, value),
+        }
+    }
+
+    /// Why a plan cannot start now, if it cannot.
+    fn start_blocker(&self) -> Option<Answer> {
+        if self.exec.is_some() {
+            return Some((ResultCode::Busy, ResponseBody::None));
+        }
+        if self.estop_latched {
+            return Some(reject(RejectReason::EStopLatched));
+        }
+        if self.faults != 0 {
+            return Some(reject(RejectReason::Faulted));
+        }
+        None
+    }
+
+    /// Checks a plan's shape and values; `Err` is the rejection.
+    fn validate(&self, steps: &[Step]) -> Result<(), RejectReason> {
+        if steps.is_empty() {
+            return Err(RejectReason::InvalidPlan);
+        }
+        for w in steps.windows(2) {
+            if w[0].to != w[1].from {
+                return Err(RejectReason::InvalidPlan);
+            }
+        }
+        for s in steps {
+            if s.primitives.is_empty() {
+                return Err(RejectReason::InvalidPlan);
+            }
+            if s.timeout_ms == 0 || s.timeout_ms > MAX_STEP_TIMEOUT_MS {
+                return Err(RejectReason::OutOfRange);
+            }
+            for p in &s.primitives {
+                if !self.primitive_in_range(p) {
+                    return Err(RejectReason::OutOfRange);
+                }
+            }
+        }
+        if steps[0].from != self.state || !self.confirmed {
+            return Err(RejectReason::WrongState);
+        }
+        Ok(())
+    }
+
+    fn primitive_in_range(&self, p: &Primitive) -> bool {
+        let pressure_ok =
+            |kpa: f32| kpa.is_finite() && kpa >= 0.0 && kpa <= self.cfg.pressure_limit_kpa;
+        match *p {
+            Primitive::Inflate { pressure_kpa, .. } => pressure_ok(pressure_kpa),
+            Primitive::Vent { pressure_kpa } => pressure_ok(pressure_kpa),
+            Primitive::TendonPull { length_mm, .. } | Primitive::TendonRelease { length_mm } => {
+                self.angles_for([length_mm; 3]).is_some()
+            }
+            Primitive::Hold { duration_ms } => duration_ms <= MAX_STEP_TIMEOUT_MS,
+            Primitive::WaitSnap { timeout_ms } => {
+                timeout_ms > 0 && timeout_ms <= MAX_STEP_TIMEOUT_MS
+            }
+            Primitive::Manual(_) | Primitive::Gripper { .. } => true,
+            Primitive::Bend {
+                direction_deg,
+                angle_deg,
+            } => {
+                direction_deg.is_finite()
+                    && angle_deg.is_finite()
+                    && (0.0..=180.0).contains(&angle_deg)
+                    && self
+                        .angles_for(self.bend_lengths(
+                            (direction_deg as f64).to_radians(),
+                            (angle_deg as f64).to_radians(),
+                        ))
+                        .is_some()
+            }
+        }
+    }
+
+    fn upload(&mut self, plan: Plan) -> Answer {
+        if self.exec.is_some() {
+            return (ResultCode::Busy, ResponseBody::None);
+        }
+        if plan.plan_id == 0 {
+            return reject(RejectReason::InvalidPlan);
+        }
+        if let Err(r) = self.validate(&plan.steps) {
+            return reject(r);
+        }
+        self.plan_status = Some(PlanStatus {
+            plan_id: plan.plan_id,
+            step: 0,
+            steps: plan.steps.len() as u8,
+            phase: PlanPhase::Ready,
+        });
+        self.uploaded = Some(plan);
+        ok()
+    }
+
+    fn start_uploaded(&mut self, plan_id: u16) -> Answer {
+        if let Some(b) = self.start_blocker() {
+            return b;
+        }
+        let Some(plan) = self.uploaded.as_ref().filter(|p| p.plan_id == plan_id) else {
+            return reject(RejectReason::UnknownPlan);
+        };
+        // The state may have changed since the upload (a button step, a declared state).
+        if let Err(r) = self.validate(&plan.steps) {
+            return reject(r);
+        }
+        let plan = plan.clone();
+        self.start_exec(plan, Origin::Host);
+        (ResultCode::InProgress, ResponseBody::None)
+    }
+
+    fn run_step(&mut self, step: Step) -> Answer {
+        if let Some(b) = self.start_blocker() {
+            return b;
+        }
+        if let Err(r) = self.validate(core::slice::from_ref(&step)) {
+            return reject(r);
+        }
+        let mut steps = Vec::new();
+        let _ = steps.push(step);
+        self.start_exec(Plan { plan_id: 0, steps }, Origin::Host);
+        (ResultCode::InProgress, ResponseBody::None)
+    }
+
+    fn param(&self, id: ParamId) -> f32 {
+        match id {
+            ParamId::PressureLimitKpa => self.cfg.pressure_limit_kpa,
+            ParamId::ServoMinDeg => self.cfg.servo.min_deg,
+            ParamId::ServoMaxDeg => self.cfg.servo.max_deg,
+            ParamId::ServoSlewDegPerS => self.cfg.servo.slew_deg_per_s,
+            ParamId::TelemetryHz => self.cfg.telemetry_hz,
+            ParamId::LinkTimeoutMs => self.cfg.link_timeout_ms as f32,
+        }
+    }
+
+    fn set_param(&mut self, id: ParamId, value: f32) -> Answer {
+        if !id.accepts(value) {
+            return reject(RejectReason::OutOfRange);
+        }
+        match id {
+            ParamId::PressureLimitKpa => {
+                self.cfg.pressure_limit_kpa = value;
+                self.cfg.trunk.pressure_limit_kpa = value;
+            }
+            ParamId::ServoMinDeg => {
+                if value > self.cfg.servo.max_deg {
+                    return reject(RejectReason::OutOfRange);
+                }
+                self.cfg.servo.min_deg = value;
+            }
+            ParamId::ServoMaxDeg => {
+                if value < self.cfg.servo.min_deg {
+                    return reject(RejectReason::OutOfRange);
+                }
+                self.cfg.servo.max_deg = value;
+            }
+            ParamId::ServoSlewDegPerS => self.cfg.servo.slew_deg_per_s = value,
+            ParamId::TelemetryHz => {
+                self.cfg.telemetry_hz = value;
+                self.next_telemetry_ms = self.now_ms;
+            }
+            ParamId::LinkTimeoutMs => self.cfg.link_timeout_ms = value as u32,
+        }
+        (
+            ResultCode::Ok,
+            ResponseBody::Param {
+                id,
+                value: self.param(id),
+            },
+        )
+    }
+}

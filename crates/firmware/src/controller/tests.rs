@@ -1,0 +1,1455 @@
+//! Unit tests of the controller, driven with explicit time and inputs against a small plant
+//! model (pressure, tendons, snap-throughs at fixed thresholds). The real physics is the
+//! simulator's; this plant only produces the signatures `docs/firmware.md` assumes.
+
+extern crate std;
+
+use std::vec::Vec as StdVec;
+
+use geometry::{BottomState, TopState, TrunkState};
+use protocol::{
+    transitions, DeviceMessage, Event, FaultCode, FrameDecoder, ManualTask, Mode, ParamId, Plan,
+    PlanPhase, Primitive, RejectReason, Request, RequestBody, ResponseBody, ResultCode, Step,
+    StepKind, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID,
+};
+
+use super::*;
+use crate::display;
+
+const FP: TrunkState = TrunkState::new(TopState::Folded, BottomState::Packed);
+const FF: TrunkState = TrunkState::new(TopState::Folded, BottomState::Folded);
+const FD: TrunkState = TrunkState::new(TopState::Folded, BottomState::Deployed);
+const DP: TrunkState = TrunkState::new(TopState::Deployed, BottomState::Packed);
+const DF: TrunkState = TrunkState::new(TopState::Deployed, BottomState::Folded);
+const DD: TrunkState = TrunkState::new(TopState::Deployed, BottomState::Deployed);
+
+/// A crude trunk: a pressure node filled by the inlet at 10 kPa/s, emptied by the exhaust
+/// (time constant 200 ms), compressed by the tendons when sealed; snaps at fixed thresholds
+/// between the nominal catalogue's pressures and lengths.
+struct Plant {
+    p_kpa: f32,
+    state: TrunkState,
+    pulled_mm: f32,
+    pack_snaps: u8,
+    leak_kpa_per_s: f32,
+    /// Pressure snaps disabled (a trunk that does not move).
+    stuck: bool,
+    noise: u32,
+}
+
+impl Plant {
+    fn new(state: TrunkState) -> Self {
+        Self {
+            p_kpa: 0.0,
+            state,
+            pulled_mm: 0.0,
+            pack_snaps: 0,
+            leak_kpa_per_s: 0.0,
+            stuck: false,
+            noise: 12345,
+        }
+    }
+
+    fn pressure_threshold(state: TrunkState) -> Option<f32> {
+        // Between the catalogue's inflate targets: unpack 14, pop top 22, deploy bottom 34.
+        match (state.top, state.bottom) {
+            (_, BottomState::Packed) => Some(10.0),
+            (TopState::Folded, _) => Some(18.0),
+            (TopState::Deployed, BottomState::Folded) => Some(30.0),
+            _ => None,
+        }
+    }
+
+    fn update(&mut self, out: &Outputs, dt_ms: u64, cfg: &CraneConfig) {
+        let dt = dt_ms as f32 / 1000.0;
+        if out.inlet_open {
+            self.p_kpa += 10.0 * dt;
+        }
+        if out.exhaust_open {
+            self.p_kpa -= self.p_kpa * dt / 0.2;
+        }
+        self.p_kpa -= self.leak_kpa_per_s * dt;
+        if self.p_kpa < 0.0 {
+            self.p_kpa = 0.0;
+        }
+        if self.stuck {
+            return;
+        }
+        // Pressure pops modules out only while the tendons are slack (held tendons resist).
+        if let (true, Some(thr), Some(t)) = (
+            self.pulled_mm < 1.0,
+            Self::pressure_threshold(self.state),
+            transitions::step_up(self.state),
+        ) {
+            if self.p_kpa >= thr {
+                self.state = t.to;
+                self.p_kpa -= 3.0; // the trunk lengthens: a pressure drop
+            }
+        }
+        let pulled: f32 = (0..3)
+            .map(|i| cfg.servo.length_for_angle(i, out.servo_deg[i]))
+            .sum::<f32>()
+            / 3.0;
+        let d = pulled - self.pulled_mm;
+        self.pulled_mm = pulled;
+        if !out.exhaust_open && d > 0.0 {
+            self.p_kpa += 0.05 * d; // a sealed trunk compressed by the tendons
+        }
+        let thr = match (self.state.top, self.state.bottom) {
+            (TopState::Deployed, _) => Some(60.0),
+            (TopState::Folded, BottomState::Deployed) => Some(100.0),
+            (TopState::Folded, BottomState::Folded) => {
+                Some(if self.pack_snaps == 0 { 140.0 } else { 165.0 })
+            }
+            _ => None,
+        };
+        if let (Some(thr), Some(t)) = (thr, transitions::step_down(self.state)) {
+            if pulled >= thr {
+                self.p_kpa += 2.0; // the trunk shortens: a pressure spike
+                if self.state == FF && self.pack_snaps == 0 {
+                    self.pack_snaps = 1;
+                } else {
+                    self.state = t.to;
+                    self.pack_snaps = 0;
+                }
+            }
+        }
+    }
+
+    fn raw(&mut self, cfg: &CraneConfig) -> u16 {
+        // ±15 counts (±0.1 kPa) of deterministic noise.
+        self.noise = self.noise.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+        let n = ((self.noise >> 16) % 31) as i32 - 15;
+        (cfg.pressure_sensor.raw(self.p_kpa) as i32 + n).clamp(0, crate::ADC_MAX as i32) as u16
+    }
+}
+
+struct Rig {
+    cfg: CraneConfig,
+    ctl: Controller,
+    plant: Plant,
+    now: u64,
+    buttons: Buttons,
+    joystick: [u16; 2],
+    /// Forces the raw pressure sample (sensor fault injection).
+    raw_override: Option<u16>,
+    host: FrameDecoder,
+    seq: u16,
+    msgs: StdVec<(u64, DeviceMessage)>,
+    stores: StdVec<StoredState>,
+    /// Requests sent by `tick` every this many ms (0: none) to keep the link alive.
+    heartbeat_every_ms: u64,
+}
+
+impl Rig {
+    fn new(state: TrunkState) -> Self {
+        Self::with(
+            CraneConfig::default(),
+            BootRecord::Stored(StoredState {
+                state,
+                confirmed: true,
+            }),
+            state,
+        )
+    }
+
+    fn with(cfg: CraneConfig, boot: BootRecord, plant_state: TrunkState) -> Self {
+        Self {
+            cfg,
+            ctl: Controller::new(cfg, boot, 0),
+            plant: Plant::new(plant_state),
+            now: 0,
+            buttons: Buttons::default(),
+            joystick: cfg.joystick.center_raw,
+            raw_override: None,
+            host: FrameDecoder::new(),
+            seq: 0,
+            msgs: StdVec::new(),
+            stores: StdVec::new(),
+            heartbeat_every_ms: 0,
+        }
+    }
+
+    /// A rig with a completed handshake.
+    fn connected(state: TrunkState) -> Self {
+        let mut r = Self::new(state);
+        r.hello_ok();
+        r
+    }
+
+    fn hello_ok(&mut self) {
+        let (res, body) = self.request(RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_id: SCHEMA_ID,
+        });
+        assert_eq!(res, ResultCode::Ok);
+        assert!(matches!(body, ResponseBody::Hello(_)));
+    }
+
+    fn drain(&mut self) {
+        let mut buf = [0u8; 256];
+        loop {
+            let n = self.ctl.poll_tx(&mut buf);
+            if n == 0 {
+                break;
+            }
+            for &b in &buf[..n] {
+                if let Some(Ok(m)) = self.host.push::<DeviceMessage>(b) {
+                    self.msgs.push((self.now, m));
+                }
+            }
+        }
+    }
+
+    /// Runs `ms` milliseconds of 1 kHz loop.
+    fn run(&mut self, ms: u64) {
+        for _ in 0..ms {
+            self.now += 1;
+            let out = self.ctl.poll_outputs();
+            self.plant.update(&out, 1, &self.cfg);
+            if self.heartbeat_every_ms > 0 && self.now % self.heartbeat_every_ms == 0 {
+                self.send(RequestBody::Heartbeat);
+            }
+            let inputs = Inputs {
+                pressure_raw: self
+                    .raw_override
+                    .unwrap_or_else(|| self.plant.raw(&self.cfg)),
+                joystick_raw: self.joystick,
+                buttons: self.buttons,
+            };
+            self.ctl.handle_inputs(&inputs, self.now);
+            self.ctl.handle_time(self.now);
+            if let Some(s) = self.ctl.poll_store() {
+                self.stores.push(s);
+            }
+            self.drain();
+        }
+    }
+
+    /// Runs until `cond` holds or `max_ms` passed; returns the time it took.
+    fn run_until(&mut self, max_ms: u64, mut cond: impl FnMut(&Rig) -> bool) -> Option<u64> {
+        let t0 = self.now;
+        while self.now - t0 < max_ms {
+            if cond(self) {
+                return Some(self.now - t0);
+            }
+            self.run(1);
+        }
+        cond(self).then(|| self.now - t0)
+    }
+
+    fn frame(&mut self, body: RequestBody) -> (u16, StdVec<u8>) {
+        self.seq = self.seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = protocol::encode(
+            &Request {
+                seq: self.seq,
+                body,
+            },
+            &mut buf,
+        )
+        .unwrap();
+        (self.seq, buf[..n].to_vec())
+    }
+
+    fn send(&mut self, body: RequestBody) -> u16 {
+        let (seq, bytes) = self.frame(body);
+        self.ctl.handle_rx(&bytes, self.now);
+        seq
+    }
+
+    fn response(&self, seq: u16) -> StdVec<(ResultCode, ResponseBody)> {
+        self.msgs
+            .iter()
+            .filter_map(|(_, m)| match m {
+                DeviceMessage::Response {
+                    seq: s,
+                    result,
+                    body,
+                } if *s == seq => Some((*result, body.clone())),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn request(&mut self, body: RequestBody) -> (ResultCode, ResponseBody) {
+        let seq = self.send(body);
+        self.drain();
+        let r = self.response(seq);
+        assert_eq!(r.len(), 1, "exactly one response to seq {seq}");
+        r[0].clone()
+    }
+
+    fn events(&self) -> impl Iterator<Item = &Event> {
+        self.msgs.iter().filter_map(|(_, m)| match m {
+            DeviceMessage::Event(e) => Some(e),
+            _ => None,
+        })
+    }
+
+    fn plan_done(&self) -> Option<(bool, TrunkState)> {
+        self.events().find_map(|e| match e {
+            Event::PlanDone { ok, state, .. } => Some((*ok, *state)),
+            _ => None,
+        })
+    }
+
+    fn faults_raised(&self) -> StdVec<FaultCode> {
+        self.events()
+            .filter_map(|e| match e {
+                Event::FaultRaised(f) => Some(*f),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn nominal(from: TrunkState, to: TrunkState) -> Step {
+        transitions::transition(from, to).unwrap().step()
+    }
+
+    fn plan(id: u16, path: &[TrunkState]) -> Plan {
+        let mut steps = heapless::Vec::new();
+        for w in path.windows(2) {
+            steps.push(Self::nominal(w[0], w[1])).unwrap();
+        }
+        Plan { plan_id: id, steps }
+    }
+
+    fn upload_and_start(&mut self, plan: Plan) {
+        let id = plan.plan_id;
+        assert_eq!(
+            self.request(RequestBody::UploadPlan(plan)).0,
+            ResultCode::Ok
+        );
+        assert_eq!(
+            self.request(RequestBody::StartPlan { plan_id: id }).0,
+            ResultCode::InProgress
+        );
+    }
+
+    fn press(&mut self, set: impl Fn(&mut Buttons, bool)) {
+        set(&mut self.buttons, true);
+        self.run(30);
+        set(&mut self.buttons, false);
+        self.run(30);
+    }
+}
+
+fn step(
+    kind: StepKind,
+    from: TrunkState,
+    to: TrunkState,
+    prims: &[Primitive],
+    timeout_ms: u32,
+) -> Step {
+    Step {
+        kind,
+        from,
+        to,
+        primitives: heapless::Vec::from_slice(prims).unwrap(),
+        timeout_ms,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Boot and storage
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn boot_empty_store_is_f_and_p_confirmed() {
+    let cfg = CraneConfig::default();
+    let mut c = Controller::new(cfg, BootRecord::Empty, 1_000);
+    let s = c.status();
+    assert_eq!(
+        (s.state, s.state_confirmed, s.mode, s.faults),
+        (FP, true, Mode::Standalone, 0)
+    );
+    assert_eq!(c.poll_display(), display::text("F-P "));
+    assert_eq!(c.poll_store(), None);
+    let o = c.poll_outputs();
+    assert!(!o.inlet_open && !o.exhaust_open && !o.gripper_closed);
+    assert_eq!(o.servo_deg, [0.0; 3]);
+}
+
+#[test]
+fn boot_corrupt_store_is_unconfirmed_with_storage_fault() {
+    let mut r = Rig::with(CraneConfig::default(), BootRecord::Corrupt, FP);
+    let s = r.ctl.status();
+    assert_eq!(
+        (s.state, s.state_confirmed, s.mode),
+        (FP, false, Mode::Safe)
+    );
+    assert_eq!(s.faults, FaultCode::StateStorage.bit());
+    assert_eq!(r.ctl.poll_display(), display::fault(10));
+    r.hello_ok();
+    // Plans need a confirmed state.
+    let (res, _) = r.request(RequestBody::RunStep(Rig::nominal(FP, FF)));
+    assert_eq!(res, ResultCode::Rejected(RejectReason::Faulted));
+    // Declaring the state clears the fault and is persisted.
+    assert_eq!(r.request(RequestBody::DeclareState(DF)).0, ResultCode::Ok);
+    r.run(1);
+    assert_eq!(
+        r.stores,
+        [StoredState {
+            state: DF,
+            confirmed: true
+        }]
+    );
+    let s = r.ctl.status();
+    assert_eq!(
+        (s.state, s.state_confirmed, s.mode, s.faults),
+        (DF, true, Mode::Standalone, 0)
+    );
+    assert!(r
+        .events()
+        .any(|e| *e == Event::FaultCleared(FaultCode::StateStorage)));
+    assert_eq!(r.ctl.poll_display(), display::text("d-F "));
+}
+
+#[test]
+fn boot_from_stored_state_and_watchdog_report() {
+    let mut c = Controller::new(
+        CraneConfig::default(),
+        BootRecord::Stored(StoredState {
+            state: FD,
+            confirmed: true,
+        }),
+        0,
+    );
+    assert_eq!(c.status().state, FD);
+    c.report_watchdog_reset();
+    assert_eq!(c.status().faults, FaultCode::Watchdog.bit());
+    assert_eq!(c.mode(), Mode::Safe);
+    assert_eq!(c.poll_display(), display::fault(9));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Link: handshake, responses, retries, garbage
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn handshake_is_required_and_checked() {
+    let mut r = Rig::new(FP);
+    assert_eq!(
+        r.request(RequestBody::GetStatus),
+        (
+            ResultCode::Rejected(RejectReason::NoHandshake),
+            ResponseBody::None
+        )
+    );
+    for (v, id) in [
+        (PROTOCOL_VERSION + 1, SCHEMA_ID),
+        (PROTOCOL_VERSION, SCHEMA_ID ^ 1),
+    ] {
+        let (res, body) = r.request(RequestBody::Hello {
+            protocol_version: v,
+            schema_id: id,
+        });
+        assert_eq!(res, ResultCode::Rejected(RejectReason::VersionMismatch));
+        let ResponseBody::Hello(info) = body else {
+            panic!("no device info")
+        };
+        assert_eq!(
+            (info.protocol_version, info.schema_id),
+            (PROTOCOL_VERSION, SCHEMA_ID)
+        );
+        assert_eq!(info.trunk.pressure_limit_kpa, 40.0);
+    }
+    assert_eq!(
+        r.request(RequestBody::Heartbeat).0,
+        ResultCode::Rejected(RejectReason::NoHandshake)
+    );
+    r.hello_ok();
+    let (res, body) = r.request(RequestBody::GetStatus);
+    assert_eq!(res, ResultCode::Ok);
+    let ResponseBody::Status(s) = body else {
+        panic!()
+    };
+    // Frames: 2 Hello and a Heartbeat refused, 1 GetStatus refused, 1 Hello, this GetStatus.
+    assert_eq!((s.state, s.mode, s.frames_rx), (FP, Mode::Standalone, 6));
+}
+
+#[test]
+fn every_request_gets_one_response_and_retries_are_not_reexecuted() {
+    let mut r = Rig::connected(FP);
+    let (seq, bytes) = r.frame(RequestBody::RunStep(Rig::nominal(FP, FF)));
+    r.ctl.handle_rx(&bytes, r.now);
+    r.drain();
+    assert_eq!(
+        r.response(seq),
+        [(ResultCode::InProgress, ResponseBody::None)]
+    );
+    r.run(50);
+    // The host lost the answer and retries: the same answer, the step is not restarted
+    // (a second execution would answer Busy).
+    r.ctl.handle_rx(&bytes, r.now);
+    r.drain();
+    assert_eq!(r.response(seq).len(), 2);
+    assert!(r
+        .response(seq)
+        .iter()
+        .all(|x| *x == (ResultCode::InProgress, ResponseBody::None)));
+    // A different request with the same seq is a new request.
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = protocol::encode(
+        &Request {
+            seq,
+            body: RequestBody::Heartbeat,
+        },
+        &mut buf,
+    )
+    .unwrap();
+    r.ctl.handle_rx(&buf[..n], r.now);
+    r.drain();
+    assert_eq!(r.response(seq).last().unwrap().0, ResultCode::Ok);
+    assert_eq!(r.ctl.mode(), Mode::Running);
+    assert!(r.plan_done().is_none());
+}
+
+#[test]
+fn any_chunking_and_garbage_never_panic() {
+    let mut r = Rig::connected(FP);
+    // One request byte by byte, with garbage and empty frames around it.
+    r.ctl.handle_rx(&[0, 0, 1, 2, 3, 0xFF, 0], r.now);
+    let (seq, bytes) = r.frame(RequestBody::GetParam(ParamId::PressureLimitKpa));
+    for b in &bytes {
+        r.ctl.handle_rx(core::slice::from_ref(b), r.now);
+    }
+    r.drain();
+    assert_eq!(
+        r.response(seq),
+        [(
+            ResultCode::Ok,
+            ResponseBody::Param {
+                id: ParamId::PressureLimitKpa,
+                value: 40.0
+            }
+        )]
+    );
+    // 200 kB of pseudo-random bytes (with delimiters) interleaved with the loop.
+    let mut x: u32 = 7;
+    let mut chunk = [0u8; 997];
+    for _ in 0..200 {
+        for b in chunk.iter_mut() {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            *b = if x >> 28 == 0 { 0 } else { (x >> 20) as u8 };
+        }
+        r.ctl.handle_rx(&chunk, r.now);
+        r.run(1);
+    }
+    // The noise ends inside a frame: the delimiter a host sends after a timeout closes it.
+    r.ctl.handle_rx(&[0], r.now);
+    let s = r.ctl.status();
+    assert!(s.frames_dropped > 1_000, "{}", s.frames_dropped);
+    // Still alive and answering.
+    assert_eq!(r.request(RequestBody::Heartbeat).0, ResultCode::Ok);
+}
+
+#[test]
+fn corrupted_frames_are_counted_and_the_retry_answers() {
+    let mut r = Rig::connected(FP);
+    let before = r.ctl.status().frames_dropped;
+    let (seq, mut bytes) = r.frame(RequestBody::GetStatus);
+    let good = bytes.clone();
+    bytes[3] ^= 0x10;
+    r.ctl.handle_rx(&bytes, r.now);
+    r.drain();
+    assert!(r.response(seq).is_empty());
+    assert_eq!(r.ctl.status().frames_dropped, before + 1);
+    r.ctl.handle_rx(&good, r.now);
+    r.drain();
+    assert_eq!(r.response(seq).len(), 1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Plans
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn pneumatic_plan_f_and_p_to_d_and_f_is_confirmed_by_snaps() {
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(7, &[FP, FF, DF]));
+    assert_eq!(r.ctl.mode(), Mode::Running);
+    let took = r
+        .run_until(20_000, |r| r.plan_done().is_some())
+        .expect("plan finishes");
+    assert_eq!(r.plan_done(), Some((true, DF)));
+    assert_eq!(r.plant.state, DF);
+    let s = r.ctl.status();
+    assert_eq!(
+        (s.state, s.state_confirmed, s.mode, s.faults),
+        (DF, true, Mode::Standalone, 0)
+    );
+    assert_eq!(s.plan.unwrap().phase, PlanPhase::Done);
+    // Each inflate ended at its snap and vented below 0.5 kPa.
+    assert!(r.plant.p_kpa < 0.6, "{}", r.plant.p_kpa);
+    // 10 kPa at 10 kPa/s, snap, vent; then 18 kPa: a few seconds.
+    assert!(took > 2_000 && took < 8_000, "{took}");
+    assert_eq!(
+        r.stores,
+        [
+            StoredState {
+                state: FF,
+                confirmed: true
+            },
+            StoredState {
+                state: DF,
+                confirmed: true
+            }
+        ]
+    );
+    let reached: StdVec<_> = r
+        .events()
+        .filter_map(|e| match e {
+            Event::StateReached { state, confirmed } => Some((*state, *confirmed)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(reached, [(FF, true), (DF, true)]);
+    let done: StdVec<_> = r
+        .events()
+        .filter_map(|e| match e {
+            Event::StepDone {
+                step, ok, state, ..
+            } => Some((*step, *ok, *state)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(done, [(0, true, FF), (1, true, DF)]);
+    // The pressure never went near the cap.
+    assert!(r.faults_raised().is_empty());
+}
+
+#[test]
+fn tendon_plan_d_and_d_to_f_and_p_counts_two_snaps_to_pack() {
+    let mut r = Rig::connected(DD);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(3, &[DD, FD, FF, FP]));
+    r.run_until(30_000, |r| r.plan_done().is_some())
+        .expect("plan finishes");
+    assert_eq!(r.plan_done(), Some((true, FP)));
+    assert_eq!(r.plant.state, FP);
+    assert_eq!(r.ctl.status().state, FP);
+    // Released after the last pull.
+    assert!(r
+        .ctl
+        .poll_outputs()
+        .servo_deg
+        .iter()
+        .all(|d| d.abs() < 1e-3));
+    assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
+}
+
+#[test]
+fn a_step_without_its_snap_is_not_confirmed() {
+    let mut r = Rig::connected(FP);
+    r.plant.stuck = true;
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(1, &[FP, FF]));
+    r.run_until(10_000, |r| r.plan_done().is_some())
+        .expect("fails in time");
+    assert_eq!(r.plan_done(), Some((false, FP)));
+    assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+    let s = r.ctl.status();
+    assert_eq!((s.state, s.state_confirmed, s.mode), (FP, true, Mode::Safe));
+    assert_eq!(
+        s.plan.unwrap().phase,
+        PlanPhase::Failed(FaultCode::TransitionNotConfirmed)
+    );
+    // Held at the (capped) target without venting: safe state = valves closed.
+    let o = r.ctl.poll_outputs();
+    assert!(!o.inlet_open && !o.exhaust_open);
+    assert!((r.plant.p_kpa - 14.0).abs() < 1.5, "{}", r.plant.p_kpa);
+    assert_eq!(r.ctl.poll_display(), display::fault(4));
+    assert!(r.stores.is_empty());
+    // Reset, then the state is still the last confirmed one.
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+    assert_eq!(r.ctl.poll_display(), display::text("F-P "));
+}
+
+#[test]
+fn step_time_limit_faults() {
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    let s = step(
+        StepKind::Pneumatic,
+        FP,
+        FF,
+        &[Primitive::WaitSnap { timeout_ms: 60_000 }],
+        1_000,
+    );
+    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    let t = r.run_until(5_000, |r| r.ctl.mode() == Mode::Safe).unwrap();
+    assert!((999..=1_001).contains(&t), "{t}");
+    assert_eq!(r.faults_raised(), [FaultCode::StepTimeout]);
+    assert_eq!(r.ctl.status().state, FP);
+}
+
+#[test]
+fn plan_validation_rejects_bad_plans() {
+    let mut r = Rig::connected(FP);
+    let reject = |x| (ResultCode::Rejected(x), ResponseBody::None);
+    // Steps that do not chain.
+    let mut p = Rig::plan(2, &[FP, FF]);
+    p.steps.push(Rig::nominal(DF, DD)).unwrap();
+    assert_eq!(
+        r.request(RequestBody::UploadPlan(p)),
+        reject(RejectReason::InvalidPlan)
+    );
+    // Id 0, empty.
+    assert_eq!(
+        r.request(RequestBody::UploadPlan(Rig::plan(0, &[FP, FF]))),
+        reject(RejectReason::InvalidPlan)
+    );
+    let empty = Plan {
+        plan_id: 4,
+        steps: heapless::Vec::new(),
+    };
+    assert_eq!(
+        r.request(RequestBody::UploadPlan(empty)),
+        reject(RejectReason::InvalidPlan)
+    );
+    // Not from the current state.
+    assert_eq!(
+        r.request(RequestBody::UploadPlan(Rig::plan(5, &[DD, FD]))),
+        reject(RejectReason::WrongState)
+    );
+    // Values out of range: above the cap, too long a pull, NaN, zero timeout.
+    for prim in [
+        Primitive::Inflate {
+            pressure_kpa: 45.0,
+            snaps: 1,
+        },
+        Primitive::Inflate {
+            pressure_kpa: f32::NAN,
+            snaps: 1,
+        },
+        Primitive::TendonPull {
+            length_mm: 500.0,
+            snaps: 1,
+        },
+        Primitive::Bend {
+            direction_deg: 0.0,
+            angle_deg: f32::INFINITY,
+        },
+    ] {
+        let s = step(StepKind::Pneumatic, FP, FF, &[prim], 1_000);
+        assert_eq!(
+            r.request(RequestBody::RunStep(s)),
+            reject(RejectReason::OutOfRange),
+            "{prim:?}"
+        );
+    }
+    let s = step(
+        StepKind::Pneumatic,
+        FP,
+        FF,
+        &[Primitive::Hold { duration_ms: 1 }],
+        0,
+    );
+    assert_eq!(
+        r.request(RequestBody::RunStep(s)),
+        reject(RejectReason::OutOfRange)
+    );
+    // Unknown plan id.
+    assert_eq!(
+        r.request(RequestBody::StartPlan { plan_id: 9 }),
+        reject(RejectReason::UnknownPlan)
+    );
+    // A valid upload, then busy while running.
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(6, &[FP, FF]));
+    assert_eq!(
+        r.request(RequestBody::UploadPlan(Rig::plan(8, &[FP, FF])))
+            .0,
+        ResultCode::Busy
+    );
+    assert_eq!(
+        r.request(RequestBody::StartPlan { plan_id: 6 }).0,
+        ResultCode::Busy
+    );
+    assert_eq!(r.request(RequestBody::DeclareState(DD)).0, ResultCode::Busy);
+    // Nothing was changed by the rejected requests.
+    assert_eq!(r.ctl.status().plan.unwrap().plan_id, 6);
+}
+
+#[test]
+fn abort_goes_to_the_safe_state_and_is_not_latched() {
+    let mut r = Rig::connected(DD);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(2, &[DD, FD]));
+    r.run(300);
+    let mid = r.ctl.poll_outputs().servo_deg;
+    assert!(mid[0] > 10.0, "{mid:?}");
+    assert_eq!(r.request(RequestBody::Abort).0, ResultCode::Ok);
+    r.run(500);
+    // Frozen where they were when aborted.
+    let after = r.ctl.poll_outputs();
+    assert!(
+        (after.servo_deg[0] - mid[0]).abs() < 1.0,
+        "{:?} vs {mid:?}",
+        after.servo_deg
+    );
+    assert!(!after.inlet_open && !after.exhaust_open);
+    assert_eq!(r.ctl.mode(), Mode::Safe);
+    assert_eq!(r.ctl.status().plan.unwrap().phase, PlanPhase::Aborted);
+    assert_eq!(r.plan_done(), Some((false, DD)));
+    assert_eq!(r.ctl.poll_display(), display::text("SAFE"));
+    // Not latched: a new step may start at once.
+    assert_eq!(
+        r.request(RequestBody::RunStep(Rig::nominal(DD, FD))).0,
+        ResultCode::InProgress
+    );
+}
+
+#[test]
+fn manual_step_waits_for_the_button_or_the_host() {
+    for by_button in [true, false] {
+        let mut r = Rig::connected(DF);
+        r.heartbeat_every_ms = 250;
+        assert_eq!(
+            r.request(RequestBody::ConfirmManual).0,
+            ResultCode::Rejected(RejectReason::NoManualPending)
+        );
+        r.upload_and_start(Rig::plan(4, &[DF, DP]));
+        r.run(100);
+        assert_eq!(r.ctl.mode(), Mode::WaitingManual);
+        assert_eq!(r.ctl.status().plan.unwrap().phase, PlanPhase::WaitingManual);
+        assert_eq!(r.ctl.poll_display(), display::text("HAnd"));
+        assert!(r.events().any(|e| *e
+            == Event::ManualRequired {
+                plan_id: 4,
+                step: 0,
+                task: ManualTask::PackBottomModule
+            }));
+        r.run(5_000);
+        assert_eq!(r.ctl.mode(), Mode::WaitingManual);
+        if by_button {
+            r.press(|b, v| b.confirm = v);
+        } else {
+            assert_eq!(r.request(RequestBody::ConfirmManual).0, ResultCode::Ok);
+        }
+        r.run(20);
+        assert_eq!(r.plan_done(), Some((true, DP)));
+        assert_eq!(r.ctl.status().state, DP);
+        assert!(r.ctl.status().state_confirmed);
+    }
+}
+
+#[test]
+fn a_step_without_evidence_is_assumed_unconfirmed() {
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    let s = step(
+        StepKind::Pneumatic,
+        FP,
+        FF,
+        &[Primitive::Hold { duration_ms: 100 }],
+        1_000,
+    );
+    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run(200);
+    let st = r.ctl.status();
+    assert_eq!((st.state, st.state_confirmed), (FF, false));
+    assert_eq!(r.ctl.poll_display()[0], display::glyph(b'F') | display::DP);
+    // The next step needs a confirmed state.
+    assert_eq!(
+        r.request(RequestBody::RunStep(Rig::nominal(FF, DF))).0,
+        ResultCode::Rejected(RejectReason::WrongState)
+    );
+}
+
+#[test]
+fn gripper_and_bend_primitives() {
+    let mut r = Rig::connected(FF);
+    r.heartbeat_every_ms = 250;
+    let s = step(
+        StepKind::Tendon,
+        FF,
+        FF,
+        &[
+            Primitive::Gripper { close: true },
+            Primitive::Bend {
+                direction_deg: 0.0,
+                angle_deg: 20.0,
+            },
+        ],
+        10_000,
+    );
+    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run(100);
+    assert!(r.ctl.poll_outputs().gripper_closed);
+    // The bend waits for the gripper to settle (400 ms) before moving.
+    assert_eq!(r.ctl.poll_outputs().servo_deg, [0.0; 3]);
+    r.run_until(5_000, |r| r.plan_done().is_some()).unwrap();
+    assert_eq!(r.plan_done(), Some((true, FF)));
+    // Tendon 0 on the inside of the bend: r_t·θ = 60 mm · 0.349 = 20.94 mm → 20.0°.
+    let o = r.ctl.poll_outputs();
+    let expect = 60.0 * 20f32.to_radians() / r.cfg.servo.mm_per_deg();
+    assert!((o.servo_deg[0] - expect).abs() < 0.01, "{:?}", o.servo_deg);
+    assert_eq!([o.servo_deg[1], o.servo_deg[2]], [0.0, 0.0]);
+    assert!(r.ctl.status().state_confirmed);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Safety
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn over_pressure_vents_at_once() {
+    let mut r = Rig::connected(FP);
+    r.plant.stuck = true;
+    r.run(100);
+    r.plant.p_kpa = 45.0;
+    // On the third sample above the cap.
+    let t = r
+        .run_until(50, |r| r.ctl.poll_outputs().exhaust_open)
+        .unwrap();
+    assert_eq!(t, 3);
+    assert_eq!(r.faults_raised(), [FaultCode::OverPressure]);
+    assert!(!r.ctl.poll_outputs().inlet_open);
+    assert_eq!(r.ctl.poll_display(), display::fault(1));
+    // Still above the cap: the fault stays.
+    assert_eq!(
+        r.request(RequestBody::ResetFaults).0,
+        ResultCode::Rejected(RejectReason::NotAllowed)
+    );
+    // Vents down to 5 kPa, then closes.
+    r.run_until(5_000, |r| !r.ctl.poll_outputs().exhaust_open)
+        .unwrap();
+    assert!(
+        r.plant.p_kpa <= 5.2 && r.plant.p_kpa > 3.0,
+        "{}",
+        r.plant.p_kpa
+    );
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+    assert!(r
+        .events()
+        .any(|e| *e == Event::FaultCleared(FaultCode::OverPressure)));
+}
+
+#[test]
+fn a_lowered_cap_caps_the_inflate_target() {
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    r.plant.stuck = true;
+    assert_eq!(
+        r.request(RequestBody::UploadPlan(Rig::plan(1, &[FP, FF])))
+            .0,
+        ResultCode::Ok
+    );
+    // Lowering the cap below the uploaded target: the start re-validates.
+    r.request(RequestBody::SetParam {
+        id: ParamId::PressureLimitKpa,
+        value: 12.0,
+    });
+    assert_eq!(
+        r.request(RequestBody::StartPlan { plan_id: 1 }).0,
+        ResultCode::Rejected(RejectReason::OutOfRange)
+    );
+    // A step within the cap, and the cap lowered while it runs: never above the cap.
+    r.request(RequestBody::SetParam {
+        id: ParamId::PressureLimitKpa,
+        value: 40.0,
+    });
+    let s = step(
+        StepKind::Pneumatic,
+        FP,
+        FF,
+        &[Primitive::Inflate {
+            pressure_kpa: 30.0,
+            snaps: 1,
+        }],
+        20_000,
+    );
+    r.request(RequestBody::RunStep(s));
+    r.run(500);
+    r.request(RequestBody::SetParam {
+        id: ParamId::PressureLimitKpa,
+        value: 12.0,
+    });
+    let mut max_p: f32 = 0.0;
+    for _ in 0..3_000 {
+        r.run(1);
+        max_p = max_p.max(r.plant.p_kpa);
+    }
+    assert!(max_p < 12.0, "{max_p}");
+}
+
+#[test]
+fn pressure_sensor_dropout_faults_and_vents() {
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    r.request(RequestBody::RunStep(Rig::nominal(FP, FF)));
+    r.run(300);
+    assert!(r.ctl.poll_outputs().inlet_open);
+    r.raw_override = Some(0);
+    let t = r.run_until(100, |r| r.ctl.mode() == Mode::Safe).unwrap();
+    assert!((19..=21).contains(&t), "{t}");
+    assert_eq!(r.faults_raised(), [FaultCode::PressureSensor]);
+    let o = r.ctl.poll_outputs();
+    assert!(!o.inlet_open && o.exhaust_open);
+    assert_eq!(
+        r.request(RequestBody::ResetFaults).0,
+        ResultCode::Rejected(RejectReason::NotAllowed)
+    );
+    // Short glitches at the rail (under 20 ms) are not a fault.
+    r.raw_override = None;
+    r.run(100);
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    r.raw_override = Some(crate::ADC_MAX);
+    r.run(15);
+    r.raw_override = None;
+    r.run(100);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+}
+
+#[test]
+fn estop_latches_until_released_and_reset() {
+    let mut r = Rig::connected(DD);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(1, &[DD, FD]));
+    r.run(400);
+    let mid = r.ctl.poll_outputs().servo_deg;
+    r.buttons.estop = true;
+    r.run(1);
+    assert_eq!(r.ctl.mode(), Mode::EStop);
+    assert_eq!(r.ctl.poll_display(), display::fault(6));
+    r.run(1_000);
+    let o = r.ctl.poll_outputs();
+    assert!(
+        (o.servo_deg[0] - mid[0]).abs() < 0.2,
+        "frozen: {:?} {mid:?}",
+        o.servo_deg
+    );
+    assert!(!o.inlet_open && !o.exhaust_open);
+    assert!(r.ctl.status().estop);
+    // Reset refused while pressed; plans refused while latched.
+    assert_eq!(
+        r.request(RequestBody::ResetFaults).0,
+        ResultCode::Rejected(RejectReason::NotAllowed)
+    );
+    r.press(|b, v| b.confirm = v);
+    assert_eq!(r.ctl.mode(), Mode::EStop);
+    r.buttons.estop = false;
+    r.run(10);
+    assert_eq!(
+        r.request(RequestBody::RunStep(Rig::nominal(DD, FD))).0,
+        ResultCode::Rejected(RejectReason::EStopLatched)
+    );
+    // Released: the confirm button resets it (standalone, no host needed).
+    r.press(|b, v| b.confirm = v);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+    assert!(!r.ctl.status().estop);
+}
+
+#[test]
+fn link_loss_aborts_a_host_plan_only() {
+    let mut r = Rig::connected(DD);
+    let s = step(
+        StepKind::Tendon,
+        DD,
+        DD,
+        &[Primitive::Hold {
+            duration_ms: 10_000,
+        }],
+        20_000,
+    );
+    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    let t0 = r.now;
+    r.run_until(5_000, |r| r.ctl.mode() == Mode::Safe).unwrap();
+    assert_eq!(r.now - t0, protocol::DEFAULT_LINK_TIMEOUT_MS as u64);
+    assert_eq!(r.faults_raised(), [FaultCode::LinkLoss]);
+    assert_eq!(
+        r.ctl.status().plan.unwrap().phase,
+        PlanPhase::Failed(FaultCode::LinkLoss)
+    );
+    // With heartbeats the same plan runs to its end.
+    let mut r = Rig::connected(DD);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(1, &[DD, FD]));
+    r.run_until(10_000, |r| r.plan_done().is_some()).unwrap();
+    assert_eq!(r.plan_done(), Some((true, FD)));
+    // A standalone step needs no host.
+    let mut r = Rig::connected(DD);
+    r.press(|b, v| b.down = v);
+    r.run_until(10_000, |r| r.ctl.mode() == Mode::Standalone)
+        .unwrap();
+    assert_eq!(r.ctl.status().state, FD);
+    assert!(r.faults_raised().is_empty());
+}
+
+#[test]
+fn leak_is_detected_while_holding_sealed() {
+    let hold = |r: &mut Rig| {
+        let s = step(
+            StepKind::Pneumatic,
+            FF,
+            FF,
+            &[
+                Primitive::Inflate {
+                    pressure_kpa: 8.0,
+                    snaps: 0,
+                },
+                Primitive::Hold { duration_ms: 5_000 },
+            ],
+            20_000,
+        );
+        assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+        r.run_until(8_000, |r| r.plan_done().is_some()).unwrap();
+    };
+    // The trunk's own small leak (0.5 kPa/s) is within the allowance; the regulator tops it up.
+    let mut r = Rig::connected(FF);
+    r.heartbeat_every_ms = 250;
+    r.plant.stuck = true;
+    r.plant.leak_kpa_per_s = 0.5;
+    hold(&mut r);
+    assert_eq!(r.plan_done(), Some((true, FF)));
+    assert!(r.faults_raised().is_empty());
+    // A torn trunk (4 kPa/s) is a Leak.
+    let mut r = Rig::connected(FF);
+    r.heartbeat_every_ms = 250;
+    r.plant.stuck = true;
+    hold(&mut r);
+    r.plant.leak_kpa_per_s = 0.0;
+    let mut r2 = Rig::connected(FF);
+    r2.heartbeat_every_ms = 250;
+    r2.plant.stuck = true;
+    let s = step(
+        StepKind::Pneumatic,
+        FF,
+        FF,
+        &[
+            Primitive::Inflate {
+                pressure_kpa: 8.0,
+                snaps: 0,
+            },
+            Primitive::Hold { duration_ms: 5_000 },
+        ],
+        20_000,
+    );
+    r2.request(RequestBody::RunStep(s));
+    r2.run(1_500);
+    r2.plant.leak_kpa_per_s = 4.0;
+    r2.run_until(3_000, |r| r.ctl.mode() == Mode::Safe).unwrap();
+    assert_eq!(r2.faults_raised(), [FaultCode::Leak]);
+    assert_eq!(r2.ctl.poll_display(), display::fault(8));
+    assert_eq!(r.plan_done(), Some((true, FF)));
+}
+
+#[test]
+fn snap_while_holding_sealed_is_not_a_leak() {
+    // A pressure step of −3 kPa while sealed and still: the snap detector claims it.
+    let mut r = Rig::connected(FF);
+    r.heartbeat_every_ms = 250;
+    r.plant.stuck = true;
+    let s = step(
+        StepKind::Pneumatic,
+        FF,
+        DF,
+        &[
+            Primitive::Inflate {
+                pressure_kpa: 8.0,
+                snaps: 0,
+            },
+            Primitive::WaitSnap { timeout_ms: 5_000 },
+        ],
+        20_000,
+    );
+    r.request(RequestBody::RunStep(s));
+    r.run(2_000);
+    r.plant.p_kpa -= 3.0;
+    r.run_until(3_000, |r| r.plan_done().is_some()).unwrap();
+    assert_eq!(r.plan_done(), Some((true, DF)));
+    assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
+}
+
+#[test]
+fn servo_slew_and_limits() {
+    let mut r = Rig::connected(DD);
+    r.heartbeat_every_ms = 250;
+    // Slew limit: 90 °/s → at most 0.09° per 1 ms tick.
+    r.request(RequestBody::RunStep(Rig::nominal(DD, FD)));
+    let mut last = r.ctl.poll_outputs().servo_deg[0];
+    let mut max_step: f32 = 0.0;
+    for _ in 0..500 {
+        r.run(1);
+        let d = r.ctl.poll_outputs().servo_deg[0];
+        max_step = max_step.max((d - last).abs());
+        last = d;
+    }
+    assert!(max_step <= 0.0901, "{max_step}");
+    assert!(max_step >= 0.089, "{max_step}");
+    r.run_until(10_000, |r| r.plan_done().is_some()).unwrap();
+    // Limits lowered while a plan runs: the next pull beyond them is a ServoLimit fault.
+    let mut r = Rig::connected(FD);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(2, &[FD, DD, FD]));
+    r.run(200);
+    let (res, body) = r.request(RequestBody::SetParam {
+        id: ParamId::ServoMaxDeg,
+        value: 50.0,
+    });
+    assert_eq!(
+        (res, body),
+        (
+            ResultCode::Ok,
+            ResponseBody::Param {
+                id: ParamId::ServoMaxDeg,
+                value: 50.0
+            }
+        )
+    );
+    r.run_until(20_000, |r| r.plan_done().is_some()).unwrap();
+    assert_eq!(r.faults_raised(), [FaultCode::ServoLimit]);
+    assert_eq!(r.ctl.status().state, DD);
+    assert!(r.ctl.poll_outputs().servo_deg.iter().all(|d| *d <= 50.0));
+}
+
+#[test]
+fn parameters_have_ranges() {
+    let mut r = Rig::connected(FP);
+    for id in ParamId::ALL {
+        let (res, body) = r.request(RequestBody::GetParam(id));
+        assert_eq!(res, ResultCode::Ok);
+        let ResponseBody::Param { value, .. } = body else {
+            panic!()
+        };
+        assert!(id.accepts(value), "{id:?} = {value}");
+    }
+    let rejected = ResultCode::Rejected(RejectReason::OutOfRange);
+    for (id, v) in [
+        (ParamId::PressureLimitKpa, 61.0),
+        (ParamId::PressureLimitKpa, f32::NAN),
+        (ParamId::TelemetryHz, -1.0),
+        (ParamId::LinkTimeoutMs, 10.0),
+        (ParamId::ServoMinDeg, 181.0),
+    ] {
+        assert_eq!(
+            r.request(RequestBody::SetParam { id, value: v }).0,
+            rejected,
+            "{id:?}"
+        );
+    }
+    r.request(RequestBody::SetParam {
+        id: ParamId::ServoMaxDeg,
+        value: 90.0,
+    });
+    assert_eq!(
+        r.request(RequestBody::SetParam {
+            id: ParamId::ServoMinDeg,
+            value: 100.0
+        })
+        .0,
+        rejected
+    );
+    r.request(RequestBody::SetParam {
+        id: ParamId::PressureLimitKpa,
+        value: 30.0,
+    });
+    let (_, body) = r.request(RequestBody::Hello {
+        protocol_version: PROTOCOL_VERSION,
+        schema_id: SCHEMA_ID,
+    });
+    let ResponseBody::Hello(info) = body else {
+        panic!()
+    };
+    assert_eq!(info.trunk.pressure_limit_kpa, 30.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Periodic events
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn telemetry_and_heartbeat_rates() {
+    let mut r = Rig::connected(FP);
+    r.request(RequestBody::SetParam {
+        id: ParamId::TelemetryHz,
+        value: 20.0,
+    });
+    r.msgs.clear();
+    r.run(2_000);
+    let telemetry = r
+        .events()
+        .filter(|e| matches!(e, Event::Telemetry(_)))
+        .count();
+    let heartbeats = r
+        .events()
+        .filter(|e| matches!(e, Event::Heartbeat { .. }))
+        .count();
+    assert!((40..=41).contains(&telemetry), "{telemetry}");
+    assert!((4..=5).contains(&heartbeats), "{heartbeats}");
+    r.request(RequestBody::SetParam {
+        id: ParamId::TelemetryHz,
+        value: 0.0,
+    });
+    r.msgs.clear();
+    r.run(1_000);
+    assert_eq!(
+        r.events()
+            .filter(|e| matches!(e, Event::Telemetry(_)))
+            .count(),
+        0
+    );
+    // Progress while a step runs: at most every 100 ms.
+    r.request(RequestBody::SetParam {
+        id: ParamId::TelemetryHz,
+        value: 50.0,
+    });
+    r.heartbeat_every_ms = 250;
+    r.request(RequestBody::RunStep(Rig::nominal(FP, FF)));
+    r.msgs.clear();
+    r.run(1_000);
+    let progress: StdVec<u64> = r
+        .msgs
+        .iter()
+        .filter(|(_, m)| matches!(m, DeviceMessage::Event(Event::StepProgress { .. })))
+        .map(|(t, _)| *t)
+        .collect();
+    assert!((9..=11).contains(&progress.len()), "{progress:?}");
+    assert!(progress
+        .windows(2)
+        .all(|w| w[1] - w[0] >= PROGRESS_PERIOD_MS));
+}
+
+#[test]
+fn no_events_before_the_handshake() {
+    let mut r = Rig::new(FP);
+    r.run(2_000);
+    assert!(r.msgs.is_empty());
+}
+
+#[test]
+fn deadline_follows_activity() {
+    let mut r = Rig::new(FP);
+    r.run(10);
+    assert_eq!(r.ctl.poll_deadline(), r.now + 1_000);
+    r.hello_ok();
+    r.run(1);
+    // Next telemetry (10 Hz) or heartbeat.
+    assert!(r.ctl.poll_deadline() <= r.now + 100);
+    r.request(RequestBody::RunStep(Rig::nominal(FP, FF)));
+    r.run(1);
+    assert_eq!(r.ctl.poll_deadline(), r.now + 10);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Standalone
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn step_buttons_follow_the_nominal_transitions() {
+    let mut r = Rig::new(FP);
+    r.press(|b, v| b.up = v);
+    assert_eq!(r.ctl.mode(), Mode::Running);
+    r.run_until(10_000, |r| r.ctl.mode() == Mode::Standalone)
+        .unwrap();
+    assert_eq!(r.ctl.status().state, FF);
+    r.press(|b, v| b.up = v);
+    r.run_until(10_000, |r| r.ctl.mode() == Mode::Standalone)
+        .unwrap();
+    assert_eq!(r.ctl.status().state, DF);
+    r.press(|b, v| b.down = v);
+    r.run_until(10_000, |r| r.ctl.mode() == Mode::Standalone)
+        .unwrap();
+    assert_eq!((r.ctl.status().state, r.plant.state), (FF, FF));
+    assert_eq!(
+        r.stores.iter().map(|s| s.state).collect::<StdVec<_>>(),
+        [FF, DF, FF]
+    );
+    // No step down from F&P's neighbour's end: F&P has no tendon transition.
+    let mut r = Rig::new(FP);
+    r.press(|b, v| b.down = v);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+    // A glitch shorter than the debounce is not a press.
+    r.buttons.up = true;
+    r.run(5);
+    r.buttons.up = false;
+    r.run(50);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+}
+
+#[test]
+fn joystick_bends_only_flexible_states() {
+    let cfg = CraneConfig::default();
+    // D&D is not flexible: the joystick does nothing.
+    let mut r = Rig::new(DD);
+    r.joystick = [
+        cfg.joystick.center_raw[0] + 8_000,
+        cfg.joystick.center_raw[1],
+    ];
+    r.run(1_000);
+    assert_eq!(r.ctl.poll_outputs().servo_deg, [0.0; 3]);
+    // F&F: full +x deflection bends toward tendon 0 by the maximum bend (30°).
+    let mut r = Rig::new(FF);
+    r.joystick = [
+        cfg.joystick.center_raw[0] + 8_000,
+        cfg.joystick.center_raw[1],
+    ];
+    r.run(2_000);
+    let o = r.ctl.poll_outputs();
+    let pull0 = cfg.tendon_radius_mm * 30f32.to_radians();
+    assert!(
+        (cfg.servo.length_for_angle(0, o.servo_deg[0]) - pull0).abs() < 0.05,
+        "{o:?}"
+    );
+    assert_eq!([o.servo_deg[1], o.servo_deg[2]], [0.0, 0.0]);
+    // Inside the dead zone: straight again.
+    r.joystick = [cfg.joystick.center_raw[0] + 400, cfg.joystick.center_raw[1]];
+    r.run(2_000);
+    assert_eq!(r.ctl.poll_outputs().servo_deg, [0.0; 3]);
+    // +y: between tendons 1 (120°) and 0; tendon 1 pulls r·θ·cos(30°).
+    r.joystick = [
+        cfg.joystick.center_raw[0],
+        cfg.joystick.center_raw[1] + 8_000,
+    ];
+    r.run(2_000);
+    let o = r.ctl.poll_outputs();
+    let pull1 = pull0 * 30f32.to_radians().cos();
+    assert!(
+        (cfg.servo.length_for_angle(1, o.servo_deg[1]) - pull1).abs() < 0.05,
+        "{o:?}"
+    );
+    assert_eq!(o.servo_deg[2], 0.0);
+    // Step up from a bent trunk releases the tendons first.
+    r.joystick = cfg.joystick.center_raw;
+    r.joystick[1] += 8_000;
+    r.press(|b, v| b.up = v);
+    r.run_until(20_000, |r| r.ctl.mode() == Mode::Standalone)
+        .unwrap();
+    assert_eq!(r.ctl.status().state, DF);
+    assert!(r.faults_raised().is_empty());
+}
+
+#[test]
+fn gripper_button_toggles_when_idle() {
+    let mut r = Rig::new(FF);
+    r.press(|b, v| b.gripper = v);
+    assert!(r.ctl.poll_outputs().gripper_closed);
+    r.press(|b, v| b.gripper = v);
+    assert!(!r.ctl.poll_outputs().gripper_closed);
+}
+
+#[test]
+fn display_shows_pressure_on_request() {
+    let mut r = Rig::new(FP);
+    r.plant.p_kpa = 8.3;
+    r.buttons.show_pressure = true;
+    r.run(100);
+    let seg = r.ctl.poll_display();
+    // 8.3 ± the noise: " 8.2"–" 8.4".
+    assert_eq!(&seg[..3], &[0, 0, display::glyph(b'8') | display::DP]);
+    assert!(
+        [b'2', b'3', b'4']
+            .iter()
+            .any(|&d| seg[3] == display::glyph(d)),
+        "{seg:?}"
+    );
+    r.buttons.show_pressure = false;
+    r.run(1);
+    assert_eq!(r.ctl.poll_display(), display::text("F-P "));
+}

@@ -152,7 +152,7 @@ proptest! {
             prop_assert!((normal.dot(&((b.coords + t.coords) / 2.0)) - c).abs() < 1e-9);
         }
         for i in 0..n as usize {
-            // every mid-plane point is on the mid-plane and outside the quadrilateral
+            // every mid-plane point P_i lies on the mid-plane
             prop_assert!((normal.dot(&m.mid()[i].coords) - c).abs() < 1e-9);
         }
     }

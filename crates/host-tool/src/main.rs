@@ -8,7 +8,16 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod device;
+mod executor;
 mod failure;
+mod link;
+mod progress;
+mod session;
+#[cfg(test)]
+mod session_fake;
+mod sim;
+mod transport;
 
 /// Design, plan and command Yoshimura-origami cranes (or their simulator).
 #[derive(Debug, Parser)]
@@ -26,6 +35,16 @@ enum Command {
     Fk(cmd::fk::Args),
     /// Inverse kinematics: fit a stacked boom to a target curve.
     Ik(cmd::ik::Args),
+    /// Take the crane (default: the built-in simulator) to a trunk state, e.g. --target D&F.
+    Plan(cmd::plan::Args),
+    /// One status snapshot of the crane (or the simulator).
+    Status(cmd::status::Args),
+    /// Live telemetry until Ctrl-C or --duration.
+    Monitor(cmd::monitor::Args),
+    /// Abort whatever runs; report the safe state.
+    Stop(cmd::stop::Args),
+    /// List serial ports; recognise Arduino UNO R4 boards.
+    Ports(cmd::ports::Args),
 }
 
 fn main() -> ExitCode {
@@ -34,6 +53,11 @@ fn main() -> ExitCode {
         Command::States(args) => cmd::states::run(args),
         Command::Fk(args) => cmd::fk::run(args),
         Command::Ik(args) => cmd::ik::run(args),
+        Command::Plan(args) => cmd::plan::run(args),
+        Command::Status(args) => cmd::status::run(args),
+        Command::Monitor(args) => cmd::monitor::run(args),
+        Command::Stop(args) => cmd::stop::run(args),
+        Command::Ports(args) => cmd::ports::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

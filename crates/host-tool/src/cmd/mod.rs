@@ -2,4 +2,9 @@
 
 pub mod fk;
 pub mod ik;
+pub mod monitor;
+pub mod plan;
+pub mod ports;
+pub mod status;
+pub mod stop;
 pub mod states;

@@ -1,0 +1,200 @@
+//! `host-tool monitor`: live telemetry until Ctrl-C or `--duration`.
+//!
+//! Asks the device for telemetry at `--rate` Hz (restoring its previous rate at the end) and
+//! prints each sample and every event; if the device refuses the rate, it polls the status at
+//! that rate instead. With the simulator it runs in real time by default: a person watches.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use protocol::{Event, ParamId, RequestBody, ResponseBody, Telemetry};
+use serde_json::json;
+
+use crate::cmd::status::mode_name;
+use crate::device::DeviceArgs;
+use crate::executor::fault_list;
+use crate::failure::Failure;
+
+/// Arguments of `host-tool monitor`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub device: DeviceArgs,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Telemetry rate, samples per second of device time (1–50).
+    #[arg(long, value_name = "HZ", default_value_t = 10)]
+    pub rate: u32,
+    /// One JSON object per line on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `host-tool monitor`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    let device = args.device.validate(1.0)?;
+    let duration = match args.duration {
+        Some(d) if !(d.is_finite() && d > 0.0) => {
+            return Err(Failure::usage(format!(
+                "invalid --duration {d}: it must be > 0 seconds"
+            )))
+        }
+        Some(d) => Some(Duration::from_secs_f64(d)),
+        None => None,
+    };
+    if !(1..=50).contains(&args.rate) {
+        return Err(Failure::usage(format!(
+            "invalid --rate {}: it must be 1–50 Hz",
+            args.rate
+        )));
+    }
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let cancel = cancel.clone();
+        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::SeqCst));
+    }
+    let mut conn = device.connect().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let s = &mut conn.session;
+    let previous = match s.command(RequestBody::GetParam(ParamId::TelemetryHz)) {
+        Ok(ResponseBody::Param { value, .. }) => Some(value),
+        _ => None,
+    };
+    let streaming = s
+        .command(RequestBody::SetParam {
+            id: ParamId::TelemetryHz,
+            value: args.rate as f32,
+        })
+        .is_ok();
+    if !streaming {
+        eprintln!(
+            "note: the device refused telemetry at {} Hz: polling its status instead",
+            args.rate
+        );
+    }
+    let start = Instant::now();
+    let period = s.timing().poll_period;
+    let status_period = Duration::from_secs_f64(1.0 / f64::from(args.rate));
+    let mut next_status = Instant::now();
+    let mut result = Ok(());
+    while !cancel.load(Ordering::SeqCst) && duration.is_none_or(|d| start.elapsed() < d) {
+        // Any request feeds the device's link watchdog; the status doubles as a sample.
+        if !streaming && Instant::now() >= next_status {
+            next_status += status_period;
+            match s.status() {
+                Ok(st) => print_sample(
+                    args.json,
+                    &Telemetry {
+                        uptime_ms: st.uptime_ms,
+                        pressure_kpa: st.pressure_kpa,
+                        servo_deg: st.servo_deg,
+                        inlet_open: st.inlet_open,
+                        exhaust_open: st.exhaust_open,
+                        state: st.state,
+                    },
+                    Some(mode_name(st.mode)),
+                ),
+                Err(e) => {
+                    result = Err(anyhow::anyhow!("{e}"));
+                    break;
+                }
+            }
+        } else if let Err(e) = s.request(RequestBody::Heartbeat) {
+            result = Err(anyhow::anyhow!("{e}"));
+            break;
+        }
+        if let Err(e) = s.listen(period) {
+            result = Err(anyhow::anyhow!("{e}"));
+            break;
+        }
+        for ev in s.take_events() {
+            print_event(args.json, &ev);
+        }
+    }
+    if let Some(value) = previous {
+        let _ = s.command(RequestBody::SetParam {
+            id: ParamId::TelemetryHz,
+            value,
+        });
+    }
+    drop(conn.session);
+    if let Some(sim) = conn.sim {
+        sim.finish();
+    }
+    result.map_err(Failure::Runtime)
+}
+
+fn print_sample(json: bool, t: &Telemetry, mode: Option<&str>) {
+    if json {
+        println!(
+            "{}",
+            json!({
+                "type": "telemetry",
+                "uptime_ms": t.uptime_ms,
+                "state": t.state.name(),
+                "pressure_kpa": t.pressure_kpa,
+                "servo_deg": t.servo_deg,
+                "inlet_open": t.inlet_open,
+                "exhaust_open": t.exhaust_open,
+                "mode": mode,
+            })
+        );
+    } else {
+        println!(
+            "{:>9.2} s  {}  {:5.1} kPa  servos {:5.1}° {:5.1}° {:5.1}°  inlet {}  exhaust {}{}",
+            f64::from(t.uptime_ms) / 1000.0,
+            t.state,
+            t.pressure_kpa,
+            t.servo_deg[0],
+            t.servo_deg[1],
+            t.servo_deg[2],
+            if t.inlet_open { "open  " } else { "closed" },
+            if t.exhaust_open { "open  " } else { "closed" },
+            mode.map_or(String::new(), |m| format!("  {m}"))
+        );
+    }
+}
+
+fn print_event(json: bool, ev: &Event) {
+    let text = match ev {
+        Event::Telemetry(t) => return print_sample(json, t, None),
+        // Liveness only; the samples show it.
+        Event::Heartbeat { .. } | Event::StepProgress { .. } => return,
+        Event::StepDone {
+            plan_id,
+            step,
+            ok,
+            state,
+            duration_ms,
+        } => format!(
+            "plan {plan_id} step {} {} in {duration_ms} ms, now {state}",
+            step + 1,
+            if *ok { "done" } else { "FAILED" }
+        ),
+        Event::PlanDone { plan_id, ok, state } => {
+            format!(
+                "plan {plan_id} {} at {state}",
+                if *ok { "done" } else { "FAILED" }
+            )
+        }
+        Event::StateReached { state, confirmed } => {
+            format!(
+                "state {state}{}",
+                if *confirmed { "" } else { " (unconfirmed)" }
+            )
+        }
+        Event::ManualRequired { step, task, .. } => format!(
+            "manual step {} required: {}",
+            step + 1,
+            planner::graph::manual_task_text(*task)
+        ),
+        Event::FaultRaised(f) => format!("FAULT {}", fault_list(f.bit())),
+        Event::FaultCleared(f) => format!("fault cleared: {}", fault_list(f.bit())),
+    };
+    if json {
+        println!("{}", json!({"type": "event", "text": text}));
+    } else {
+        println!("event: {text}");
+    }
+}

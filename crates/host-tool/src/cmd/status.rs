@@ -1,0 +1,169 @@
+//! `host-tool status`: one snapshot of the device.
+
+use protocol::{Board, DeviceInfo, Mode, PlanPhase, Status};
+use serde_json::{json, Value};
+
+use crate::device::DeviceArgs;
+use crate::executor::fault_list;
+use crate::failure::Failure;
+use crate::sim::SimTruth;
+
+/// Arguments of `host-tool status`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub device: DeviceArgs,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `host-tool status`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    let device = args.device.validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?;
+    let mut conn = device.connect().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let status = conn.session.status().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let info = conn.info.clone();
+    drop(conn.session);
+    let truth = conn.sim.map(|s| s.finish());
+    if args.json {
+        println!("{}", status_json(&status, &info, truth.as_ref()));
+    } else {
+        print!("{}", status_text(&status, &info));
+        if let Some(t) = truth {
+            println!(
+                "simulator:    true state {}, max pressure {:.1} kPa",
+                t.true_state.map_or("between states", |s| s.name()),
+                t.max_pressure_kpa
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A board's name for people.
+pub fn board_name(board: Board) -> &'static str {
+    match board {
+        Board::UnoR4Wifi => "Arduino UNO R4 WiFi",
+        Board::UnoR4Minima => "Arduino UNO R4 Minima",
+        Board::Simulator => "hil-sim simulator",
+    }
+}
+
+/// A mode's name.
+pub fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::Standalone => "standalone",
+        Mode::Running => "running",
+        Mode::WaitingManual => "waiting-manual",
+        Mode::Safe => "safe",
+        Mode::EStop => "e-stop",
+    }
+}
+
+/// A plan phase's name.
+pub fn phase_name(phase: PlanPhase) -> String {
+    match phase {
+        PlanPhase::Ready => "ready".into(),
+        PlanPhase::Running => "running".into(),
+        PlanPhase::WaitingManual => "waiting-manual".into(),
+        PlanPhase::Done => "done".into(),
+        PlanPhase::Failed(f) => format!("failed: E-{:02} {}", f.code(), f.description()),
+        PlanPhase::Aborted => "aborted".into(),
+    }
+}
+
+fn status_text(s: &Status, info: &DeviceInfo) -> String {
+    let v = info.firmware_version;
+    let mut t = format!(
+        "device:       {} (firmware {}.{}.{}, protocol {})\n",
+        board_name(info.board),
+        v[0],
+        v[1],
+        v[2],
+        info.protocol_version
+    );
+    t += &format!(
+        "state:        {}{}\n",
+        s.state,
+        if s.state_confirmed {
+            ""
+        } else {
+            " (not confirmed)"
+        }
+    );
+    t += &format!("mode:         {}\n", mode_name(s.mode));
+    t += &format!(
+        "pressure:     {:.1} kPa (limit {:.1}); inlet {}, exhaust {}\n",
+        s.pressure_kpa,
+        info.trunk.pressure_limit_kpa,
+        if s.inlet_open { "open" } else { "closed" },
+        if s.exhaust_open { "open" } else { "closed" }
+    );
+    t += &format!(
+        "servos:       {:.1}° {:.1}° {:.1}°; gripper {}\n",
+        s.servo_deg[0],
+        s.servo_deg[1],
+        s.servo_deg[2],
+        if s.gripper_closed { "closed" } else { "open" }
+    );
+    t += &format!(
+        "faults:       {}{}\n",
+        fault_list(s.faults),
+        if s.estop { "; E-STOP latched" } else { "" }
+    );
+    if let Some(p) = s.plan {
+        t += &format!(
+            "plan:         #{} step {}/{} {}\n",
+            p.plan_id,
+            u16::from(p.step) + 1,
+            p.steps,
+            phase_name(p.phase)
+        );
+    }
+    t += &format!(
+        "link:         {} frames received, {} dropped; uptime {:.1} s\n",
+        s.frames_rx,
+        s.frames_dropped,
+        f64::from(s.uptime_ms) / 1000.0
+    );
+    t
+}
+
+/// The `status --json` object.
+pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> Value {
+    let faults: Vec<Value> = protocol::FaultCode::ALL
+        .iter()
+        .filter(|f| s.faults & f.bit() != 0)
+        .map(|f| json!({"code": f.code(), "description": f.description()}))
+        .collect();
+    json!({
+        "state": s.state.name(),
+        "state_confirmed": s.state_confirmed,
+        "mode": mode_name(s.mode),
+        "pressure_kpa": s.pressure_kpa,
+        "servo_deg": s.servo_deg,
+        "inlet_open": s.inlet_open,
+        "exhaust_open": s.exhaust_open,
+        "gripper_closed": s.gripper_closed,
+        "estop": s.estop,
+        "faults": faults,
+        "plan": s.plan.map(|p| json!({
+            "plan_id": p.plan_id,
+            "step": p.step,
+            "steps": p.steps,
+            "phase": phase_name(p.phase),
+        })),
+        "frames_rx": s.frames_rx,
+        "frames_dropped": s.frames_dropped,
+        "uptime_ms": s.uptime_ms,
+        "device": {
+            "board": board_name(info.board),
+            "firmware_version": info.firmware_version,
+            "protocol_version": info.protocol_version,
+            "schema_id": info.schema_id,
+            "pressure_limit_kpa": info.trunk.pressure_limit_kpa,
+        },
+        "sim": truth.map(SimTruth::to_json),
+    })
+}

@@ -1,0 +1,62 @@
+//! `host-tool stop`: abort whatever runs; report the safe state the device went to.
+
+use serde_json::json;
+
+use crate::cmd::status::{mode_name, status_json};
+use crate::device::DeviceArgs;
+use crate::failure::Failure;
+use protocol::RequestBody;
+
+/// Arguments of `host-tool stop`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub device: DeviceArgs,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `host-tool stop`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    let device = args.device.validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?;
+    let mut conn = device.connect().map_err(|e| anyhow::anyhow!("{e}"))?;
+    conn.session
+        .command(RequestBody::Abort)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let status = conn.session.status().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let info = conn.info.clone();
+    drop(conn.session);
+    let truth = conn.sim.map(|s| s.finish());
+    let safe = !status.inlet_open;
+    if args.json {
+        let mut v = status_json(&status, &info, truth.as_ref());
+        v["aborted"] = json!(true);
+        v["safe"] = json!(safe);
+        println!("{v}");
+    } else {
+        println!(
+            "aborted: the device is in mode {} at {}; inlet {}, exhaust {}, pressure {:.1} kPa, \
+             servos held at {:.1}° {:.1}° {:.1}°",
+            mode_name(status.mode),
+            status.state,
+            if status.inlet_open { "OPEN" } else { "closed" },
+            if status.exhaust_open {
+                "open (venting)"
+            } else {
+                "closed"
+            },
+            status.pressure_kpa,
+            status.servo_deg[0],
+            status.servo_deg[1],
+            status.servo_deg[2]
+        );
+    }
+    if safe {
+        Ok(())
+    } else {
+        Err(Failure::Runtime(anyhow::anyhow!(
+            "the device still reports its inlet valve open after the abort"
+        )))
+    }
+}

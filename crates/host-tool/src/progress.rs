@@ -1,0 +1,148 @@
+//! Showing a run to people: a progress bar per step on a terminal, plain lines otherwise.
+//! Everything goes to stderr, so `--json` output on stdout stays machine-readable.
+
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use planner::graph::{kind_name, manual_task_text, Plan};
+use protocol::ManualTask;
+
+use crate::executor::{Progress, StepReport};
+
+/// Plain lines on stderr (pipes, logs, CI).
+pub struct Lines;
+
+fn step_line(plan: &Plan, index: usize) -> String {
+    let total = plan.steps().len();
+    let s = &plan.steps()[index];
+    format!(
+        "step {}/{} {} {} → {}",
+        index + 1,
+        total,
+        kind_name(s.edge.kind()),
+        s.edge.from(),
+        s.edge.to()
+    )
+}
+
+fn finished_line(index: usize, r: &StepReport) -> String {
+    let took = r.duration_ms.map_or(String::new(), |ms| {
+        format!(" in {:.1} s", f64::from(ms) / 1000.0)
+    });
+    format!(
+        "step {} {} {} → {}: {}{took}",
+        index + 1,
+        kind_name(r.kind),
+        r.from,
+        r.to,
+        if r.ok { "done" } else { "FAILED" }
+    )
+}
+
+fn manual_line(task: ManualTask, enter: bool) -> String {
+    format!(
+        "MANUAL STEP: {}; then press the confirm button on the crane{}",
+        manual_task_text(task),
+        if enter { " or Enter here" } else { "" }
+    )
+}
+
+impl Progress for Lines {
+    fn plan(&mut self, plan: &Plan, replan: bool) {
+        if replan {
+            eprintln!("new plan:");
+        }
+        eprint!("{plan}");
+    }
+
+    fn step_started(&mut self, index: usize, _total: usize, plan: &Plan) {
+        eprintln!("{} …", step_line(plan, index));
+    }
+
+    fn step_progress(&mut self, _: usize, _: u32, _: f32) {}
+
+    fn manual_prompt(&mut self, _index: usize, task: ManualTask, enter_confirms: bool) {
+        eprintln!("{}", manual_line(task, enter_confirms));
+    }
+
+    fn step_finished(&mut self, index: usize, report: &StepReport) {
+        eprintln!("{}", finished_line(index, report));
+    }
+
+    fn note(&mut self, message: &str) {
+        eprintln!("{message}");
+    }
+}
+
+/// One progress bar per step on a terminal; its length is the step's expected duration and
+/// its position the device time elapsed.
+#[derive(Default)]
+pub struct Bars {
+    bar: Option<ProgressBar>,
+}
+
+impl Bars {
+    fn done(&mut self) -> Option<ProgressBar> {
+        self.bar.take()
+    }
+}
+
+impl Progress for Bars {
+    fn plan(&mut self, plan: &Plan, replan: bool) {
+        if replan {
+            eprintln!("new plan:");
+        }
+        eprint!("{plan}");
+    }
+
+    fn step_started(&mut self, index: usize, _total: usize, plan: &Plan) {
+        if let Some(old) = self.done() {
+            old.finish_and_clear();
+        }
+        let expected_ms = (plan.steps()[index].edge.cost_s * 1000.0).max(1.0) as u64;
+        let bar = ProgressBar::new(expected_ms);
+        let style = ProgressStyle::with_template("{prefix:.bold} [{bar:30.cyan/blue}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> ");
+        bar.set_style(style);
+        bar.set_prefix(step_line(plan, index));
+        bar.enable_steady_tick(Duration::from_millis(120));
+        self.bar = Some(bar);
+    }
+
+    fn step_progress(&mut self, _: usize, elapsed_ms: u32, pressure_kpa: f32) {
+        if let Some(bar) = &self.bar {
+            bar.set_position(u64::from(elapsed_ms).min(bar.length().unwrap_or(0)));
+            bar.set_message(format!(
+                "{:.1} s  {pressure_kpa:5.1} kPa",
+                f64::from(elapsed_ms) / 1000.0
+            ));
+        }
+    }
+
+    fn manual_prompt(&mut self, _index: usize, task: ManualTask, enter_confirms: bool) {
+        let line = manual_line(task, enter_confirms);
+        match &self.bar {
+            Some(bar) => bar.println(line),
+            None => eprintln!("{line}"),
+        }
+    }
+
+    fn step_finished(&mut self, index: usize, report: &StepReport) {
+        let line = finished_line(index, report);
+        match self.done() {
+            Some(bar) => {
+                bar.finish_and_clear();
+                eprintln!("{line}");
+            }
+            None => eprintln!("{line}"),
+        }
+    }
+
+    fn note(&mut self, message: &str) {
+        match &self.bar {
+            Some(bar) => bar.println(message),
+            None => eprintln!("{message}"),
+        }
+    }
+}

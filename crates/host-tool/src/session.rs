@@ -450,3 +450,147 @@ mod tests {
         );
     }
 }
+
+/// The session against the real firmware controller, in-process (no physics: the trunk stays
+/// put, which is enough for the protocol's half of the contract).
+#[cfg(test)]
+mod with_firmware {
+    use std::io::{self, Read, Write};
+
+    use firmware::{BootRecord, Controller, CraneConfig, Inputs};
+    use protocol::{Mode, PlanPhase};
+
+    use super::*;
+
+    struct Board {
+        ctl: Controller,
+        rest: Inputs,
+        now_ms: u64,
+        /// Drop the next response frame(s) the controller sends.
+        drop_next: u32,
+        pending: Vec<u8>,
+    }
+
+    impl Board {
+        fn new() -> Self {
+            let cfg = CraneConfig::default();
+            Self {
+                ctl: Controller::new(cfg, BootRecord::Empty, 0),
+                rest: Inputs::at_rest(&cfg),
+                now_ms: 0,
+                drop_next: 0,
+                pending: Vec::new(),
+            }
+        }
+
+        fn tick(&mut self, ms: u64) {
+            for _ in 0..ms {
+                self.now_ms += 1;
+                self.ctl.handle_inputs(&self.rest, self.now_ms);
+                self.ctl.handle_time(self.now_ms);
+            }
+        }
+    }
+
+    impl Write for Board {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            self.ctl.handle_rx(buf, self.now_ms);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl Read for Board {
+        fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+            self.tick(1);
+            let mut tmp = [0u8; 512];
+            loop {
+                let n = self.ctl.poll_tx(&mut tmp);
+                if n == 0 {
+                    break;
+                }
+                self.pending.extend_from_slice(&tmp[..n]);
+            }
+            // Drop whole frames on request (everything up to and including a delimiter).
+            while self.drop_next > 0 {
+                let Some(end) = self.pending.iter().position(|&b| b == 0) else {
+                    break;
+                };
+                self.pending.drain(..=end);
+                self.drop_next -= 1;
+            }
+            if self.pending.is_empty() {
+                return Err(io::ErrorKind::WouldBlock.into());
+            }
+            let n = buf.len().min(self.pending.len());
+            buf[..n].copy_from_slice(&self.pending[..n]);
+            self.pending.drain(..n);
+            Ok(n)
+        }
+    }
+
+    fn timing() -> Timing {
+        Timing {
+            request_timeout: Duration::from_millis(20),
+            attempts: 5,
+            poll_period: Duration::from_millis(1),
+        }
+    }
+
+    #[test]
+    fn handshake_status_and_a_plan_start_against_the_real_controller() {
+        let mut session = Session::new(Board::new(), timing());
+        let info = session.handshake().unwrap();
+        assert_eq!(
+            (info.protocol_version, info.schema_id),
+            (PROTOCOL_VERSION, SCHEMA_ID)
+        );
+        let status = session.status().unwrap();
+        assert_eq!(status.state, geometry::TrunkState::AS_MANUFACTURED);
+        assert_eq!(status.mode, Mode::Standalone);
+        let plan = planner::graph::Graph::nominal()
+            .plan(status.state, "F&F".parse().unwrap())
+            .unwrap()
+            .to_protocol(3)
+            .unwrap();
+        session.command(RequestBody::UploadPlan(plan)).unwrap();
+        session
+            .command(RequestBody::StartPlan { plan_id: 3 })
+            .unwrap();
+        let status = session.status().unwrap();
+        let ps = status.plan.unwrap();
+        assert_eq!((ps.plan_id, ps.steps), (3, 1));
+        assert_eq!(ps.phase, PlanPhase::Running);
+        // Abort leaves the actuators safe.
+        session.command(RequestBody::Abort).unwrap();
+        let status = session.status().unwrap();
+        assert!(!status.inlet_open, "{status:?}");
+        assert_eq!(status.plan.unwrap().phase, PlanPhase::Aborted);
+    }
+
+    #[test]
+    fn a_lost_response_is_answered_from_the_controllers_cache() {
+        let mut session = Session::new(Board::new(), timing());
+        session.handshake().unwrap();
+        let plan = planner::graph::Graph::nominal()
+            .plan("F&P".parse().unwrap(), "F&F".parse().unwrap())
+            .unwrap()
+            .to_protocol(9)
+            .unwrap();
+        session.command(RequestBody::UploadPlan(plan)).unwrap();
+        // The StartPlan response is lost: the retry (same seq) must get the cached answer, not
+        // a second execution (which the controller would refuse as Busy: the plan runs).
+        session.transport_mut().drop_next = 1;
+        let reply = session
+            .request(RequestBody::StartPlan { plan_id: 9 })
+            .unwrap();
+        assert!(
+            matches!(reply.result, ResultCode::Ok | ResultCode::InProgress),
+            "{reply:?}"
+        );
+        assert_eq!(session.stats().retries, 1);
+        session.command(RequestBody::Abort).unwrap();
+    }
+}

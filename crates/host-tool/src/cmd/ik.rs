@@ -8,5 +8,7 @@ pub struct Args {}
 
 /// Runs `host-tool ik`.
 pub fn run(_args: Args) -> Result<(), Failure> {
-    Err(Failure::Runtime(anyhow::anyhow!("`ik` is not implemented yet")))
+    Err(Failure::Runtime(anyhow::anyhow!(
+        "`ik` is not implemented yet"
+    )))
 }

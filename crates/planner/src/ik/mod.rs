@@ -1,1 +1,220 @@
-//! Shape inverse kinematics (skeleton).
+//! Shape inverse kinematics (paper §4.2): choose one metastable state per module so that a
+//! stacked Yoshimura boom follows a target curve.
+//!
+//! # The problem
+//!
+//! A boom of m modules grows from the origin along +z. Module i (bottom first) takes one of its
+//! candidate states — the 2(n+1) shape states of the geometry catalogue (`deployed`, `folded`,
+//! `edge-i`, `vertex-i`), or only the feasible ones — each with its eq 5 transform `T_i`. Tip i
+//! is the centroid of module i's top boundary, `x_i = T1⋯Ti·0` (eq 35). A [`Metric`] scores the
+//! tips against a [`Target`] polyline:
+//!
+//! - [`Metric::Eq36`] (default): `RMS = sqrt(1/m Σ_i dist(x_i, C)²)`, `dist` to the nearest
+//!   point of the polyline C, segments included;
+//! - [`Metric::Ordered`]: tip i is matched to the point at arc length `i·L/m` of C, so the boom
+//!   covers the curve evenly and in order instead of bunching up on part of it.
+//!
+//! Both are sums of per-tip terms that depend only on the tip's position and index; every
+//! solver uses that.
+//!
+//! # Solvers ([`Algorithm`]), one interface ([`solve`]) and one result ([`Solution`])
+//!
+//! | solver | what it does | guarantee |
+//! |---|---|---|
+//! | `exhaustive` | every sequence, depth first, parallel over prefixes; each prefix frame is composed once and shared by all its completions | optimal (`optimal: true` when it finishes) |
+//! | `exact` | branch and bound seeded with a beam incumbent; admissible bound = exact prefix cost + per-tip reachable-set bound ([`reach`]); best-bound child order; parallel over top-level subtrees sharing an atomic incumbent | optimal, proven (`optimal: true` when it finishes) |
+//! | `greedy` | each module in turn takes the state whose tip is closest to the target | none |
+//! | `beam` | keeps the k best prefixes per layer, ranked by prefix cost + the same reachable-set bound over a short horizon | none (k → ∞ is exhaustive) |
+//! | `window` | receding horizon: optimise modules j..j+w−1 exhaustively given the committed prefix, commit module j, slide; then sweep windows of w modules until none improves | no w consecutive modules can be changed to improve the fit (unless interrupted) |
+//! | `dp` | dynamic programming over frames: two prefixes that reach the same frame have the same futures, so only the cheaper is kept; frames are merged when equal within a tolerance | optimal if the tolerance is 0 and the layer cap is not hit; otherwise approximate (see [`dp`]) |
+//!
+//! Every solver reports the RMS recomputed from its states' tips, so the reported RMS is always
+//! the RMS of the reported boom. Solvers poll a stop flag in [`Control`] (Ctrl-C) and then
+//! return the best complete boom found so far with `optimal: false`.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use nalgebra::Point3;
+
+pub mod beam;
+pub mod dp;
+mod error;
+pub mod exact;
+pub mod exhaustive;
+mod frame;
+mod problem;
+pub mod reach;
+pub mod target;
+pub mod window;
+
+pub use error::IkError;
+pub use frame::Frame;
+pub use problem::{Candidate, Catalogue, Metric, Objective, Problem};
+pub use target::Target;
+
+/// Which solver to run, with its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Algorithm {
+    /// Proven global optimum by branch and bound.
+    Exact,
+    /// Every sequence (the reference).
+    Exhaustive,
+    /// One module at a time, nearest tip.
+    Greedy,
+    /// Beam search keeping `width` prefixes per layer.
+    Beam {
+        /// Beam width k ≥ 1.
+        width: usize,
+    },
+    /// Sliding windows of `width` modules (2–4).
+    Window {
+        /// Window width w.
+        width: usize,
+    },
+    /// Dynamic programming over frames merged within tolerances.
+    Dp(dp::DpParams),
+}
+
+impl Algorithm {
+    /// The command-line names of the solvers.
+    pub const NAMES: &'static [&'static str] =
+        &["exact", "exhaustive", "greedy", "beam", "window", "dp"];
+
+    /// The solver's name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Algorithm::Exact => "exact",
+            Algorithm::Exhaustive => "exhaustive",
+            Algorithm::Greedy => "greedy",
+            Algorithm::Beam { .. } => "beam",
+            Algorithm::Window { .. } => "window",
+            Algorithm::Dp(_) => "dp",
+        }
+    }
+}
+
+/// Shared controls between a running solver and its caller: a stop flag the solver polls
+/// (Ctrl-C), and counters the caller may read for progress.
+#[derive(Debug, Clone, Default)]
+pub struct Control {
+    /// Set to ask the solver to stop and return the best boom found so far.
+    pub stop: Arc<AtomicBool>,
+    /// Sequences or search nodes evaluated so far (updated in batches).
+    pub evaluated: Arc<AtomicU64>,
+    /// Best sum of squared tip costs found so far, as `f64` bits (`u64::MAX` before any).
+    pub best_sum_bits: Arc<AtomicU64>,
+}
+
+impl Control {
+    /// A fresh control: not stopped, nothing evaluated.
+    pub fn new() -> Self {
+        Control {
+            stop: Arc::new(AtomicBool::new(false)),
+            evaluated: Arc::new(AtomicU64::new(0)),
+            best_sum_bits: Arc::new(AtomicU64::new(u64::MAX)),
+        }
+    }
+
+    /// Whether the caller asked to stop.
+    #[inline]
+    pub fn stopped(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    pub(crate) fn add_evaluated(&self, n: u64) {
+        self.evaluated.fetch_add(n, Ordering::Relaxed);
+    }
+
+    pub(crate) fn offer_best(&self, sum: f64) {
+        // Non-negative f64 order like their bit patterns.
+        self.best_sum_bits
+            .fetch_min(sum.max(0.0).to_bits(), Ordering::Relaxed);
+    }
+
+    /// Best RMS found so far for a boom of `m` modules, if any.
+    pub fn best_rms(&self, m: usize) -> Option<f64> {
+        let bits = self.best_sum_bits.load(Ordering::Relaxed);
+        (bits != u64::MAX).then(|| (f64::from_bits(bits) / m as f64).sqrt())
+    }
+}
+
+/// The result of a solver.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    /// Candidate index of each module, bottom first.
+    pub states: Vec<usize>,
+    /// Name of each module's state, bottom first.
+    pub names: Vec<String>,
+    /// RMS of the boom's tips under the problem's metric, recomputed from `states`.
+    pub rms: f64,
+    /// Whether `states` is proven to be a global optimum.
+    pub optimal: bool,
+    /// Complete sequences (exhaustive) or search nodes / partial sequences (the others)
+    /// evaluated.
+    pub evaluated: u64,
+    /// Wall-clock time of the solve.
+    pub elapsed: Duration,
+    /// The tips x_1..x_m of the boom (units of l).
+    pub tips: Vec<Point3<f64>>,
+    /// Whether the solver stopped early because [`Control::stop`] was set.
+    pub interrupted: bool,
+}
+
+/// What a solver returns before the common bookkeeping.
+pub(crate) struct Raw {
+    pub states: Vec<usize>,
+    pub optimal: bool,
+    pub evaluated: u64,
+    pub interrupted: bool,
+}
+
+/// Runs `algorithm` on `problem`.
+pub fn solve(
+    problem: &Problem,
+    algorithm: Algorithm,
+    control: &Control,
+) -> Result<Solution, IkError> {
+    let start = Instant::now();
+    let raw = match algorithm {
+        Algorithm::Exact => exact::solve(problem, control),
+        Algorithm::Exhaustive => exhaustive::solve(problem, control),
+        Algorithm::Greedy => beam::greedy(problem, control),
+        Algorithm::Beam { width } => {
+            if width == 0 {
+                return Err(IkError::Parameter("beam width must be at least 1".into()));
+            }
+            beam::beam(problem, width, control)
+        }
+        Algorithm::Window { width } => {
+            if !(1..=6).contains(&width) {
+                return Err(IkError::Parameter(format!(
+                    "window width must be between 1 and 6 (the paper uses 2–4); got {width}"
+                )));
+            }
+            window::solve(problem, width, control)
+        }
+        Algorithm::Dp(params) => dp::solve(problem, params, control)?,
+    };
+    Ok(finish(problem, raw, start.elapsed()))
+}
+
+fn finish(problem: &Problem, raw: Raw, elapsed: Duration) -> Solution {
+    let tips = problem.catalogue.tips(&raw.states);
+    Solution {
+        names: problem.catalogue.names(&raw.states),
+        rms: problem.objective.rms(&tips),
+        optimal: raw.optimal && !raw.interrupted,
+        evaluated: raw.evaluated,
+        elapsed,
+        tips,
+        interrupted: raw.interrupted,
+        states: raw.states,
+    }
+}
+
+#[cfg(test)]
+mod tests;
+#[cfg(test)]
+pub(crate) mod testutil;

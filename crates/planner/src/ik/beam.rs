@@ -1,0 +1,177 @@
+//! Greedy and beam search.
+//!
+//! - Greedy: module by module, bottom first, take the state whose tip has the lowest cost.
+//! - Beam (width k): keep the k best prefixes of each length, ranked by their exact cost so far
+//!   plus the reachable-set lower bound ([`super::reach`]) for the next [`BEAM_HORIZON`] tips.
+//!   Prefixes that reach the same frame (within 1e-9 l and 1e-9 rad) have identical futures, so
+//!   only the cheapest of them is kept (it dominates the others). Ties in rank break by lower
+//!   prefix cost, then by candidate order, so the result is deterministic.
+
+use std::collections::HashSet;
+
+use super::reach::Reach;
+use super::{Control, Frame, Problem, Raw};
+
+/// How many tips ahead the beam's ranking bound looks.
+pub const BEAM_HORIZON: usize = 4;
+
+/// Greedy: each module in turn takes the state whose tip is nearest the target.
+pub(crate) fn greedy(problem: &Problem, control: &Control) -> Raw {
+    let (states, evaluated) = complete_greedily(problem, Frame::identity(), Vec::new());
+    control.add_evaluated(evaluated);
+    Raw {
+        states,
+        optimal: problem.m() == 0,
+        evaluated,
+        interrupted: false,
+    }
+}
+
+/// Extends `prefix` (whose top frame is `frame`) to a full boom greedily. Returns the states
+/// and the number of tips evaluated.
+pub(crate) fn complete_greedily(
+    problem: &Problem,
+    mut frame: Frame,
+    mut prefix: Vec<usize>,
+) -> (Vec<usize>, u64) {
+    let mut evaluated = 0;
+    for j in prefix.len()..problem.m() {
+        let mut best = (f64::INFINITY, 0usize, frame);
+        for (a, c) in problem.catalogue.candidates(j).iter().enumerate() {
+            let f = frame.compose(&c.frame);
+            let cost = problem.objective.cost(j, &f.origin());
+            evaluated += 1;
+            if cost < best.0 {
+                best = (cost, a, f);
+            }
+        }
+        prefix.push(best.1);
+        frame = best.2;
+    }
+    (prefix, evaluated)
+}
+
+#[derive(Clone, Copy)]
+struct Entry {
+    score: f64,
+    g: f64,
+    frame: Frame,
+    parent: u32,
+    cand: u16,
+}
+
+/// Quantises a frame for duplicate detection.
+pub(crate) fn frame_key(f: &Frame, step: f64) -> [i64; 12] {
+    let mut k = [0i64; 12];
+    for (i, v) in f.translation.iter().chain(f.rotation.iter()).enumerate() {
+        k[i] = (v / step).round() as i64;
+    }
+    k
+}
+
+/// Beam search of width `width`; returns the best complete boom and the number of prefixes
+/// evaluated.
+pub(crate) fn beam(problem: &Problem, width: usize, control: &Control) -> Raw {
+    let reach = Reach::new(&problem.catalogue, BEAM_HORIZON);
+    let (states, _g, evaluated, interrupted) = beam_with(problem, &reach, width, control);
+    Raw {
+        states,
+        optimal: false,
+        evaluated,
+        interrupted,
+    }
+}
+
+/// Beam search with a precomputed reach; returns (states, cost sum, evaluated, interrupted).
+pub(crate) fn beam_with(
+    problem: &Problem,
+    reach: &Reach,
+    width: usize,
+    control: &Control,
+) -> (Vec<usize>, f64, u64, bool) {
+    let m = problem.m();
+    let obj = &problem.objective;
+    let mut layers: Vec<Vec<(u32, u16)>> = Vec::with_capacity(m);
+    let mut cur = vec![Entry {
+        score: 0.0,
+        g: 0.0,
+        frame: Frame::identity(),
+        parent: 0,
+        cand: 0,
+    }];
+    let mut evaluated = 0u64;
+    let mut interrupted = false;
+    let mut children: Vec<Entry> = Vec::new();
+    let mut seen: HashSet<[i64; 12]> = HashSet::new();
+    for j in 0..m {
+        if control.stopped() {
+            interrupted = true;
+            break;
+        }
+        children.clear();
+        let cands = problem.catalogue.candidates(j);
+        for (pi, e) in cur.iter().enumerate() {
+            for (a, c) in cands.iter().enumerate() {
+                let f = e.frame.compose(&c.frame);
+                let g = e.g + obj.cost(j, &f.origin());
+                let h = if j + 1 < m {
+                    reach.suffix_lower_bound(obj, &f, j + 1, f64::INFINITY)
+                } else {
+                    0.0
+                };
+                children.push(Entry {
+                    score: g + h,
+                    g,
+                    frame: f,
+                    parent: pi as u32,
+                    cand: a as u16,
+                });
+            }
+        }
+        evaluated += children.len() as u64;
+        children.sort_by(|x, y| {
+            x.score
+                .total_cmp(&y.score)
+                .then(x.g.total_cmp(&y.g))
+                .then(x.parent.cmp(&y.parent))
+                .then(x.cand.cmp(&y.cand))
+        });
+        seen.clear();
+        let mut next = Vec::with_capacity(width);
+        for ch in &children {
+            if next.len() == width {
+                break;
+            }
+            if seen.insert(frame_key(&ch.frame, 1e-9)) {
+                next.push(*ch);
+            }
+        }
+        layers.push(next.iter().map(|e| (e.parent, e.cand)).collect());
+        cur = next;
+    }
+    control.add_evaluated(evaluated);
+    // Best entry of the deepest layer reached, traced back.
+    let depth = layers.len();
+    let best = (0..cur.len())
+        .min_by(|&a, &b| cur[a].g.total_cmp(&cur[b].g))
+        .unwrap_or(0);
+    let mut states = vec![0usize; depth];
+    let mut idx = best as u32;
+    for d in (0..depth).rev() {
+        let (p, c) = layers[d][idx as usize];
+        states[d] = c as usize;
+        idx = p;
+    }
+    if depth < m {
+        let frame = cur
+            .get(best)
+            .map(|e| e.frame)
+            .unwrap_or_else(Frame::identity);
+        let (s, n) = complete_greedily(problem, frame, states);
+        states = s;
+        evaluated += n;
+    }
+    let g = problem.cost_sum(&states);
+    control.offer_best(g);
+    (states, g, evaluated, interrupted)
+}

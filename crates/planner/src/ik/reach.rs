@@ -1,0 +1,224 @@
+//! Reachable-set covers: where the tips of the remaining modules can be, relative to a frame.
+//!
+//! For a suffix that starts after `j` placed modules, the tip of the k-th next module (k ≥ 1)
+//! lies in `R(j,k) = { T(j,a1)⋯T(j+k−1,ak)·0 }`, a set of ∏K points expressed in the frame of
+//! the j-th top boundary. We cover each `R(j,k)` by at most [`MAX_BALLS`] balls, built
+//! recursively: `R(j,k) = ∪_a T(j,a)·R(j+1,k−1)`; the images of the balls covering
+//! `R(j+1,k−1)` cover `R(j,k)` and are merged greedily into fewer, larger balls. Covers with at
+//! most `MAX_BALLS` points are exact (radius 0).
+//!
+//! A lower bound for the remaining cost from frame F is then
+//! `Σ_k min_{balls b of R(j,k)} lb(F·c_b, ρ_b)`, where `lb` bounds the per-tip cost below over
+//! a ball. It is admissible because every real suffix puts its k-th tip inside some ball of
+//! `R(j,k)`, and each term is minimised independently (a relaxation).
+
+use nalgebra::{Point3, Vector3};
+
+use super::{Catalogue, Frame, Objective};
+
+/// Maximum number of balls per cover.
+pub const MAX_BALLS: usize = 24;
+
+/// A ball (centre in a module frame, radius), units of l.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ball {
+    /// Centre.
+    pub center: Vector3<f64>,
+    /// Radius.
+    pub radius: f64,
+}
+
+/// Covers of `R(j,k)` for every suffix start j and length `k ≤ horizon`.
+#[derive(Debug, Clone)]
+pub struct Reach {
+    /// `covers[j][k-1]`; when the catalogue is uniform only `covers[0]` is stored.
+    covers: Vec<Vec<Vec<Ball>>>,
+    uniform: bool,
+    m: usize,
+    horizon: usize,
+}
+
+impl Reach {
+    /// Covers for a boom of `catalogue`, for suffix lengths up to `horizon`.
+    pub fn new(catalogue: &Catalogue, horizon: usize) -> Self {
+        let m = catalogue.len();
+        let horizon = horizon.min(m).max(1);
+        let uniform = catalogue.is_uniform();
+        let mut covers: Vec<Vec<Vec<Ball>>> = vec![Vec::new(); if uniform { 1 } else { m }];
+        if uniform {
+            // R(k) = ∪_a T_a · R(k−1), independent of j.
+            let cands = catalogue.candidates(0);
+            let mut prev = vec![Ball {
+                center: Vector3::zeros(),
+                radius: 0.0,
+            }];
+            for _ in 0..horizon {
+                let next = cover_union(cands.iter().map(|c| &c.frame), &prev);
+                covers[0].push(next.clone());
+                prev = next;
+            }
+        } else {
+            // covers[j][k-1] from covers[j+1][k-2].
+            for j in (0..m).rev() {
+                let cands = catalogue.candidates(j);
+                let kmax = horizon.min(m - j);
+                for k in 1..=kmax {
+                    let prev: Vec<Ball> = if k == 1 {
+                        vec![Ball {
+                            center: Vector3::zeros(),
+                            radius: 0.0,
+                        }]
+                    } else {
+                        covers[j + 1][k - 2].clone()
+                    };
+                    let c = cover_union(cands.iter().map(|c| &c.frame), &prev);
+                    covers[j].push(c);
+                }
+            }
+        }
+        Reach {
+            covers,
+            uniform,
+            m,
+            horizon,
+        }
+    }
+
+    /// The cover of `R(j,k)` (k ≥ 1, `j + k ≤ m`, `k ≤ horizon`).
+    #[inline]
+    pub fn cover(&self, j: usize, k: usize) -> &[Ball] {
+        if self.uniform {
+            &self.covers[0][k - 1]
+        } else {
+            &self.covers[j][k - 1]
+        }
+    }
+
+    /// Admissible lower bound on the cost of tips `j..min(m, j+horizon)` (0-based) given the
+    /// frame after `j` modules. Stops early (returning a value `> budget`) once the bound
+    /// exceeds `budget`.
+    #[inline]
+    pub fn suffix_lower_bound(&self, obj: &Objective, frame: &Frame, j: usize, budget: f64) -> f64 {
+        let kmax = self.horizon.min(self.m - j);
+        let mut sum = 0.0;
+        for k in 1..=kmax {
+            let mut best = f64::INFINITY;
+            for b in self.cover(j, k) {
+                let c = frame.apply_vec(&b.center);
+                let v = obj.ball_lower_bound(j + k - 1, &c, b.radius);
+                if v < best {
+                    best = v;
+                    if best == 0.0 {
+                        break;
+                    }
+                }
+            }
+            sum += best;
+            if sum > budget {
+                return sum;
+            }
+        }
+        sum
+    }
+}
+
+fn cover_union<'a>(frames: impl Iterator<Item = &'a Frame>, prev: &[Ball]) -> Vec<Ball> {
+    let mut balls = Vec::new();
+    for f in frames {
+        for b in prev {
+            balls.push(Ball {
+                center: f.apply_vec(&b.center).coords,
+                radius: b.radius,
+            });
+        }
+    }
+    merge(balls, MAX_BALLS)
+}
+
+/// Merges `balls` into at most `max` balls that together contain them all: farthest-point
+/// seeds, nearest-seed assignment, then each cluster's enclosing ball (centred on the middle of
+/// its centres' bounding box).
+fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
+    // Exact duplicates are common (commuting translations); drop them first.
+    balls.sort_by(|a, b| {
+        a.center
+            .iter()
+            .chain(std::iter::once(&a.radius))
+            .zip(b.center.iter().chain(std::iter::once(&b.radius)))
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    balls.dedup_by(|a, b| (a.center - b.center).norm() < 1e-12 && a.radius <= b.radius);
+    if balls.len() <= max {
+        return balls;
+    }
+    let centroid: Vector3<f64> =
+        balls.iter().map(|b| b.center).sum::<Vector3<f64>>() / balls.len() as f64;
+    let mut seeds: Vec<Vector3<f64>> = Vec::with_capacity(max);
+    let first = balls
+        .iter()
+        .max_by(|a, b| {
+            (a.center - centroid)
+                .norm_squared()
+                .total_cmp(&(b.center - centroid).norm_squared())
+        })
+        .map(|b| b.center)
+        .unwrap_or(centroid);
+    seeds.push(first);
+    let mut near: Vec<f64> = balls
+        .iter()
+        .map(|b| (b.center - first).norm_squared())
+        .collect();
+    while seeds.len() < max {
+        let (i, _) = near
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap_or((0, &0.0));
+        let s = balls[i].center;
+        seeds.push(s);
+        for (d, b) in near.iter_mut().zip(&balls) {
+            *d = d.min((b.center - s).norm_squared());
+        }
+    }
+    let mut groups: Vec<Vec<Ball>> = vec![Vec::new(); seeds.len()];
+    for b in &balls {
+        let (i, _) = seeds
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (i, (b.center - s).norm_squared()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((0, 0.0));
+        groups[i].push(*b);
+    }
+    groups
+        .into_iter()
+        .filter(|g| !g.is_empty())
+        .map(|g| {
+            let mut lo = Vector3::repeat(f64::INFINITY);
+            let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+            for b in &g {
+                lo = lo.inf(&b.center);
+                hi = hi.sup(&b.center);
+            }
+            let center = (lo + hi) * 0.5;
+            let radius = g
+                .iter()
+                .map(|b| (b.center - center).norm() + b.radius)
+                .fold(0.0, f64::max);
+            // A hair larger so rounding never leaves a point outside.
+            Ball {
+                center,
+                radius: radius * (1.0 + 1e-12) + 1e-12,
+            }
+        })
+        .collect()
+}
+
+/// Whether `p` lies in one of `balls` (for tests).
+pub fn covers(balls: &[Ball], p: &Point3<f64>) -> bool {
+    balls
+        .iter()
+        .any(|b| (p.coords - b.center).norm() <= b.radius + 1e-9)
+}

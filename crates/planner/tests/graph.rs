@@ -3,7 +3,7 @@
 
 use geometry::TrunkState;
 use planner::graph::{CostModel, Graph, PlanError};
-use protocol::transitions::TRANSITIONS;
+use protocol::transitions::{TRANSITIONS, UNPACK_KPA};
 use protocol::{StepKind, MAX_PLAN_STEPS};
 
 fn s(name: &str) -> TrunkState {
@@ -103,9 +103,14 @@ fn plan_cost_is_the_sum_of_its_edges_and_matches_the_cost_model() {
         assert!((e.cost_s - expected).abs() < 1e-12);
         assert!(e.cost_s > 0.0);
     }
-    // F&P → F&F: inflate 14 kPa at 5 kPa/s (2.8 s) + vent 1.5 s + overhead 0.5 s = 4.8 s.
+    // F&P → F&F: inflate to UNPACK_KPA at 5 kPa/s + vent 1.5 s + overhead 0.5 s.
     let plan = g.plan(s("F&P"), s("F&F")).unwrap();
-    assert!((plan.cost_s() - 4.8).abs() < 1e-6, "{}", plan.cost_s());
+    let expected = f64::from(UNPACK_KPA) / 5.0 + 1.5 + 0.5;
+    assert!(
+        (plan.cost_s() - expected).abs() < 1e-6,
+        "{} vs {expected}",
+        plan.cost_s()
+    );
     // A manual step dominates: F&P → D&P costs more than the manual time alone.
     let dp = g.plan(s("F&P"), s("D&P")).unwrap();
     assert!(dp.cost_s() > costs.manual_s);
@@ -174,7 +179,7 @@ fn a_plan_explains_every_step() {
         "F&P → D&P",
         "pneumatic",
         "manual",
-        "inflate toward 14.0 kPa",
+        format!("inflate toward {UNPACK_KPA:.1} kPa").as_str(),
         "vent to 0.0 kPa",
         "by hand",
         "why:",

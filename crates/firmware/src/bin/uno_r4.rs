@@ -1,0 +1,172 @@
+//! The crane firmware for the Arduino UNO R4 (Minima or WiFi): Renesas RA4M1, Cortex-M4F.
+//!
+//! A thin shell: bring up the clocks and the peripherals ([`board`]), wrap them in the
+//! controller's hardware adapters, then run [`firmware::hw::Shell::step`] once per millisecond
+//! and refresh the watchdog. All crane logic (protocol, plans, interlocks, standalone mode)
+//! is in [`firmware::Controller`].
+//!
+//! Build: `cargo firmware` (alias: release `firmware` profile for `thumbv7em-none-eabihf`);
+//! flash: `docs/flashing.md`; wiring: `docs/hardware.md`.
+#![no_std]
+#![no_main]
+
+#[path = "../board/mod.rs"]
+mod board;
+
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use defmt_rtt as _;
+
+use board::gpio::{OpenDrain, Output, PortPin, PullUpInput};
+use board::log::{error, info, warn};
+use board::{pins, pwm};
+use firmware::hw::{PinInputs, PinOutputs, ServoOutput, ServoPulse, Shell};
+use firmware::CraneConfig;
+
+/// Data-flash blocks 0 and 1 hold the state log (blocks 2..7 are free for later use).
+const STATE_LOG_FIRST_BLOCK: usize = 0;
+/// TM1637 brightness 0..=7.
+const DISPLAY_BRIGHTNESS: u8 = 4;
+/// How often the loop statistics are logged.
+const STATS_PERIOD_MS: u64 = 10_000;
+
+/// Drives both valve gates low without any driver state: used on panic and hard fault, when
+/// nothing else can be trusted. Closed valves seal the trunk, which holds its shape.
+fn valves_off() {
+    for p in [pins::INLET, pins::EXHAUST] {
+        let port = 0x4004_0000 + 0x20 * p.port as usize;
+        // SAFETY: PCNTR3 (PORR half) of the valve ports: write-only, resets exactly this pin.
+        unsafe { core::ptr::write_volatile((port + 8) as *mut u32, 1u32 << (p.pin + 16)) };
+    }
+}
+
+/// Nothing left to do but wait for the watchdog (it resets the board within 350 ms).
+fn halt() -> ! {
+    valves_off();
+    loop {
+        cortex_m::asm::nop();
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    // Interrupts stay off (the bootloader leaves PRIMASK set; make sure) until every handler's
+    // peripheral is ready.
+    cortex_m::interrupt::disable();
+    let Some(mut cp) = cortex_m::Peripherals::take() else {
+        halt()
+    };
+    if !board::gpio::self_check() {
+        error!("PFS/PORT address formulas disagree with the PAC");
+        halt();
+    }
+
+    let clocks = board::clocks::init();
+    board::clocks::enable_modules();
+    let mut clock =
+        board::time::Clock::start(&mut cp.SYST, &mut cp.DCB, &mut cp.DWT, clocks.iclk_hz);
+    let reset = board::wdt::take_reset_cause();
+    let wdt_ms = board::wdt::start(clocks.pclkb_hz);
+    info!("uno-r4: {} reset {} wdt {} ms", clocks, reset, wdt_ms);
+
+    // Actuators first, in their safe state: valves closed, gripper as is (low), servos silent.
+    let inlet = Output::new(pins::INLET);
+    let exhaust = Output::new(pins::EXHAUST);
+    let gripper = Output::new(pins::GRIPPER);
+    let gpt7 = pwm::Timer::start(board::regs::pac::GPT167, clocks.pclkd_hz);
+    let gpt5 = pwm::Timer::start(board::regs::pac::GPT165, clocks.pclkd_hz);
+    let pulse = ServoPulse::default();
+    let servos = (
+        ServoOutput::new(gpt7.channel(pwm::Output::A, pins::SERVO0), pulse),
+        ServoOutput::new(gpt7.channel(pwm::Output::B, pins::SERVO1), pulse),
+        ServoOutput::new(gpt5.channel(pwm::Output::A, pins::SERVO2), pulse),
+    );
+    let outputs = PinOutputs {
+        servos,
+        inlet,
+        exhaust,
+        gripper,
+    };
+
+    let mut adc = board::adc::Adc::new();
+    let button = |p: PortPin| PullUpInput::new(p);
+    let inputs = PinInputs {
+        pressure: adc.channel(pins::PRESSURE, pins::PRESSURE_AN),
+        joystick_x: adc.channel(pins::JOY_X, pins::JOY_X_AN),
+        joystick_y: adc.channel(pins::JOY_Y, pins::JOY_Y_AN),
+        up: button(pins::BTN_UP),
+        down: button(pins::BTN_DOWN),
+        gripper: button(pins::BTN_GRIPPER),
+        estop: button(pins::BTN_ESTOP),
+        confirm: button(pins::BTN_CONFIRM),
+        show_pressure: button(pins::BTN_SHOW),
+    };
+
+    let display = board::tm1637::Tm1637::new(
+        Output::new(pins::TM_CLK),
+        OpenDrain::new(pins::TM_DIO),
+        DISPLAY_BRIGHTNESS,
+    );
+    let flash = board::dataflash::DataFlash::new(clocks.fclk_hz, clocks.iclk_hz);
+    let store = board::flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK);
+    let link = board::uart::HostUart::new(clocks.pclka_hz, pins::HOST_TX, pins::HOST_RX);
+
+    let mut shell = Shell::new(inputs, outputs, display, store, link);
+    let mut ctl = shell.boot(CraneConfig::default(), clock.now_ms());
+    if reset.watchdog {
+        warn!("restarted by the watchdog");
+        ctl.report_watchdog_reset();
+    }
+    // SAFETY: every interrupt source is configured (SysTick, SCI9 RXI/ERI); nothing else is
+    // unmasked in the NVIC.
+    unsafe { cortex_m::interrupt::enable() };
+
+    let mut worst_cycles: u32 = 0;
+    let mut next_stats_ms = STATS_PERIOD_MS;
+    loop {
+        let now = clock.now_ms();
+        let t0 = board::time::cycles();
+        shell.step(&mut ctl, now);
+        let spent = board::time::cycles().wrapping_sub(t0);
+        worst_cycles = worst_cycles.max(spent);
+        board::wdt::feed();
+        if now >= next_stats_ms {
+            next_stats_ms = now + STATS_PERIOD_MS;
+            let s = shell.stats;
+            info!(
+                "step worst {} cycles; errors out {} disp {} store {} link {}; rx dropped {}",
+                worst_cycles,
+                s.output_errors,
+                s.display_errors,
+                s.store_errors,
+                s.link_errors,
+                shell.link.dropped()
+            );
+        }
+        // 1 kHz: sleep until the next SysTick (or a received byte) moves time on.
+        while clock.now_ms() == now {
+            cortex_m::asm::wfi();
+        }
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
+    valves_off();
+    match info.location() {
+        Some(l) => error!("panic at {=str}:{=u32}", l.file(), l.line()),
+        None => error!("panic"),
+    }
+    halt()
+}
+
+#[exception]
+unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    valves_off();
+    error!("hard fault at pc {=u32:#010x}", ef.pc());
+    halt()
+}
+
+defmt::timestamp!("{=u32:us}", {
+    // Cycle counter → µs: a relative stamp for ordering log lines (wraps every 89 s).
+    board::time::cycles() / 48
+});

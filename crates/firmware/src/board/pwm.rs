@@ -1,0 +1,131 @@
+//! Servo PWM at 50 Hz on the 16-bit GPT channels (GPT5 and GPT7 here), one embedded-hal
+//! `SetDutyCycle` per output pin (GTIOCnA / GTIOCnB).
+//!
+//! Saw-wave PWM, counting up from 0 to GTPR; the pin goes high at the cycle end and low at the
+//! compare match, so duty = compare value. Duty writes go to the buffer registers (GTCCRC for A,
+//! GTCCRE for B) and reach the compare registers at the next cycle end: no glitched pulse when
+//! the duty changes mid-period. A duty of 0 disables the pin's output (driven low), so a servo
+//! gets no pulse at all until the controller first commands it.
+
+use core::convert::Infallible;
+
+use super::gpio::{pfs, PortPin};
+use super::regs::{pac, rd, wr};
+use firmware::hw::SERVO_PWM_HZ;
+
+/// GTIOR: output A enable.
+const OAE: u32 = 1 << 8;
+/// GTIOR: output B enable.
+const OBE: u32 = 1 << 24;
+/// GTIOA/GTIOB = 0b01001: initial low, high at cycle end, low at compare match.
+const GTIO_PWM: u32 = 0b01001;
+
+/// Which output of a channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Output {
+    /// GTIOCnA (compare GTCCRA, buffer GTCCRC).
+    A,
+    /// GTIOCnB (compare GTCCRB, buffer GTCCRE).
+    B,
+}
+
+/// A running 50 Hz GPT channel.
+#[derive(Clone, Copy)]
+pub struct Timer {
+    regs: pac::Gpt162,
+    period_counts: u32,
+}
+
+impl Timer {
+    /// Sets up `regs` (a 16-bit GPT channel, module already out of stop) for 50 Hz from
+    /// `pclkd_hz` and starts it with both outputs off.
+    pub fn start(regs: pac::Gpt162, pclkd_hz: u32) -> Self {
+        // Smallest prescaler (÷1, 4, 16, 64, 256, 1024) whose period fits 16 bits: the finest
+        // pulse resolution (÷16 at 48 MHz: 60 000 counts per 20 ms, 0.33 µs a count).
+        let mut tpcs = 0u32;
+        let mut counts = pclkd_hz / SERVO_PWM_HZ;
+        while counts > 0x1_0000 && tpcs < 5 {
+            tpcs += 1;
+            counts = pclkd_hz / (1 << (2 * tpcs)) / SERVO_PWM_HZ;
+        }
+        wr!(regs.gtwp(), 0xA500); // write protection off (PRKEY 0xA5, WP = 0)
+        wr!(regs.gtcr(), tpcs << 24); // stopped, saw-wave PWM (MD = 000), prescaler
+        wr!(regs.gtuddtyc(), 0b11); // count up (UD), forced (UDF) ...
+        wr!(regs.gtuddtyc(), 0b01); // ... then released
+        wr!(regs.gtpr(), counts - 1);
+        wr!(regs.gtcnt(), 0);
+        wr!(regs.gtccra(), 0);
+        wr!(regs.gtccrb(), 0);
+        wr!(regs.gtccrc(), 0);
+        wr!(regs.gtccre(), 0);
+        // Single buffer GTCCRC → GTCCRA and GTCCRE → GTCCRB at each cycle end.
+        wr!(regs.gtber(), (0b01 << 16) | (0b01 << 18));
+        // Pin functions set, outputs disabled (OADFLT/OBDFLT = 0: low while disabled).
+        wr!(regs.gtior(), GTIO_PWM | (GTIO_PWM << 16));
+        wr!(regs.gtcr(), (tpcs << 24) | 1); // CST: count
+        Self {
+            regs,
+            period_counts: counts,
+        }
+    }
+
+    /// One output of this timer on `pin` (which must carry that GTIOC function).
+    pub fn channel(&self, output: Output, pin: PortPin) -> ServoPwm {
+        pin.configure(pfs::PMR | (pfs::PSEL_GPT << pfs::PSEL_SHIFT));
+        ServoPwm {
+            timer: *self,
+            output,
+        }
+    }
+}
+
+impl core::fmt::Debug for Timer {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Timer")
+            .field("period_counts", &self.period_counts)
+            .finish_non_exhaustive()
+    }
+}
+
+/// One servo output: 50 Hz, duty in timer counts (full scale = one 20 ms period).
+#[derive(Debug)]
+pub struct ServoPwm {
+    timer: Timer,
+    output: Output,
+}
+
+impl embedded_hal::pwm::ErrorType for ServoPwm {
+    type Error = Infallible;
+}
+
+impl embedded_hal::pwm::SetDutyCycle for ServoPwm {
+    fn max_duty_cycle(&self) -> u16 {
+        // ≤ 65 536 counts by construction; 65 535 if the period is exactly 2^16.
+        self.timer.period_counts.min(u16::MAX as u32) as u16
+    }
+
+    fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
+        let r = self.timer.regs;
+        let duty = (duty as u32).min(self.timer.period_counts);
+        let enable = match self.output {
+            Output::A => {
+                wr!(r.gtccrc(), duty);
+                OAE
+            }
+            Output::B => {
+                wr!(r.gtccre(), duty);
+                OBE
+            }
+        };
+        let gtior = rd!(r.gtior());
+        let want = if duty == 0 {
+            gtior & !enable
+        } else {
+            gtior | enable
+        };
+        if want != gtior {
+            wr!(r.gtior(), want);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,218 @@
+//! The host link on SCI9 (TXD9 = P109, RXD9 = P110): 115 200 baud, 8N1, embedded-io.
+//!
+//! SCI9 has no FIFO, so at 115 200 baud a byte arrives every 87 µs: reception runs from the
+//! receive-full interrupt (ICU slot IEL0 ← event SCI9_RXI 0xA8) into a lock-free ring that the
+//! main loop drains; receive errors (IEL1 ← SCI9_ERI 0xAB) are cleared and counted. A full ring
+//! drops the new byte (the protocol's CRC then drops the frame and the host retries).
+//! Transmission polls SSR.TDRE: `write_ready`/`write` never block longer than one byte.
+
+use core::cell::UnsafeCell;
+use core::convert::Infallible;
+use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
+
+use cortex_m::peripheral::NVIC;
+
+use super::gpio::{pfs, PortPin};
+use super::regs::{pac, rd, wr};
+use pac::interrupt;
+
+/// Host link speed.
+pub const BAUD: u32 = 115_200;
+
+/// ICU event numbers (RA4M1 event table).
+const EVENT_SCI9_RXI: u32 = 0xA8;
+const EVENT_SCI9_ERI: u32 = 0xAB;
+/// ICU slots used.
+const SLOT_RXI: usize = 0;
+const SLOT_ERI: usize = 1;
+/// IELSRn.IR: the slot's request flag, cleared by the handler.
+const IELSR_IR: u32 = 1 << 16;
+
+/// SSR bits.
+const SSR_TDRE: u8 = 1 << 7;
+const SSR_ERRORS: u8 = (1 << 5) | (1 << 4) | (1 << 3); // ORER, FER, PER
+/// SCR bits.
+const SCR_RIE: u8 = 1 << 6;
+const SCR_TE: u8 = 1 << 5;
+const SCR_RE: u8 = 1 << 4;
+
+const RING: usize = 512;
+
+/// Single-producer (the RXI handler) single-consumer (the main loop) byte ring.
+struct Ring {
+    buf: UnsafeCell<[u8; RING]>,
+    head: AtomicU16, // next write, owned by the producer
+    tail: AtomicU16, // next read, owned by the consumer
+}
+
+// SAFETY: `buf[head]` is written only by the producer before it publishes `head` (Release), and
+// read only by the consumer after it observes `head` (Acquire) and before it publishes `tail`;
+// the two never touch the same cell at the same time.
+unsafe impl Sync for Ring {}
+
+static RX: Ring = Ring {
+    buf: UnsafeCell::new([0; RING]),
+    head: AtomicU16::new(0),
+    tail: AtomicU16::new(0),
+};
+/// Bytes lost: ring full, or overrun/framing/parity errors.
+static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
+
+impl Ring {
+    fn push(&self, b: u8) -> bool {
+        let head = self.head.load(Ordering::Relaxed);
+        let next = (head + 1) % RING as u16;
+        if next == self.tail.load(Ordering::Acquire) {
+            return false;
+        }
+        // SAFETY: see `impl Sync`: the cell at `head` is not visible to the consumer yet.
+        unsafe { (*self.buf.get())[head as usize] = b };
+        self.head.store(next, Ordering::Release);
+        true
+    }
+
+    fn pop(&self) -> Option<u8> {
+        let tail = self.tail.load(Ordering::Relaxed);
+        if tail == self.head.load(Ordering::Acquire) {
+            return None;
+        }
+        // SAFETY: see `impl Sync`: the producer published this cell and will not write it
+        // again before `tail` moves past it.
+        let b = unsafe { (*self.buf.get())[tail as usize] };
+        self.tail.store((tail + 1) % RING as u16, Ordering::Release);
+        Some(b)
+    }
+
+    fn is_empty(&self) -> bool {
+        self.tail.load(Ordering::Relaxed) == self.head.load(Ordering::Acquire)
+    }
+}
+
+fn clear_ir(slot: usize) {
+    let v = rd!(pac::ICU.ielsr()[slot]);
+    wr!(pac::ICU.ielsr()[slot], v & !IELSR_IR);
+    // The flag must read back cleared before returning, or the slot re-fires.
+    let _ = rd!(pac::ICU.ielsr()[slot]);
+}
+
+#[interrupt]
+fn IEL0() {
+    let b = rd!(pac::SCI9.rdr());
+    if !RX.push(b) {
+        RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+    }
+    clear_ir(SLOT_RXI);
+}
+
+#[interrupt]
+fn IEL1() {
+    // Read RDR to discard the bad byte, then clear the error flags so reception resumes.
+    let _ = rd!(pac::SCI9.rdr());
+    let ssr = rd!(pac::SCI9.ssr());
+    wr!(pac::SCI9.ssr(), ssr & !SSR_ERRORS);
+    RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+    clear_ir(SLOT_ERI);
+}
+
+/// The SCI9 host link.
+#[derive(Debug)]
+pub struct HostUart(());
+
+impl HostUart {
+    /// Configures SCI9 for [`BAUD`] 8N1 from `pclka_hz` on `tx`/`rx`, links its receive
+    /// interrupts through the ICU and unmasks them in the NVIC (the bootloader leaves
+    /// interrupts disabled; `main` enables them globally afterwards).
+    pub fn new(pclka_hz: u32, tx: PortPin, rx: PortPin) -> Self {
+        wr!(pac::SCI9.scr(), 0); // TE = RE = 0 while configuring
+        wr!(pac::SCI9.smr(), 0); // async, 8 bits, no parity, 1 stop, PCLK/1
+        wr!(pac::SCI9.scmr(), 0xF2); // reset value: serial mode, LSB first, no inversion
+                                     // SEMR: ABCS (bit 4) = 1 and BGDM (bit 6) = 1: 8 base clocks per bit, so
+                                     // BRR = PCLK / (8 · baud) − 1 = 51 at 48 MHz (115 385 baud, +0.16 %).
+        wr!(pac::SCI9.semr(), (1 << 6) | (1 << 4));
+        let brr = (pclka_hz + 4 * BAUD) / (8 * BAUD) - 1;
+        wr!(pac::SCI9.brr(), brr.min(255) as u8);
+        // At least one bit period before enabling (the manual's setup procedure).
+        super::time::delay_us(10);
+        let sel = pfs::PMR | (pfs::PSEL_SCI_ODD << pfs::PSEL_SHIFT);
+        tx.configure(sel);
+        rx.configure(sel | pfs::PCR); // idle high even with the bridge unpowered
+        wr!(pac::ICU.ielsr()[SLOT_RXI], EVENT_SCI9_RXI);
+        wr!(pac::ICU.ielsr()[SLOT_ERI], EVENT_SCI9_ERI);
+        // SAFETY: the handlers above touch only SCI9, the ring and their own ICU slot.
+        unsafe {
+            NVIC::unmask(pac::Interrupt::IEL0);
+            NVIC::unmask(pac::Interrupt::IEL1);
+        }
+        wr!(pac::SCI9.scr(), SCR_TE | SCR_RE | SCR_RIE);
+        Self(())
+    }
+
+    /// Bytes lost so far (ring full or line errors).
+    pub fn dropped(&self) -> u32 {
+        RX_DROPPED.load(Ordering::Relaxed)
+    }
+}
+
+impl embedded_io::ErrorType for HostUart {
+    type Error = Infallible;
+}
+
+impl embedded_io::ReadReady for HostUart {
+    fn read_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(!RX.is_empty())
+    }
+}
+
+impl embedded_io::Read for HostUart {
+    /// Blocks until at least one byte is there (embedded-io's contract); the shell only calls
+    /// it after `read_ready`.
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+        if buf.is_empty() {
+            return Ok(0);
+        }
+        let mut n = 0;
+        while n == 0 {
+            while n < buf.len() {
+                match RX.pop() {
+                    Some(b) => {
+                        buf[n] = b;
+                        n += 1;
+                    }
+                    None => break,
+                }
+            }
+        }
+        Ok(n)
+    }
+}
+
+impl embedded_io::WriteReady for HostUart {
+    fn write_ready(&mut self) -> Result<bool, Infallible> {
+        Ok(rd!(pac::SCI9.ssr()) & SSR_TDRE != 0)
+    }
+}
+
+impl embedded_io::Write for HostUart {
+    /// Writes as many bytes as the transmitter takes without waiting (at least one: it waits
+    /// for TDRE if needed, ≤ 87 µs).
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        let mut n = 0;
+        for &b in buf {
+            if rd!(pac::SCI9.ssr()) & SSR_TDRE == 0 {
+                if n > 0 {
+                    break;
+                }
+                while rd!(pac::SCI9.ssr()) & SSR_TDRE == 0 {}
+            }
+            wr!(pac::SCI9.tdr(), b);
+            n += 1;
+        }
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> Result<(), Infallible> {
+        // SSR.TEND (bit 2): the last bit has left the shift register.
+        while rd!(pac::SCI9.ssr()) & (1 << 2) == 0 {}
+        Ok(())
+    }
+}

@@ -1,0 +1,194 @@
+//! The board's data-flash record log (`src/board/flash_log.rs`, compiled into the UNO R4 binary)
+//! against an emulated NOR flash with the RA4M1 data flash's rules: 1 KiB erase blocks, byte
+//! programming that only clears bits, programming a non-erased byte is an error, and a power
+//! cut that stops after any number of programmed bytes.
+
+#[path = "../src/board/flash_log.rs"]
+#[allow(dead_code)]
+mod flash_log;
+
+use firmware::hw::StateStore;
+use firmware::StoredState;
+use flash_log::{FlashError, FlashLog, NorFlash, SLOTS_PER_BLOCK};
+use geometry::TrunkState;
+
+const BLOCK: usize = 1024;
+const BLOCKS: usize = 8;
+
+/// RA4M1-like data flash: 8 blocks of 1 KiB, erased = 0xFF.
+struct EmuFlash {
+    mem: Vec<u8>,
+    erases: [u32; BLOCKS],
+    /// Bytes that may still be programmed before the "power cut" (None = unlimited).
+    budget: Option<usize>,
+}
+
+impl EmuFlash {
+    fn new() -> Self {
+        Self {
+            mem: vec![0xFF; BLOCK * BLOCKS],
+            erases: [0; BLOCKS],
+            budget: None,
+        }
+    }
+}
+
+impl NorFlash for &mut EmuFlash {
+    const BLOCK_SIZE: usize = BLOCK;
+    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), FlashError> {
+        let src = self
+            .mem
+            .get(offset..offset + buf.len())
+            .ok_or(FlashError::OutOfRange)?;
+        buf.copy_from_slice(src);
+        Ok(())
+    }
+    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), FlashError> {
+        if offset + data.len() > self.mem.len() {
+            return Err(FlashError::OutOfRange);
+        }
+        for (i, &d) in data.iter().enumerate() {
+            if let Some(b) = self.budget.as_mut() {
+                if *b == 0 {
+                    return Err(FlashError::Timeout); // power gone mid-write
+                }
+                *b -= 1;
+            }
+            if self.mem[offset + i] != 0xFF {
+                return Err(FlashError::Program);
+            }
+            self.mem[offset + i] = d;
+        }
+        Ok(())
+    }
+    fn erase(&mut self, block: usize) -> Result<(), FlashError> {
+        if block >= BLOCKS {
+            return Err(FlashError::OutOfRange);
+        }
+        if let Some(b) = self.budget {
+            if b == 0 {
+                return Err(FlashError::Timeout);
+            }
+        }
+        self.mem[block * BLOCK..(block + 1) * BLOCK].fill(0xFF);
+        self.erases[block] += 1;
+        Ok(())
+    }
+}
+
+fn st(i: usize, confirmed: bool) -> StoredState {
+    StoredState {
+        state: TrunkState::ALL[i % TrunkState::ALL.len()],
+        confirmed,
+    }
+}
+
+#[test]
+fn erased_flash_loads_as_nothing_stored() {
+    let mut f = EmuFlash::new();
+    let mut log = FlashLog::new(&mut f, 0);
+    assert_eq!(log.load(), Ok(None));
+}
+
+#[test]
+fn each_save_is_loaded_back_after_a_reset() {
+    let mut f = EmuFlash::new();
+    for i in 0..300 {
+        let s = st(i, i % 3 != 0);
+        FlashLog::new(&mut f, 0).save(&s).unwrap();
+        // A fresh log is what the board sees after a reset: it rescans the flash.
+        assert_eq!(FlashLog::new(&mut f, 0).load(), Ok(Some(s)), "save {i}");
+    }
+}
+
+#[test]
+fn wear_is_one_erase_per_block_of_saves_and_spread_over_both_blocks() {
+    let mut f = EmuFlash::new();
+    let saves = 10 * SLOTS_PER_BLOCK;
+    {
+        let mut log = FlashLog::new(&mut f, 2);
+        for i in 0..saves {
+            // Alternate states so that no save is skipped as a duplicate.
+            log.save(&st(i % 2, true)).unwrap();
+        }
+    }
+    // Blocks 2 and 3 hold the log; the first fill of each needs no erase.
+    let total: u32 = f.erases.iter().sum();
+    assert_eq!(
+        total as usize,
+        saves / SLOTS_PER_BLOCK - 2,
+        "erases {:?}",
+        f.erases
+    );
+    assert!(
+        f.erases[2].abs_diff(f.erases[3]) <= 1,
+        "erases {:?}",
+        f.erases
+    );
+    assert_eq!(
+        f.erases[0] + f.erases[1] + f.erases[4..].iter().sum::<u32>(),
+        0
+    );
+}
+
+#[test]
+fn saving_the_same_state_twice_costs_no_slot() {
+    let mut f = EmuFlash::new();
+    {
+        let mut log = FlashLog::new(&mut f, 0);
+        log.save(&st(1, true)).unwrap();
+        log.save(&st(1, true)).unwrap();
+    }
+    let used = f.mem[..BLOCK]
+        .chunks(16)
+        .filter(|c| c.iter().any(|&b| b != 0xFF))
+        .count();
+    assert_eq!(used, 1);
+}
+
+#[test]
+fn a_power_cut_at_any_byte_keeps_the_previous_or_the_new_record() {
+    // Cut power after every possible number of programmed bytes of the save that also has to
+    // switch blocks (the worst case: erase + first write in the other block).
+    for budget in 0..=14 {
+        let mut f = EmuFlash::new();
+        {
+            let mut log = FlashLog::new(&mut f, 0);
+            for i in 0..SLOTS_PER_BLOCK {
+                log.save(&st(i % 2, true)).unwrap();
+            }
+        }
+        let before = FlashLog::new(&mut f, 0).load().unwrap();
+        let new = st(4, false);
+        f.budget = Some(budget);
+        let res = FlashLog::new(&mut f, 0).save(&new);
+        f.budget = None;
+        let after = FlashLog::new(&mut f, 0).load().unwrap();
+        if res.is_ok() {
+            assert_eq!(after, Some(new), "budget {budget}");
+        } else {
+            assert!(
+                after == before || after == Some(new),
+                "budget {budget}: {after:?}"
+            );
+        }
+        // And the log keeps working after the cut.
+        let next = st(5, true);
+        FlashLog::new(&mut f, 0).save(&next).unwrap();
+        assert_eq!(
+            FlashLog::new(&mut f, 0).load(),
+            Ok(Some(next)),
+            "budget {budget}"
+        );
+    }
+}
+
+#[test]
+fn garbage_without_a_valid_slot_is_reported_corrupt() {
+    let mut f = EmuFlash::new();
+    f.mem[5] = 0x12; // a torn slot and nothing else
+    assert_eq!(FlashLog::new(&mut f, 0).load(), Err(FlashError::Corrupt));
+    // A save still succeeds, and then loads.
+    FlashLog::new(&mut f, 0).save(&st(2, true)).unwrap();
+    assert_eq!(FlashLog::new(&mut f, 0).load(), Ok(Some(st(2, true))));
+}

@@ -14,6 +14,7 @@
 //!   board and the simulator.
 //! - [`display`]: seven-segment encoding (TM1637 order).
 //! - [`store`]: [`StoredState`], the persisted record with its checksum.
+//! - [`bench`]: the worst-case loop pass as a reproducible workload (host bench, M4 harness).
 //!
 //! Architecture invariant: the controller never reads a clock, touches a register, sleeps,
 //! allocates or panics on input; time and inputs come in through `handle_*`, commands and bytes
@@ -57,6 +58,7 @@
     deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
 )]
 
+pub mod bench;
 pub mod config;
 pub mod controller;
 pub mod display;

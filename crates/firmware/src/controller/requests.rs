@@ -204,15 +204,14 @@ impl Controller {
                 direction_deg,
                 angle_deg,
             } => {
+                // Conservative and cheap (no trigonometry: the upload of a full plan of bends
+                // must fit in one loop pass): the most any tendon is pulled by a bend of θ is
+                // r_t·θ, whatever the direction.
+                let worst_mm = self.cfg.tendon_radius_mm * angle_deg.to_radians();
                 direction_deg.is_finite()
                     && angle_deg.is_finite()
                     && (0.0..=180.0).contains(&angle_deg)
-                    && self
-                        .angles_for(self.bend_lengths(
-                            (direction_deg as f64).to_radians(),
-                            (angle_deg as f64).to_radians(),
-                        ))
-                        .is_some()
+                    && self.angles_for([worst_mm; 3]).is_some()
             }
         }
     }

@@ -1,1 +1,45 @@
-//! hil-sim (skeleton; see its issue).
+//! hil-sim: the simulated Yoshimura trunk and crane hardware, running the real firmware
+//! controller.
+//!
+//! # Map
+//! - [`physics`]: the trunk — two multistable modules (force–extension laws with snap-through
+//!   and hysteresis), isothermal pneumatics through valve orifices, three tendons bending a
+//!   constant-curvature trunk. Every constant and its source: `docs/simulator.md`.
+//! - [`devices`]: simulated parts behind the firmware's own hardware traits (`firmware::hw`):
+//!   PWM channels, pins, 14-bit ADC inputs, the display, the data flash, the serial link.
+//! - [`servo`]: servo dynamics (slew, torque–speed line, stall).
+//! - [`operator`]: the simulated person who does manual steps.
+//! - [`fault`]: injectable faults.
+//! - [`Sim`] ([`sim`]): all of it on one virtual clock with a seeded RNG; the controller runs
+//!   through `firmware::hw::Shell`, the board's own loop body, never a re-implementation.
+//! - [`host`]: an in-process host (encodes requests, decodes device messages) for tests.
+//! - [`pty`]: the simulator serving its link on a pseudo-terminal, for any serial client.
+//! - [`discovery`]: the transition graph the physics supports, as JSON or Graphviz DOT.
+//!
+//! Architecture invariant: nothing here decides what the crane does; the controller does, from
+//! what the simulated sensors tell it. The simulator never reads the wall clock except in
+//! [`pty`], where virtual time follows wall time × speed.
+//!
+//! # Example
+//! ```
+//! use hil_sim::{Sim, SimOptions};
+//! let mut sim = Sim::new(SimOptions::default());
+//! sim.run_for(1_000);
+//! let truth = sim.ground_truth();
+//! assert_eq!(truth.true_state, Some("F&P".parse().unwrap()));
+//! assert!(truth.actuators_safe);
+//! ```
+#![deny(missing_docs)]
+
+pub mod devices;
+pub mod discovery;
+pub mod fault;
+pub mod host;
+pub mod operator;
+pub mod physics;
+pub mod pty;
+pub mod servo;
+pub mod sim;
+
+pub use fault::{Fault, ParseFaultError};
+pub use sim::{GroundTruth, HeldButtons, Sim, SimOptions};

@@ -71,19 +71,32 @@ const PNEUMATIC_TIMEOUT_MS: u32 = 30_000;
 const TENDON_TIMEOUT_MS: u32 = 30_000;
 const MANUAL_TIMEOUT_MS: u32 = 600_000;
 
-/// Pressure that unpacks the bottom module (P → F) with margin.
-pub const UNPACK_KPA: f32 = 14.0;
-/// Pressure that pops the top module out (F → D) with margin, below the bottom's F → D.
-pub const POP_TOP_KPA: f32 = 22.0;
-/// Pressure that deploys the bottom module (F → D) with margin.
-pub const DEPLOY_BOTTOM_KPA: f32 = 34.0;
+/// Pressure that unpacks the bottom module (P → F). The simulator's calibrated trunk unpacks at
+/// 13.1 kPa and pops the top at 19.6 kPa (`hil-sim discover`), so 16 kPa has ≈ 3 kPa margin on
+/// both sides.
+pub const UNPACK_KPA: f32 = 16.0;
+/// Pressure that pops the top module out (F → D): between the top's 19.6 kPa and the bottom's
+/// F → D at 30.1 kPa, ≈ 5 kPa from each.
+pub const POP_TOP_KPA: f32 = 24.5;
+/// Pressure that deploys the bottom module (F → D, 30.1 kPa in the simulator), below the
+/// firmware's default 40 kPa cap.
+pub const DEPLOY_BOTTOM_KPA: f32 = 35.0;
+/// Longest pull that folds the top module (D → F). The calibrated trunk buckles the top after
+/// 9 mm of pull from D&D, 56 mm from D&F and 102 mm from D&P; the next snap the tendons could
+/// cause from any of these (bottom F → packed from F&F) needs 138 mm.
+pub const FOLD_TOP_MM: f32 = 120.0;
+/// Longest pull that folds the bottom module (D → F): it buckles after 92 mm from F&D.
+pub const FOLD_BOTTOM_MM: f32 = 120.0;
+/// Longest pull that packs the bottom module (F → P, two snaps at 138 mm and 167 mm from F&F),
+/// within the winches' 185 mm of travel.
+pub const PACK_BOTTOM_MM: f32 = 182.0;
 
 static UNPACK: [Primitive; 2] = inflate(UNPACK_KPA);
 static POP_TOP: [Primitive; 2] = inflate(POP_TOP_KPA);
 static DEPLOY_BOTTOM: [Primitive; 2] = inflate(DEPLOY_BOTTOM_KPA);
-static FOLD_TOP: [Primitive; 2] = pull(90.0, 1);
-static FOLD_BOTTOM: [Primitive; 2] = pull(130.0, 1);
-static PACK_BOTTOM: [Primitive; 2] = pull(175.0, 2);
+static FOLD_TOP: [Primitive; 2] = pull(FOLD_TOP_MM, 1);
+static FOLD_BOTTOM: [Primitive; 2] = pull(FOLD_BOTTOM_MM, 1);
+static PACK_BOTTOM: [Primitive; 2] = pull(PACK_BOTTOM_MM, 2);
 static PACK_BY_HAND: [Primitive; 1] = [Primitive::Manual(ManualTask::PackBottomModule)];
 
 const fn edge(

@@ -1,0 +1,148 @@
+//! `hil-sim`: the simulated crane on a pseudo-terminal, or the transition discovery.
+//!
+//! ```text
+//! hil-sim --pty [--initial STATE] [--seed N] [--fault NAME]... [--speed X] [--no-operator]
+//! hil-sim discover [--json | --dot]
+//! ```
+//! With `--pty` the first line of stdout ends with the device path; the simulator then runs until
+//! killed. Usage errors exit with 2, runtime failures with 1.
+
+use std::io::Write as _;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use geometry::TrunkState;
+use hil_sim::discovery::{self, RigConfig};
+use hil_sim::pty::PtySim;
+use hil_sim::{Fault, SimOptions};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "hil-sim",
+    version,
+    about = "Simulated Yoshimura crane (trunk physics + hardware) running the real firmware controller",
+    args_conflicts_with_subcommands = true
+)]
+struct Cli {
+    /// Serve the controller's serial link on a pseudo-terminal (prints the device path).
+    #[arg(long)]
+    pty: bool,
+    /// The trunk's state at start: F&P, F&F, F&D, D&P, D&F or D&D.
+    #[arg(long, default_value = "F&P", value_parser = parse_state)]
+    initial: TrunkState,
+    /// Seed of the simulation's randomness (same seed, same run).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Inject a fault (repeatable): valve-stuck-closed, valve-stuck-open, leak, servo-stall,
+    /// tendon-break, sensor-dropout, link-drop, line-noise.
+    #[arg(long = "fault", value_name = "NAME", value_parser = parse_fault)]
+    faults: Vec<Fault>,
+    /// Virtual seconds per wall second ("inf": as fast as possible).
+    #[arg(long, default_value = "20", value_parser = parse_speed)]
+    speed: f64,
+    /// No simulated operator: manual steps wait for the host or a real person.
+    #[arg(long)]
+    no_operator: bool,
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Discover the transition graph the simulated trunk supports.
+    Discover {
+        /// Print JSON (the default).
+        #[arg(long, conflicts_with = "dot")]
+        json: bool,
+        /// Print Graphviz DOT.
+        #[arg(long)]
+        dot: bool,
+    },
+}
+
+fn parse_state(s: &str) -> Result<TrunkState, String> {
+    s.parse().map_err(|e| format!("{e}"))
+}
+
+fn parse_fault(s: &str) -> Result<Fault, String> {
+    s.parse().map_err(|e| format!("{e}"))
+}
+
+fn parse_speed(s: &str) -> Result<f64, String> {
+    let v = match s.trim() {
+        "inf" | "infinity" | "max" => f64::INFINITY,
+        t => t
+            .parse::<f64>()
+            .map_err(|_| format!("`{s}` is not a number (or `inf`)"))?,
+    };
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("speed must be positive (got {s})"))
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
+    match cli.command {
+        Some(Command::Discover { dot, .. }) => {
+            let g = discovery::discover(RigConfig::default());
+            let out = if dot {
+                discovery::to_dot(&g)
+            } else {
+                match serde_json::to_string_pretty(&discovery::to_json(&g)) {
+                    Ok(s) => s + "\n",
+                    Err(e) => {
+                        eprintln!("hil-sim: {e}");
+                        return ExitCode::from(1);
+                    }
+                }
+            };
+            print!("{out}");
+            ExitCode::SUCCESS
+        }
+        None if cli.pty => {
+            let opts = SimOptions {
+                initial: cli.initial,
+                seed: cli.seed,
+                faults: cli.faults,
+                speed: cli.speed,
+                operator: !cli.no_operator,
+            };
+            let sim = match PtySim::spawn(opts) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("hil-sim: {e:#}");
+                    return ExitCode::from(1);
+                }
+            };
+            let mut out = std::io::stdout();
+            let _ = writeln!(
+                out,
+                "hil-sim: simulated crane (initial {}, seed {}, speed {}) on {}",
+                cli.initial,
+                cli.seed,
+                cli.speed,
+                sim.path().display()
+            );
+            let _ = out.flush();
+            loop {
+                std::thread::park();
+            }
+        }
+        None => {
+            eprintln!("hil-sim: nothing to do; use --pty or `hil-sim discover` (see --help)");
+            ExitCode::from(2)
+        }
+    }
+}

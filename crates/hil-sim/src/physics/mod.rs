@@ -1,0 +1,10 @@
+//! Trunk physics: the multistable modules, the gas, the tendons (no devices, no firmware).
+
+pub mod calibration;
+pub mod gas;
+pub mod multistable;
+pub mod params;
+pub mod trunk;
+
+pub use params::TrunkParams;
+pub use trunk::{Actuation, Module, Snap, Trunk};

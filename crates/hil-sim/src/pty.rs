@@ -1,0 +1,170 @@
+//! The simulator serving its controller's serial link on a pseudo-terminal.
+//!
+//! [`PtySim::spawn`] opens a pty pair (raw mode), and runs the simulator on a thread: bytes a
+//! client writes to the device path go into the controller's link; what the controller sends
+//! comes out of it. Virtual time follows wall time × `speed` (the host keeps its heartbeats in
+//! wall time, so `speed` × the host's 50 ms request period must stay well under the firmware's
+//! link timeout of 3 s virtual: `speed` ≤ 40). With `speed = ∞` the simulator runs flat out.
+
+use std::os::fd::{AsFd, AsRawFd, OwnedFd};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use nix::errno::Errno;
+use nix::fcntl::{fcntl, FcntlArg, OFlag};
+use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
+
+use crate::{GroundTruth, Sim, SimOptions};
+
+/// Bytes the device may have queued for a client that is not reading before the oldest are
+/// dropped (a serial line with nobody listening loses its bytes too).
+const MAX_PENDING: usize = 64 * 1024;
+/// Wall time between loop passes at a finite speed.
+const WALL_TICK: Duration = Duration::from_millis(1);
+/// Most virtual time one loop pass may run (so a stalled wall clock cannot make it run away).
+const MAX_CATCH_UP_MS: u64 = 2_000;
+
+/// A simulator running on its own thread behind a pseudo-terminal.
+#[derive(Debug)]
+pub struct PtySim {
+    path: PathBuf,
+    stop: Arc<AtomicBool>,
+    truth: Arc<Mutex<GroundTruth>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl PtySim {
+    /// Opens a pseudo-terminal and starts the simulator behind it.
+    pub fn spawn(opts: SimOptions) -> anyhow::Result<PtySim> {
+        if opts.speed.is_nan() || opts.speed <= 0.0 {
+            anyhow::bail!("speed must be positive (got {})", opts.speed);
+        }
+        let pty = nix::pty::openpty(None, None).context("opening a pseudo-terminal")?;
+        let mut t = tcgetattr(pty.slave.as_fd()).context("reading the pty's terminal settings")?;
+        cfmakeraw(&mut t);
+        tcsetattr(pty.slave.as_fd(), SetArg::TCSANOW, &t).context("setting the pty to raw mode")?;
+        let flags = fcntl(pty.master.as_raw_fd(), FcntlArg::F_GETFL).context("pty flags")?;
+        fcntl(
+            pty.master.as_raw_fd(),
+            FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK),
+        )
+        .context("making the pty non-blocking")?;
+        let path = nix::unistd::ttyname(pty.slave.as_fd()).context("naming the pty")?;
+        let sim = Sim::new(opts);
+        let truth = Arc::new(Mutex::new(sim.ground_truth()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let (truth, stop) = (Arc::clone(&truth), Arc::clone(&stop));
+            std::thread::Builder::new()
+                .name("hil-sim".into())
+                .spawn(move || serve(sim, pty.master, pty.slave, &stop, &truth))
+                .context("starting the simulator thread")?
+        };
+        Ok(PtySim {
+            path,
+            stop,
+            truth,
+            thread: Some(thread),
+        })
+    }
+
+    /// The device path a serial client opens (e.g. `/dev/pts/7`).
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The ground truth now (updated every few wall milliseconds).
+    pub fn ground_truth(&self) -> GroundTruth {
+        lock(&self.truth).clone()
+    }
+
+    /// Stops the simulator and returns its final ground truth.
+    pub fn stop(mut self) -> GroundTruth {
+        self.halt();
+        lock(&self.truth).clone()
+    }
+
+    fn halt(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for PtySim {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+fn lock(m: &Mutex<GroundTruth>) -> std::sync::MutexGuard<'_, GroundTruth> {
+    // A poisoned lock only means the simulator thread panicked mid-update: the value is still
+    // a complete GroundTruth.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The simulator thread: moves bytes between the pty and the sim, and runs the sim.
+fn serve(
+    mut sim: Sim,
+    master: OwnedFd,
+    // Held open so the pty stays usable while no client has it open.
+    _slave: OwnedFd,
+    stop: &AtomicBool,
+    truth: &Mutex<GroundTruth>,
+) {
+    let speed = sim.options().speed;
+    let start = Instant::now();
+    let v0 = sim.now_ms();
+    let mut pending: Vec<u8> = Vec::new();
+    let mut buf = [0u8; 4096];
+    let mut last_truth = Instant::now();
+    while !stop.load(Ordering::Relaxed) {
+        // Host → device.
+        loop {
+            match nix::unistd::read(master.as_raw_fd(), &mut buf) {
+                Ok(0) => break,
+                Ok(n) => sim.write_host_bytes(&buf[..n]),
+                // EAGAIN: nothing to read; EIO: no client has the device open.
+                Err(_) => break,
+            }
+        }
+        // Virtual time.
+        let target = if speed.is_finite() {
+            v0 + (start.elapsed().as_secs_f64() * speed * 1000.0) as u64
+        } else {
+            sim.now_ms() + 10
+        };
+        let target = target.min(sim.now_ms() + MAX_CATCH_UP_MS);
+        while sim.now_ms() < target {
+            sim.step();
+        }
+        // Device → host.
+        pending.extend(sim.read_device_bytes());
+        if pending.len() > MAX_PENDING {
+            let excess = pending.len() - MAX_PENDING;
+            pending.drain(..excess);
+        }
+        while !pending.is_empty() {
+            match nix::unistd::write(master.as_fd(), &pending) {
+                Ok(n) => {
+                    pending.drain(..n.min(pending.len()));
+                }
+                Err(Errno::EINTR) => continue,
+                Err(_) => break,
+            }
+        }
+        if last_truth.elapsed() >= Duration::from_millis(5) {
+            *lock(truth) = sim.ground_truth();
+            last_truth = Instant::now();
+        }
+        if speed.is_finite() {
+            std::thread::sleep(WALL_TICK);
+        }
+    }
+    *lock(truth) = sim.ground_truth();
+}

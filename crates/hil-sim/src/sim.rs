@@ -1,0 +1,623 @@
+//! The simulator: physics, simulated parts and the real controller on one virtual clock.
+
+use std::collections::VecDeque;
+use std::fmt::Write as _;
+
+use firmware::hw::{PinInputs, PinOutputs, ServoOutput, ServoPulse, Shell};
+use firmware::{Controller, CraneConfig, StoredState};
+use geometry::TrunkState;
+use protocol::messages::{Board, DeviceMessage, Event, ManualTask, Mode, ModuleConfig};
+use protocol::FrameDecoder;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::devices::{
+    segments_text, SimAnalog, SimDisplay, SimFlash, SimInputPin, SimOutputPin, SimPwm, SimSerial,
+};
+use crate::fault::Fault;
+use crate::operator::{Operator, OperatorAction};
+use crate::physics::params::{
+    BOTTOM_BETA_DEG, BOTTOM_LAYERS, EDGE_MM, N_SIDES, TOP_BETA_DEG, TOP_LAYERS,
+};
+use crate::physics::trunk::{well_name, Module};
+use crate::physics::{Actuation, Trunk, TrunkParams};
+use crate::servo::{Servo, ServoSpec};
+
+/// Virtual time of one simulation step (the board's loop runs at 1 kHz).
+pub const STEP_MS: u64 = 1;
+/// Pressure sensor noise, kPa (1σ, before quantisation): ≈ 7 mV on an MPX5100-class output,
+/// what an unshielded sensor shows on an Arduino ADC.
+pub const SENSOR_NOISE_KPA: f64 = 0.15;
+/// Joystick ADC noise, counts (1σ).
+pub const JOYSTICK_NOISE_RAW: f64 = 3.0;
+/// Probability that a byte on the link is corrupted under `line-noise`.
+pub const LINE_NOISE_RATE: f64 = 0.01;
+/// Tension at which tendon 0 snaps under `tendon-break`, N.
+pub const TENDON_BREAK_N: f64 = 30.0;
+/// Delay from the first running plan to a `link-drop` or `sensor-dropout`, ms.
+pub const MID_PLAN_FAULT_DELAY_MS: u64 = 1_000;
+
+/// How to run the simulator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimOptions {
+    /// The trunk's true state at start (also what the controller's flash holds, confirmed).
+    pub initial: TrunkState,
+    /// Seed of every random choice (sensor noise, line noise).
+    pub seed: u64,
+    /// Faults to inject.
+    pub faults: Vec<Fault>,
+    /// Virtual seconds per wall second in pty mode (`f64::INFINITY`: as fast as possible).
+    pub speed: f64,
+    /// A simulated person does manual steps.
+    pub operator: bool,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self {
+            initial: TrunkState::AS_MANUFACTURED,
+            seed: 0,
+            faults: Vec::new(),
+            speed: 20.0,
+            operator: true,
+        }
+    }
+}
+
+/// What really happened, for judging the controller.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroundTruth {
+    /// The trunk's true state (`None` while snapping or with the bottom half-packed).
+    pub true_state: Option<TrunkState>,
+    /// Highest true gauge pressure so far, kPa.
+    pub max_pressure_kpa: f32,
+    /// The controller's pressure cap, kPa.
+    pub pressure_limit_kpa: f32,
+    /// Inlet closed, servos at rest and the pressure within the cap.
+    pub actuators_safe: bool,
+    /// True gauge pressure now, kPa.
+    pub pressure_kpa: f32,
+    /// Virtual time, ms.
+    pub time_ms: u64,
+    /// Module heights `[top, bottom]`, mm.
+    pub module_heights_mm: [f32; 2],
+    /// Tip bend angle, degrees.
+    pub bend_deg: f32,
+    /// Tendon tensions, N.
+    pub tendon_tension_n: [f32; 3],
+    /// Servo shaft angles, degrees.
+    pub servo_deg: [f32; 3],
+    /// Inlet passes air (including a stuck valve).
+    pub inlet_open: bool,
+    /// Exhaust passes air.
+    pub exhaust_open: bool,
+    /// Gripper closed.
+    pub gripper_closed: bool,
+    /// The display's content as text (`.` after a digit with its decimal point lit).
+    pub display: String,
+    /// What the controller believes.
+    pub believed_state: TrunkState,
+    /// The controller's mode.
+    pub mode: Mode,
+    /// Snap-throughs so far.
+    pub snaps: u32,
+    /// Manual tasks the simulated operator did.
+    pub manual_tasks: u32,
+    /// Faults injected.
+    pub faults: Vec<Fault>,
+}
+
+type SimInputs = PinInputs<
+    SimAnalog,
+    SimAnalog,
+    SimAnalog,
+    SimInputPin,
+    SimInputPin,
+    SimInputPin,
+    SimInputPin,
+    SimInputPin,
+    SimInputPin,
+>;
+type SimOutputs = PinOutputs<SimPwm, SimPwm, SimPwm, SimOutputPin, SimOutputPin, SimOutputPin>;
+type SimShell = Shell<SimInputs, SimOutputs, SimDisplay, SimFlash, SimSerial>;
+
+/// Buttons a test or a person holds (`true` = pressed).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HeldButtons {
+    /// Step up.
+    pub up: bool,
+    /// Step down.
+    pub down: bool,
+    /// Gripper.
+    pub gripper: bool,
+    /// E-stop.
+    pub estop: bool,
+    /// Confirm.
+    pub confirm: bool,
+    /// Show pressure.
+    pub show_pressure: bool,
+}
+
+/// The crane's configuration as the simulator builds it: the firmware's defaults, with the
+/// board and the trunk of this simulator.
+pub fn sim_crane_config() -> CraneConfig {
+    let mut cfg = CraneConfig {
+        board: Board::Simulator,
+        ..CraneConfig::default()
+    };
+    cfg.trunk.top = ModuleConfig {
+        n: N_SIDES as u8,
+        beta_deg: TOP_BETA_DEG as f32,
+        edge_mm: EDGE_MM as f32,
+        layers: TOP_LAYERS as u8,
+    };
+    cfg.trunk.bottom = ModuleConfig {
+        n: N_SIDES as u8,
+        beta_deg: BOTTOM_BETA_DEG as f32,
+        edge_mm: EDGE_MM as f32,
+        layers: BOTTOM_LAYERS as u8,
+    };
+    cfg.validated()
+}
+
+/// The simulated crane running the real controller.
+pub struct Sim {
+    opts: SimOptions,
+    rng: ChaCha8Rng,
+    now_ms: u64,
+    cfg: CraneConfig,
+    trunk: Trunk,
+    servos: [Servo; 3],
+    shell: SimShell,
+    ctl: Controller,
+    operator: Operator,
+    held: HeldButtons,
+    joystick: [f64; 2],
+    /// Device → host bytes after the link (noise, drop).
+    to_host: VecDeque<u8>,
+    sniffer: FrameDecoder,
+    max_pressure_kpa: f64,
+    snaps: u32,
+    inlet_stuck_open: bool,
+    tendon_broken: bool,
+    first_running_ms: Option<u64>,
+    link_dropped: bool,
+    sensor_lost: bool,
+    trace: Option<Trace>,
+    payload_n: f64,
+}
+
+impl std::fmt::Debug for Sim {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Sim")
+            .field("now_ms", &self.now_ms)
+            .field("true_state", &self.trunk.state())
+            .field("pressure_kpa", &self.trunk.pressure_kpa())
+            .finish_non_exhaustive()
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Trace {
+    period_ms: u64,
+    text: String,
+}
+
+impl Sim {
+    /// A simulator at virtual time 0 with the trunk at rest in `opts.initial`.
+    pub fn new(opts: SimOptions) -> Self {
+        let cfg = sim_crane_config();
+        let mut params =
+            TrunkParams::pdf().unwrap_or_else(|e| unreachable!("calibrated parameters: {e}"));
+        params.tendon_radius_mm = cfg.tendon_radius_mm as f64;
+        let trunk = Trunk::new(params, opts.initial);
+        let spec = ServoSpec::default();
+        let mut servos: [Servo; 3] =
+            core::array::from_fn(|i| Servo::new(spec, cfg.servo.slack_deg[i] as f64));
+        if opts.faults.contains(&Fault::ServoStall) {
+            servos[0].jammed = true;
+        }
+        let center = cfg.joystick.center_raw;
+        let inputs = PinInputs {
+            pressure: SimAnalog::new(cfg.pressure_sensor.raw(0.0)),
+            joystick_x: SimAnalog::new(center[0]),
+            joystick_y: SimAnalog::new(center[1]),
+            up: SimInputPin::new(true),
+            down: SimInputPin::new(true),
+            gripper: SimInputPin::new(true),
+            estop: SimInputPin::new(false),
+            confirm: SimInputPin::new(true),
+            show_pressure: SimInputPin::new(true),
+        };
+        let pulse = ServoPulse::default();
+        let outputs = PinOutputs {
+            servos: (
+                ServoOutput::new(SimPwm::default(), pulse),
+                ServoOutput::new(SimPwm::default(), pulse),
+                ServoOutput::new(SimPwm::default(), pulse),
+            ),
+            inlet: SimOutputPin::default(),
+            exhaust: SimOutputPin::default(),
+            gripper: SimOutputPin::default(),
+        };
+        let flash = SimFlash::holding(StoredState {
+            state: opts.initial,
+            confirmed: true,
+        });
+        let mut shell = Shell::new(
+            inputs,
+            outputs,
+            SimDisplay::default(),
+            flash,
+            SimSerial::default(),
+        );
+        let ctl = shell.boot(cfg, 0);
+        let operator = Operator::new(opts.operator);
+        Self {
+            rng: ChaCha8Rng::seed_from_u64(opts.seed),
+            opts,
+            now_ms: 0,
+            cfg,
+            trunk,
+            servos,
+            shell,
+            ctl,
+            operator,
+            held: HeldButtons::default(),
+            joystick: [0.0; 2],
+            to_host: VecDeque::new(),
+            sniffer: FrameDecoder::default(),
+            max_pressure_kpa: 0.0,
+            snaps: 0,
+            inlet_stuck_open: false,
+            tendon_broken: false,
+            first_running_ms: None,
+            link_dropped: false,
+            sensor_lost: false,
+            trace: None,
+            payload_n: 0.0,
+        }
+    }
+
+    /// The options it runs with.
+    pub fn options(&self) -> &SimOptions {
+        &self.opts
+    }
+
+    /// Virtual time, ms.
+    pub fn now_ms(&self) -> u64 {
+        self.now_ms
+    }
+
+    /// The crane configuration the controller runs with.
+    pub fn crane_config(&self) -> &CraneConfig {
+        &self.cfg
+    }
+
+    /// The controller (read-only: everything reaches it through the shell).
+    pub fn controller(&self) -> &Controller {
+        &self.ctl
+    }
+
+    /// The trunk physics.
+    pub fn trunk(&self) -> &Trunk {
+        &self.trunk
+    }
+
+    /// Holds buttons (as a person at the crane would), until changed.
+    pub fn set_buttons(&mut self, held: HeldButtons) {
+        self.held = held;
+    }
+
+    /// Deflects the joystick: each axis in −1…1.
+    pub fn set_joystick(&mut self, x: f64, y: f64) {
+        self.joystick = [x.clamp(-1.0, 1.0), y.clamp(-1.0, 1.0)];
+    }
+
+    /// Hangs an object on the tip (N; the gripper holds it).
+    pub fn set_payload_n(&mut self, payload_n: f64) {
+        self.payload_n = payload_n.max(0.0);
+    }
+
+    /// Starts recording a compact trace: one line every `period_ms`, plus one per event.
+    pub fn enable_trace(&mut self, period_ms: u64) {
+        self.trace = Some(Trace {
+            period_ms: period_ms.max(1),
+            text: String::new(),
+        });
+    }
+
+    /// The trace recorded so far.
+    pub fn trace(&self) -> &str {
+        self.trace.as_ref().map_or("", |t| t.text.as_str())
+    }
+
+    /// Bytes from the host to the device (through the line's faults).
+    pub fn write_host_bytes(&mut self, bytes: &[u8]) {
+        if self.link_dropped {
+            return;
+        }
+        let noise = self.opts.faults.contains(&Fault::LineNoise);
+        for &b in bytes {
+            let b = if noise { self.corrupt(b) } else { b };
+            self.shell.link.rx.push_back(b);
+        }
+    }
+
+    /// Takes every byte the device has sent to the host so far.
+    pub fn read_device_bytes(&mut self) -> Vec<u8> {
+        self.to_host.drain(..).collect()
+    }
+
+    /// Whether the device has bytes waiting for the host.
+    pub fn has_device_bytes(&self) -> bool {
+        !self.to_host.is_empty()
+    }
+
+    fn corrupt(&mut self, b: u8) -> u8 {
+        if self.rng.gen_bool(LINE_NOISE_RATE) {
+            b ^ self.rng.gen_range(1..=255u8)
+        } else {
+            b
+        }
+    }
+
+    fn gauss(&mut self) -> f64 {
+        // Box–Muller: rand 0.8 without rand_distr.
+        let u1: f64 = self.rng.gen_range(f64::EPSILON..1.0);
+        let u2: f64 = self.rng.gen();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos()
+    }
+
+    /// Advances the virtual clock by one step ([`STEP_MS`]).
+    pub fn step(&mut self) {
+        self.now_ms += STEP_MS;
+        let now = self.now_ms;
+        let faults = &self.opts.faults;
+
+        // Mid-plan faults start a while after the first plan runs.
+        if self.first_running_ms.is_none() && self.ctl.mode() == Mode::Running {
+            self.first_running_ms = Some(now);
+        }
+        if let Some(t0) = self.first_running_ms {
+            if now >= t0 + MID_PLAN_FAULT_DELAY_MS {
+                self.link_dropped |= faults.contains(&Fault::LinkDrop);
+                self.sensor_lost |= faults.contains(&Fault::SensorDropout);
+            }
+        }
+
+        // Sensors.
+        let p_kpa = self.trunk.pressure_kpa() + SENSOR_NOISE_KPA * self.gauss();
+        let raw = self.cfg.pressure_sensor.raw(p_kpa as f32);
+        let sensor = &mut self.shell.inputs.pressure;
+        sensor.raw = if self.sensor_lost { 0 } else { raw };
+        sensor.failed = false;
+        let half = self.cfg.joystick.half_range_raw as f64;
+        for axis in 0..2 {
+            let raw = self.cfg.joystick.center_raw[axis] as f64
+                + self.joystick[axis] * half
+                + JOYSTICK_NOISE_RAW * self.gauss();
+            let raw = raw.round().clamp(0.0, firmware::ADC_MAX as f64) as u16;
+            if axis == 0 {
+                self.shell.inputs.joystick_x.raw = raw;
+            } else {
+                self.shell.inputs.joystick_y.raw = raw;
+            }
+        }
+        let wants_hand = {
+            let text = segments_text(self.shell.display.segments);
+            text.starts_with("HAnd")
+        };
+        let (action, confirm_held) = self.operator.tick(now, wants_hand);
+        if let OperatorAction::DoTask(task) = action {
+            self.do_manual(task);
+        }
+        let held = self.held;
+        let inputs = &mut self.shell.inputs;
+        // Pull-ups: low = pressed; the e-stop's normally-closed contact reads high when pressed.
+        inputs.up.high = !held.up;
+        inputs.down.high = !held.down;
+        inputs.gripper.high = !held.gripper;
+        inputs.confirm.high = !(held.confirm || confirm_held);
+        inputs.show_pressure.high = !held.show_pressure;
+        inputs.estop.high = held.estop;
+
+        // The controller, through the board's own loop body.
+        self.shell.step(&mut self.ctl, now);
+
+        // Its bytes to the host go through the line.
+        if !self.shell.link.tx.is_empty() {
+            let bytes: Vec<u8> = self.shell.link.tx.drain(..).collect();
+            for b in bytes {
+                if let Some(Ok(DeviceMessage::Event(ev))) = self.sniffer.push::<DeviceMessage>(b) {
+                    self.on_device_event(&ev);
+                }
+                if self.link_dropped {
+                    continue;
+                }
+                let b = if self.opts.faults.contains(&Fault::LineNoise) {
+                    self.corrupt(b)
+                } else {
+                    b
+                };
+                self.to_host.push_back(b);
+            }
+        }
+
+        // Actuators.
+        let out = &self.shell.outputs;
+        let pulses = [
+            out.servos.0.inner().pulse_us(),
+            out.servos.1.inner().pulse_us(),
+            out.servos.2.inner().pulse_us(),
+        ];
+        let inlet_cmd = out.inlet.high;
+        let exhaust_cmd = out.exhaust.high;
+        if inlet_cmd && self.opts.faults.contains(&Fault::ValveStuckOpen) {
+            self.inlet_stuck_open = true;
+        }
+        let inlet_open = (inlet_cmd || self.inlet_stuck_open)
+            && !self.opts.faults.contains(&Fault::ValveStuckClosed);
+        let dt_s = STEP_MS as f64 * 1e-3;
+        let spool_m = self.cfg.servo.spool_radius_mm as f64 * 1e-3;
+        let tensions = self.trunk.tensions_n();
+        let mut pay_in_mm = [0.0; 3];
+        for (i, servo) in self.servos.iter_mut().enumerate() {
+            servo.set_pulse_us(pulses[i]);
+            // The tendon's torque opposes the pulling direction of the shaft.
+            let sign = self.cfg.servo.pull_sign[i] as f64;
+            servo.step(dt_s, sign * tensions[i] * spool_m);
+            pay_in_mm[i] = self.cfg.servo.length_for_angle(i, servo.angle_deg as f32) as f64;
+        }
+        if self.opts.faults.contains(&Fault::TendonBreak) && tensions[0] > TENDON_BREAK_N {
+            self.tendon_broken = true;
+        }
+        let act = Actuation {
+            pay_in_mm,
+            inlet_open,
+            exhaust_open: exhaust_cmd,
+            fault_leak: self.opts.faults.contains(&Fault::Leak),
+            tendon_broken: [self.tendon_broken, false, false],
+            payload_n: if self.shell.outputs.gripper.high {
+                self.payload_n
+            } else {
+                0.0
+            },
+            grip: None,
+        };
+        let snaps = self.trunk.step(dt_s, &act);
+        let p = self.trunk.pressure_kpa();
+        self.max_pressure_kpa = self.max_pressure_kpa.max(p);
+        for s in snaps.iter() {
+            self.snaps += 1;
+            if let Some(tr) = self.trace.as_mut() {
+                let _ = writeln!(
+                    tr.text,
+                    "{:>8} snap {} {}>{} p={:.1}",
+                    now,
+                    match s.module {
+                        Module::Top => "top",
+                        Module::Bottom => "bottom",
+                    },
+                    well_name(s.module, s.from_well),
+                    well_name(s.module, s.to_well),
+                    p
+                );
+            }
+        }
+        if let Some(tr) = self.trace.as_ref() {
+            if now % tr.period_ms == 0 {
+                let line = self.trace_line();
+                if let Some(tr) = self.trace.as_mut() {
+                    tr.text.push_str(&line);
+                }
+            }
+        }
+    }
+
+    fn trace_line(&self) -> String {
+        let h = self.trunk.heights_mm();
+        let state = self.trunk.state().map_or("--", |s| s.name());
+        format!(
+            "{:>8} p={:5.1} h={:5.1}+{:5.1} s={:5.1} {} v={}{} {}\n",
+            self.now_ms,
+            self.trunk.pressure_kpa(),
+            h[0],
+            h[1],
+            self.servos[0].angle_deg,
+            state,
+            if self.shell.outputs.inlet.high {
+                'I'
+            } else {
+                '-'
+            },
+            if self.shell.outputs.exhaust.high {
+                'E'
+            } else {
+                '-'
+            },
+            segments_text(self.shell.display.segments).trim_end(),
+        )
+    }
+
+    fn on_device_event(&mut self, ev: &Event) {
+        if let Event::ManualRequired { task, .. } = ev {
+            self.operator.prompted_task = Some(*task);
+        }
+        if let Some(tr) = self.trace.as_mut() {
+            let text = match ev {
+                Event::Heartbeat { .. } | Event::Telemetry(_) | Event::StepProgress { .. } => None,
+                other => Some(format!("{other:?}")),
+            };
+            if let Some(t) = text {
+                let _ = writeln!(tr.text, "{:>8} event {t}", self.now_ms);
+            }
+        }
+    }
+
+    fn do_manual(&mut self, task: ManualTask) {
+        match task {
+            ManualTask::PackBottomModule => self.trunk.set_module_well(Module::Bottom, 0),
+            ManualTask::FoldTopModule => self.trunk.set_module_well(Module::Top, 0),
+            ManualTask::FoldBottomModule => self.trunk.set_module_well(Module::Bottom, 2),
+        }
+        if let Some(tr) = self.trace.as_mut() {
+            let _ = writeln!(tr.text, "{:>8} operator {task:?}", self.now_ms);
+        }
+    }
+
+    /// Runs for `ms` of virtual time.
+    pub fn run_for(&mut self, ms: u64) {
+        let end = self.now_ms + ms;
+        while self.now_ms < end {
+            self.step();
+        }
+    }
+
+    /// Runs until `pred` holds (checked every step) or `max_ms` pass; returns whether it held.
+    pub fn run_until(&mut self, max_ms: u64, mut pred: impl FnMut(&Sim) -> bool) -> bool {
+        let end = self.now_ms + max_ms;
+        while self.now_ms < end {
+            if pred(self) {
+                return true;
+            }
+            self.step();
+        }
+        pred(self)
+    }
+
+    /// What really happened.
+    pub fn ground_truth(&self) -> GroundTruth {
+        let limit = self.ctl.config().pressure_limit_kpa;
+        let p = self.trunk.pressure_kpa() as f32;
+        let inlet_open = (self.shell.outputs.inlet.high || self.inlet_stuck_open)
+            && !self.opts.faults.contains(&Fault::ValveStuckClosed);
+        let servos_still = self
+            .servos
+            .iter()
+            .all(|s| (s.angle_deg - s.command_deg).abs() < 0.5 || s.jammed);
+        let status = self.ctl.status();
+        let h = self.trunk.heights_mm();
+        GroundTruth {
+            true_state: self.trunk.state(),
+            max_pressure_kpa: self.max_pressure_kpa as f32,
+            pressure_limit_kpa: limit,
+            actuators_safe: !inlet_open && servos_still && p <= limit,
+            pressure_kpa: p,
+            time_ms: self.now_ms,
+            module_heights_mm: [h[0] as f32, h[1] as f32],
+            bend_deg: self.trunk.bend_deg().0 as f32,
+            tendon_tension_n: self.trunk.tensions_n().map(|t| t as f32),
+            servo_deg: self.servos.map(|s| s.angle_deg as f32),
+            inlet_open,
+            exhaust_open: self.shell.outputs.exhaust.high,
+            gripper_closed: self.shell.outputs.gripper.high,
+            display: segments_text(self.shell.display.segments),
+            believed_state: status.state,
+            mode: status.mode,
+            snaps: self.snaps,
+            manual_tasks: self.operator.tasks_done,
+            faults: self.opts.faults.clone(),
+        }
+    }
+}

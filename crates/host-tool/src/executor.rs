@@ -409,9 +409,14 @@ impl<'a, T: std::io::Read + std::io::Write> Executor<'a, T> {
                         fault.code(),
                         status.state
                     );
+                    // A surprise is a confirmed state that is neither end of the step: the
+                    // trunk went somewhere else, and the way on starts there. A step that left
+                    // the trunk where it was (or unconfirmed) failed: replanning a detour
+                    // around it would act on a state nobody has confirmed.
                     if fault == FaultCode::TransitionNotConfirmed
                         && status.state_confirmed
                         && status.state != expected
+                        && status.state != steps[current].edge.from()
                     {
                         return Followed::Surprise {
                             index: current,
@@ -625,6 +630,24 @@ mod tests {
         );
         assert_eq!(out.steps.len(), 1);
         assert!(!out.steps[0].ok);
+    }
+
+    #[test]
+    fn a_step_that_leaves_the_trunk_where_it_was_fails_without_a_detour() {
+        let mut dev = FakeDevice::new(s("F&F"));
+        dev.script
+            .insert((s("F&F"), s("F&P")), StepScript::EndIn(s("F&F")));
+        let (out, dev) = run(dev, "F&P");
+        assert!(!out.ok());
+        assert_eq!(out.replans, 0);
+        assert_eq!(out.steps.len(), 1);
+        let err = out.error.unwrap();
+        assert!(
+            err.starts_with("step 1/1 (tendon F&F → F&P) failed"),
+            "{err}"
+        );
+        assert!(err.contains("the device reports F&F"), "{err}");
+        assert_eq!(dev.state, s("F&F"));
     }
 
     #[test]

@@ -1,37 +1,19 @@
 //! The built-in simulator: `hil-sim` run in-process on a pseudo-terminal.
 //!
-//! The host talks to it through [`crate::transport`] exactly as to a board; only the start, the
-//! stop and the simulator's ground truth (for reports and tests) are specific to it.
+//! The host talks to it through [`crate::transport`] exactly as to a board (the simulator
+//! serves the real firmware controller behind the pty); only the start, the stop and the
+//! simulator's ground truth (for reports and tests) are specific to it.
+
+use std::str::FromStr;
 
 use geometry::TrunkState;
+use hil_sim::pty::PtySim;
+use hil_sim::{Fault, GroundTruth, SimOptions};
 use serde_json::{json, Value};
 
-/// The fault names the simulator knows.
-pub const FAULT_NAMES: [&str; 8] = [
-    "valve-stuck-closed",
-    "valve-stuck-open",
-    "leak",
-    "servo-stall",
-    "tendon-break",
-    "sensor-dropout",
-    "link-drop",
-    "line-noise",
-];
-
-/// A simulated fault, by name.
-pub type SimFault = String;
-
 /// Checks a fault name; the error lists the valid ones.
-pub fn parse_fault(name: &str) -> Result<SimFault, String> {
-    let name = name.trim();
-    if FAULT_NAMES.contains(&name) {
-        Ok(name.to_string())
-    } else {
-        Err(format!(
-            "unknown simulator fault '{name}'; valid faults are {}",
-            FAULT_NAMES.join(", ")
-        ))
-    }
+pub fn parse_fault(name: &str) -> Result<Fault, String> {
+    Fault::from_str(name).map_err(|e| format!("invalid --sim-fault: {e}"))
 }
 
 /// How to run the simulator.
@@ -42,15 +24,15 @@ pub struct SimConfig {
     /// Virtual time / wall time.
     pub speed: f64,
     /// Injected faults.
-    pub faults: Vec<SimFault>,
+    pub faults: Vec<Fault>,
     /// Random seed.
     pub seed: u64,
 }
 
 impl SimConfig {
     /// The fault names, for messages.
-    pub fn fault_names(&self) -> Vec<String> {
-        self.faults.clone()
+    pub fn fault_names(&self) -> Vec<&'static str> {
+        self.faults.iter().map(|f| f.name()).collect()
     }
 }
 
@@ -60,11 +42,22 @@ pub struct SimTruth {
     /// The trunk's physical state (None between states).
     pub true_state: Option<TrunkState>,
     /// Highest pressure during the run.
-    pub max_pressure_kpa: f64,
+    pub max_pressure_kpa: f32,
     /// The pressure cap.
-    pub pressure_limit_kpa: f64,
+    pub pressure_limit_kpa: f32,
     /// Valves closed and servos not driving.
     pub actuators_safe: bool,
+}
+
+impl From<GroundTruth> for SimTruth {
+    fn from(t: GroundTruth) -> Self {
+        Self {
+            true_state: t.true_state,
+            max_pressure_kpa: t.max_pressure_kpa,
+            pressure_limit_kpa: t.pressure_limit_kpa,
+            actuators_safe: t.actuators_safe,
+        }
+    }
 }
 
 impl SimTruth {
@@ -82,13 +75,23 @@ impl SimTruth {
 /// A running simulator.
 #[derive(Debug)]
 pub struct SimRun {
+    pty: PtySim,
     path: String,
 }
 
 impl SimRun {
-    /// Starts the simulator on a new pseudo-terminal.
-    pub fn start(_cfg: &SimConfig) -> anyhow::Result<Self> {
-        anyhow::bail!("the built-in simulator is not available in this build yet")
+    /// Starts the simulator on a new pseudo-terminal (with its simulated operator, who does
+    /// manual steps and presses the confirm button).
+    pub fn start(cfg: &SimConfig) -> anyhow::Result<Self> {
+        let pty = PtySim::spawn(SimOptions {
+            initial: cfg.initial,
+            seed: cfg.seed,
+            faults: cfg.faults.clone(),
+            speed: cfg.speed,
+            operator: true,
+        })?;
+        let path = pty.path().to_string_lossy().into_owned();
+        Ok(Self { pty, path })
     }
 
     /// The pty's device path.
@@ -98,21 +101,11 @@ impl SimRun {
 
     /// The simulator's ground truth now.
     pub fn truth(&self) -> SimTruth {
-        SimTruth {
-            true_state: None,
-            max_pressure_kpa: 0.0,
-            pressure_limit_kpa: 0.0,
-            actuators_safe: true,
-        }
+        self.pty.ground_truth().into()
     }
 
-    /// Stops the simulator and returns its ground truth.
+    /// Stops the simulator and returns its final ground truth.
     pub fn finish(self) -> SimTruth {
-        SimTruth {
-            true_state: None,
-            max_pressure_kpa: 0.0,
-            pressure_limit_kpa: 0.0,
-            actuators_safe: true,
-        }
+        self.pty.stop().into()
     }
 }

@@ -4,4 +4,6 @@
 //! `cargo build --workspace --bins --release && cargo test -p e2e --release`
 //! (`cargo test --workspace --release` builds them itself).
 
+mod graph_agreement;
+mod serial_garbage;
 mod usage;

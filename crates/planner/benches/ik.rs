@@ -80,5 +80,48 @@ fn main() {
             }
         }
     }
+    if args.iter().any(|a| a == "algos") {
+        let d = ModuleDesign::new(4, 35.0).unwrap();
+        for m in [7usize, 10, 20] {
+            let cat = Catalogue::from_designs(&vec![d; m], false).unwrap();
+            let t = ik::target::generate("sine").unwrap();
+            let p = Problem::new(cat, t, Metric::Eq36);
+            for algo in [
+                Algorithm::Greedy,
+                Algorithm::Beam { width: 16 },
+                Algorithm::Window { width: 2 },
+                Algorithm::Window { width: 3 },
+                Algorithm::Dp(ik::dp::DpParams::default()),
+                Algorithm::Exact,
+            ] {
+                let s = ik::solve(&p, algo, &Control::new()).unwrap();
+                println!(
+                    "m={m} {:10} rms {:.6} eval {:>9} {:?}",
+                    algo.name(),
+                    s.rms,
+                    s.evaluated,
+                    s.elapsed
+                );
+            }
+        }
+    }
+    if args.iter().any(|a| a == "beam100") {
+        let d = ModuleDesign::new(6, 35.0).unwrap();
+        let cat = Catalogue::from_designs(&vec![d; 100], false).unwrap();
+        for spec in [
+            "helix:radius=2,pitch=10,turns=3",
+            "sine:amplitude=2,wavelength=10,length=40",
+        ] {
+            let p = Problem::new(
+                cat.clone(),
+                ik::target::generate(spec).unwrap(),
+                Metric::Eq36,
+            );
+            for w in [16usize, 64] {
+                let s = ik::solve(&p, Algorithm::Beam { width: w }, &Control::new()).unwrap();
+                println!("beam100 {spec} k={w} rms {:.6} {:?}", s.rms, s.elapsed);
+            }
+        }
+    }
     let _ = Target::new;
 }

@@ -1,14 +1,435 @@
-//! `host-tool ik` (skeleton; filled in by its issue).
+//! `host-tool ik`: fit a stacked Yoshimura boom to a 3D curve (paper §4.2).
+//!
+//! Arguments are validated into a [`Config`] once; then the problem is built from the geometry
+//! catalogue, solved with a Ctrl-C handler and a progress line on stderr, and printed as a
+//! table or as JSON, optionally with an SVG drawing.
 
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use geometry::ModuleDesign;
+use planner::ik::{self, dp::DpParams, Algorithm, Catalogue, Control, Metric, Problem, Target};
+use serde_json::Value;
+
+use super::states::{design_from, ordered_object, parse_beta, parse_n};
 use crate::failure::Failure;
+
+mod svg;
+
+fn target_long_help() -> String {
+    format!(
+        "Built-in target curve: NAME or NAME:key=value,key=value,… (units of l, the valley fold \
+         length; omitted parameters take their defaults). The boom starts at the origin growing \
+         along +z, so the curves start there too.\n\n{}\nExample: --target helix:radius=1,pitch=4,turns=1",
+        ik::target::generators_help()
+    )
+}
 
 /// Arguments of `host-tool ik`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Number of polygon sides n of every module (an integer in [3, 64]).
+    #[arg(long, allow_hyphen_values = true)]
+    pub n: String,
+    /// Fold angle(s) β in degrees: one for all modules or one per module, comma-separated,
+    /// bottom module first (the crane trunk is `35,31.72`).
+    #[arg(long, allow_hyphen_values = true)]
+    pub beta: String,
+    /// Number of modules m (≥ 1).
+    #[arg(long, allow_hyphen_values = true)]
+    pub modules: String,
+    /// Target polyline as CSV: one `x,y,z` row per point in units of l, optional header row,
+    /// blank lines and `#` comments ignored.
+    #[arg(long, value_name = "FILE")]
+    pub target_file: Option<PathBuf>,
+    /// Built-in target curve: helix, sine or arc with named parameters, e.g.
+    /// `helix:radius=1,pitch=4,turns=1` (see --help for every parameter).
+    #[arg(long, value_name = "SPEC", long_help = target_long_help(), allow_hyphen_values = true)]
+    pub target: Option<String>,
+    /// Solver: exact (proven optimum), exhaustive (every sequence), greedy, beam, window, dp.
+    #[arg(long, default_value = "exact")]
+    pub algo: String,
+    /// Beam width k for `--algo beam` (≥ 1).
+    #[arg(long, default_value = "64", allow_hyphen_values = true)]
+    pub beam_width: String,
+    /// Window width w for `--algo window` (2–4 as in the paper; 1–6 accepted).
+    #[arg(long, default_value = "3", allow_hyphen_values = true)]
+    pub window_width: String,
+    /// Frame-merging tolerances of `--algo dp`: `POSITION,ANGLE` in units of l and degrees
+    /// (`0,0` merges only equal frames: exact but slow).
+    #[arg(long, default_value = "0.1,5", allow_hyphen_values = true)]
+    pub dp_tolerance: String,
+    /// Most frames `--algo dp` keeps per module layer.
+    #[arg(long, default_value = "20000", allow_hyphen_values = true)]
+    pub dp_max_states: String,
+    /// Objective: eq36 (RMS distance from each tip to its nearest point on the target) or
+    /// ordered (tip i matched to the point at arc length i·L/m, covering the whole curve).
+    #[arg(long, default_value = "eq36")]
+    pub metric: String,
+    /// Only use the states the geometry marks feasible (default: all 2(n+1) states).
+    #[arg(long)]
+    pub feasible_only: bool,
+    /// Print exactly `{"states", "rms", "optimal", "evaluated", "elapsed_ms", "tips"}` as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Write an SVG of the target and the fitted boom (three orthographic views) to this file.
+    #[arg(long, value_name = "OUT")]
+    pub svg: Option<PathBuf>,
+}
+
+/// Where the target came from.
+#[derive(Debug)]
+enum TargetSource {
+    File(PathBuf),
+    Generator(String),
+}
+
+/// A validated `ik` request.
+#[derive(Debug)]
+pub struct Config {
+    designs: Vec<ModuleDesign>,
+    target: Target,
+    source: TargetSource,
+    metric: Metric,
+    algorithm: Algorithm,
+    feasible_only: bool,
+    json: bool,
+    svg: Option<PathBuf>,
+}
+
+fn parse_count(flag: &str, text: &str, min: usize, max: usize) -> Result<usize, Failure> {
+    let t = text.trim();
+    let bad = || {
+        Failure::usage(format!(
+            "{flag} must be an integer in [{min}, {max}], got '{text}'"
+        ))
+    };
+    if t.is_empty() || !t.bytes().all(|b| b.is_ascii_digit()) {
+        return Err(bad());
+    }
+    let v: usize = t.parse().map_err(|_| bad())?;
+    if !(min..=max).contains(&v) {
+        return Err(bad());
+    }
+    Ok(v)
+}
+
+/// Longest boom accepted (the heuristics are linear in m; exact and exhaustive are not).
+const MAX_MODULES: usize = 10_000;
+
+impl Args {
+    /// Parses and validates everything, reading the target file.
+    pub fn validate(self) -> Result<Config, Failure> {
+        let n = parse_n(&self.n)?;
+        let m = parse_count("--modules", &self.modules, 0, MAX_MODULES)?;
+        if m == 0 {
+            return Err(Failure::usage(
+                "--modules must be at least 1 (got m = 0): a boom needs at least one module",
+            ));
+        }
+        let betas = self
+            .beta
+            .split(',')
+            .map(parse_beta)
+            .collect::<Result<Vec<f64>, Failure>>()?;
+        if betas.len() != 1 && betas.len() != m {
+            return Err(Failure::usage(format!(
+                "--beta has {} values but --modules is {m}; give one β for all modules or one per module, bottom first",
+                betas.len()
+            )));
+        }
+        let designs = (0..m)
+            .map(|i| design_from(n, betas[if betas.len() == 1 { 0 } else { i }]))
+            .collect::<Result<Vec<_>, Failure>>()?;
+        let (target, source) = match (&self.target_file, &self.target) {
+            (Some(_), Some(_)) => {
+                return Err(Failure::usage(
+                    "give either --target-file or --target, not both",
+                ))
+            }
+            (None, None) => {
+                return Err(Failure::usage(format!(
+                "give a target: --target-file FILE (CSV rows x,y,z) or --target SPEC, one of:\n{}",
+                ik::target::generators_help()
+            )))
+            }
+            (Some(path), None) => {
+                let text = std::fs::read_to_string(path).map_err(|e| {
+                    Failure::usage(format!("cannot read --target-file {}: {e}", path.display()))
+                })?;
+                let t = ik::target::parse_csv(&text).map_err(|e| {
+                    Failure::usage(format!("--target-file {}: {e}", path.display()))
+                })?;
+                (t, TargetSource::File(path.clone()))
+            }
+            (None, Some(spec)) => {
+                let t = ik::target::generate(spec)
+                    .map_err(|e| Failure::usage(format!("--target: {e}")))?;
+                (t, TargetSource::Generator(spec.clone()))
+            }
+        };
+        let metric = match self.metric.trim() {
+            "eq36" => Metric::Eq36,
+            "ordered" => Metric::Ordered,
+            other => {
+                return Err(Failure::usage(format!(
+                    "unknown --metric '{other}'; valid metrics are eq36, ordered"
+                )))
+            }
+        };
+        let algorithm = match self.algo.trim() {
+            "exact" => Algorithm::Exact,
+            "exhaustive" => Algorithm::Exhaustive,
+            "greedy" => Algorithm::Greedy,
+            "beam" => Algorithm::Beam {
+                width: parse_count("--beam-width", &self.beam_width, 1, 1_000_000)?,
+            },
+            "window" => Algorithm::Window {
+                width: parse_count("--window-width", &self.window_width, 1, 6)?,
+            },
+            "dp" => {
+                let parts: Vec<&str> = self.dp_tolerance.split(',').map(str::trim).collect();
+                let nums: Vec<Option<f64>> = parts
+                    .iter()
+                    .map(|p| p.parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0))
+                    .collect();
+                let (Some(Some(pos)), Some(Some(ang)), 2) =
+                    (nums.first().copied(), nums.get(1).copied(), nums.len())
+                else {
+                    return Err(Failure::usage(format!(
+                        "--dp-tolerance must be POSITION,ANGLE (units of l, degrees; both ≥ 0), got '{}'",
+                        self.dp_tolerance
+                    )));
+                };
+                Algorithm::Dp(DpParams {
+                    position_tolerance: pos,
+                    angle_tolerance_deg: ang,
+                    max_states: parse_count(
+                        "--dp-max-states",
+                        &self.dp_max_states,
+                        1,
+                        100_000_000,
+                    )?,
+                })
+            }
+            other => {
+                return Err(Failure::usage(format!(
+                    "unknown --algo '{other}'; valid algorithms are {}",
+                    Algorithm::NAMES.join(", ")
+                )))
+            }
+        };
+        Ok(Config {
+            designs,
+            target,
+            source,
+            metric,
+            algorithm,
+            feasible_only: self.feasible_only,
+            json: self.json,
+            svg: self.svg,
+        })
+    }
+}
+
+/// Shows progress on stderr once a solve has run for a second: a spinner line on a terminal,
+/// a plain line every few seconds otherwise.
+fn spawn_progress(
+    control: Control,
+    done: Arc<AtomicBool>,
+    algo: &'static str,
+    m: usize,
+    total: Option<u128>,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let start = Instant::now();
+        let tty = std::io::stderr().is_terminal();
+        let mut last_line = Instant::now();
+        let mut bar: Option<indicatif::ProgressBar> = None;
+        while !done.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(100));
+            if start.elapsed() < Duration::from_secs(1) {
+                continue;
+            }
+            let evaluated = control.evaluated.load(Ordering::Relaxed);
+            let best = control
+                .best_rms(m)
+                .map_or_else(|| "-".to_string(), |r| format!("{r:.6}"));
+            let of = total.map_or(String::new(), |t| format!(" of {t}"));
+            let msg = format!(
+                "{algo}: {evaluated}{of} evaluated, best RMS {best}, {:.1} s (Ctrl-C returns the best so far)",
+                start.elapsed().as_secs_f64()
+            );
+            if tty {
+                let b = bar.get_or_insert_with(|| {
+                    let b = indicatif::ProgressBar::new_spinner();
+                    b.enable_steady_tick(Duration::from_millis(120));
+                    b
+                });
+                b.set_message(msg);
+            } else if last_line.elapsed() >= Duration::from_secs(2) || bar.is_none() {
+                eprintln!("{msg}");
+                last_line = Instant::now();
+                bar = Some(indicatif::ProgressBar::hidden());
+            }
+        }
+        if let Some(b) = bar {
+            b.finish_and_clear();
+        }
+    })
+}
 
 /// Runs `host-tool ik`.
-pub fn run(_args: Args) -> Result<(), Failure> {
-    Err(Failure::Runtime(anyhow::anyhow!(
-        "`ik` is not implemented yet"
-    )))
+pub fn run(args: Args) -> Result<(), Failure> {
+    let cfg = args.validate()?;
+    let catalogue = Catalogue::from_designs(&cfg.designs, cfg.feasible_only)
+        .map_err(|e| Failure::usage(e.to_string()))?;
+    let m = catalogue.len();
+    let total = catalogue.sequences();
+    let problem = Problem::new(catalogue, cfg.target.clone(), cfg.metric);
+    let control = Control::new();
+    {
+        let stop = control.stop.clone();
+        // A second handler cannot be installed (tests calling run twice): Ctrl-C then kills.
+        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
+    }
+    let done = Arc::new(AtomicBool::new(false));
+    let progress = spawn_progress(
+        control.clone(),
+        done.clone(),
+        cfg.algorithm.name(),
+        m,
+        matches!(cfg.algorithm, Algorithm::Exhaustive).then_some(total),
+    );
+    let result = ik::solve(&problem, cfg.algorithm, &control);
+    done.store(true, Ordering::Relaxed);
+    let _ = progress.join();
+    let solution = result.map_err(|e| Failure::usage(e.to_string()))?;
+    if solution.interrupted {
+        eprintln!("interrupted: showing the best boom found so far (not proven optimal)");
+    }
+    if let Some(path) = &cfg.svg {
+        let caption = caption(&cfg, &solution);
+        let text = svg::render(&problem, &cfg.designs, &solution, &caption);
+        std::fs::write(path, text).map_err(|e| {
+            Failure::Runtime(anyhow::anyhow!(
+                "cannot write --svg {}: {e}",
+                path.display()
+            ))
+        })?;
+    }
+    if cfg.json {
+        println!("{}", solution_json(&solution));
+    } else {
+        print_table(&cfg, &problem, &solution);
+    }
+    Ok(())
+}
+
+fn solution_json(s: &ik::Solution) -> String {
+    let states: Vec<Value> = s.names.iter().map(|n| Value::from(n.as_str())).collect();
+    let tips: Vec<Value> = s
+        .tips
+        .iter()
+        .map(|p| Value::from(vec![p.x, p.y, p.z]))
+        .collect();
+    ordered_object(&[
+        ("states", Value::from(states).to_string()),
+        ("rms", Value::from(s.rms).to_string()),
+        ("optimal", Value::from(s.optimal).to_string()),
+        ("evaluated", Value::from(s.evaluated).to_string()),
+        (
+            "elapsed_ms",
+            Value::from(s.elapsed.as_secs_f64() * 1e3).to_string(),
+        ),
+        ("tips", Value::from(tips).to_string()),
+    ])
+}
+
+fn describe_boom(cfg: &Config) -> String {
+    let n = cfg.designs[0].n();
+    let first = cfg.designs[0].beta_deg();
+    if cfg.designs.iter().all(|d| d.beta_deg() == first) {
+        format!("m = {} modules, n = {n}, β = {first}°", cfg.designs.len())
+    } else {
+        let betas: Vec<String> = cfg
+            .designs
+            .iter()
+            .map(|d| format!("{}", d.beta_deg()))
+            .collect();
+        format!(
+            "m = {} modules, n = {n}, β = {}° (bottom first)",
+            cfg.designs.len(),
+            betas.join(",")
+        )
+    }
+}
+
+fn describe_target(cfg: &Config) -> String {
+    match &cfg.source {
+        TargetSource::File(p) => p.display().to_string(),
+        TargetSource::Generator(s) => s.clone(),
+    }
+}
+
+fn caption(cfg: &Config, s: &ik::Solution) -> String {
+    format!(
+        "{} fit of {} to {} — metric {}: RMS = {:.6} l{}",
+        cfg.algorithm.name(),
+        describe_boom(cfg),
+        describe_target(cfg),
+        cfg.metric.name(),
+        s.rms,
+        if s.optimal { " (proven optimal)" } else { "" }
+    )
+}
+
+fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
+    let status = if s.optimal {
+        "proven optimal"
+    } else if s.interrupted {
+        "interrupted, best so far"
+    } else {
+        "not proven optimal"
+    };
+    println!("algorithm  {} ({status})", cfg.algorithm.name());
+    println!("boom       {}", describe_boom(cfg));
+    println!(
+        "target     {} ({} points, length {:.4} l)",
+        describe_target(cfg),
+        cfg.target.points().len(),
+        cfg.target.length()
+    );
+    println!(
+        "metric     {}{}",
+        cfg.metric.name(),
+        if cfg.feasible_only {
+            ", feasible states only"
+        } else {
+            ""
+        }
+    );
+    println!("RMS        {:.9} l", s.rms);
+    println!("evaluated  {}", s.evaluated);
+    println!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
+    println!();
+    println!(
+        "{:>4}  {:<10} {:>10} {:>10} {:>10} {:>10}",
+        "i", "state", "x", "y", "z", "error"
+    );
+    for (i, (name, p)) in s.names.iter().zip(&s.tips).enumerate() {
+        let err = problem.objective.cost(i, p).sqrt();
+        println!(
+            "{:>4}  {:<10} {:>10.5} {:>10.5} {:>10.5} {:>10.5}",
+            i + 1,
+            name,
+            p.x,
+            p.y,
+            p.z,
+            err
+        );
+    }
 }

@@ -15,12 +15,12 @@
 //!   rotation difference. The DP is exact (`optimal: true`) only when both tolerances are 0
 //!   (frames then merge only when equal to within 1e-9) and the cap is never hit.
 //! - **Cap.** If a layer still holds more than `max_states` frames, only the `max_states` best
-//!   by cost-so-far plus the reachable-set bound (as in beam search) are kept; the solution then
+//!   by cost-so-far plus the reachable-set bound of the next tip are kept; the solution then
 //!   carries no guarantee. The cap keeps memory bounded for long booms.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
-use super::beam::BEAM_HORIZON;
 use super::reach::Reach;
 use super::{Control, Frame, IkError, Problem, Raw};
 
@@ -40,10 +40,45 @@ impl Default for DpParams {
         DpParams {
             position_tolerance: 0.1,
             angle_tolerance_deg: 5.0,
-            max_states: 20_000,
+            max_states: 5_000,
         }
     }
 }
+
+/// How many tips ahead the cap's ranking bound looks.
+const CAP_HORIZON: usize = 1;
+
+/// A fast hasher for the integer frame keys (multiply–rotate; HashDoS is not a concern here).
+#[derive(Default)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            let mut w = [0u8; 8];
+            w.copy_from_slice(c);
+            self.write_u64(u64::from_le_bytes(w));
+        }
+        for b in chunks.remainder() {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_i64(&mut self, v: i64) {
+        self.write_u64(v as u64);
+    }
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
+type KeyMap = HashMap<[i64; 12], u32, BuildHasherDefault<KeyHasher>>;
 
 #[derive(Clone, Copy)]
 struct State {
@@ -55,11 +90,16 @@ struct State {
 
 fn key(f: &Frame, pos: f64, rot: f64) -> [i64; 12] {
     let mut k = [0i64; 12];
+    // floor(q) without a libm call.
+    let floor = |q: f64| {
+        let t = q as i64;
+        t - i64::from(q < t as f64)
+    };
     for (slot, v) in k.iter_mut().zip(f.translation.iter()) {
-        *slot = (v / pos).floor() as i64;
+        *slot = floor(v / pos);
     }
     for (slot, v) in k[3..].iter_mut().zip(f.rotation.iter()) {
-        *slot = (v / rot).floor() as i64;
+        *slot = floor(v / rot);
     }
     k
 }
@@ -91,7 +131,7 @@ pub(crate) fn solve(
     };
     let m = problem.m();
     let obj = &problem.objective;
-    let reach = Reach::new(&problem.catalogue, BEAM_HORIZON);
+    let reach = Reach::new(&problem.catalogue, CAP_HORIZON);
     let mut layers: Vec<Vec<(u32, u16)>> = Vec::with_capacity(m);
     let mut cur = vec![State {
         g: 0.0,
@@ -108,7 +148,7 @@ pub(crate) fn solve(
             break;
         }
         let cands = problem.catalogue.candidates(j);
-        let mut index: HashMap<[i64; 12], u32> = HashMap::with_capacity(cur.len() * 2);
+        let mut index = KeyMap::with_capacity_and_hasher(cur.len() * 2, Default::default());
         let mut next: Vec<State> = Vec::with_capacity(cur.len() * 2);
         for (pi, s) in cur.iter().enumerate() {
             for (a, c) in cands.iter().enumerate() {

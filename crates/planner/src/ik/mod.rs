@@ -36,8 +36,6 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use nalgebra::Point3;
-
 pub mod beam;
 pub mod dp;
 mod error;
@@ -51,6 +49,8 @@ pub mod window;
 
 pub use error::IkError;
 pub use frame::Frame;
+/// The point type of tips and targets (units of l).
+pub use nalgebra::Point3;
 pub use problem::{Candidate, Catalogue, Metric, Objective, Problem};
 pub use target::Target;
 

@@ -233,15 +233,16 @@ impl Target {
         let g = &self.lb;
         let x = center.coords;
         let rel = (x - g.origin) / g.cell;
-        let (i, j, k) = (rel.x.floor(), rel.y.floor(), rel.z.floor());
-        let d = if i >= 0.0
-            && j >= 0.0
-            && k >= 0.0
-            && (i as usize) < g.dims[0]
-            && (j as usize) < g.dims[1]
-            && (k as usize) < g.dims[2]
+        // Truncation is floor for the non-negative coordinates inside the grid (and avoids a
+        // libm call).
+        let d = if rel.x >= 0.0
+            && rel.y >= 0.0
+            && rel.z >= 0.0
+            && (rel.x as usize) < g.dims[0]
+            && (rel.y as usize) < g.dims[1]
+            && (rel.z as usize) < g.dims[2]
         {
-            let (i, j, k) = (i as usize, j as usize, k as usize);
+            let (i, j, k) = (rel.x as usize, rel.y as usize, rel.z as usize);
             let c =
                 g.origin + Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * g.cell;
             g.dist[(i * g.dims[1] + j) * g.dims[2] + k] - (x - c).norm()

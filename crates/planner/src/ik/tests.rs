@@ -68,7 +68,10 @@ fn every_solver_reports_the_rms_of_its_states() {
         Algorithm::Beam { width: 8 },
         Algorithm::Window { width: 2 },
         Algorithm::Window { width: 3 },
-        Algorithm::Dp(dp::DpParams::default()),
+        Algorithm::Dp(dp::DpParams {
+            max_states: 500,
+            ..dp::DpParams::default()
+        }),
     ] {
         let s = solve(&p, algo, &Control::new()).unwrap();
         // Recompute with eq 5 products written out here, tip by tip.

@@ -628,7 +628,15 @@ fn largest_message_fits_max_frame_len() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let n = encode(&largest_request(), &mut buf).unwrap();
     assert!(n <= MAX_FRAME_LEN);
-    assert_eq!(n, 388, "largest frame size changed");
+    // By construction: seq 3 + tag 1 + plan_id 3 + len 1 + 8 × (kind 1 + states 4 + len 1 +
+    // 4 × Bend 9 + timeout 5) = 384 postcard bytes, + CRC 2 = 386, + COBS 2 (no zero in a
+    // 386-byte run: one code byte per 254) + delimiter 1 = 389.
+    assert_eq!(n, 389, "largest frame size changed");
+    // The sample really is zero-free, so no message can make a longer frame.
+    let mut raw = [0u8; MAX_RAW_LEN];
+    let payload = postcard::to_slice(&largest_request(), &mut raw).unwrap();
+    assert_eq!(payload.len(), 384);
+    assert!(payload.iter().all(|&b| b != 0));
     let n = encode(&status_response(), &mut buf).unwrap();
     assert_eq!(n, 60, "largest status frame size changed");
 }

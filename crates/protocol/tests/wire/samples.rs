@@ -9,16 +9,18 @@ pub fn st(name: &str) -> geometry::TrunkState {
 }
 
 /// The largest request on the wire: a full plan (MAX_PLAN_STEPS × MAX_STEP_PRIMITIVES) of the
-/// widest primitive (`Bend`: two f32), with every varint at its longest.
+/// widest primitive (`Bend`: two f32), with every varint at its longest, and no zero byte in
+/// the payload (states `D&F` = `01 01`, floats without a zero byte) so COBS needs its
+/// worst-case overhead: this is the longest frame any message can make.
 pub fn largest_request() -> Request {
     let prim = Primitive::Bend {
-        direction_deg: 359.5,
-        angle_deg: 89.5,
+        direction_deg: 359.7, // 9a d9 b3 43
+        angle_deg: 89.7,      // 66 66 b3 42
     };
     let step = Step {
         kind: StepKind::Tendon,
-        from: st("D&D"),
-        to: st("F&D"),
+        from: st("D&F"),
+        to: st("D&F"),
         primitives: heapless::Vec::from_slice(&[prim; MAX_STEP_PRIMITIVES]).expect("fits"),
         timeout_ms: u32::MAX,
     };

@@ -374,6 +374,7 @@ impl<'a, T: std::io::Read + std::io::Write> Executor<'a, T> {
                     }
                 }
                 PlanPhase::WaitingManual => {
+                    self.ui.step_progress(current, elapsed, status.pressure_kpa);
                     if !prompted[current] {
                         prompted[current] = true;
                         let task = manual_task(steps[current].edge.transition.primitives);

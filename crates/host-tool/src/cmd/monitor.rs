@@ -127,19 +127,20 @@ pub fn run(args: Args) -> Result<(), Failure> {
 
 fn print_sample(json: bool, t: &Telemetry, mode: Option<&str>) {
     if json {
-        println!(
-            "{}",
-            json!({
-                "type": "telemetry",
-                "uptime_ms": t.uptime_ms,
-                "state": t.state.name(),
-                "pressure_kpa": t.pressure_kpa,
-                "servo_deg": t.servo_deg,
-                "inlet_open": t.inlet_open,
-                "exhaust_open": t.exhaust_open,
-                "mode": mode,
-            })
-        );
+        let mut v = json!({
+            "type": "telemetry",
+            "uptime_ms": t.uptime_ms,
+            "state": t.state.name(),
+            "pressure_kpa": t.pressure_kpa,
+            "servo_deg": t.servo_deg,
+            "inlet_open": t.inlet_open,
+            "exhaust_open": t.exhaust_open,
+        });
+        // Only status-polled samples know the mode; telemetry events do not carry it.
+        if let Some(mode) = mode {
+            v["mode"] = json!(mode);
+        }
+        println!("{v}");
     } else {
         println!(
             "{:>9.2} s  {}  {:5.1} kPa  servos {:5.1}° {:5.1}° {:5.1}°  inlet {}  exhaust {}{}",

@@ -7,13 +7,14 @@
 //!     $CARGO_TARGET_DIR/release/examples/worst_step count idle 1000   # x86-64 instructions
 //! ```
 //!
-//! `count <idle|running> N` runs N passes and nothing else (for callgrind: divide the collected
-//! instruction count by N). Without arguments it times 20 000 passes of each scenario.
+//! `count <idle|running> N` runs N passes (the whole frames arriving at once) and nothing else
+//! (for callgrind: divide the collected instruction count by N). Without arguments it times
+//! 20 000 passes of each scenario and arrival pattern.
 
 use std::hint::black_box;
 use std::time::Instant;
 
-use firmware::bench::{Scenario, WorstCase};
+use firmware::bench::{Arrival, Scenario, WorstCase};
 
 fn scenario(name: &str) -> Option<Scenario> {
     match name {
@@ -33,7 +34,7 @@ fn main() -> std::process::ExitCode {
             eprintln!("usage: worst_step count <idle|running> <passes>");
             return std::process::ExitCode::from(2);
         };
-        let mut w = WorstCase::new(s);
+        let mut w = WorstCase::new(s, Arrival::Whole);
         let mut sent = 0;
         for _ in 0..n {
             w.prepare();
@@ -42,8 +43,14 @@ fn main() -> std::process::ExitCode {
         println!("{s:?}: {n} passes, {sent} bytes sent");
         return std::process::ExitCode::SUCCESS;
     }
-    for s in [Scenario::Idle, Scenario::Running] {
-        let mut w = WorstCase::new(s);
+    for (s, a) in [
+        (Scenario::Idle, Arrival::Whole),
+        (Scenario::Running, Arrival::Whole),
+        (Scenario::Idle, Arrival::ShellChunk),
+        (Scenario::Running, Arrival::ShellChunk),
+        (Scenario::Running, Arrival::Quiet),
+    ] {
+        let mut w = WorstCase::new(s, a);
         let mut times = Vec::with_capacity(20_000);
         let mut sent = 0;
         for i in 0..21_000 {
@@ -60,7 +67,7 @@ fn main() -> std::process::ExitCode {
         let mean = times.iter().sum::<u64>() as f64 / times.len() as f64;
         let p = |q: f64| times[((times.len() - 1) as f64 * q) as usize];
         println!(
-            "{s:?}: frame {} B, {:.0} B sent/pass; per pass: mean {:.1} µs, median {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+            "{s:?}/{a:?}: frame {} B, {:.0} B sent/pass; per pass: mean {:.1} µs, median {:.1} µs, p99 {:.1} µs, max {:.1} µs",
             w.frame_len(),
             sent as f64 / times.len() as f64,
             mean / 1e3,

@@ -17,6 +17,11 @@
 //!
 //! [`Scenario::Running`] instead has a host plan running (progress events, step logic) and
 //! the frame rejected as `Busy` after decoding.
+//!
+//! [`Arrival`] says how much of the frames arrives in the measured pass: everything at once
+//! (the upper bound), only the last [`crate::hw::SHELL_IO_CHUNK`] bytes of the plan frame
+//! (what [`crate::hw::Shell`] actually delivers: it reads at most that much per pass, so the
+//! rest arrived in earlier passes), or nothing (a quiet pass with every periodic event due).
 
 use geometry::{BottomState, TopState, TrunkState};
 use protocol::{
@@ -36,6 +41,17 @@ pub enum Scenario {
     Running,
 }
 
+/// How the request bytes arrive in the measured pass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Arrival {
+    /// The full-size plan frame and a status request, whole.
+    Whole,
+    /// The plan frame's last `SHELL_IO_CHUNK` bytes (its start was fed before the pass).
+    ShellChunk,
+    /// No bytes.
+    Quiet,
+}
+
 /// The workload's state.
 #[derive(Debug)]
 pub struct WorstCase {
@@ -48,6 +64,7 @@ pub struct WorstCase {
     seq: u16,
     now_ms: u64,
     scenario: Scenario,
+    arrival: Arrival,
     cfg: CraneConfig,
     flip: bool,
 }
@@ -82,7 +99,7 @@ pub fn largest_plan(plan_id: u16) -> Plan {
 
 impl WorstCase {
     /// Sets up the controller (handshake done, telemetry at 50 Hz, state `F&F`).
-    pub fn new(scenario: Scenario) -> Self {
+    pub fn new(scenario: Scenario, arrival: Arrival) -> Self {
         let cfg = CraneConfig::default();
         let mut ctl = Controller::new(
             cfg,
@@ -141,6 +158,7 @@ impl WorstCase {
             seq: 100,
             now_ms: 0,
             scenario,
+            arrival,
             cfg,
             flip: false,
         }
@@ -162,6 +180,21 @@ impl WorstCase {
             RequestBody::GetStatus,
             &mut self.status_frame,
         );
+        match self.arrival {
+            Arrival::ShellChunk => {
+                let head = self.frame_len.saturating_sub(crate::hw::SHELL_IO_CHUNK);
+                self.ctl.handle_rx(&self.frame[..head], self.now_ms);
+            }
+            Arrival::Quiet => {
+                // Keeps a running host plan alive (link watch) outside the measured pass.
+                let mut hb = [0u8; 16];
+                let n = encode(self.seq, RequestBody::Heartbeat, &mut hb);
+                self.ctl.handle_rx(&hb[..n], self.now_ms);
+            }
+            Arrival::Whole => {}
+        }
+        let mut sink = [0u8; 64];
+        while self.ctl.poll_tx(&mut sink) > 0 {}
     }
 
     /// One worst-case pass; returns the number of bytes the controller sent.
@@ -180,9 +213,18 @@ impl WorstCase {
             joystick_raw: [c[0] + dx, c[1] + 2_000],
             buttons: Buttons::default(),
         };
-        self.ctl.handle_rx(&self.frame[..self.frame_len], now);
-        self.ctl
-            .handle_rx(&self.status_frame[..self.status_len], now);
+        match self.arrival {
+            Arrival::Whole => {
+                self.ctl.handle_rx(&self.frame[..self.frame_len], now);
+                self.ctl
+                    .handle_rx(&self.status_frame[..self.status_len], now);
+            }
+            Arrival::ShellChunk => {
+                let head = self.frame_len.saturating_sub(crate::hw::SHELL_IO_CHUNK);
+                self.ctl.handle_rx(&self.frame[head..self.frame_len], now);
+            }
+            Arrival::Quiet => {}
+        }
         self.ctl.handle_inputs(&inputs, now);
         self.ctl.handle_time(now);
         let _ = self.ctl.poll_outputs();
@@ -203,5 +245,10 @@ impl WorstCase {
     /// The scenario.
     pub fn scenario(&self) -> Scenario {
         self.scenario
+    }
+
+    /// The arrival pattern.
+    pub fn arrival(&self) -> Arrival {
+        self.arrival
     }
 }

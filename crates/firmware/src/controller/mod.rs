@@ -28,7 +28,7 @@ use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
     DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request, Status,
-    Telemetry, MAX_FRAME_LEN,
+    Telemetry,
 };
 
 use crate::config::CraneConfig;
@@ -41,6 +41,8 @@ use snap::{SnapDetector, SnapSign};
 pub const DEBOUNCE_MS: u64 = 20;
 /// Consecutive unfiltered samples above the cap that trip the over-pressure at once.
 pub const OVERPRESSURE_SAMPLES: u8 = 3;
+/// Scratch buffer for encoding one event frame.
+const EVENT_SCRATCH_LEN: usize = 128;
 /// Step progress events are sent at most this often.
 pub const PROGRESS_PERIOD_MS: u64 = 100;
 
@@ -297,7 +299,7 @@ impl Controller {
             if b == 0 {
                 let fp = core::mem::replace(&mut self.fingerprint, Fingerprint::START);
                 if let Some(Ok(req)) = decoded {
-                    self.on_request(req, fp.0);
+                    self.on_request(&req, fp.0);
                 }
             }
         }
@@ -718,13 +720,15 @@ impl Controller {
 
     /// The servo angles of a set of tendon shortenings, or `None` if one is outside the limits.
     fn angles_for(&self, length_mm: [f32; 3]) -> Option<[f32; 3]> {
+        let sc = &self.cfg.servo;
+        let deg_per_mm = 1.0 / sc.mm_per_deg();
         let mut a = [0.0; 3];
         for (i, l) in length_mm.iter().enumerate() {
             if !(l.is_finite() && *l >= 0.0 && *l <= self.cfg.max_tendon_mm) {
                 return None;
             }
-            a[i] = self.cfg.servo.angle_for_length(i, *l);
-            if !self.cfg.servo.allows(a[i]) {
+            a[i] = sc.slack_deg[i] + sc.pull_sign[i] * l * deg_per_mm;
+            if !sc.allows(a[i]) {
                 return None;
             }
         }
@@ -766,15 +770,7 @@ impl Controller {
             return;
         }
         self.joystick_used_raw = Some(raw);
-        let map = geometry::tendon::JoystickMap::new(
-            (jc.max_bend_deg as f64).to_radians(),
-            jc.dead_zone as f64,
-        );
-        let bend = match map {
-            Ok(map) => map.bend(x as f64, y as f64),
-            Err(_) => geometry::tendon::Bend::STRAIGHT,
-        };
-        let lengths = self.bend_lengths(bend.direction, bend.angle);
+        let lengths = joystick_lengths_f32(x, y, &jc, self.cfg.tendon_radius_mm);
         for (i, l) in lengths.iter().enumerate() {
             // Human input is clamped silently to the limits (a plan's would fault instead).
             let l = l.min(self.cfg.max_tendon_mm);
@@ -854,10 +850,13 @@ impl Controller {
     }
 
     fn send_event(&mut self, ev: Event) {
-        let mut scratch = [0u8; MAX_FRAME_LEN];
-        let n = link::encode(&DeviceMessage::Event(ev), &mut scratch);
-        if n > 0 {
-            self.tx.push_frame(&scratch[..n], RESPONSE_RESERVE);
+        // Events encode to under 64 bytes; a small scratch saves clearing 512 bytes per event.
+        let mut scratch = [0u8; EVENT_SCRATCH_LEN];
+        match protocol::encode(&DeviceMessage::Event(ev), &mut scratch) {
+            Ok(n) => {
+                self.tx.push_frame(&scratch[..n], RESPONSE_RESERVE);
+            }
+            Err(_) => self.tx.dropped = self.tx.dropped.wrapping_add(1),
         }
     }
 
@@ -900,4 +899,36 @@ impl Controller {
             }
         }
     }
+}
+
+/// Tendon shortenings for a joystick deflection `(x, y)` (full scale ±1): the single-precision
+/// twin of `geometry::tendon::JoystickMap::bend` followed by `TendonGeometry::length_changes`
+/// (Δl_i = −r_t·θ·cos(φ − φ_i); the shortening is −Δl_i, slack tendons clamped at 0).
+///
+/// Why a twin: the M4F has a single-precision FPU only; the `f64` path is emulated in software
+/// and costs ~14 000 instructions per update (`docs/firmware.md`, "Timing"), this one a few
+/// hundred. A unit test pins it to the geometry crate within 0.01 mm.
+pub fn joystick_lengths_f32(
+    x: f32,
+    y: f32,
+    jc: &crate::config::JoystickConfig,
+    tendon_radius_mm: f32,
+) -> [f32; 3] {
+    if !(x.is_finite() && y.is_finite()) {
+        return [0.0; 3];
+    }
+    let (x, y) = (x.clamp(-1.0, 1.0), y.clamp(-1.0, 1.0));
+    let m = libm::hypotf(x, y).min(1.0);
+    let dz = jc.dead_zone.clamp(0.0, 0.99);
+    if m <= dz {
+        return [0.0; 3];
+    }
+    let angle_rad = jc.max_bend_deg.to_radians() * (m - dz) / (1.0 - dz);
+    let direction_rad = libm::atan2f(y, x);
+    let k = tendon_radius_mm * angle_rad;
+    let mut out = [0.0; 3];
+    for (o, phi_i) in out.iter_mut().zip(geometry::tendon::TENDON_ANGLES) {
+        *o = (k * libm::cosf(direction_rad - phi_i as f32)).max(0.0);
+    }
+    out
 }

@@ -25,7 +25,7 @@ fn reject(r: RejectReason) -> Answer {
 }
 
 impl Controller {
-    pub(super) fn on_request(&mut self, req: Request, fingerprint: u32) {
+    pub(super) fn on_request(&mut self, req: &Request, fingerprint: u32) {
         self.last_rx_ms = self.now_ms;
         if let Some(frame) = self.cache.lookup(req.seq, fingerprint) {
             // A retry of the request just answered: the same answer, not a second execution.
@@ -36,18 +36,24 @@ impl Controller {
             return;
         }
         self.defer_events = true;
-        let (result, body) = self.dispatch(req.body);
+        let (result, body) = self.dispatch(&req.body);
         self.defer_events = false;
         let msg = DeviceMessage::Response {
             seq: req.seq,
             result,
             body,
         };
-        let mut scratch = [0u8; MAX_FRAME_LEN];
-        let n = link::encode(&msg, &mut scratch);
-        if n > 0 {
+        // Responses fit the cache-sized scratch (a status is under 100 bytes); the full-size
+        // buffer is only a fallback, so no request can go unanswered.
+        let mut scratch = [0u8; link::CACHE_LEN];
+        if let Ok(n) = protocol::encode(&msg, &mut scratch) {
             self.cache.store(req.seq, fingerprint, &scratch[..n]);
             self.tx.push_frame(&scratch[..n], 0);
+        } else {
+            let mut big = [0u8; MAX_FRAME_LEN];
+            let n = link::encode(&msg, &mut big);
+            self.cache.store(req.seq, fingerprint, &big[..n]);
+            self.tx.push_frame(&big[..n], 0);
         }
         // Events caused by the request follow its response.
         let deferred = core::mem::take(&mut self.deferred);
@@ -67,11 +73,12 @@ impl Controller {
         }
     }
 
-    fn dispatch(&mut self, body: RequestBody) -> Answer {
+    // Requests are borrowed, not moved: a plan is ~600 bytes and every move is a memcpy on the M4.
+    fn dispatch(&mut self, body: &RequestBody) -> Answer {
         if let RequestBody::Hello {
             protocol_version,
             schema_id,
-        } = body
+        } = *body
         {
             let info = ResponseBody::Hello(self.device_info());
             if protocol_version == PROTOCOL_VERSION && schema_id == SCHEMA_ID {
@@ -89,13 +96,13 @@ impl Controller {
         if !self.handshake {
             return reject(RejectReason::NoHandshake);
         }
-        match body {
+        match *body {
             RequestBody::Hello { .. } => ok(), // handled above
             RequestBody::GetStatus => (ResultCode::Ok, ResponseBody::Status(self.status())),
             RequestBody::Heartbeat => ok(),
-            RequestBody::UploadPlan(plan) => self.upload(plan),
+            RequestBody::UploadPlan(ref plan) => self.upload(plan),
             RequestBody::StartPlan { plan_id } => self.start_uploaded(plan_id),
-            RequestBody::RunStep(step) => self.run_step(step),
+            RequestBody::RunStep(ref step) => self.run_step(step),
             RequestBody::Abort => {
                 self.enter_safe(PlanPhase::Aborted);
                 ok()
@@ -216,7 +223,7 @@ impl Controller {
         }
     }
 
-    fn upload(&mut self, plan: Plan) -> Answer {
+    fn upload(&mut self, plan: &Plan) -> Answer {
         if self.exec.is_some() {
             return (ResultCode::Busy, ResponseBody::None);
         }
@@ -232,7 +239,7 @@ impl Controller {
             steps: plan.steps.len() as u8,
             phase: PlanPhase::Ready,
         });
-        self.uploaded = Some(plan);
+        self.uploaded = Some(plan.clone());
         ok()
     }
 
@@ -252,15 +259,15 @@ impl Controller {
         (ResultCode::InProgress, ResponseBody::None)
     }
 
-    fn run_step(&mut self, step: Step) -> Answer {
+    fn run_step(&mut self, step: &Step) -> Answer {
         if let Some(b) = self.start_blocker() {
             return b;
         }
-        if let Err(r) = self.validate(core::slice::from_ref(&step)) {
+        if let Err(r) = self.validate(core::slice::from_ref(step)) {
             return reject(r);
         }
         let mut steps = Vec::new();
-        let _ = steps.push(step);
+        let _ = steps.push(step.clone());
         self.start_exec(Plan { plan_id: 0, steps }, Origin::Host);
         (ResultCode::InProgress, ResponseBody::None)
     }

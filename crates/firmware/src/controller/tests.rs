@@ -1457,3 +1457,28 @@ fn display_shows_pressure_on_request() {
     r.run(1);
     assert_eq!(r.ctl.poll_display(), display::text("F-P "));
 }
+
+#[test]
+fn joystick_twin_matches_the_geometry_crate() {
+    let cfg = CraneConfig::default();
+    let jc = cfg.joystick;
+    let map = geometry::tendon::JoystickMap::new(
+        (jc.max_bend_deg as f64).to_radians(),
+        jc.dead_zone as f64,
+    )
+    .unwrap();
+    let tg = geometry::tendon::TendonGeometry::new(cfg.tendon_radius_mm as f64).unwrap();
+    let mut worst: f64 = 0.0;
+    for i in -20..=20 {
+        for j in -20..=20 {
+            let (x, y) = (i as f32 / 16.0, j as f32 / 16.0); // beyond ±1 too (clamped)
+            let ours = joystick_lengths_f32(x, y, &jc, cfg.tendon_radius_mm);
+            let dl = tg.length_changes(map.bend(x as f64, y as f64));
+            for k in 0..3 {
+                worst = worst.max((ours[k] as f64 - (-dl[k]).max(0.0)).abs());
+            }
+        }
+    }
+    assert!(worst < 0.01, "{worst} mm");
+    assert_eq!(joystick_lengths_f32(f32::NAN, 0.0, &jc, 60.0), [0.0; 3]);
+}

@@ -292,10 +292,10 @@ impl<'a, T: std::io::Read + std::io::Write> Executor<'a, T> {
                 next_poll = now;
             }
             if self.options.cancel.load(Ordering::SeqCst) {
-                let _ = self.session.command(RequestBody::Abort);
+                let after = self.abort(out);
                 self.report_failed(out, steps, current, None);
                 return Followed::Failed(format!(
-                    "{} aborted by the operator (Ctrl-C); the device went to its safe state",
+                    "{} aborted by the operator (Ctrl-C); {after}",
                     step_name(current)
                 ));
             }
@@ -363,11 +363,11 @@ impl<'a, T: std::io::Read + std::io::Write> Executor<'a, T> {
                     self.ui.step_progress(current, elapsed, status.pressure_kpa);
                     let limit = steps[current].edge.transition.timeout_ms;
                     if elapsed > limit.saturating_add(self.options.step_grace_ms) {
-                        let _ = self.session.command(RequestBody::Abort);
+                        let after = self.abort(out);
                         self.report_failed(out, steps, current, Some(elapsed));
                         return Followed::Failed(format!(
                             "{} did not finish within its time limit of {} ms (device time); \
-                             the host aborted it",
+                             the host aborted it; {after}",
                             step_name(current),
                             limit
                         ));
@@ -438,6 +438,29 @@ impl<'a, T: std::io::Read + std::io::Write> Executor<'a, T> {
                     ));
                 }
             }
+        }
+    }
+
+    /// Sends `Abort` and says what the device reports afterwards.
+    fn abort(&mut self, out: &mut Outcome) -> String {
+        if let Err(e) = self.session.command(RequestBody::Abort) {
+            return format!("the abort was not acknowledged ({e})");
+        }
+        match self.session.status() {
+            Ok(st) => {
+                out.final_state = Some(st.state);
+                format!(
+                    "the device reports {} at {} with the inlet {}",
+                    if st.mode == Mode::Safe {
+                        "its safe state"
+                    } else {
+                        "mode other than safe"
+                    },
+                    st.state,
+                    if st.inlet_open { "OPEN" } else { "closed" }
+                )
+            }
+            Err(e) => format!("abort acknowledged; no status after it ({e})"),
         }
     }
 

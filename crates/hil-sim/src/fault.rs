@@ -11,11 +11,13 @@ pub enum Fault {
     /// The inlet valve sticks open the first time it opens (debris on the seat): only the
     /// exhaust can hold the pressure down.
     ValveStuckOpen,
-    /// A torn panel: a 1 mm equivalent hole, large enough that the plan fails cleanly.
+    /// A torn seam: a 2.5 mm equivalent hole (4× the 1.2 mm inlet's area), so inflation cannot
+    /// reach a snap: the plan fails cleanly.
     Leak,
-    /// Servo 0 is jammed: it holds its angle whatever it is told.
+    /// The servos' supply sags (a failing regulator): every servo stalls at 20 % of its torque,
+    /// below what buckling any module needs.
     ServoStall,
-    /// Tendon 0 snaps the first time its tension exceeds 30 N.
+    /// Tendon 0 snaps the first time its tension exceeds 15 N.
     TendonBreak,
     /// The pressure sensor's signal is lost 1 s after the first plan starts running.
     SensorDropout,

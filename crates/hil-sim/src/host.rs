@@ -2,11 +2,17 @@
 //! the device sends back. Tests and benchmarks drive the real controller through it exactly as
 //! `host-tool` does over a serial port.
 
-use protocol::messages::{DeviceMessage, Event, Plan, RequestBody, ResponseBody, ResultCode, Step};
+use protocol::messages::{
+    DeviceMessage, Event, Plan, PlanPhase, RequestBody, ResponseBody, ResultCode, Step,
+};
 use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID};
 
 use crate::Sim;
 
+/// While a plan runs, the host asks for the status this often, virtual ms.
+pub const STATUS_POLL_MS: u64 = 1_000;
+/// A request without a response is sent again after this long, virtual ms.
+pub const RETRY_MS: u64 = 300;
 /// How often the host sends a heartbeat while waiting, virtual ms.
 pub const HOST_HEARTBEAT_MS: u64 = protocol::HOST_HEARTBEAT_PERIOD_MS as u64;
 
@@ -87,16 +93,30 @@ impl SimHost {
         new
     }
 
-    /// Sends `body` and runs the sim until its response arrives (up to `max_ms`).
+    /// Sends `body` and runs the sim until its response arrives (up to `max_ms`), resending
+    /// the same request (same `seq`: the device does not execute it twice) every
+    /// [`RETRY_MS`] while no response came, as a host does on a lossy line.
     pub fn request(
         &mut self,
         sim: &mut Sim,
         body: RequestBody,
         max_ms: u64,
     ) -> Result<(ResultCode, ResponseBody), HostError> {
-        let seq = self.send(sim, body)?;
+        self.seq = self.seq.wrapping_add(1);
+        let seq = self.seq;
+        let req = Request { seq, body };
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(&req, &mut buf).map_err(|_| HostError::Encode)?;
         let start = sim.now_ms();
+        let mut next_send = start;
         while sim.now_ms() - start < max_ms {
+            if sim.now_ms() >= next_send {
+                // A lone delimiter first flushes any partial frame a corrupted byte left behind.
+                sim.write_host_bytes(&[0]);
+                sim.write_host_bytes(&buf[..n]);
+                self.last_sent_ms = sim.now_ms();
+                next_send = sim.now_ms() + RETRY_MS;
+            }
             sim.step();
             for m in self.poll(sim) {
                 if let DeviceMessage::Response {
@@ -167,22 +187,42 @@ impl SimHost {
         self.request_ok(sim, RequestBody::UploadPlan(plan), 1_000)?;
         self.request_ok(sim, RequestBody::StartPlan { plan_id }, 1_000)?;
         let start = sim.now_ms();
+        let mut next_status = start + STATUS_POLL_MS;
+        let mut scanned = self.received.len();
         while sim.now_ms() - start < max_ms {
             sim.step();
-            if sim.now_ms() - self.last_sent_ms >= HOST_HEARTBEAT_MS {
+            if sim.now_ms() >= next_status {
+                // Events can be lost on a noisy line: the status tells the plan's phase too.
+                next_status = sim.now_ms() + STATUS_POLL_MS;
+                if let Ok((_, ResponseBody::Status(st))) =
+                    self.request(sim, RequestBody::GetStatus, 2_000)
+                {
+                    if let Some(ps) = st.plan.filter(|p| p.plan_id == plan_id) {
+                        match ps.phase {
+                            PlanPhase::Done => return Ok((true, st.state)),
+                            PlanPhase::Failed(_) | PlanPhase::Aborted => {
+                                return Ok((false, st.state))
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            } else if sim.now_ms() - self.last_sent_ms >= HOST_HEARTBEAT_MS {
                 self.send(sim, RequestBody::Heartbeat)?;
             }
-            for m in self.poll(sim) {
+            self.poll(sim);
+            while scanned < self.received.len() {
                 if let DeviceMessage::Event(Event::PlanDone {
                     plan_id: p,
                     ok,
                     state,
-                }) = m
+                }) = self.received[scanned]
                 {
                     if p == plan_id {
                         return Ok((ok, state));
                     }
                 }
+                scanned += 1;
             }
         }
         Err(HostError::PlanTimeout {

@@ -33,7 +33,9 @@ pub const JOYSTICK_NOISE_RAW: f64 = 3.0;
 /// Probability that a byte on the link is corrupted under `line-noise`.
 pub const LINE_NOISE_RATE: f64 = 0.01;
 /// Tension at which tendon 0 snaps under `tendon-break`, N.
-pub const TENDON_BREAK_N: f64 = 30.0;
+pub const TENDON_BREAK_N: f64 = 15.0;
+/// Fraction of the stall torque left under `servo-stall`.
+pub const SERVO_STALL_FAULT_TORQUE: f64 = 0.2;
 /// Delay from the first running plan to a `link-drop` or `sensor-dropout`, ms.
 pub const MID_PLAN_FAULT_DELAY_MS: u64 = 1_000;
 
@@ -215,7 +217,9 @@ impl Sim {
         let mut servos: [Servo; 3] =
             core::array::from_fn(|i| Servo::new(spec, cfg.servo.slack_deg[i] as f64));
         if opts.faults.contains(&Fault::ServoStall) {
-            servos[0].jammed = true;
+            for s in &mut servos {
+                s.spec.stall_torque_n_m *= SERVO_STALL_FAULT_TORQUE;
+            }
         }
         let center = cfg.joystick.center_raw;
         let inputs = PinInputs {

@@ -165,7 +165,7 @@ impl TrunkParams {
             inlet_diameter_mm: 1.2,
             exhaust_diameter_mm: 2.0,
             leak_diameter_mm: 0.04,
-            fault_leak_diameter_mm: 1.0,
+            fault_leak_diameter_mm: 2.5,
         })
     }
 }

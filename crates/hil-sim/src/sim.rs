@@ -39,6 +39,9 @@ pub const SERVO_STALL_FAULT_TORQUE: f64 = 0.2;
 /// Delay from the first running plan to a `link-drop` or `sensor-dropout`, ms.
 pub const MID_PLAN_FAULT_DELAY_MS: u64 = 1_000;
 
+/// What the display shows while a manual step waits (decimal points aside).
+const HAND: [u8; 4] = [0x76, 0x77, 0x54, 0x5E];
+
 /// How to run the simulator.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimOptions {
@@ -187,6 +190,7 @@ pub struct Sim {
     sensor_lost: bool,
     trace: Option<Trace>,
     payload_n: f64,
+    spare_gauss: Option<f64>,
 }
 
 impl std::fmt::Debug for Sim {
@@ -280,6 +284,7 @@ impl Sim {
             sensor_lost: false,
             trace: None,
             payload_n: 0.0,
+            spare_gauss: None,
         }
     }
 
@@ -367,10 +372,16 @@ impl Sim {
     }
 
     fn gauss(&mut self) -> f64 {
-        // Box–Muller: rand 0.8 without rand_distr.
+        // Box–Muller (rand 0.8 without rand_distr), both values of each pair used.
+        if let Some(g) = self.spare_gauss.take() {
+            return g;
+        }
         let u1: f64 = self.rng.gen_range(f64::EPSILON..1.0);
         let u2: f64 = self.rng.gen();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos()
+        let r = (-2.0 * u1.ln()).sqrt();
+        let (s, c) = (2.0 * core::f64::consts::PI * u2).sin_cos();
+        self.spare_gauss = Some(r * s);
+        r * c
     }
 
     /// Advances the virtual clock by one step ([`STEP_MS`]).
@@ -408,10 +419,13 @@ impl Sim {
                 self.shell.inputs.joystick_y.raw = raw;
             }
         }
-        let wants_hand = {
-            let text = segments_text(self.shell.display.segments);
-            text.starts_with("HAnd")
-        };
+        let wants_hand = self
+            .shell
+            .display
+            .segments
+            .iter()
+            .zip(HAND.iter())
+            .all(|(s, h)| s & !firmware::display::DP == *h);
         let (action, confirm_held) = self.operator.tick(now, wants_hand);
         if let OperatorAction::DoTask(task) = action {
             self.do_manual(task);
@@ -623,5 +637,41 @@ impl Sim {
             manual_tasks: self.operator.tasks_done,
             faults: self.opts.faults.clone(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hand_is_what_the_firmware_draws() {
+        assert_eq!(HAND, firmware::display::text("HAnd"));
+    }
+
+    #[test]
+    fn sensor_noise_has_the_stated_spread() {
+        let mut sim = Sim::new(SimOptions::default());
+        let n = 20_000;
+        let xs: Vec<f64> = (0..n).map(|_| sim.gauss()).collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
+        assert!(mean.abs() < 0.03, "{mean}");
+        assert!((var.sqrt() - 1.0).abs() < 0.03, "{var}");
+    }
+
+    #[test]
+    fn the_controller_sees_the_true_pressure_through_the_sensor() {
+        let mut sim = Sim::new(SimOptions {
+            initial: "D&D".parse().unwrap(),
+            ..SimOptions::default()
+        });
+        // Pressurise the gas by hand (as if the trunk had been inflated) and let the
+        // controller's filter settle: it must read the true pressure within the noise.
+        sim.trunk.set_gas_gauge_kpa(10.0);
+        sim.run_for(100);
+        let seen = sim.controller().pressure_kpa() as f64;
+        let truth = sim.trunk().pressure_kpa();
+        assert!((seen - truth).abs() < 0.3, "{seen} vs {truth}");
     }
 }

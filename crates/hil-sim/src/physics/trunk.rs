@@ -17,6 +17,14 @@ pub fn tendon_angle_rad(i: usize) -> f64 {
     (i as f64) * 2.0 * core::f64::consts::PI / 3.0
 }
 
+/// Unit vectors toward the tendons (cos, sin of [`tendon_angle_rad`]), precomputed: they are
+/// used several times in every step.
+const TENDON_DIR: [[f64; 2]; 3] = [
+    [1.0, 0.0],
+    [-0.5, 0.866_025_403_784_438_6],
+    [-0.5, -0.866_025_403_784_438_6],
+];
+
 /// Which module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Module {
@@ -187,6 +195,11 @@ impl Trunk {
             .map_or(0.0, |(x_mm, k)| k * (x_mm - self.height_mm()))
     }
 
+    /// Sets the gas amount so that the gauge pressure is `kpa` at the present volume.
+    pub fn set_gas_gauge_kpa(&mut self, kpa: f64) {
+        self.pv_j = (P_ATM_PA + kpa * 1e3) * self.volume_m3();
+    }
+
     /// Tendon tensions of the last step, N.
     pub fn tensions_n(&self) -> [f64; 3] {
         self.tensions_n
@@ -227,8 +240,8 @@ impl Trunk {
         let h = self.height_mm();
         let r = self.params.tendon_radius_mm;
         core::array::from_fn(|i| {
-            let a = tendon_angle_rad(i);
-            h - r * (a.cos() * self.bend[0] + a.sin() * self.bend[1])
+            let u = TENDON_DIR[i];
+            h - r * (u[0] * self.bend[0] + u[1] * self.bend[1])
         })
     }
 
@@ -279,7 +292,7 @@ impl Trunk {
         let (mut m, mut v) = ([0.0; 2], [0.0; 2]);
         let mut kbb = [[0.0; 2]; 2];
         for i in 0..3 {
-            let u = [tendon_angle_rad(i).cos(), tendon_angle_rad(i).sin()];
+            let u = TENDON_DIR[i];
             for a in 0..2 {
                 m[a] += tension[i] * r_t * u[a];
                 v[a] += k_taut[i] * r_t * u[a];
@@ -451,6 +464,14 @@ mod tests {
 
     fn trunk(s: &str) -> Trunk {
         Trunk::new(TrunkParams::pdf().unwrap(), st(s))
+    }
+
+    #[test]
+    fn tendon_directions_are_120_degrees_apart() {
+        for (i, u) in TENDON_DIR.iter().enumerate() {
+            let a = tendon_angle_rad(i);
+            assert!((u[0] - a.cos()).abs() < 1e-15 && (u[1] - a.sin()).abs() < 1e-15);
+        }
     }
 
     #[test]

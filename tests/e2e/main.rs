@@ -4,6 +4,8 @@
 //! `cargo build --workspace --bins --release && cargo test -p e2e --release`
 //! (`cargo test --workspace --release` builds them itself).
 
+mod faults;
 mod graph_agreement;
+mod plans;
 mod serial_garbage;
 mod usage;

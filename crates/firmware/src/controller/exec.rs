@@ -471,6 +471,11 @@ impl Controller {
             .and_then(|e| e.plan.steps.get(next))
             .map(|s| s.from);
         if next_from != Some(self.state) || !self.confirmed {
+            // The failure report names the step that cannot start.
+            if let Some(e) = self.exec.as_mut() {
+                e.step = next as u8;
+                e.step_start_ms = now;
+            }
             self.raise(FaultCode::TransitionNotConfirmed);
             return;
         }

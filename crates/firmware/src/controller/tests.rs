@@ -1482,3 +1482,34 @@ fn joystick_twin_matches_the_geometry_crate() {
     assert!(worst < 0.01, "{worst} mm");
     assert_eq!(joystick_lengths_f32(f32::NAN, 0.0, &jc, 60.0), [0.0; 3]);
 }
+
+#[test]
+fn an_assumed_state_stops_the_next_step_of_a_plan() {
+    let mut r = Rig::connected(FF);
+    r.heartbeat_every_ms = 250;
+    // Step 0 reaches D&F without evidence (assumed); step 1 needs a confirmed D&F.
+    let mut steps = heapless::Vec::new();
+    steps
+        .push(step(
+            StepKind::Pneumatic,
+            FF,
+            DF,
+            &[Primitive::Hold { duration_ms: 50 }],
+            1_000,
+        ))
+        .unwrap();
+    steps.push(Rig::nominal(DF, DD)).unwrap();
+    r.upload_and_start(Plan { plan_id: 9, steps });
+    r.run(200);
+    assert_eq!(r.plan_done(), Some((false, DF)));
+    assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+    let done: StdVec<_> = r
+        .events()
+        .filter_map(|e| match e {
+            Event::StepDone { step, ok, .. } => Some((*step, *ok)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(done, [(0, true), (1, false)]);
+    assert_eq!(r.plant.p_kpa, 0.0, "step 1 never inflated");
+}

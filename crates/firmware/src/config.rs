@@ -39,7 +39,7 @@ impl PressureSensorConfig {
     pub fn raw(&self, kpa: f32) -> u16 {
         let raw = kpa / self.kpa_per_count + self.offset_raw;
         let raw = if raw.is_finite() { raw } else { 0.0 };
-        libm::roundf(raw).clamp(0.0, crate::ADC_MAX as f32) as u16
+        crate::clampf(libm::roundf(raw), 0.0, crate::ADC_MAX as f32) as u16
     }
 }
 
@@ -250,7 +250,7 @@ impl CraneConfig {
         let d = CraneConfig::default();
         let fix = |v: f32, lo: f32, hi: f32, dflt: f32| {
             if v.is_finite() {
-                v.clamp(lo, hi)
+                crate::clampf(v, lo, hi)
             } else {
                 dflt
             }

@@ -111,14 +111,14 @@ impl ServoPulse {
     /// Pulse width for `deg`, clamped to the servo's range (NaN → 0°).
     pub fn pulse_us(&self, deg: f32) -> f32 {
         let deg = if deg.is_finite() { deg } else { 0.0 };
-        let frac = (deg / self.range_deg).clamp(0.0, 1.0);
+        let frac = crate::clampf(deg / self.range_deg, 0.0, 1.0);
         self.min_us as f32 + frac * (self.max_us as f32 - self.min_us as f32)
     }
 
     /// Duty cycle for `deg` on a channel whose full scale is `max_duty`.
     pub fn duty(&self, deg: f32, max_duty: u16) -> u16 {
         let duty = self.pulse_us(deg) / self.period_us as f32 * max_duty as f32;
-        libm::roundf(duty).clamp(0.0, max_duty as f32) as u16
+        crate::clampf(libm::roundf(duty), 0.0, max_duty as f32) as u16
     }
 }
 

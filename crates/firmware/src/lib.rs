@@ -71,3 +71,10 @@ pub use store::{BootRecord, StoredState};
 
 /// Largest raw count of the 14-bit ADC.
 pub const ADC_MAX: u16 = (1 << 14) - 1;
+
+/// `v` limited to `lo..=hi` without `f32::clamp`'s panic on inverted or NaN bounds (whose
+/// message alone pulls ~12 KiB of float formatting into the board binary); a NaN `v` gives `lo`.
+#[inline]
+pub(crate) fn clampf(v: f32, lo: f32, hi: f32) -> f32 {
+    v.max(lo).min(hi)
+}

@@ -215,7 +215,8 @@ impl Controller {
             *d = cfg
                 .servo
                 .angle_for_length(i, 0.0)
-                .clamp(cfg.servo.min_deg, cfg.servo.max_deg);
+                .max(cfg.servo.min_deg)
+                .min(cfg.servo.max_deg);
         }
         let mut ctl = Self {
             cfg,
@@ -778,7 +779,8 @@ impl Controller {
                 .cfg
                 .servo
                 .angle_for_length(i, l)
-                .clamp(self.cfg.servo.min_deg, self.cfg.servo.max_deg);
+                .max(self.cfg.servo.min_deg)
+                .min(self.cfg.servo.max_deg);
         }
     }
 
@@ -790,7 +792,7 @@ impl Controller {
         let max_step = self.cfg.servo.slew_deg_per_s * dt_ms as f32 / 1_000.0;
         let (lo, hi) = (self.cfg.servo.min_deg, self.cfg.servo.max_deg);
         for i in 0..3 {
-            let target = self.servo_target_deg[i].clamp(lo, hi);
+            let target = crate::clampf(self.servo_target_deg[i], lo, hi);
             self.servo_target_deg[i] = target;
             let d = target - self.servo_deg[i];
             self.servo_deg[i] = if d.abs() <= max_step {
@@ -917,9 +919,9 @@ pub fn joystick_lengths_f32(
     if !(x.is_finite() && y.is_finite()) {
         return [0.0; 3];
     }
-    let (x, y) = (x.clamp(-1.0, 1.0), y.clamp(-1.0, 1.0));
+    let (x, y) = (crate::clampf(x, -1.0, 1.0), crate::clampf(y, -1.0, 1.0));
     let m = libm::hypotf(x, y).min(1.0);
-    let dz = jc.dead_zone.clamp(0.0, 0.99);
+    let dz = crate::clampf(jc.dead_zone, 0.0, 0.99);
     if m <= dz {
         return [0.0; 3];
     }

@@ -409,9 +409,12 @@ impl Sim {
         sensor.failed = false;
         let half = self.cfg.joystick.half_range_raw as f64;
         for axis in 0..2 {
+            // Triangular noise (σ = JOYSTICK_NOISE_RAW): cheaper than a Gaussian, and the
+            // controller only applies a dead zone to it.
+            let (u1, u2): (f64, f64) = (self.rng.gen(), self.rng.gen());
             let raw = self.cfg.joystick.center_raw[axis] as f64
                 + self.joystick[axis] * half
-                + JOYSTICK_NOISE_RAW * self.gauss();
+                + JOYSTICK_NOISE_RAW * 6f64.sqrt() * (u1 + u2 - 1.0);
             let raw = raw.round().clamp(0.0, firmware::ADC_MAX as f64) as u16;
             if axis == 0 {
                 self.shell.inputs.joystick_x.raw = raw;

@@ -27,8 +27,9 @@ pub fn open(path: &str) -> anyhow::Result<Port> {
         .timeout(READ_TIMEOUT)
         .open()
         .with_context(|| format!("cannot open serial port {path}"))?;
-    // Bytes left from an earlier session would only be decoded as noise.
-    let _ = port.clear(serialport::ClearBuffer::All);
+    // Bytes the device sent before we listened would only be decoded as noise. Only the
+    // input: whatever is queued toward the device is its business (and it survives garbage).
+    let _ = port.clear(serialport::ClearBuffer::Input);
     Ok(port)
 }
 

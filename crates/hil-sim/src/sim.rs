@@ -587,6 +587,23 @@ impl Sim {
         }
     }
 
+    /// Cuts and restores the board's power: the controller boots again from the emulated data
+    /// flash (the trunk, the servos' shafts and the gas stay as they are; the link's buffers
+    /// are lost).
+    pub fn power_cycle(&mut self) {
+        self.shell.link.rx.clear();
+        self.shell.link.tx.clear();
+        self.ctl = self.shell.boot(self.cfg, self.now_ms);
+        if let Some(tr) = self.trace.as_mut() {
+            let _ = writeln!(tr.text, "{:>8} power cycle", self.now_ms);
+        }
+    }
+
+    /// Successful writes to the emulated data flash so far.
+    pub fn flash_writes(&self) -> u32 {
+        self.shell.store.writes
+    }
+
     /// Runs for `ms` of virtual time.
     pub fn run_for(&mut self, ms: u64) {
         let end = self.now_ms + ms;

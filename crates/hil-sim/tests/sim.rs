@@ -348,3 +348,67 @@ fn the_pty_serves_the_controller_to_a_serial_client() {
     // Virtual time ran (at 20× wall time) while we talked.
     assert!(truth.time_ms > 0, "{truth:?}");
 }
+
+#[test]
+fn the_step_up_button_unpacks_the_trunk_without_a_host() {
+    let mut sim = Sim::new(SimOptions::default());
+    sim.run_for(100);
+    sim.set_buttons(hil_sim::HeldButtons {
+        up: true,
+        ..Default::default()
+    });
+    sim.run_for(100);
+    sim.set_buttons(hil_sim::HeldButtons::default());
+    let done = sim.run_until(30_000, |s| {
+        let t = s.ground_truth();
+        t.believed_state == st("F&F") && t.mode == Mode::Standalone && !t.exhaust_open
+    });
+    let t = sim.ground_truth();
+    assert!(done, "{t:?}");
+    assert_eq!(t.true_state, Some(st("F&F")), "{t:?}");
+    assert_eq!(t.display.trim_end(), "F-F", "{t:?}");
+}
+
+/// The joystick drives servo 0 through its PWM; the trunk bends toward tendon 0 if that
+/// tendon is taut. Finding (docs/simulator.md): the controller's joystick map pulls from the
+/// D&D slack position, and in every flexible state the tendons hang 46–105 mm slack, more than
+/// full deflection (≈ 31 mm) takes up, so today the trunk does not bend at all.
+#[test]
+fn the_joystick_drives_servo_0_and_never_bends_the_trunk_the_wrong_way() {
+    let mut sim = Sim::new(SimOptions {
+        initial: st("F&F"),
+        ..SimOptions::default()
+    });
+    sim.run_for(100);
+    sim.set_joystick(1.0, 0.0);
+    sim.run_for(5_000);
+    let t = sim.ground_truth();
+    assert!(t.servo_deg[0] > 20.0, "{t:?}");
+    assert!(
+        t.servo_deg[1] <= t.servo_deg[0] && t.servo_deg[2] <= t.servo_deg[0],
+        "{t:?}"
+    );
+    let (theta, phi) = sim.trunk().bend_deg();
+    assert!(
+        theta < 1.0 || phi.abs() < 5.0,
+        "bend {theta:.1}° toward {phi:.1}°"
+    );
+    assert_eq!(t.true_state, Some(st("F&F")), "{t:?}");
+    sim.set_joystick(0.0, 0.0);
+    sim.run_for(5_000);
+    assert!(sim.ground_truth().servo_deg[0] < t.servo_deg[0]);
+}
+
+#[test]
+fn a_power_cycle_boots_from_the_emulated_flash() {
+    let t = transition(st("F&P"), st("F&F")).unwrap();
+    let (mut sim, mut host) = sim_at(st("F&P"), &[]);
+    let (ok, _) = host.run_plan(&mut sim, 1, &[t.step()], 60_000).unwrap();
+    assert!(ok);
+    sim.power_cycle();
+    sim.run_for(100);
+    let truth = sim.ground_truth();
+    assert_eq!(truth.believed_state, st("F&F"), "{truth:?}");
+    assert!(sim.controller().status().state_confirmed);
+    assert!(sim.flash_writes() >= 1);
+}

@@ -22,7 +22,6 @@ use geometry::TrunkState;
 use protocol::messages::{ManualTask, Primitive, StepKind};
 use protocol::transitions::{Transition, TRANSITIONS};
 
-use crate::physics::gas::P_ATM_PA;
 use crate::physics::trunk::{well_name, Module};
 use crate::physics::{Actuation, Trunk, TrunkParams};
 
@@ -556,6 +555,3 @@ pub fn to_dot(g: &Graph) -> String {
     s.push_str("}\n");
     s
 }
-
-/// Atmospheric pressure used by the rig, Pa (re-exported for reports).
-pub const ATMOSPHERE_PA: f64 = P_ATM_PA;

@@ -37,7 +37,8 @@ pub struct Servo {
     pub angle_deg: f64,
     /// Angle the last valid pulse asked for, degrees.
     pub command_deg: f64,
-    /// Jammed: it does not move at all (the `servo-stall` fault).
+    /// Jammed: it does not move at all (a stripped gear train). No injectable fault sets it;
+    /// `servo-stall` weakens the supply instead (see [`crate::Fault::ServoStall`]).
     pub jammed: bool,
     /// It could not move toward its command in the last step (load above stall torque).
     pub stalled: bool,

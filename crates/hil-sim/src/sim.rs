@@ -504,7 +504,6 @@ impl Sim {
             } else {
                 0.0
             },
-            grip: None,
         };
         let snaps = self.trunk.step(dt_s, &act);
         let p = self.trunk.pressure_kpa();
@@ -633,7 +632,7 @@ impl Sim {
         let servos_still = self
             .servos
             .iter()
-            .all(|s| (s.angle_deg - s.command_deg).abs() < 0.5 || s.jammed);
+            .all(|s| (s.angle_deg - s.command_deg).abs() < 0.5);
         let status = self.ctl.status();
         let h = self.trunk.heights_mm();
         GroundTruth {

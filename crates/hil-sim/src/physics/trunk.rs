@@ -60,9 +60,6 @@ pub struct Actuation {
     pub tendon_broken: [bool; 3],
     /// Extra load on the tip (a held object), N.
     pub payload_n: f64,
-    /// A testing machine's grip on the tip: crosshead height (mm) and grip stiffness (N/mm).
-    /// Used by the tensile-test calibration, as in the paper's §5.1 and §5.4 tests.
-    pub grip: Option<(f64, f64)>,
 }
 
 /// The physical state of the trunk.
@@ -189,12 +186,6 @@ impl Trunk {
         (self.pressure_abs_pa() - P_ATM_PA) * 1e-3
     }
 
-    /// Force the testing machine's grip exerts on the tip (tension positive), N.
-    pub fn grip_force_n(&self, act: &Actuation) -> f64 {
-        act.grip
-            .map_or(0.0, |(x_mm, k)| k * (x_mm - self.height_mm()))
-    }
-
     /// Sets the gas amount so that the gauge pressure is `kpa` at the present volume.
     pub fn set_gas_gauge_kpa(&mut self, kpa: f64) {
         self.pv_j = (P_ATM_PA + kpa * 1e3) * self.volume_m3();
@@ -281,12 +272,8 @@ impl Trunk {
         // dF/dH of the gas at constant amount: −p·A²/V (per mm of height).
         let gas_k = p_abs * area_m2 * area_m2 / volume * 1e-3;
         let sum_t: f64 = tension.iter().sum();
-        let mut f_tip = gas_force - sum_t - p.tip_load_n - act.payload_n;
-        let mut k_ax = gas_k + k_taut.iter().sum::<f64>();
-        if let Some((x_mm, k_grip)) = act.grip {
-            f_tip += k_grip * (x_mm - self.height_mm());
-            k_ax += k_grip;
-        }
+        let f_tip = gas_force - sum_t - p.tip_load_n - act.payload_n;
+        let k_ax = gas_k + k_taut.iter().sum::<f64>();
 
         // Bending moment vector and its couplings.
         let (mut m, mut v) = ([0.0; 2], [0.0; 2]);

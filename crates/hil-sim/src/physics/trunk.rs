@@ -512,21 +512,41 @@ mod tests {
         assert!((t.pressure_abs_pa() - expected).abs() < 1e-6);
     }
 
-    #[test]
-    fn a_tendon_pulled_alone_bends_the_trunk_toward_it() {
-        let mut t = trunk("F&F");
+    /// Takes up the slack of `state`, then applies the geometry crate's constant-curvature
+    /// length changes for a `deg` bend toward tendon 0; returns the bend the physics settles at.
+    fn bend_under_geometry_lengths(state: &str, deg: f64) -> (f64, f64) {
+        let mut t = trunk(state);
+        t.params.tendon_radius_mm = 60.0;
+        let slack = t.params.tendon_slack_length_mm - t.height_mm();
+        let geo = geometry::tendon::TendonGeometry::new(60.0).unwrap();
+        let dl = geo.length_changes(geometry::tendon::Bend::new(0.0, deg.to_radians()));
         let act = Actuation {
-            pay_in_mm: [110.0, 100.0, 100.0],
+            pay_in_mm: dl.map(|d| slack - d),
             exhaust_open: true,
             ..Default::default()
         };
         for _ in 0..3000 {
             t.step(1e-3, &act);
         }
-        let (theta, phi) = t.bend_deg();
-        assert!(theta > 1.0, "bend {theta}");
-        assert!(phi.abs() < 1.0, "direction {phi}");
-        assert!(t.tensions_n()[0] > t.tensions_n()[1]);
+        assert_eq!(t.state(), Some(st(state)));
+        t.bend_deg()
+    }
+
+    #[test]
+    fn differential_pull_bends_a_flexible_trunk_as_constant_curvature_predicts() {
+        // F&F is soft in bending: the bend comes close to the 20° the inextensible-tendon
+        // kinematics predicts (less a little axial shortening under the tendon's pull).
+        let (theta, phi) = bend_under_geometry_lengths("F&F", 20.0);
+        assert!((15.0..=20.5).contains(&theta), "bend {theta}°");
+        assert!(phi.abs() < 1.0, "direction {phi}°");
+        // D&D is stiff: a 5° pull bends it about half as much as F&F (the stiff tendon
+        // compresses the trunk instead; a 20° pull would buckle its top).
+        let (theta_ff, _) = bend_under_geometry_lengths("F&F", 5.0);
+        let (theta_dd, _) = bend_under_geometry_lengths("D&D", 5.0);
+        assert!(
+            theta_dd < 0.6 * theta_ff,
+            "D&D bend {theta_dd}° vs F&F {theta_ff}°"
+        );
     }
 
     #[test]

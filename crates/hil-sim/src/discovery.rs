@@ -238,6 +238,20 @@ impl Rig {
         self.act.exhaust_open = false;
     }
 
+    /// Lets the tendons out to `length_mm` with both valves closed, then waits the settle time:
+    /// the trunk returns to its rest height at a constant gas amount, so the pressure tells its
+    /// volume (docs/simulator.md, "Findings", 1).
+    pub fn release_sealed(&mut self, length_mm: f64) {
+        self.act.inlet_open = false;
+        self.act.exhaust_open = false;
+        while self.act.pay_in_mm[0] > length_mm {
+            let next = (self.act.pay_in_mm[0] - self.cfg.winch_mm_per_s * DT_S).max(length_mm);
+            self.act.pay_in_mm = [next; 3];
+            self.tick();
+        }
+        self.settle();
+    }
+
     /// Applies one catalogue primitive (manual tasks are done by hand at once).
     pub fn apply(&mut self, p: &Primitive) {
         match *p {
@@ -554,4 +568,36 @@ pub fn to_dot(g: &Graph) -> String {
     }
     s.push_str("}\n");
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pull from `from` to `length_mm` (relief as the firmware does), release sealed; returns
+    /// (snaps, pressure change from before the pull to after the sealed release, final state).
+    fn pull_and_release_sealed(from: &str, length_mm: f64) -> (usize, f64, Option<TrunkState>) {
+        let mut rig = Rig::new(from.parse().unwrap(), RigConfig::default());
+        let p0 = rig.trunk.pressure_kpa();
+        let snaps = rig.pull(length_mm, 0);
+        rig.release_sealed(0.0);
+        (snaps, rig.trunk.pressure_kpa() - p0, rig.trunk.state())
+    }
+
+    #[test]
+    fn a_sealed_release_reveals_the_snaps_the_pressure_step_misses() {
+        // F&D → F&F: a pull short of the buckling (80 mm) and one past it (120 mm).
+        let (n_short, dp_short, s_short) = pull_and_release_sealed("F&D", 80.0);
+        let (n_long, dp_long, s_long) = pull_and_release_sealed("F&D", 120.0);
+        assert_eq!((n_short, s_short), (0, Some("F&D".parse().unwrap())));
+        assert_eq!((n_long, s_long), (1, Some("F&F".parse().unwrap())));
+        assert!(dp_long - dp_short > 4.0, "{dp_short} vs {dp_long} kPa");
+        // F&F → F&P (two snaps): the packed trunk ends ≈ 49 mm shorter.
+        let (n, dp, s) = pull_and_release_sealed("F&F", 182.0);
+        assert_eq!((n, s), (2, Some("F&P".parse().unwrap())));
+        let (_, dp0, _) = pull_and_release_sealed("F&F", 120.0);
+        assert!(dp - dp0 > 4.0, "{dp0} vs {dp} kPa");
+        // Every residual stays below the lowest snap threshold (unpacking at 13 kPa).
+        assert!(dp_long < 12.0 && dp < 12.0, "{dp_long} {dp}");
+    }
 }

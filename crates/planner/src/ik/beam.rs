@@ -9,6 +9,8 @@
 
 use std::collections::HashSet;
 
+use rayon::prelude::*;
+
 use super::reach::Reach;
 use super::{Control, Frame, Problem, Raw};
 
@@ -83,7 +85,7 @@ pub(crate) fn beam(problem: &Problem, width: usize, control: &Control) -> Raw {
 }
 
 /// Beam search with a precomputed reach; returns (states, cost sum, evaluated, interrupted).
-pub(crate) fn beam_with(
+pub fn beam_with(
     problem: &Problem,
     reach: &Reach,
     width: usize,
@@ -101,33 +103,42 @@ pub(crate) fn beam_with(
     }];
     let mut evaluated = 0u64;
     let mut interrupted = false;
-    let mut children: Vec<Entry> = Vec::new();
+    let mut children: Vec<Entry>;
     let mut seen: HashSet<[i64; 12]> = HashSet::new();
     for j in 0..m {
         if control.stopped() {
             interrupted = true;
             break;
         }
-        children.clear();
         let cands = problem.catalogue.candidates(j);
-        for (pi, e) in cur.iter().enumerate() {
-            for (a, c) in cands.iter().enumerate() {
-                let f = e.frame.compose(&c.frame);
-                let g = e.g + obj.cost(j, &f.origin());
-                let h = if j + 1 < m {
-                    reach.suffix_lower_bound(obj, &f, j + 1, f64::INFINITY)
-                } else {
-                    0.0
-                };
-                children.push(Entry {
-                    score: g + h,
-                    g,
-                    frame: f,
-                    parent: pi as u32,
-                    cand: a as u16,
-                });
-            }
-        }
+        let expand = |(pi, e): (usize, &Entry)| -> Vec<Entry> {
+            cands
+                .iter()
+                .enumerate()
+                .map(|(a, c)| {
+                    let f = e.frame.compose(&c.frame);
+                    let g = e.g + obj.cost(j, &f.origin());
+                    let h = if j + 1 < m {
+                        reach.suffix_lower_bound(obj, &f, j + 1, f64::INFINITY)
+                    } else {
+                        0.0
+                    };
+                    Entry {
+                        score: g + h,
+                        g,
+                        frame: f,
+                        parent: pi as u32,
+                        cand: a as u16,
+                    }
+                })
+                .collect()
+        };
+        // Parallel when the layer is big enough to pay for it; the order is kept either way.
+        children = if cur.len() * cands.len() >= 256 {
+            cur.par_iter().enumerate().flat_map_iter(expand).collect()
+        } else {
+            cur.iter().enumerate().flat_map(expand).collect()
+        };
         evaluated += children.len() as u64;
         children.sort_by(|x, y| {
             x.score

@@ -228,7 +228,7 @@ impl Objective {
     }
 
     /// A lower bound on [`cost`](Self::cost) of tip `i` anywhere within `radius` of `center`.
-    #[inline]
+    #[inline(always)]
     pub fn ball_lower_bound(&self, i: usize, center: &Point3<f64>, radius: f64) -> f64 {
         let d = match self.metric {
             Metric::Eq36 => self.target.dist_lower_bound(center, radius),

@@ -17,7 +17,7 @@ use nalgebra::{Point3, Vector3};
 use super::{Catalogue, Frame, Objective};
 
 /// Maximum number of balls per cover.
-pub const MAX_BALLS: usize = 24;
+pub const MAX_BALLS: usize = 64;
 
 /// A ball (centre in a module frame, radius), units of l.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,11 +28,25 @@ pub struct Ball {
     pub radius: f64,
 }
 
+/// One cover of a reachable set.
+#[derive(Debug, Clone)]
+struct Cover {
+    balls: Vec<Ball>,
+}
+
+impl Cover {
+    /// The cover used for bounds of the k-th next tip. (Coarser covers for larger k were tried:
+    /// 64/64/32/16 balls made beam search markedly worse on the smooth-curve suite.)
+    fn new(balls: Vec<Ball>, _k: usize) -> Self {
+        Cover { balls }
+    }
+}
+
 /// Covers of `R(j,k)` for every suffix start j and length `k ≤ horizon`.
 #[derive(Debug, Clone)]
 pub struct Reach {
     /// `covers[j][k-1]`; when the catalogue is uniform only `covers[0]` is stored.
-    covers: Vec<Vec<Vec<Ball>>>,
+    covers: Vec<Vec<Cover>>,
     uniform: bool,
     m: usize,
     horizon: usize,
@@ -44,7 +58,7 @@ impl Reach {
         let m = catalogue.len();
         let horizon = horizon.min(m).max(1);
         let uniform = catalogue.is_uniform();
-        let mut covers: Vec<Vec<Vec<Ball>>> = vec![Vec::new(); if uniform { 1 } else { m }];
+        let mut covers: Vec<Vec<Cover>> = vec![Vec::new(); if uniform { 1 } else { m }];
         if uniform {
             // R(k) = ∪_a T_a · R(k−1), independent of j.
             let cands = catalogue.candidates(0);
@@ -54,11 +68,13 @@ impl Reach {
             }];
             for _ in 0..horizon {
                 let next = cover_union(cands.iter().map(|c| &c.frame), &prev);
-                covers[0].push(next.clone());
+                let k = covers[0].len() + 1;
+                covers[0].push(Cover::new(next.clone(), k));
                 prev = next;
             }
         } else {
-            // covers[j][k-1] from covers[j+1][k-2].
+            // covers[j][k-1] from the full-resolution cover of (j+1, k-1).
+            let mut full: Vec<Vec<Vec<Ball>>> = vec![Vec::new(); m];
             for j in (0..m).rev() {
                 let cands = catalogue.candidates(j);
                 let kmax = horizon.min(m - j);
@@ -69,10 +85,11 @@ impl Reach {
                             radius: 0.0,
                         }]
                     } else {
-                        covers[j + 1][k - 2].clone()
+                        full[j + 1][k - 2].clone()
                     };
                     let c = cover_union(cands.iter().map(|c| &c.frame), &prev);
-                    covers[j].push(c);
+                    covers[j].push(Cover::new(c.clone(), k));
+                    full[j].push(c);
                 }
             }
         }
@@ -84,9 +101,14 @@ impl Reach {
         }
     }
 
-    /// The cover of `R(j,k)` (k ≥ 1, `j + k ≤ m`, `k ≤ horizon`).
+    /// The balls covering `R(j,k)` (k ≥ 1, `j + k ≤ m`, `k ≤ horizon`).
     #[inline]
     pub fn cover(&self, j: usize, k: usize) -> &[Ball] {
+        &self.cover_of(j, k).balls
+    }
+
+    #[inline]
+    fn cover_of(&self, j: usize, k: usize) -> &Cover {
         if self.uniform {
             &self.covers[0][k - 1]
         } else {
@@ -102,10 +124,11 @@ impl Reach {
         let kmax = self.horizon.min(self.m - j);
         let mut sum = 0.0;
         for k in 1..=kmax {
+            let tip = j + k - 1;
+            let cover = self.cover_of(j, k);
             let mut best = f64::INFINITY;
-            for b in self.cover(j, k) {
-                let c = frame.apply_vec(&b.center);
-                let v = obj.ball_lower_bound(j + k - 1, &c, b.radius);
+            for b in &cover.balls {
+                let v = ball_lb(obj, tip, frame, b);
                 if v < best {
                     best = v;
                     if best == 0.0 {
@@ -122,6 +145,11 @@ impl Reach {
     }
 }
 
+#[inline(always)]
+fn ball_lb(obj: &Objective, tip: usize, frame: &Frame, b: &Ball) -> f64 {
+    obj.ball_lower_bound(tip, &frame.apply_vec(&b.center), b.radius)
+}
+
 fn cover_union<'a>(frames: impl Iterator<Item = &'a Frame>, prev: &[Ball]) -> Vec<Ball> {
     let mut balls = Vec::new();
     for f in frames {
@@ -135,9 +163,8 @@ fn cover_union<'a>(frames: impl Iterator<Item = &'a Frame>, prev: &[Ball]) -> Ve
     merge(balls, MAX_BALLS)
 }
 
-/// Merges `balls` into at most `max` balls that together contain them all: farthest-point
-/// seeds, nearest-seed assignment, then each cluster's enclosing ball (centred on the middle of
-/// its centres' bounding box).
+/// Merges `balls` into at most `max` balls that together contain them all: exact duplicates
+/// dropped, then [`cluster`]ed, each cluster replaced by its [`enclose`]ing ball.
 fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
     // Exact duplicates are common (commuting translations); drop them first.
     balls.sort_by(|a, b| {
@@ -153,9 +180,14 @@ fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
     if balls.len() <= max {
         return balls;
     }
+    cluster(&balls, max).iter().map(|g| enclose(g)).collect()
+}
+
+/// Splits `balls` into at most `max` non-empty groups: farthest-point seeds (the first the ball
+/// farthest from the centroid), then nearest-seed assignment.
+fn cluster(balls: &[Ball], max: usize) -> Vec<Vec<Ball>> {
     let centroid: Vector3<f64> =
-        balls.iter().map(|b| b.center).sum::<Vector3<f64>>() / balls.len() as f64;
-    let mut seeds: Vec<Vector3<f64>> = Vec::with_capacity(max);
+        balls.iter().map(|b| b.center).sum::<Vector3<f64>>() / balls.len().max(1) as f64;
     let first = balls
         .iter()
         .max_by(|a, b| {
@@ -165,12 +197,12 @@ fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
         })
         .map(|b| b.center)
         .unwrap_or(centroid);
-    seeds.push(first);
+    let mut seeds: Vec<Vector3<f64>> = vec![first];
     let mut near: Vec<f64> = balls
         .iter()
         .map(|b| (b.center - first).norm_squared())
         .collect();
-    while seeds.len() < max {
+    while seeds.len() < max.min(balls.len()) {
         let (i, _) = near
             .iter()
             .enumerate()
@@ -178,12 +210,12 @@ fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
             .unwrap_or((0, &0.0));
         let s = balls[i].center;
         seeds.push(s);
-        for (d, b) in near.iter_mut().zip(&balls) {
+        for (d, b) in near.iter_mut().zip(balls) {
             *d = d.min((b.center - s).norm_squared());
         }
     }
     let mut groups: Vec<Vec<Ball>> = vec![Vec::new(); seeds.len()];
-    for b in &balls {
+    for b in balls {
         let (i, _) = seeds
             .iter()
             .enumerate()
@@ -192,28 +224,28 @@ fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
             .unwrap_or((0, 0.0));
         groups[i].push(*b);
     }
+    groups.retain(|g| !g.is_empty());
     groups
-        .into_iter()
-        .filter(|g| !g.is_empty())
-        .map(|g| {
-            let mut lo = Vector3::repeat(f64::INFINITY);
-            let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-            for b in &g {
-                lo = lo.inf(&b.center);
-                hi = hi.sup(&b.center);
-            }
-            let center = (lo + hi) * 0.5;
-            let radius = g
-                .iter()
-                .map(|b| (b.center - center).norm() + b.radius)
-                .fold(0.0, f64::max);
-            // A hair larger so rounding never leaves a point outside.
-            Ball {
-                center,
-                radius: radius * (1.0 + 1e-12) + 1e-12,
-            }
-        })
-        .collect()
+}
+
+/// A ball containing every ball of `group`, centred on the middle of their centres' bounding
+/// box (a hair larger so rounding never leaves a point outside).
+fn enclose(group: &[Ball]) -> Ball {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for b in group {
+        lo = lo.inf(&b.center);
+        hi = hi.sup(&b.center);
+    }
+    let center = (lo + hi) * 0.5;
+    let radius = group
+        .iter()
+        .map(|b| (b.center - center).norm() + b.radius)
+        .fold(0.0, f64::max);
+    Ball {
+        center,
+        radius: radius * (1.0 + 1e-12) + 1e-12,
+    }
 }
 
 /// Whether `p` lies in one of `balls` (for tests).

@@ -228,7 +228,7 @@ impl Target {
 
     /// A cheap lower bound on the distance from any point within `radius` of `center` to the
     /// polyline (never more than the true minimum; 0 when it cannot tell).
-    #[inline]
+    #[inline(always)]
     pub fn dist_lower_bound(&self, center: &Point3<f64>, radius: f64) -> f64 {
         let g = &self.lb;
         let x = center.coords;

@@ -91,7 +91,7 @@ fn enumerate(
 
 /// Window sweeps (step 2) from `states`; returns the improved states and the number of window
 /// assignments evaluated.
-pub(crate) fn polish(
+pub fn polish(
     problem: &Problem,
     mut states: Vec<usize>,
     w: usize,

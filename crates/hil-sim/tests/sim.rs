@@ -412,3 +412,34 @@ fn a_power_cycle_boots_from_the_emulated_flash() {
     assert!(sim.controller().status().state_confirmed);
     assert!(sim.flash_writes() >= 1);
 }
+
+#[test]
+fn the_gripper_button_closes_the_gripper_and_the_e_stop_latches() {
+    let mut sim = Sim::new(SimOptions::default());
+    sim.run_for(100);
+    let press = |sim: &mut Sim, held: hil_sim::HeldButtons| {
+        sim.set_buttons(held);
+        sim.run_for(100);
+        sim.set_buttons(hil_sim::HeldButtons::default());
+        sim.run_for(500);
+    };
+    press(
+        &mut sim,
+        hil_sim::HeldButtons {
+            gripper: true,
+            ..Default::default()
+        },
+    );
+    assert!(sim.ground_truth().gripper_closed);
+    press(
+        &mut sim,
+        hil_sim::HeldButtons {
+            estop: true,
+            ..Default::default()
+        },
+    );
+    let t = sim.ground_truth();
+    assert_eq!(t.mode, Mode::EStop, "{t:?}");
+    assert!(t.actuators_safe, "{t:?}");
+    assert!(t.display.starts_with("E-06"), "{t:?}");
+}

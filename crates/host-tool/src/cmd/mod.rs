@@ -5,6 +5,6 @@ pub mod ik;
 pub mod monitor;
 pub mod plan;
 pub mod ports;
+pub mod states;
 pub mod status;
 pub mod stop;
-pub mod states;

@@ -19,9 +19,12 @@ qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
   -d exec,nochain,in_asm -D "$trace" -kernel "$elf"
 start=$(nm "$elf" | awk '$3=="bench_mark_start"{print $1}')
 end=$(nm "$elf" | awk '$3=="bench_mark_end"{print $1}')
-python3 - "$trace" "$start" "$end" <<'PY'
-import re, sys, collections
+syms="$(mktemp)"; trap 'rm -f "$trace" "$asmlog" "$syms"' EXIT
+nm -C -S "$elf" | awk 'NF>=4 && ($3=="T"||$3=="t"){print $1, $2, substr($0, index($0,$4))}' > "$syms"
+python3 - "$trace" "$start" "$end" "$syms" "${PROFILE:-}" <<'PY'
+import re, sys, collections, bisect
 trace, start, end = sys.argv[1], int(sys.argv[2], 16) & ~1, int(sys.argv[3], 16) & ~1
+syms_path, profile = sys.argv[4], sys.argv[5]
 asm = {}        # pc -> (mnemonic, operands)
 regions = []    # list of Counter(pc -> executions)
 cur = None
@@ -78,4 +81,24 @@ for k, name in enumerate(names):
     ins = [sum(r.values()) - base for r in measured]
     cyc = [cycles(r) for r in measured]
     print(f"{name:20s} instructions/pass max {max(ins):6d} (all {ins}); M4 cycles est. max {max(cyc):6d} = {max(cyc)/48000*100:.0f}% of a 1 kHz tick at 48 MHz")
+
+if profile:
+    # PROFILE=<scenario>: self instructions per function in that scenario's costliest pass
+    # (where LTO inlined a callee, its work is counted in the caller).
+    syms = []
+    for line in open(syms_path):
+        a, size, sym = line.split(' ', 2)
+        syms.append((int(a, 16) & ~1, int(size, 16), sym.strip()))
+    syms.sort()
+    addrs = [a for a, _, _ in syms]
+    k = names.index(profile)
+    rs = regions[k*per:(k+1)*per][-5:]
+    r = max(rs, key=lambda c: sum(c.values()))
+    by = collections.Counter()
+    for pc, n in r.items():
+        i = bisect.bisect_right(addrs, pc) - 1
+        a, size, sym = syms[i] if i >= 0 else (0, 0, '?')
+        by[sym if pc < a + max(size, 1) else '?'] += n
+    for sym, n in by.most_common(25):
+        print(f"{n:7d}  {sym[:150]}")
 PY

@@ -1,9 +1,10 @@
 //! The protocol crate's integration tests (one binary): golden bytes, property tests, framing
-//! edge cases, handshake.
+//! edge cases, handshake, the streaming decoder against the one-shot one.
 
 mod edges;
 mod golden;
 mod handshake;
+mod incremental;
 mod props;
 mod samples;
 mod smoke;

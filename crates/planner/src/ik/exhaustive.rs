@@ -92,6 +92,9 @@ impl Task<'_> {
 
 pub(crate) fn solve(problem: &Problem, control: &Control) -> Raw {
     let m = problem.m();
+    if problem.catalogue.sequences() >= 1_000_000 {
+        problem.objective.target().prepare_fast_queries();
+    }
     let depth = split_depth(problem, 256);
     let tasks = prefixes(problem, depth);
     let results: Vec<(f64, Vec<usize>, u64, bool)> = tasks

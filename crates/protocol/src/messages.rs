@@ -457,11 +457,14 @@ pub enum FaultCode {
     Watchdog = 9,
     /// The persisted state could not be read; the state is unconfirmed.
     StateStorage = 10,
+    /// The pressure rises (or will not vent) with the inlet commanded closed: the inlet valve
+    /// is stuck open. The exhaust stays open.
+    InletStuck = 11,
 }
 
 impl FaultCode {
     /// All faults.
-    pub const ALL: [FaultCode; 10] = [
+    pub const ALL: [FaultCode; 11] = [
         FaultCode::OverPressure,
         FaultCode::PressureSensor,
         FaultCode::StepTimeout,
@@ -472,6 +475,7 @@ impl FaultCode {
         FaultCode::Leak,
         FaultCode::Watchdog,
         FaultCode::StateStorage,
+        FaultCode::InletStuck,
     ];
 
     /// The numeric code shown on the display as `E-xx`.
@@ -497,6 +501,7 @@ impl FaultCode {
             FaultCode::Leak => "pressure leak detected",
             FaultCode::Watchdog => "restarted by the watchdog",
             FaultCode::StateStorage => "stored trunk state unreadable",
+            FaultCode::InletStuck => "inlet stuck open: pressure rises with it closed",
         }
     }
 }

@@ -6,6 +6,7 @@
 //! [`Controller`](crate::Controller). [`CraneConfig::validated`] clamps the values that have a
 //! safety meaning (the pressure cap never exceeds [`protocol::HARD_MAX_PRESSURE_KPA`]).
 
+use geometry::{BottomState, ModuleDesign, ShapeState, TopState, TrunkState};
 use protocol::{Board, ModuleConfig, TrunkConfig};
 
 /// Linear calibration of the pressure sensor: raw 14-bit ADC counts → gauge kPa.
@@ -112,6 +113,42 @@ pub struct LeakConfig {
     pub min_pressure_kpa: f32,
 }
 
+/// Confirmation of a tendon step by a sealed release (`docs/firmware.md`, "Tendon steps").
+///
+/// Under a tendon pull the tendons pin the trunk's height, so a module that buckles may barely
+/// change the gas volume while the servos hold it (no pressure spike). Its volume tells after
+/// the tendons are let out again with both valves closed: a trunk that snapped shorter holds
+/// the same gas in a smaller volume.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TendonCheckConfig {
+    /// Smallest rise of the sealed pressure, from before the pull to after the sealed release,
+    /// per snap the step expects (a step expecting n snaps needs n times this).
+    pub min_rise_kpa_per_snap: f32,
+    /// Time the trunk is given to settle, sealed and still, at the end of the pull and after
+    /// the release, before the pressure is read.
+    pub settle_ms: u32,
+}
+
+/// Stuck-open inlet watch (`docs/firmware.md`, "Safety").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InletWatchConfig {
+    /// With the inlet commanded closed and the servos still, a rise of the pressure by this much
+    /// above its lowest value since then is gas coming in through the inlet.
+    pub rise_kpa: f32,
+    /// The lowest value creeps up at this rate, so a slow drift (a sealed trunk warming in the
+    /// sun) is not taken for a stuck inlet; an open inlet fills at ≈ 10 kPa/s.
+    pub drift_kpa_per_s: f32,
+    /// The watch starts this long after the inlet was commanded closed (valve and filter lag).
+    pub closed_settle_ms: u32,
+    /// While venting (exhaust open, inlet closed, servos still) above `vent_min_pressure_kpa`,
+    /// the pressure must fall by `vent_min_drop_kpa` in every window of this length.
+    pub vent_window_ms: u32,
+    /// See `vent_window_ms`.
+    pub vent_min_drop_kpa: f32,
+    /// See `vent_window_ms`: below this a vent is slow by nature.
+    pub vent_min_pressure_kpa: f32,
+}
+
 /// Joystick calibration and standalone bending.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JoystickConfig {
@@ -155,6 +192,15 @@ pub struct CraneConfig {
     pub tendon_radius_mm: f32,
     /// Longest tendon shortening any primitive may ask for.
     pub max_tendon_mm: f32,
+    /// Height of one self-packed layer (its panels stacked; the geometry's d → 0).
+    pub packed_layer_mm: f32,
+    /// The joystick and `Bend` take up a flexible state's tendon slack up to this much short of
+    /// taut, so an error in the modelled heights never compresses the trunk.
+    pub take_up_margin_mm: f32,
+    /// Sealed-release confirmation of tendon steps.
+    pub tendon_check: TendonCheckConfig,
+    /// Stuck-open inlet watch.
+    pub inlet_watch: InletWatchConfig,
     /// Snap-through detector.
     pub snap: SnapConfig,
     /// Leak detector.
@@ -178,17 +224,20 @@ impl Default for CraneConfig {
             board: Board::UnoR4Wifi,
             firmware_version: [0, 1, 0],
             trunk: TrunkConfig {
+                // The paper's trunk (§5.4): n = 3 (the largest folded/deployed height
+                // contrast), 75 mm edges, two layers per module (the bottom packs layer by
+                // layer in two snaps); docs/simulator.md gives the reasoning.
                 bottom: ModuleConfig {
-                    n: 6,
+                    n: 3,
                     beta_deg: 35.0,
                     edge_mm: 75.0,
-                    layers: 3,
+                    layers: 2,
                 },
                 top: ModuleConfig {
-                    n: 6,
+                    n: 3,
                     beta_deg: 31.72,
                     edge_mm: 75.0,
-                    layers: 3,
+                    layers: 2,
                 },
                 pressure_limit_kpa: 40.0,
             },
@@ -215,6 +264,24 @@ impl Default for CraneConfig {
             },
             tendon_radius_mm: 60.0,
             max_tendon_mm: 185.0,
+            packed_layer_mm: 5.0,
+            take_up_margin_mm: 2.0,
+            tendon_check: TendonCheckConfig {
+                // A module fold (46–60 mm shorter) reads +5.6 to +7.9 kPa after the sealed
+                // release in the simulator, packing both bottom layers +5.3 to +6.5, packing
+                // one layer only +3.2, no snap +0.04: 2.1 per snap splits both pairs in the
+                // middle (4.2 for the two-snap packing step).
+                min_rise_kpa_per_snap: 2.1,
+                settle_ms: 300,
+            },
+            inlet_watch: InletWatchConfig {
+                rise_kpa: 1.0,
+                drift_kpa_per_s: 0.2,
+                closed_settle_ms: 50,
+                vent_window_ms: 1_000,
+                vent_min_drop_kpa: 0.5,
+                vent_min_pressure_kpa: 3.0,
+            },
             snap: SnapConfig {
                 threshold_kpa: 1.5,
                 window_ms: 50,
@@ -243,6 +310,45 @@ impl Default for CraneConfig {
 }
 
 impl CraneConfig {
+    /// Unloaded height of the straight trunk in `state`, mm: per module, layers × the layer's
+    /// slant height d (folded or deployed, the geometry crate's Table 1) × the edge, or layers ×
+    /// [`CraneConfig::packed_layer_mm`] when self-packed. `None` for a module the geometry
+    /// rejects. Evaluated in `f64` (software on the M4): call it once per state change.
+    pub fn trunk_height_mm(&self, state: TrunkState) -> Option<f32> {
+        let module = |m: &ModuleConfig, s: Option<ShapeState>| -> Option<f64> {
+            let layers = m.layers as f64;
+            match s {
+                None => Some(layers * self.packed_layer_mm as f64),
+                Some(s) => {
+                    let d = ModuleDesign::new(m.n as u32, m.beta_deg as f64).ok()?;
+                    Some(layers * d.pose(s).d * m.edge_mm as f64)
+                }
+            }
+        };
+        let top = match state.top {
+            TopState::Folded => Some(ShapeState::Folded),
+            TopState::Deployed => Some(ShapeState::Deployed),
+        };
+        let bottom = match state.bottom {
+            BottomState::Packed => None,
+            BottomState::Folded => Some(ShapeState::Folded),
+            BottomState::Deployed => Some(ShapeState::Deployed),
+        };
+        let h = module(&self.trunk.top, top)? + module(&self.trunk.bottom, bottom)?;
+        h.is_finite().then_some(h as f32)
+    }
+
+    /// How far every tendon hangs slack in `state` at zero shortening: tendon lengths are
+    /// measured from the slack position of the fully deployed trunk, so this is
+    /// H(D&D) − H(state) (0 when a height is unknown).
+    pub fn tendon_slack_mm(&self, state: TrunkState) -> f32 {
+        let dd = TrunkState::new(TopState::Deployed, BottomState::Deployed);
+        match (self.trunk_height_mm(dd), self.trunk_height_mm(state)) {
+            (Some(dd), Some(h)) => (dd - h).max(0.0),
+            _ => 0.0,
+        }
+    }
+
     /// The configuration with its safety-relevant values forced into range: the pressure cap
     /// within `0..=HARD_MAX_PRESSURE_KPA`, servo limits ordered within 0–180°, positive slew and
     /// periods. Non-finite values fall back to the defaults.
@@ -288,6 +394,19 @@ impl CraneConfig {
         self.pressure_sensor.filter_tau_ms =
             fix(self.pressure_sensor.filter_tau_ms, 0.0, 1000.0, 8.0);
         self.joystick.dead_zone = fix(self.joystick.dead_zone, 0.0, 0.9, d.joystick.dead_zone);
+        self.packed_layer_mm = fix(self.packed_layer_mm, 0.0, 50.0, d.packed_layer_mm);
+        self.take_up_margin_mm = fix(self.take_up_margin_mm, 0.0, 50.0, d.take_up_margin_mm);
+        // A zero threshold would confirm any tendon step.
+        self.tendon_check.min_rise_kpa_per_snap = fix(
+            self.tendon_check.min_rise_kpa_per_snap,
+            0.2,
+            20.0,
+            d.tendon_check.min_rise_kpa_per_snap,
+        );
+        self.tendon_check.settle_ms = self.tendon_check.settle_ms.min(5_000);
+        self.inlet_watch.rise_kpa = fix(self.inlet_watch.rise_kpa, 0.2, 20.0, 1.0);
+        self.inlet_watch.drift_kpa_per_s = fix(self.inlet_watch.drift_kpa_per_s, 0.0, 5.0, 0.2);
+        self.inlet_watch.vent_window_ms = self.inlet_watch.vent_window_ms.clamp(100, 60_000);
         if !(self.joystick.half_range_raw.is_finite() && self.joystick.half_range_raw >= 1.0) {
             self.joystick.half_range_raw = d.joystick.half_range_raw;
         }
@@ -328,6 +447,44 @@ mod tests {
         }
         .validated();
         assert_eq!(cfg.pressure_limit_kpa, 40.0);
+    }
+
+    #[test]
+    fn default_trunk_heights_are_the_two_module_n3_trunk() {
+        // docs/simulator.md, "Geometry": F&P 43.1, F&F 92.5, F&D 138.1, D&P 102.7, D&F 152.1,
+        // D&D 197.7 mm (the simulator builds its trunk from the same geometry).
+        let cfg = CraneConfig::default();
+        assert_eq!((cfg.trunk.top.n, cfg.trunk.top.layers), (3, 2));
+        assert_eq!((cfg.trunk.bottom.n, cfg.trunk.bottom.layers), (3, 2));
+        let want = [
+            ("F&P", 43.1),
+            ("F&F", 92.5),
+            ("F&D", 138.1),
+            ("D&P", 102.7),
+            ("D&F", 152.1),
+            ("D&D", 197.7),
+        ];
+        for (name, h) in want {
+            let s: TrunkState = name.parse().unwrap();
+            let got = cfg.trunk_height_mm(s).unwrap();
+            assert!((got - h).abs() < 0.1, "{name}: {got} mm");
+        }
+        let ff: TrunkState = "F&F".parse().unwrap();
+        assert!((cfg.tendon_slack_mm(ff) - 105.2).abs() < 0.1);
+        let dd: TrunkState = "D&D".parse().unwrap();
+        assert_eq!(cfg.tendon_slack_mm(dd), 0.0);
+        let bad = CraneConfig {
+            trunk: TrunkConfig {
+                top: ModuleConfig {
+                    n: 1,
+                    ..cfg.trunk.top
+                },
+                ..cfg.trunk
+            },
+            ..cfg
+        };
+        assert_eq!(bad.trunk_height_mm(ff), None);
+        assert_eq!(bad.tendon_slack_mm(ff), 0.0);
     }
 
     #[test]

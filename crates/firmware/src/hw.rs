@@ -141,6 +141,12 @@ impl<P: SetDutyCycle> ServoOutput<P> {
         self.pwm.set_duty_cycle(duty)
     }
 
+    /// Stops the pulses (duty 0): the servo goes limp, driving nothing (the controller's safe
+    /// state; see [`Outputs::servos_enabled`]).
+    pub fn disable(&mut self) -> Result<(), P::Error> {
+        self.pwm.set_duty_cycle(0)
+    }
+
     /// The PWM channel.
     pub fn inner(&self) -> &P {
         &self.pwm
@@ -268,11 +274,19 @@ where
             set_pin(&mut self.exhaust, o.exhaust_open),
             set_pin(&mut self.gripper, o.gripper_closed),
         ];
-        let servos = [
-            self.servos.0.set_deg(o.servo_deg[0]).is_ok(),
-            self.servos.1.set_deg(o.servo_deg[1]).is_ok(),
-            self.servos.2.set_deg(o.servo_deg[2]).is_ok(),
-        ];
+        let servos = if o.servos_enabled {
+            [
+                self.servos.0.set_deg(o.servo_deg[0]).is_ok(),
+                self.servos.1.set_deg(o.servo_deg[1]).is_ok(),
+                self.servos.2.set_deg(o.servo_deg[2]).is_ok(),
+            ]
+        } else {
+            [
+                self.servos.0.disable().is_ok(),
+                self.servos.1.disable().is_ok(),
+                self.servos.2.disable().is_ok(),
+            ]
+        };
         if let Some(e) = valves.into_iter().find_map(Result::err) {
             return Err(e);
         }

@@ -307,6 +307,8 @@ fn shell_boots_talks_and_drives_the_pins() {
     shell.step(&mut ctl, 301);
     assert_eq!(ctl.mode(), Mode::EStop);
     assert!(!b.valves[0].0.get());
+    // ... and the servo pulses stop (duty 0): limp servos push nothing.
+    assert!(b.servo.iter().all(|s| s.0.get() == 0));
     assert_eq!(
         b.display.0.borrow().last().copied(),
         Some(firmware::display::fault(6))

@@ -17,6 +17,95 @@ pub(super) enum Origin {
     Local,
 }
 
+/// Where a confirming tendon pull (`TendonPull` with snaps) is. Under a pull the tendons pin
+/// the trunk's height, so a buckling module may barely change the pressure; the volume tells
+/// once the tendons are let out again with the valves closed (`docs/firmware.md`, "Tendon
+/// steps").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum PullPhase {
+    /// Pulling toward the length until the expected spikes (or the length, then settling).
+    Pulling,
+    /// Letting the tendons out to where the pull started, both valves closed.
+    Releasing,
+    /// Sealed and still, the trunk settles before the pressure is compared.
+    Settling,
+    /// Confirmed: venting what the smaller volume added, back to the pressure before the pull.
+    Venting,
+}
+
+/// The sealed-release check of a confirming tendon pull.
+#[derive(Debug, Clone, Copy)]
+struct PullCheck {
+    phase: PullPhase,
+    /// Filtered pressure when the pull started (valves closed).
+    baseline_kpa: f32,
+    /// Servo angles when the pull started: the sealed release returns there.
+    start_deg: [f32; 3],
+    /// When the current phase began to wait (at the length, or released).
+    since_ms: Option<u64>,
+}
+
+/// What the sealed-release check asks for now.
+enum CheckStep {
+    Running,
+    /// Stop pulling; release to the start angles.
+    Release,
+    /// Confirmed: vent back to the pressure before the pull.
+    Vent,
+    NotConfirmed,
+}
+
+/// Advances the sealed-release check of a pull that expects `want` snaps (`seen` spikes so
+/// far): pull until the spikes or the length (then let the trunk settle there), release to the
+/// start sealed, settle, then compare the pressure with the one before the pull. The spikes
+/// only stop the pull early; the count is confirmed by the volume: a rise of at least
+/// `want` × `min_rise_kpa_per_snap` (docs/firmware.md, "Tendon steps").
+fn pull_check(
+    c: &mut PullCheck,
+    seen: u8,
+    want: u8,
+    at_target: bool,
+    now: u64,
+    p: f32,
+    cfg: crate::config::TendonCheckConfig,
+) -> CheckStep {
+    let settle = cfg.settle_ms as u64;
+    match c.phase {
+        PullPhase::Pulling => {
+            let settled_at_length = at_target && {
+                let t = *c.since_ms.get_or_insert(now);
+                now.saturating_sub(t) >= settle
+            };
+            if seen >= want || settled_at_length {
+                c.phase = PullPhase::Releasing;
+                c.since_ms = None;
+                return CheckStep::Release;
+            }
+            CheckStep::Running
+        }
+        PullPhase::Releasing => {
+            if at_target {
+                c.phase = PullPhase::Settling;
+                c.since_ms = Some(now);
+            }
+            CheckStep::Running
+        }
+        PullPhase::Settling => {
+            let t = *c.since_ms.get_or_insert(now);
+            if now.saturating_sub(t) < settle {
+                return CheckStep::Running;
+            }
+            if p - c.baseline_kpa >= want as f32 * cfg.min_rise_kpa_per_snap {
+                c.phase = PullPhase::Venting;
+                CheckStep::Vent
+            } else {
+                CheckStep::NotConfirmed
+            }
+        }
+        PullPhase::Venting => CheckStep::Vent,
+    }
+}
+
 /// The running plan.
 #[derive(Debug, Clone)]
 pub(super) struct Exec {
@@ -39,6 +128,11 @@ pub(super) struct Exec {
     filling: bool,
     /// Relief state during a pull: exhaust wanted open.
     relieving: bool,
+    /// The sealed-release check of the current `TendonPull` (with snaps).
+    pull: Option<PullCheck>,
+    /// A pneumatic step found the tendons out: it lets them out before its first primitive
+    /// (a held tendon would fight the lengthening trunk).
+    pre_release: bool,
     pub(super) waiting_manual: bool,
     pub(super) manual_confirmed: bool,
 }
@@ -63,7 +157,9 @@ impl Exec {
                 snaps > 0 && sign == SnapSign::Drop
             }
             Some((_, Some(Primitive::TendonPull { snaps, .. }))) => {
-                snaps > 0 && sign == SnapSign::Rise
+                snaps > 0
+                    && sign == SnapSign::Rise
+                    && self.pull.is_some_and(|c| c.phase == PullPhase::Pulling)
             }
             Some((_, Some(Primitive::WaitSnap { .. }))) => true,
             _ => false,
@@ -87,8 +183,10 @@ impl Controller {
             phase: PlanPhase::Running,
         });
         self.safe = false;
+        self.enable_servos();
         self.joystick_armed = false;
         self.joystick_used_raw = None;
+        let pre_release = self.pre_release_needed(plan.steps.first());
         self.exec = Some(Exec {
             plan,
             origin,
@@ -103,6 +201,8 @@ impl Controller {
             hold_kpa: None,
             filling: false,
             relieving: false,
+            pull: None,
+            pre_release,
             waiting_manual: false,
             manual_confirmed: false,
         });
@@ -110,22 +210,19 @@ impl Controller {
         self.update_outputs();
     }
 
-    /// A standalone button's step: the nominal transition, as a one-step plan with id 0. A
-    /// pneumatic step first lets the tendons out (a bent trunk must not fight the pressure).
+    /// A standalone button's step: the nominal transition, as a one-step plan with id 0.
     pub(super) fn start_local_step(&mut self, t: &protocol::transitions::Transition) {
-        let mut step = t.step();
-        let bent = (0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5);
-        if t.kind == StepKind::Pneumatic && bent && step.primitives.len() < MAX_STEP_PRIMITIVES {
-            let mut prims: Vec<Primitive, MAX_STEP_PRIMITIVES> = Vec::new();
-            let _ = prims.push(Primitive::TendonRelease { length_mm: 0.0 });
-            for p in &step.primitives {
-                let _ = prims.push(*p);
-            }
-            step.primitives = prims;
-        }
         let mut steps = Vec::new();
-        let _ = steps.push(step);
+        let _ = steps.push(t.step());
         self.start_exec(protocol::Plan { plan_id: 0, steps }, Origin::Local);
+    }
+
+    /// Whether `step` must let the tendons out first: a pneumatic step while any tendon is
+    /// shortened (the joystick or a `Bend` took up the slack; a held tendon would fight the
+    /// lengthening trunk, and the snap would not come).
+    fn pre_release_needed(&self, step: Option<&Step>) -> bool {
+        step.is_some_and(|s| s.kind == StepKind::Pneumatic)
+            && (0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
     }
 
     /// Ends the running plan (if any) with `phase`, reporting the step and the plan.
@@ -137,6 +234,15 @@ impl Controller {
         self.want_inlet = false;
         self.want_exhaust = false;
         let ok = phase == PlanPhase::Done;
+        if !ok && e.evidence {
+            // The step's transition was already confirmed (its snaps, the sealed release or a
+            // person) before a later primitive of it failed: the trunk is there.
+            if let Some(step) = e.plan.steps.get(e.step as usize) {
+                if step.from != step.to {
+                    self.set_state(step.to, true);
+                }
+            }
+        }
         if !ok {
             self.emit(Event::StepDone {
                 plan_id: e.plan.plan_id,
@@ -185,6 +291,9 @@ impl Controller {
             self.raise(FaultCode::StepTimeout);
             return false;
         }
+        if e.pre_release {
+            return self.pre_release();
+        }
         let Some(prim) = prim else {
             self.finish_step();
             return self.exec.is_some();
@@ -220,11 +329,34 @@ impl Controller {
         }
     }
 
+    /// Lets every tendon out (exhaust open: no vacuum) before a pneumatic step; returns whether
+    /// to look again at once (done).
+    fn pre_release(&mut self) -> bool {
+        let slack = self.angles_for([0.0; 3]);
+        let Some(slack) = slack else {
+            self.raise(FaultCode::ServoLimit);
+            return false;
+        };
+        self.servo_target_deg = slack;
+        self.want_inlet = false;
+        if self.servos_at_target() {
+            self.want_exhaust = false;
+            if let Some(e) = self.exec.as_mut() {
+                e.pre_release = false;
+                e.prim_start_ms = self.now_ms;
+            }
+            return true;
+        }
+        self.want_exhaust = true;
+        false
+    }
+
     fn enter_primitive(&mut self, prim: Primitive) -> Result<(), FaultCode> {
         let now = self.now_ms;
         let cap = self.cfg.pressure_limit_kpa;
         let h = self.cfg.hysteresis_kpa;
         let p = self.pressure.filt_kpa;
+        let start_deg = self.servo_deg;
         let mut targets = None;
         let mut manual = None;
         match prim {
@@ -258,6 +390,15 @@ impl Controller {
         e.prim_start_ms = now;
         e.snaps = 0;
         e.reached_ms = None;
+        e.pull = match prim {
+            Primitive::TendonPull { snaps, .. } if snaps > 0 => Some(PullCheck {
+                phase: PullPhase::Pulling,
+                baseline_kpa: p,
+                start_deg,
+                since_ms: None,
+            }),
+            _ => None,
+        };
         match prim {
             Primitive::Inflate { pressure_kpa, .. } => {
                 // Never regulate above the cap (which may have been lowered since the upload).
@@ -296,6 +437,7 @@ impl Controller {
         let relief = self.cfg.pull_relief_kpa;
         let vent_tol = self.cfg.vent_tolerance_kpa;
         let gripper_ms = self.cfg.gripper_settle_ms as u64;
+        let check = self.cfg.tendon_check;
         let Some(e) = self.exec.as_mut() else {
             return Progress::Running;
         };
@@ -352,27 +494,52 @@ impl Controller {
             }
             Primitive::TendonPull { snaps, .. } => {
                 inlet = false;
-                // The sealed trunk is compressed: the exhaust relieves above the relief pressure.
-                if p > relief {
-                    e.relieving = true;
-                } else if p < relief - h {
-                    e.relieving = false;
-                }
-                exhaust = e.relieving;
-                if snaps > 0 && e.snaps >= snaps {
-                    // Stop pulling at the snap: the servos stay where they are.
-                    self.servo_target_deg = self.servo_deg;
-                    Progress::Done { evidence: true }
-                } else if let Some(t) = reached(e, at_target) {
-                    if snaps == 0 {
-                        Progress::Done { evidence: false }
-                    } else if now.saturating_sub(t) >= settle {
-                        Progress::Fail(FaultCode::TransitionNotConfirmed)
-                    } else {
-                        Progress::Running
+                match e.pull {
+                    None
+                    | Some(PullCheck {
+                        phase: PullPhase::Pulling,
+                        ..
+                    }) => {
+                        // The sealed trunk is compressed: the exhaust relieves above the
+                        // relief pressure (the check below allows for the gas it lets out).
+                        if p > relief {
+                            e.relieving = true;
+                        } else if p < relief - h {
+                            e.relieving = false;
+                        }
+                        exhaust = e.relieving;
                     }
-                } else {
-                    Progress::Running
+                    Some(_) => e.relieving = false,
+                }
+                match e.pull.as_mut() {
+                    // A positioning pull: done at the length.
+                    None => {
+                        if at_target {
+                            Progress::Done { evidence: false }
+                        } else {
+                            Progress::Running
+                        }
+                    }
+                    Some(c) => match pull_check(c, e.snaps, snaps, at_target, now, p, check) {
+                        CheckStep::Running => Progress::Running,
+                        CheckStep::Release => {
+                            // Stop pulling (at the spikes or the length) and go back to where
+                            // the pull started, sealed.
+                            self.servo_target_deg = c.start_deg;
+                            Progress::Running
+                        }
+                        CheckStep::Vent => {
+                            if p <= c.baseline_kpa.max(0.0) + vent_tol {
+                                Progress::Done { evidence: true }
+                            } else {
+                                exhaust = true;
+                                Progress::Running
+                            }
+                        }
+                        CheckStep::NotConfirmed => {
+                            Progress::Fail(FaultCode::TransitionNotConfirmed)
+                        }
+                    },
                 }
             }
             Primitive::TendonRelease { .. } => {
@@ -491,6 +658,12 @@ impl Controller {
             e.hold_kpa = None;
             e.filling = false;
             e.relieving = false;
+            e.pull = None;
+        }
+        let pre_release =
+            self.pre_release_needed(self.exec.as_ref().and_then(|e| e.plan.steps.get(next)));
+        if let Some(e) = self.exec.as_mut() {
+            e.pre_release = pre_release;
         }
         if let Some(ps) = self.plan_status.as_mut() {
             ps.step = next as u8;

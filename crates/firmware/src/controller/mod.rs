@@ -97,6 +97,10 @@ pub struct Outputs {
     pub exhaust_open: bool,
     /// Gripper closed.
     pub gripper_closed: bool,
+    /// Servo pulses on. Off in the safe state: the servos go limp (duty 0, no pulse), so a
+    /// servo that stalled short of its command stops pushing, and the origami holds its state
+    /// by itself (`docs/firmware.md`, "Safety").
+    pub servos_enabled: bool,
 }
 
 /// Pressure measurement state.
@@ -132,6 +136,18 @@ struct LeakWatch {
     suspect_since_ms: Option<u64>,
 }
 
+/// Stuck-open inlet watch: gas coming in with the inlet commanded closed.
+#[derive(Debug, Clone, Copy, Default)]
+struct InletWatch {
+    /// Since when the inlet is commanded closed with the servos still.
+    closed_since_ms: Option<u64>,
+    /// Lowest pressure since then, creeping up at the drift allowance.
+    floor_kpa: Option<f32>,
+    last_ms: u64,
+    /// Venting window: start time and pressure.
+    vent_start: Option<(u64, f32)>,
+}
+
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
 #[derive(Debug)]
 pub struct Controller {
@@ -159,6 +175,7 @@ pub struct Controller {
     snap: SnapDetector,
     last_snap_ms: Option<u64>,
     leak: LeakWatch,
+    inlet: InletWatch,
     buttons: Buttons,
     debounce: Debounce,
     joystick_raw: [u16; 2],
@@ -168,6 +185,11 @@ pub struct Controller {
     // Actuators.
     servo_deg: [f32; 3],
     servo_target_deg: [f32; 3],
+    /// Servo pulses on (off in the safe state).
+    servos_enabled: bool,
+    /// Tendon shortening that takes up the current state's slack (joystick and `Bend`),
+    /// computed once per state change.
+    take_up_mm: f32,
     gripper_closed: bool,
     want_inlet: bool,
     want_exhaust: bool,
@@ -210,14 +232,8 @@ impl Controller {
                 Some(FaultCode::StateStorage),
             ),
         };
-        let mut servo_deg = [0.0; 3];
-        for (i, d) in servo_deg.iter_mut().enumerate() {
-            *d = cfg
-                .servo
-                .angle_for_length(i, 0.0)
-                .max(cfg.servo.min_deg)
-                .min(cfg.servo.max_deg);
-        }
+        let servo_deg = slack_angles(&cfg);
+        let take_up_mm = take_up_mm(&cfg, state);
         let mut ctl = Self {
             cfg,
             now_ms,
@@ -243,6 +259,7 @@ impl Controller {
             snap: SnapDetector::new(),
             last_snap_ms: None,
             leak: LeakWatch::default(),
+            inlet: InletWatch::default(),
             buttons: Buttons::default(),
             debounce: Debounce::default(),
             joystick_raw: cfg.joystick.center_raw,
@@ -250,6 +267,8 @@ impl Controller {
             joystick_armed: false,
             servo_deg,
             servo_target_deg: servo_deg,
+            servos_enabled: faults == 0,
+            take_up_mm,
             gripper_closed: false,
             want_inlet: false,
             want_exhaust: false,
@@ -258,6 +277,7 @@ impl Controller {
                 inlet_open: false,
                 exhaust_open: false,
                 gripper_closed: false,
+                servos_enabled: faults == 0,
             },
             uploaded: None,
             exec: None,
@@ -484,6 +504,9 @@ impl Controller {
 
     fn set_state(&mut self, state: TrunkState, confirmed: bool) {
         let changed = state != self.state || confirmed != self.confirmed;
+        if state != self.state {
+            self.take_up_mm = take_up_mm(&self.cfg, state);
+        }
         self.state = state;
         self.confirmed = confirmed;
         if changed {
@@ -512,6 +535,9 @@ impl Controller {
         self.end_plan(phase);
         self.safe = true;
         self.freeze_servos();
+        // No position feedback: a servo may have stalled short of its command, still pushing.
+        // Limp servos push nothing; the origami holds its state without them.
+        self.servos_enabled = false;
         self.joystick_armed = false;
         self.want_inlet = false;
         self.want_exhaust = false;
@@ -520,6 +546,20 @@ impl Controller {
 
     fn freeze_servos(&mut self) {
         self.servo_target_deg = self.servo_deg;
+    }
+
+    /// Turns limp servos back on, commanded to the slack position: where a limp servo really
+    /// is is unknown (its tendon may have back-driven it toward slack), and paying tendon out
+    /// can never push the trunk, so slack is the one safe command. No-op when enabled.
+    pub(super) fn enable_servos(&mut self) {
+        if self.servos_enabled {
+            return;
+        }
+        let slack = slack_angles(&self.cfg);
+        self.servo_deg = slack;
+        self.servo_target_deg = slack;
+        self.joystick_used_raw = None;
+        self.servos_enabled = true;
     }
 
     /// Clears every fault whose cause is gone; leaves the safe state when none is left.
@@ -539,6 +579,12 @@ impl Controller {
                     self.venting_for_safety || self.pressure.filt_kpa > self.cfg.pressure_limit_kpa
                 }
                 FaultCode::PressureSensor => self.pressure.at_rail,
+                // Until the exhaust has brought the pressure down: a still-stuck inlet holds
+                // it up against the open exhaust.
+                FaultCode::InletStuck => {
+                    !self.pressure_valid()
+                        || self.pressure.filt_kpa > self.cfg.inlet_watch.vent_min_pressure_kpa
+                }
                 _ => false,
             };
             if !cause_present {
@@ -553,6 +599,7 @@ impl Controller {
         if self.faults == 0 {
             self.safe = false;
             self.leak = LeakWatch::default();
+            self.enable_servos();
             true
         } else {
             false
@@ -632,6 +679,47 @@ impl Controller {
         }
 
         self.check_leak(p);
+        self.check_inlet(p);
+    }
+
+    /// A stuck-open inlet: the pressure rises although the inlet is commanded closed (the
+    /// servos still, so no tendon compresses the trunk), or a vent stops making progress.
+    /// Raises InletStuck; its fault keeps the exhaust open (`update_outputs`), which holds the
+    /// pressure at or below where it was.
+    fn check_inlet(&mut self, p: f32) {
+        let now = self.now_ms;
+        let w = self.cfg.inlet_watch;
+        let still = self.servo_deg == self.servo_target_deg;
+        if self.outputs.inlet_open || !still || self.fault_active(FaultCode::InletStuck) {
+            self.inlet = InletWatch::default();
+            return;
+        }
+        let since = *self.inlet.closed_since_ms.get_or_insert(now);
+        if now.saturating_sub(since) < w.closed_settle_ms as u64 {
+            self.inlet.last_ms = now;
+            return;
+        }
+        let dt_s = now.saturating_sub(self.inlet.last_ms) as f32 / 1_000.0;
+        self.inlet.last_ms = now;
+        let floor = match self.inlet.floor_kpa {
+            Some(f) => (f + w.drift_kpa_per_s * dt_s).min(p),
+            None => p,
+        };
+        self.inlet.floor_kpa = Some(floor);
+        let mut stuck = p - floor > w.rise_kpa;
+        if self.outputs.exhaust_open && p > w.vent_min_pressure_kpa {
+            let (t0, p0) = *self.inlet.vent_start.get_or_insert((now, p));
+            if now.saturating_sub(t0) >= w.vent_window_ms as u64 {
+                stuck |= p0 - p < w.vent_min_drop_kpa;
+                self.inlet.vent_start = Some((now, p));
+            }
+        } else {
+            self.inlet.vent_start = None;
+        }
+        if stuck {
+            self.inlet = InletWatch::default();
+            self.raise(FaultCode::InletStuck);
+        }
     }
 
     fn check_leak(&mut self, p: f32) {
@@ -737,16 +825,16 @@ impl Controller {
         Some(a)
     }
 
-    /// Tendon shortenings for a constant-curvature bend (`geometry::tendon`): the tendon on the
-    /// inside of the bend is reeled in by r_t·θ·cos(φ − φ_i); the others pay out, and a tendon
-    /// cannot push, so they go slack (clamped at 0).
+    /// Tendon shortenings for a constant-curvature bend (`geometry::tendon`) around the
+    /// state's taken-up slack: the tendon on the inside of the bend is reeled in by
+    /// r_t·θ·cos(φ − φ_i) more, the others pay out (a tendon cannot push: never below 0).
     fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> [f32; 3] {
         let bend = geometry::tendon::Bend::new(direction_rad, angle_rad);
         let dl = match geometry::tendon::TendonGeometry::new(self.cfg.tendon_radius_mm as f64) {
             Ok(g) => g.length_changes(bend),
             Err(_) => [0.0; 3],
         };
-        dl.map(|d| (-d).max(0.0) as f32)
+        dl.map(|d| (self.take_up_mm - d as f32).max(0.0))
     }
 
     fn standalone_joystick(&mut self) {
@@ -772,10 +860,11 @@ impl Controller {
             return;
         }
         self.joystick_used_raw = Some(raw);
-        let lengths = joystick_lengths_f32(x, y, &jc, self.cfg.tendon_radius_mm);
-        for (i, l) in lengths.iter().enumerate() {
-            // Human input is clamped silently to the limits (a plan's would fault instead).
-            let l = l.min(self.cfg.max_tendon_mm);
+        let dl = joystick_lengths_f32(x, y, &jc, self.cfg.tendon_radius_mm);
+        for (i, d) in dl.iter().enumerate() {
+            // Around the state's taken-up slack: the inside tendon shortens, the others pay
+            // out. Human input is clamped silently to the limits (a plan's would fault).
+            let l = crate::clampf(self.take_up_mm + d, 0.0, self.cfg.max_tendon_mm);
             self.servo_target_deg[i] = self
                 .cfg
                 .servo
@@ -810,7 +899,9 @@ impl Controller {
 
     /// Computes the outputs from the wanted valve states and the safety overlay.
     fn update_outputs(&mut self) {
-        let vent = self.venting_for_safety || self.fault_active(FaultCode::PressureSensor);
+        let vent = self.venting_for_safety
+            || self.fault_active(FaultCode::PressureSensor)
+            || self.fault_active(FaultCode::InletStuck);
         let running = self.exec.is_some() && !self.safe && !self.estop_latched;
         // Never open the inlet at or above the cap, whatever asked for it.
         let below_cap = self.pressure.filt_kpa < self.cfg.pressure_limit_kpa;
@@ -819,6 +910,7 @@ impl Controller {
             inlet_open: running && self.want_inlet && !vent && below_cap && self.pressure_valid(),
             exhaust_open: vent || (running && self.want_exhaust),
             gripper_closed: self.gripper_closed,
+            servos_enabled: self.servos_enabled,
         };
     }
 
@@ -906,7 +998,8 @@ impl Controller {
 
 /// Tendon shortenings for a joystick deflection `(x, y)` (full scale ±1): the single-precision
 /// twin of `geometry::tendon::JoystickMap::bend` followed by `TendonGeometry::length_changes`
-/// (Δl_i = −r_t·θ·cos(φ − φ_i); the shortening is −Δl_i, slack tendons clamped at 0).
+/// (Δl_i = −r_t·θ·cos(φ − φ_i); the shortening is −Δl_i, negative for a tendon that pays
+/// out). The caller adds them to the state's taken-up slack.
 ///
 /// Why a twin: the M4F has a single-precision FPU only; the `f64` path is emulated in software
 /// and costs ~14 000 instructions per update (`docs/firmware.md`, "Timing"), this one a few
@@ -931,7 +1024,27 @@ pub fn joystick_lengths_f32(
     let k = tendon_radius_mm * angle_rad;
     let mut out = [0.0; 3];
     for (o, phi_i) in out.iter_mut().zip(geometry::tendon::TENDON_ANGLES) {
-        *o = (k * libm::cosf(direction_rad - phi_i as f32)).max(0.0);
+        *o = k * libm::cosf(direction_rad - phi_i as f32);
     }
     out
+}
+
+/// Every servo at its slack angle (zero shortening), within the limits.
+fn slack_angles(cfg: &CraneConfig) -> [f32; 3] {
+    core::array::from_fn(|i| {
+        crate::clampf(
+            cfg.servo.angle_for_length(i, 0.0),
+            cfg.servo.min_deg,
+            cfg.servo.max_deg,
+        )
+    })
+}
+
+/// The tendon shortening that takes up `state`'s slack, short of taut by the margin: in the
+/// flexible states (the joystick's and `Bend`'s), 0 elsewhere (D&D has none; F&P is not bent).
+fn take_up_mm(cfg: &CraneConfig, state: TrunkState) -> f32 {
+    if !state.is_flexible() {
+        return 0.0;
+    }
+    (cfg.tendon_slack_mm(state) - cfg.take_up_margin_mm).max(0.0)
 }

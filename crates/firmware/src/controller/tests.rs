@@ -23,31 +23,84 @@ const DP: TrunkState = TrunkState::new(TopState::Deployed, BottomState::Packed);
 const DF: TrunkState = TrunkState::new(TopState::Deployed, BottomState::Folded);
 const DD: TrunkState = TrunkState::new(TopState::Deployed, BottomState::Deployed);
 
+/// Unloaded D&D height of the default trunk (tendon lengths count from its slack position).
+const H_DD_MM: f32 = 197.7;
+/// Sealed pressure change per mm of trunk height (linearised Boyle, ≈ the simulator's).
+const KPA_PER_MM: f32 = 0.12;
+/// A tendon snap's visible spike (the tendons stretch and the trunk jumps shorter).
+const TENDON_SPIKE_KPA: f32 = 2.0;
+
 /// A crude trunk: a pressure node filled by the inlet at 10 kPa/s, emptied by the exhaust
-/// (time constant 200 ms), compressed by the tendons when sealed; snaps at fixed thresholds
-/// between the nominal catalogue's pressures and lengths.
+/// (time constant 200 ms); the sealed gas changes with the trunk's height (0.12 kPa/mm); the
+/// tendons pin the height once taut; snaps at fixed thresholds between the nominal
+/// catalogue's pressures and lengths.
 struct Plant {
     p_kpa: f32,
     state: TrunkState,
     pulled_mm: f32,
     pack_snaps: u8,
     leak_kpa_per_s: f32,
-    /// Pressure snaps disabled (a trunk that does not move).
+    /// Snaps disabled (a trunk that does not move).
     stuck: bool,
+    /// Tendon snaps show as a pressure spike; `false`: the tendons pin the height and the
+    /// buckling does not change the volume until they are let out (a blind snap).
+    tendon_spike: bool,
+    /// The inlet sticks open the first time it opens.
+    inlet_sticks: bool,
+    inlet_stuck_open: bool,
+    /// How much shorter than the tendons allow the trunk jumped at a spiking snap.
+    jump_mm: f32,
+    height_mm: f32,
     noise: u32,
 }
 
 impl Plant {
     fn new(state: TrunkState) -> Self {
-        Self {
+        let mut p = Self {
             p_kpa: 0.0,
             state,
             pulled_mm: 0.0,
             pack_snaps: 0,
             leak_kpa_per_s: 0.0,
             stuck: false,
+            tendon_spike: true,
+            inlet_sticks: false,
+            inlet_stuck_open: false,
+            jump_mm: 0.0,
+            height_mm: 0.0,
             noise: 12345,
+        };
+        p.height_mm = p.rest_mm();
+        p
+    }
+
+    /// Rest height of the current state (one packed layer less while half-packed).
+    fn rest_mm(&self) -> f32 {
+        let h = CraneConfig::default().trunk_height_mm(self.state).unwrap();
+        if self.pack_snaps == 1 {
+            h - 24.7
+        } else {
+            h
         }
+    }
+
+    /// The trunk's height: at rest, or pinned by taut tendons.
+    fn height(&mut self) -> f32 {
+        let free = H_DD_MM - self.pulled_mm - self.jump_mm;
+        let rest = self.rest_mm();
+        if free < rest {
+            free.max(0.0)
+        } else {
+            self.jump_mm = 0.0;
+            rest
+        }
+    }
+
+    /// Moves the height to where it now is, changing the sealed pressure accordingly.
+    fn settle_volume(&mut self) {
+        let h = self.height();
+        self.p_kpa += KPA_PER_MM * (self.height_mm - h);
+        self.height_mm = h;
     }
 
     fn pressure_threshold(state: TrunkState) -> Option<f32> {
@@ -62,21 +115,30 @@ impl Plant {
 
     fn update(&mut self, out: &Outputs, dt_ms: u64, cfg: &CraneConfig) {
         let dt = dt_ms as f32 / 1000.0;
-        if out.inlet_open {
+        if out.inlet_open && self.inlet_sticks {
+            self.inlet_stuck_open = true;
+        }
+        if out.inlet_open || self.inlet_stuck_open {
             self.p_kpa += 10.0 * dt;
         }
         if out.exhaust_open {
             self.p_kpa -= self.p_kpa * dt / 0.2;
         }
-        self.p_kpa -= self.leak_kpa_per_s * dt;
-        if self.p_kpa < 0.0 {
-            self.p_kpa = 0.0;
+        if self.p_kpa > 0.0 {
+            self.p_kpa = (self.p_kpa - self.leak_kpa_per_s * dt).max(0.0);
         }
-        if self.stuck {
-            return;
-        }
+        // Limp servos are back-driven to slack by the trunk.
+        self.pulled_mm = if out.servos_enabled {
+            (0..3)
+                .map(|i| cfg.servo.length_for_angle(i, out.servo_deg[i]))
+                .sum::<f32>()
+                / 3.0
+        } else {
+            0.0
+        };
         // Pressure pops modules out only while the tendons are slack (held tendons resist).
-        if let (true, Some(thr), Some(t)) = (
+        if let (false, true, Some(thr), Some(t)) = (
+            self.stuck,
             self.pulled_mm < 1.0,
             Self::pressure_threshold(self.state),
             transitions::step_up(self.state),
@@ -84,19 +146,19 @@ impl Plant {
             if self.p_kpa >= thr {
                 self.state = t.to;
                 self.p_kpa -= 3.0; // the trunk lengthens: a pressure drop
+                self.height_mm = self.height();
             }
         }
-        let pulled: f32 = (0..3)
-            .map(|i| cfg.servo.length_for_angle(i, out.servo_deg[i]))
-            .sum::<f32>()
-            / 3.0;
-        let d = pulled - self.pulled_mm;
-        self.pulled_mm = pulled;
-        if !out.exhaust_open && d > 0.0 {
-            self.p_kpa += 0.05 * d; // a sealed trunk compressed by the tendons
+        self.settle_volume();
+        if self.stuck {
+            return;
         }
+        let pulled = self.pulled_mm;
         let thr = match (self.state.top, self.state.bottom) {
-            (TopState::Deployed, _) => Some(60.0),
+            // The top folds 14 mm into the taut tendons from D&F, 10 mm from D&P.
+            (TopState::Deployed, BottomState::Deployed) => Some(60.0),
+            (TopState::Deployed, BottomState::Folded) => Some(60.0),
+            (TopState::Deployed, BottomState::Packed) => Some(105.0),
             (TopState::Folded, BottomState::Deployed) => Some(100.0),
             (TopState::Folded, BottomState::Folded) => {
                 Some(if self.pack_snaps == 0 { 140.0 } else { 165.0 })
@@ -105,13 +167,18 @@ impl Plant {
         };
         if let (Some(thr), Some(t)) = (thr, transitions::step_down(self.state)) {
             if pulled >= thr {
-                self.p_kpa += 2.0; // the trunk shortens: a pressure spike
                 if self.state == FF && self.pack_snaps == 0 {
                     self.pack_snaps = 1;
                 } else {
                     self.state = t.to;
                     self.pack_snaps = 0;
                 }
+                let pinned = H_DD_MM - pulled - self.jump_mm < self.rest_mm();
+                if self.tendon_spike && pinned {
+                    // The tendons stretch: the trunk jumps shorter, a pressure spike.
+                    self.jump_mm += TENDON_SPIKE_KPA / KPA_PER_MM;
+                }
+                self.settle_volume();
             }
         }
     }
@@ -641,6 +708,128 @@ fn tendon_plan_d_and_d_to_f_and_p_counts_two_snaps_to_pack() {
     assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
 }
 
+/// The blind edges (docs/simulator.md, "Findings" 1): the tendons pin the trunk's height, the
+/// buckling makes no pressure spike, and the sealed release confirms the step by the volume.
+#[test]
+fn blind_tendon_snaps_are_confirmed_by_the_sealed_release() {
+    let mut r = Rig::connected(FD);
+    r.plant.tendon_spike = false;
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(3, &[FD, FF, FP]));
+    let mut max_servo = 0.0f32;
+    let mut sealed_releases = 0;
+    let mut was_pulled = false;
+    r.run_until(40_000, |r| {
+        let o = r.ctl.poll_outputs();
+        max_servo = max_servo.max(o.servo_deg[0]);
+        // Letting the tendons out with both valves closed.
+        let pulled = r.plant.pulled_mm > 50.0;
+        if was_pulled && !pulled && !o.exhaust_open {
+            sealed_releases += 1;
+        }
+        was_pulled = pulled;
+        r.plan_done().is_some()
+    })
+    .expect("plan finishes");
+    assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
+    assert_eq!(r.plan_done(), Some((true, FP)));
+    assert_eq!(r.plant.state, FP);
+    let s = r.ctl.status();
+    assert!(s.state_confirmed);
+    assert_eq!(sealed_releases, 2);
+    // No spikes: both pulls went to the catalogue's full length.
+    let full = r.cfg.servo.angle_for_length(0, transitions::PACK_BOTTOM_MM);
+    assert!((max_servo - full).abs() < 0.5, "{max_servo} vs {full}");
+    // Vented back to the pressure before the pull, tendons slack.
+    assert!(r.plant.p_kpa.abs() < 1.0, "{}", r.plant.p_kpa);
+    assert!(s.servo_deg.iter().all(|d| d.abs() < 1e-3), "{s:?}");
+}
+
+#[test]
+fn a_pull_without_a_snap_is_refused_after_the_sealed_release() {
+    for (from, to) in [(DD, FD), (FF, FP)] {
+        let mut r = Rig::connected(from);
+        r.plant.stuck = true;
+        r.heartbeat_every_ms = 250;
+        r.upload_and_start(Rig::plan(1, &[from, to]));
+        r.run_until(20_000, |r| r.plan_done().is_some())
+            .expect("fails in time");
+        assert_eq!(r.plan_done(), Some((false, from)));
+        assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+        let s = r.ctl.status();
+        assert_eq!((s.state, s.state_confirmed), (from, true));
+        // The release went back to slack before the comparison.
+        assert!(r.plant.pulled_mm < 1e-3, "{}", r.plant.pulled_mm);
+    }
+    // Packing one bottom layer of two (+3 kPa where both make +6): one snap is not two.
+    let mut r = Rig::connected(FF);
+    r.plant.tendon_spike = false;
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(1, &[FF, FP]));
+    let stop_at_half = |r: &mut Rig| {
+        // The second layer never packs: a stiff one.
+        if r.plant.pack_snaps == 1 && r.plant.pulled_mm > 160.0 {
+            r.plant.stuck = true;
+        }
+    };
+    for _ in 0..20_000 {
+        stop_at_half(&mut r);
+        r.run(1);
+        if r.plan_done().is_some() {
+            break;
+        }
+    }
+    assert_eq!(r.plan_done(), Some((false, FF)));
+    assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+}
+
+#[test]
+fn a_stuck_open_inlet_is_vented_and_never_pushes_the_trunk_on() {
+    // Idle and sealed: gas coming in is a stuck inlet; the exhaust opens and stays open.
+    let mut r = Rig::connected(FF);
+    r.run(200);
+    r.plant.inlet_stuck_open = true;
+    let t = r
+        .run_until(1_000, |r| r.ctl.poll_outputs().exhaust_open)
+        .expect("vents");
+    assert!(t < 200, "{t} ms");
+    assert_eq!(r.faults_raised(), [FaultCode::InletStuck]);
+    assert_eq!(r.ctl.poll_display(), display::fault(11));
+    let mut max = 0.0f32;
+    for _ in 0..5_000 {
+        r.run(1);
+        max = max.max(r.plant.p_kpa);
+    }
+    // The open exhaust against the stuck inlet: the plant's balance is 10 kPa/s · 0.2 s.
+    assert!(max < 2.1, "{max} kPa");
+    assert!(r.ctl.poll_outputs().exhaust_open);
+    assert_eq!(r.plant.state, FF);
+    // Below 3 kPa a reset is allowed (the exhaust wins); a still-stuck inlet trips it again.
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    r.run(300);
+    assert!(r.ctl.poll_outputs().exhaust_open);
+    assert_eq!(r.ctl.mode(), Mode::Safe);
+    // A plan whose inflate sticks the inlet: the pop it asked for happens and is confirmed;
+    // after the vent gives up, the safe state holds the pressure down (no second pop).
+    let mut r = Rig::connected(FF);
+    r.plant.inlet_sticks = true;
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(1, &[FF, DF]));
+    r.run_until(40_000, |r| r.plan_done().is_some())
+        .expect("fails in time");
+    assert_eq!(r.plan_done(), Some((false, DF)));
+    assert!(r.ctl.status().state_confirmed);
+    let mut max = 0.0f32;
+    for _ in 0..10_000 {
+        r.run(1);
+        max = max.max(r.plant.p_kpa);
+    }
+    assert!(r.faults_raised().contains(&FaultCode::InletStuck));
+    assert!(max < 4.0, "{max} kPa");
+    assert_eq!(r.plant.state, DF);
+    assert!(r.ctl.poll_outputs().exhaust_open);
+}
+
 #[test]
 fn a_step_without_its_snap_is_not_confirmed() {
     let mut r = Rig::connected(FP);
@@ -797,15 +986,38 @@ fn abort_goes_to_the_safe_state_and_is_not_latched() {
         after.servo_deg
     );
     assert!(!after.inlet_open && !after.exhaust_open);
+    // Limp: no pulses, so a servo that stalled short of its command pushes nothing.
+    assert!(!after.servos_enabled);
     assert_eq!(r.ctl.mode(), Mode::Safe);
     assert_eq!(r.ctl.status().plan.unwrap().phase, PlanPhase::Aborted);
     assert_eq!(r.plan_done(), Some((false, DD)));
     assert_eq!(r.ctl.poll_display(), display::text("SAFE"));
-    // Not latched: a new step may start at once.
+    // Not latched: a new step may start at once, the servos on again from slack (where a limp
+    // servo really is is unknown; paying out pushes nothing).
     assert_eq!(
         r.request(RequestBody::RunStep(Rig::nominal(DD, FD))).0,
         ResultCode::InProgress
     );
+    let o = r.ctl.poll_outputs();
+    assert!(o.servos_enabled);
+    assert!(o.servo_deg.iter().all(|d| *d < 1.0), "{o:?}");
+}
+
+#[test]
+fn a_fault_leaves_the_servos_limp_until_reset() {
+    let mut r = Rig::connected(DD);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(2, &[DD, FD]));
+    r.run(300);
+    r.buttons.estop = true;
+    r.run(10);
+    assert!(!r.ctl.poll_outputs().servos_enabled);
+    r.buttons.estop = false;
+    r.run(10);
+    assert!(!r.ctl.poll_outputs().servos_enabled);
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    let o = r.ctl.poll_outputs();
+    assert!(o.servos_enabled && o.servo_deg == [0.0; 3], "{o:?}");
 }
 
 #[test]
@@ -889,11 +1101,18 @@ fn gripper_and_bend_primitives() {
     assert_eq!(r.ctl.poll_outputs().servo_deg, [0.0; 3]);
     r.run_until(5_000, |r| r.plan_done().is_some()).unwrap();
     assert_eq!(r.plan_done(), Some((true, FF)));
-    // Tendon 0 on the inside of the bend: r_t·θ = 60 mm · 0.349 = 20.94 mm → 20.0°.
+    // Around F&F's taken-up slack (105.2 mm − the 2 mm margin): tendon 0 on the inside of
+    // the bend shortens by r_t·θ = 60 mm · 0.349 = 20.94 mm more, tendons 1 and 2 pay out half
+    // of that (cos 120° = −0.5).
     let o = r.ctl.poll_outputs();
-    let expect = 60.0 * 20f32.to_radians() / r.cfg.servo.mm_per_deg();
-    assert!((o.servo_deg[0] - expect).abs() < 0.01, "{:?}", o.servo_deg);
-    assert_eq!([o.servo_deg[1], o.servo_deg[2]], [0.0, 0.0]);
+    let take = r.cfg.tendon_slack_mm(FF) - r.cfg.take_up_margin_mm;
+    assert!((take - 103.2).abs() < 0.1, "{take}");
+    let pull = 60.0 * 20f32.to_radians();
+    let want = [take + pull, take - pull / 2.0, take - pull / 2.0];
+    for (i, w) in want.iter().enumerate() {
+        let got = r.cfg.servo.length_for_angle(i, o.servo_deg[i]);
+        assert!((got - w).abs() < 0.01, "{i}: {got} vs {w}: {o:?}");
+    }
     assert!(r.ctl.status().state_confirmed);
 }
 
@@ -905,7 +1124,15 @@ fn gripper_and_bend_primitives() {
 fn over_pressure_vents_at_once() {
     let mut r = Rig::connected(FP);
     r.plant.stuck = true;
+    r.heartbeat_every_ms = 250;
+    // The inlet is open (an inflate) when the pressure jumps: with it closed, the same jump
+    // would be a stuck inlet (tested below).
+    assert_eq!(
+        r.request(RequestBody::RunStep(Rig::nominal(FP, FF))).0,
+        ResultCode::InProgress
+    );
     r.run(100);
+    assert!(r.ctl.poll_outputs().inlet_open);
     r.plant.p_kpa = 45.0;
     // On the third sample above the cap.
     let t = r
@@ -1388,40 +1615,69 @@ fn joystick_bends_only_flexible_states() {
     ];
     r.run(1_000);
     assert_eq!(r.ctl.poll_outputs().servo_deg, [0.0; 3]);
-    // F&F: full +x deflection bends toward tendon 0 by the maximum bend (30°).
+    // F&F: full +x deflection bends toward tendon 0 by the maximum bend (30°), around the
+    // state's taken-up slack (F&F hangs 105.2 mm slack; taken up to 2 mm short of taut).
     let mut r = Rig::new(FF);
     r.joystick = [
         cfg.joystick.center_raw[0] + 8_000,
         cfg.joystick.center_raw[1],
     ];
-    r.run(2_000);
-    let o = r.ctl.poll_outputs();
+    r.run(3_000);
+    let lengths = |r: &Rig| {
+        let o = r.ctl.poll_outputs();
+        [0, 1, 2].map(|i| cfg.servo.length_for_angle(i, o.servo_deg[i]))
+    };
+    let near = |got: [f32; 3], want: [f32; 3]| {
+        assert!(
+            got.iter().zip(want).all(|(g, w)| (g - w).abs() < 0.05),
+            "{got:?} vs {want:?}"
+        );
+    };
+    let take = cfg.tendon_slack_mm(FF) - cfg.take_up_margin_mm;
     let pull0 = cfg.tendon_radius_mm * 30f32.to_radians();
-    assert!(
-        (cfg.servo.length_for_angle(0, o.servo_deg[0]) - pull0).abs() < 0.05,
-        "{o:?}"
+    near(
+        lengths(&r),
+        [take + pull0, take - pull0 / 2.0, take - pull0 / 2.0],
     );
-    assert_eq!([o.servo_deg[1], o.servo_deg[2]], [0.0, 0.0]);
-    // Inside the dead zone: straight again.
+    // Inside the dead zone: straight again, the slack still taken up.
     r.joystick = [cfg.joystick.center_raw[0] + 400, cfg.joystick.center_raw[1]];
     r.run(2_000);
-    assert_eq!(r.ctl.poll_outputs().servo_deg, [0.0; 3]);
-    // +y: between tendons 1 (120°) and 0; tendon 1 pulls r·θ·cos(30°).
+    near(lengths(&r), [take; 3]);
+    // +y: between tendons 1 (120°) and 0; tendon 1 pulls r·θ·cos(30°), tendon 2 pays out as
+    // much, tendon 0 (90° off) stays.
     r.joystick = [
         cfg.joystick.center_raw[0],
         cfg.joystick.center_raw[1] + 8_000,
     ];
     r.run(2_000);
-    let o = r.ctl.poll_outputs();
-    let pull1 = pull0 * 30f32.to_radians().cos();
-    assert!(
-        (cfg.servo.length_for_angle(1, o.servo_deg[1]) - pull1).abs() < 0.05,
-        "{o:?}"
+    let c30 = 30f32.to_radians().cos();
+    near(lengths(&r), [take, take + pull0 * c30, take - pull0 * c30]);
+    // The take-up follows the state (computed at the state change): D&F hangs 45.6 mm slack.
+    let mut r = Rig::new(DF);
+    r.joystick = [
+        cfg.joystick.center_raw[0] + 8_000,
+        cfg.joystick.center_raw[1],
+    ];
+    r.run(2_000);
+    let take_df = cfg.tendon_slack_mm(DF) - cfg.take_up_margin_mm;
+    assert!((take_df - 43.6).abs() < 0.1, "{take_df}");
+    near(
+        lengths(&r),
+        [
+            take_df + pull0,
+            take_df - pull0 / 2.0,
+            take_df - pull0 / 2.0,
+        ],
     );
-    assert_eq!(o.servo_deg[2], 0.0);
-    // Step up from a bent trunk releases the tendons first.
-    r.joystick = cfg.joystick.center_raw;
-    r.joystick[1] += 8_000;
+    // Step up from a bent trunk releases the tendons first (a held tendon would stop the
+    // pop-out), then inflates.
+    let mut r = Rig::new(FF);
+    r.joystick = [
+        cfg.joystick.center_raw[0],
+        cfg.joystick.center_raw[1] + 8_000,
+    ];
+    r.run(2_000);
+    assert!(r.plant.pulled_mm > 90.0, "{}", r.plant.pulled_mm);
     r.press(|b, v| b.up = v);
     r.run_until(20_000, |r| r.ctl.mode() == Mode::Standalone)
         .unwrap();
@@ -1475,7 +1731,7 @@ fn joystick_twin_matches_the_geometry_crate() {
             let ours = joystick_lengths_f32(x, y, &jc, cfg.tendon_radius_mm);
             let dl = tg.length_changes(map.bend(x as f64, y as f64));
             for k in 0..3 {
-                worst = worst.max((ours[k] as f64 - (-dl[k]).max(0.0)).abs());
+                worst = worst.max((ours[k] as f64 + dl[k]).abs());
             }
         }
     }

@@ -140,6 +140,12 @@ pub struct InletWatchConfig {
     pub drift_kpa_per_s: f32,
     /// The watch starts this long after the inlet was commanded closed (valve and filter lag).
     pub closed_settle_ms: u32,
+    /// After a rise, the pressure must rise by `confirm_rise_kpa` more in the second half of
+    /// this time (an open inlet fills at ≈ 10 kPa/s); a rise that stops (a load pressing on
+    /// the sealed trunk) becomes the new floor.
+    pub confirm_ms: u32,
+    /// See `confirm_ms`.
+    pub confirm_rise_kpa: f32,
     /// While venting (exhaust open, inlet closed, servos still) above `vent_min_pressure_kpa`,
     /// the pressure must fall by `vent_min_drop_kpa` in every window of this length.
     pub vent_window_ms: u32,
@@ -160,6 +166,13 @@ pub struct JoystickConfig {
     pub dead_zone: f32,
     /// Bend angle of the trunk tip at full deflection.
     pub max_bend_deg: f32,
+    /// Bend at full deflection in a flexible state without a folded module (`D&P`: a
+    /// deployed top over a packed bottom). Neither module bends easily there, so a one-sided
+    /// pull mostly compresses the trunk, and the deployed top buckles under ≈ 75 N (7 mm of
+    /// compression past taut in the simulator); 8° keeps the pull ≈ 6 mm past taut (≈ 31 N,
+    /// 2.6° of real bend in the simulator). Also the largest `Bend` allowed there (a larger
+    /// one faults with ServoLimit).
+    pub stiff_max_bend_deg: f32,
 }
 
 /// Everything the controller needs to know about its crane.
@@ -278,6 +291,8 @@ impl Default for CraneConfig {
                 rise_kpa: 1.0,
                 drift_kpa_per_s: 0.2,
                 closed_settle_ms: 50,
+                confirm_ms: 200,
+                confirm_rise_kpa: 0.3,
                 vent_window_ms: 1_000,
                 vent_min_drop_kpa: 0.5,
                 vent_min_pressure_kpa: 3.0,
@@ -300,6 +315,7 @@ impl Default for CraneConfig {
                 half_range_raw: 8000.0,
                 dead_zone: 0.1,
                 max_bend_deg: 30.0,
+                stiff_max_bend_deg: 8.0,
             },
             link_timeout_ms: protocol::DEFAULT_LINK_TIMEOUT_MS,
             telemetry_hz: 10.0,
@@ -394,6 +410,12 @@ impl CraneConfig {
         self.pressure_sensor.filter_tau_ms =
             fix(self.pressure_sensor.filter_tau_ms, 0.0, 1000.0, 8.0);
         self.joystick.dead_zone = fix(self.joystick.dead_zone, 0.0, 0.9, d.joystick.dead_zone);
+        self.joystick.stiff_max_bend_deg = fix(
+            self.joystick.stiff_max_bend_deg,
+            0.0,
+            self.joystick.max_bend_deg.max(0.0),
+            d.joystick.stiff_max_bend_deg,
+        );
         self.packed_layer_mm = fix(self.packed_layer_mm, 0.0, 50.0, d.packed_layer_mm);
         self.take_up_margin_mm = fix(self.take_up_margin_mm, 0.0, 50.0, d.take_up_margin_mm);
         // A zero threshold would confirm any tendon step.

@@ -600,4 +600,34 @@ mod tests {
         // Every residual stays below the lowest snap threshold (unpacking at 13 kPa).
         assert!(dp_long < 12.0 && dp < 12.0, "{dp_long} {dp}");
     }
+
+    /// The firmware confirms a tendon step expecting n snaps by a sealed rise of at least
+    /// n × `tendon_check.min_rise_kpa_per_snap`: every catalogue edge clears it with margin,
+    /// whether the pull stops at the snaps or goes to its full length, and neither a pull short
+    /// of the snap nor packing one bottom layer of two does.
+    #[test]
+    fn every_tendon_edge_clears_the_firmwares_sealed_rise_threshold() {
+        let per_snap = firmware::CraneConfig::default()
+            .tendon_check
+            .min_rise_kpa_per_snap as f64;
+        for t in TRANSITIONS.iter().filter(|t| t.kind == StepKind::Tendon) {
+            let Some(Primitive::TendonPull { length_mm, snaps }) = t.primitives.first() else {
+                panic!("{t:?}");
+            };
+            let need = *snaps as f64 * per_snap;
+            for stop_at_snaps in [*snaps, 0] {
+                let mut rig = Rig::new(t.from, RigConfig::default());
+                let p0 = rig.trunk.pressure_kpa();
+                rig.pull(*length_mm as f64, stop_at_snaps);
+                rig.release_sealed(0.0);
+                let rise = rig.trunk.pressure_kpa() - p0;
+                assert!(rise > need + 1.0, "{} -> {}: {rise:.2} kPa", t.from, t.to);
+            }
+        }
+        let (_, no_snap, _) = pull_and_release_sealed("F&D", 80.0);
+        assert!(no_snap < per_snap - 1.0, "{no_snap}");
+        let (n, one_layer, s) = pull_and_release_sealed("F&F", 150.0);
+        assert_eq!((n, s), (1, None));
+        assert!(one_layer < 2.0 * per_snap - 0.8, "{one_layer}");
+    }
 }

@@ -1,5 +1,5 @@
 //! A hobby servo turning a tendon winch: follows its PWM command with a load-dependent slew
-//! rate and stalls above its torque.
+//! rate and stalls above its torque; without pulses it goes limp and the tendon back-drives it.
 
 /// Servo and winch data.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -14,6 +14,12 @@ pub struct ServoSpec {
     pub max_pulse_us: f64,
     /// Mechanical range, degrees.
     pub range_deg: f64,
+    /// Torque that back-drives the unpowered gear train, N·m (≈ 5 N of tendon on the 60 mm
+    /// spool: a metal-gear 60 kg·cm servo turns by hand with some effort).
+    pub backdrive_torque_n_m: f64,
+    /// Back-driven speed per N·m above that, °/s (the motor shorted through its idle driver
+    /// acts as a brake).
+    pub backdrive_deg_per_s_per_n_m: f64,
 }
 
 impl Default for ServoSpec {
@@ -24,6 +30,8 @@ impl Default for ServoSpec {
             min_pulse_us: 500.0,
             max_pulse_us: 2500.0,
             range_deg: 180.0,
+            backdrive_torque_n_m: 0.3,
+            backdrive_deg_per_s_per_n_m: 100.0,
         }
     }
 }
@@ -42,6 +50,8 @@ pub struct Servo {
     pub jammed: bool,
     /// It could not move toward its command in the last step (load above stall torque).
     pub stalled: bool,
+    /// No pulses (duty 0): unpowered, it drives nothing and the load may back-drive it.
+    pub limp: bool,
 }
 
 impl Servo {
@@ -53,14 +63,22 @@ impl Servo {
             command_deg: angle_deg,
             jammed: false,
             stalled: false,
+            limp: false,
         }
     }
 
-    /// Takes a pulse width (µs); a pulse outside the servo's range (or none) is ignored and
-    /// the servo holds its last command, as digital servos do.
+    /// Takes a pulse width (µs): no pulse at all (0) turns the servo off (limp, until the next
+    /// valid pulse); a pulse outside the servo's range is ignored and the servo holds its last
+    /// command, as digital servos do.
     pub fn set_pulse_us(&mut self, pulse_us: f64) {
         let s = &self.spec;
+        if pulse_us <= 0.0 {
+            self.limp = true;
+            self.command_deg = self.angle_deg;
+            return;
+        }
         if pulse_us >= s.min_pulse_us - 50.0 && pulse_us <= s.max_pulse_us + 50.0 {
+            self.limp = false;
             let frac =
                 ((pulse_us - s.min_pulse_us) / (s.max_pulse_us - s.min_pulse_us)).clamp(0.0, 1.0);
             self.command_deg = frac * s.range_deg;
@@ -71,9 +89,22 @@ impl Servo {
     /// puts on the shaft (positive: opposing an increase of the angle). Speed falls linearly with the
     /// opposing torque (the DC motor's torque–speed line) and is zero at the stall torque;
     /// moving with the load is at full speed.
+    /// A limp servo turns with the load (toward slack for a tendon) when it exceeds the
+    /// back-drive torque.
     pub fn step(&mut self, dt_s: f64, load_torque_n_m: f64) {
-        let err = self.command_deg - self.angle_deg;
         self.stalled = false;
+        if self.limp {
+            let excess = load_torque_n_m.abs() - self.spec.backdrive_torque_n_m;
+            if excess > 0.0 && !self.jammed {
+                let d = excess * self.spec.backdrive_deg_per_s_per_n_m * dt_s;
+                // A positive load opposes an increasing angle: it turns the shaft down.
+                let next = self.angle_deg - d * load_torque_n_m.signum();
+                self.angle_deg = next.clamp(0.0, self.spec.range_deg);
+            }
+            self.command_deg = self.angle_deg;
+            return;
+        }
+        let err = self.command_deg - self.angle_deg;
         if self.jammed || err == 0.0 {
             self.stalled = self.jammed && err.abs() > 0.5;
             return;
@@ -133,10 +164,28 @@ mod tests {
     }
 
     #[test]
+    fn without_pulses_it_goes_limp_and_the_load_back_drives_it() {
+        let mut s = Servo::new(ServoSpec::default(), 90.0);
+        s.set_pulse_us(0.0);
+        assert!(s.limp);
+        // Below the back-drive torque it stays.
+        s.step(1.0, 0.2);
+        assert_eq!(s.angle_deg, 90.0);
+        // 1.3 N·m (≈ 22 N of tendon): 1 N·m above it, 100 °/s toward slack.
+        s.step(0.1, 1.3);
+        assert!((s.angle_deg - 80.0).abs() < 1e-9, "{}", s.angle_deg);
+        assert!(!s.stalled && s.command_deg == s.angle_deg);
+        // A valid pulse powers it again.
+        s.set_pulse_us(1500.0);
+        assert!(!s.limp && s.command_deg == 90.0);
+    }
+
+    #[test]
     fn ignores_pulses_out_of_range_and_jams_when_faulted() {
         let mut s = Servo::new(ServoSpec::default(), 10.0);
-        s.set_pulse_us(0.0);
+        s.set_pulse_us(5_000.0);
         assert_eq!(s.command_deg, 10.0);
+        assert!(!s.limp);
         s.jammed = true;
         s.set_pulse_us(2500.0);
         s.step(1.0, 0.0);

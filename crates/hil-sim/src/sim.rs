@@ -17,7 +17,7 @@ use crate::devices::{
 use crate::fault::Fault;
 use crate::operator::{Operator, OperatorAction};
 use crate::physics::params::{
-    BOTTOM_BETA_DEG, BOTTOM_LAYERS, EDGE_MM, N_SIDES, TOP_BETA_DEG, TOP_LAYERS,
+    BOTTOM_BETA_DEG, BOTTOM_LAYERS, EDGE_MM, N_SIDES, PACKED_LAYER_MM, TOP_BETA_DEG, TOP_LAYERS,
 };
 use crate::physics::trunk::{well_name, Module};
 use crate::physics::{Actuation, Trunk, TrunkParams};
@@ -78,7 +78,8 @@ pub struct GroundTruth {
     pub max_pressure_kpa: f32,
     /// The controller's pressure cap, kPa.
     pub pressure_limit_kpa: f32,
-    /// Inlet closed, servos at rest and the pressure within the cap.
+    /// Inlet closed, every servo limp or at its command (none pushing toward a position it
+    /// has not reached), and the pressure within the cap.
     pub actuators_safe: bool,
     /// True gauge pressure now, kPa.
     pub pressure_kpa: f32,
@@ -92,6 +93,8 @@ pub struct GroundTruth {
     pub tendon_tension_n: [f32; 3],
     /// Servo shaft angles, degrees.
     pub servo_deg: [f32; 3],
+    /// Servos powered (receiving pulses).
+    pub servos_energised: [bool; 3],
     /// Inlet passes air (including a stuck valve).
     pub inlet_open: bool,
     /// Exhaust passes air.
@@ -143,8 +146,9 @@ pub struct HeldButtons {
     pub show_pressure: bool,
 }
 
-/// The crane's configuration as the simulator builds it: the firmware's defaults, with the
-/// board and the trunk of this simulator.
+/// The crane's configuration as the simulator builds it: the firmware's defaults (the same
+/// trunk: a test checks it), with the board of this simulator; the trunk is still set from
+/// the physics' constants, so a change there reaches the controller.
 pub fn sim_crane_config() -> CraneConfig {
     let mut cfg = CraneConfig {
         board: Board::Simulator,
@@ -162,6 +166,7 @@ pub fn sim_crane_config() -> CraneConfig {
         edge_mm: EDGE_MM as f32,
         layers: BOTTOM_LAYERS as u8,
     };
+    cfg.packed_layer_mm = PACKED_LAYER_MM as f32;
     cfg.validated()
 }
 
@@ -632,7 +637,7 @@ impl Sim {
         let servos_still = self
             .servos
             .iter()
-            .all(|s| (s.angle_deg - s.command_deg).abs() < 0.5);
+            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
         let status = self.ctl.status();
         let h = self.trunk.heights_mm();
         GroundTruth {
@@ -646,6 +651,7 @@ impl Sim {
             bend_deg: self.trunk.bend_deg().0 as f32,
             tendon_tension_n: self.trunk.tensions_n().map(|t| t as f32),
             servo_deg: self.servos.map(|s| s.angle_deg as f32),
+            servos_energised: self.servos.map(|s| !s.limp),
             inlet_open,
             exhaust_open: self.shell.outputs.exhaust.high,
             gripper_closed: self.shell.outputs.gripper.high,
@@ -666,6 +672,24 @@ mod tests {
     #[test]
     fn hand_is_what_the_firmware_draws() {
         assert_eq!(HAND, firmware::display::text("HAnd"));
+    }
+
+    #[test]
+    fn the_firmware_default_is_this_trunk_and_its_heights_are_the_physics_wells() {
+        let fw = CraneConfig::default();
+        let sim = sim_crane_config();
+        assert_eq!(fw.trunk, sim.trunk);
+        assert_eq!(fw.packed_layer_mm, sim.packed_layer_mm);
+        // The controller's state heights (its joystick take-up) are where the physics rests.
+        for s in TrunkState::ALL {
+            let trunk = Trunk::new(TrunkParams::pdf().unwrap(), s);
+            let h: f64 = trunk.heights_mm().iter().sum();
+            let ours = sim.trunk_height_mm(s).unwrap() as f64;
+            assert!(
+                (h - ours).abs() < 1.0,
+                "{s}: physics {h:.2} vs controller {ours:.2}"
+            );
+        }
     }
 
     #[test]

@@ -370,10 +370,12 @@ impl Controller {
                 direction_deg,
                 angle_deg,
             } => {
-                let l = self.bend_lengths(
-                    (direction_deg as f64).to_radians(),
-                    (angle_deg as f64).to_radians(),
-                );
+                let l = self
+                    .bend_lengths(
+                        (direction_deg as f64).to_radians(),
+                        (angle_deg as f64).to_radians(),
+                    )
+                    .ok_or(FaultCode::ServoLimit)?;
                 targets = Some(self.angles_for(l).ok_or(FaultCode::ServoLimit)?);
             }
             Primitive::Gripper { close } => self.gripper_closed = close,

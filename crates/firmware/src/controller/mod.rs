@@ -144,6 +144,9 @@ struct InletWatch {
     /// Lowest pressure since then, creeping up at the drift allowance.
     floor_kpa: Option<f32>,
     last_ms: u64,
+    /// A rise seen: when, and the pressure half-way through the confirmation (it must go on
+    /// rising in the second half to count).
+    suspect: Option<(u64, Option<f32>)>,
     /// Venting window: start time and pressure.
     vent_start: Option<(u64, f32)>,
 }
@@ -190,6 +193,9 @@ pub struct Controller {
     /// Tendon shortening that takes up the current state's slack (joystick and `Bend`),
     /// computed once per state change.
     take_up_mm: f32,
+    /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
+    /// change.
+    max_bend_deg: f32,
     gripper_closed: bool,
     want_inlet: bool,
     want_exhaust: bool,
@@ -234,6 +240,7 @@ impl Controller {
         };
         let servo_deg = slack_angles(&cfg);
         let take_up_mm = take_up_mm(&cfg, state);
+        let max_bend_deg = max_bend_deg(&cfg, state);
         let mut ctl = Self {
             cfg,
             now_ms,
@@ -269,6 +276,7 @@ impl Controller {
             servo_target_deg: servo_deg,
             servos_enabled: faults == 0,
             take_up_mm,
+            max_bend_deg,
             gripper_closed: false,
             want_inlet: false,
             want_exhaust: false,
@@ -506,6 +514,7 @@ impl Controller {
         let changed = state != self.state || confirmed != self.confirmed;
         if state != self.state {
             self.take_up_mm = take_up_mm(&self.cfg, state);
+            self.max_bend_deg = max_bend_deg(&self.cfg, state);
         }
         self.state = state;
         self.confirmed = confirmed;
@@ -690,7 +699,10 @@ impl Controller {
         let now = self.now_ms;
         let w = self.cfg.inlet_watch;
         let still = self.servo_deg == self.servo_target_deg;
-        if self.outputs.inlet_open || !still || self.fault_active(FaultCode::InletStuck) {
+        // A person doing a manual step moves the trunk (packing it raises the pressure).
+        let by_hand = self.exec.as_ref().is_some_and(|e| e.waiting_manual);
+        if self.outputs.inlet_open || !still || by_hand || self.fault_active(FaultCode::InletStuck)
+        {
             self.inlet = InletWatch::default();
             return;
         }
@@ -706,7 +718,27 @@ impl Controller {
             None => p,
         };
         self.inlet.floor_kpa = Some(floor);
-        let mut stuck = p - floor > w.rise_kpa;
+        // A rise must go on: a load pressing on the sealed trunk raises it once, then stops
+        // (accepted as the new level); gas coming in keeps raising it.
+        // The second half of the window, so a step still settling through the filter (8 ms)
+        // or the trunk's damping (≈ 50 ms) is not taken for a continuing rise.
+        let mut stuck = false;
+        let half = w.confirm_ms as u64 / 2;
+        match self.inlet.suspect {
+            None if p - floor > w.rise_kpa => self.inlet.suspect = Some((now, None)),
+            Some((t0, None)) if now.saturating_sub(t0) >= half => {
+                self.inlet.suspect = Some((t0, Some(p)));
+            }
+            Some((t0, Some(p_half))) if now.saturating_sub(t0) >= 2 * half => {
+                if p - p_half > w.confirm_rise_kpa {
+                    stuck = true;
+                } else {
+                    self.inlet.suspect = None;
+                    self.inlet.floor_kpa = Some(p);
+                }
+            }
+            _ => {}
+        }
         if self.outputs.exhaust_open && p > w.vent_min_pressure_kpa {
             let (t0, p0) = *self.inlet.vent_start.get_or_insert((now, p));
             if now.saturating_sub(t0) >= w.vent_window_ms as u64 {
@@ -828,13 +860,20 @@ impl Controller {
     /// Tendon shortenings for a constant-curvature bend (`geometry::tendon`) around the
     /// state's taken-up slack: the tendon on the inside of the bend is reeled in by
     /// r_t·θ·cos(φ − φ_i) more, the others pay out (a tendon cannot push: never below 0).
-    fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> [f32; 3] {
+    fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> Option<[f32; 3]> {
+        if libm::fabs(angle_rad) > (self.max_bend_deg as f64).to_radians() + 1e-6
+            && self.take_up_mm > 0.0
+            && self.max_bend_deg < self.cfg.joystick.max_bend_deg
+        {
+            // A stiff state would buckle before it bends that far.
+            return None;
+        }
         let bend = geometry::tendon::Bend::new(direction_rad, angle_rad);
         let dl = match geometry::tendon::TendonGeometry::new(self.cfg.tendon_radius_mm as f64) {
             Ok(g) => g.length_changes(bend),
             Err(_) => [0.0; 3],
         };
-        dl.map(|d| (self.take_up_mm - d as f32).max(0.0))
+        Some(dl.map(|d| (self.take_up_mm - d as f32).max(0.0)))
     }
 
     fn standalone_joystick(&mut self) {
@@ -860,6 +899,10 @@ impl Controller {
             return;
         }
         self.joystick_used_raw = Some(raw);
+        let jc = crate::config::JoystickConfig {
+            max_bend_deg: self.max_bend_deg,
+            ..jc
+        };
         let dl = joystick_lengths_f32(x, y, &jc, self.cfg.tendon_radius_mm);
         for (i, d) in dl.iter().enumerate() {
             // Around the state's taken-up slack: the inside tendon shortens, the others pay
@@ -1038,6 +1081,17 @@ fn slack_angles(cfg: &CraneConfig) -> [f32; 3] {
             cfg.servo.max_deg,
         )
     })
+}
+
+/// The largest bend in `state`: the joystick's full deflection, less where no module is folded.
+fn max_bend_deg(cfg: &CraneConfig, state: TrunkState) -> f32 {
+    let folded =
+        state.top == geometry::TopState::Folded || state.bottom == geometry::BottomState::Folded;
+    if folded {
+        cfg.joystick.max_bend_deg
+    } else {
+        cfg.joystick.stiff_max_bend_deg
+    }
 }
 
 /// The tendon shortening that takes up `state`'s slack, short of taut by the margin: in the

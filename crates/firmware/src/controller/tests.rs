@@ -784,6 +784,18 @@ fn a_pull_without_a_snap_is_refused_after_the_sealed_release() {
 }
 
 #[test]
+fn a_load_pressing_on_the_sealed_trunk_is_not_a_stuck_inlet() {
+    let mut r = Rig::connected(FF);
+    r.run(200);
+    // A one-off rise of 2.5 kPa (a payload compressing the sealed trunk), then flat.
+    r.plant.p_kpa += 2.5;
+    r.run(2_000);
+    assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
+    assert!(!r.ctl.poll_outputs().exhaust_open);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+}
+
+#[test]
 fn a_stuck_open_inlet_is_vented_and_never_pushes_the_trunk_on() {
     // Idle and sealed: gas coming in is a stuck inlet; the exhaust opens and stays open.
     let mut r = Rig::connected(FF);
@@ -792,21 +804,26 @@ fn a_stuck_open_inlet_is_vented_and_never_pushes_the_trunk_on() {
     let t = r
         .run_until(1_000, |r| r.ctl.poll_outputs().exhaust_open)
         .expect("vents");
-    assert!(t < 200, "{t} ms");
+    // 1 kPa of rise (100 ms at 10 kPa/s) and 200 ms of confirmation.
+    assert!(t < 400, "{t} ms");
     assert_eq!(r.faults_raised(), [FaultCode::InletStuck]);
     assert_eq!(r.ctl.poll_display(), display::fault(11));
+    let at_fault = r.plant.p_kpa;
+    assert!(at_fault < 3.5, "{at_fault} kPa");
     let mut max = 0.0f32;
     for _ in 0..5_000 {
         r.run(1);
         max = max.max(r.plant.p_kpa);
     }
-    // The open exhaust against the stuck inlet: the plant's balance is 10 kPa/s · 0.2 s.
-    assert!(max < 2.1, "{max} kPa");
+    // Never above where the fault found it; then down to the open exhaust's balance against
+    // the stuck inlet (the plant's 10 kPa/s · 0.2 s).
+    assert!(max <= at_fault + 0.05, "{max} vs {at_fault} kPa");
+    assert!(r.plant.p_kpa < 2.1, "{} kPa", r.plant.p_kpa);
     assert!(r.ctl.poll_outputs().exhaust_open);
     assert_eq!(r.plant.state, FF);
     // Below 3 kPa a reset is allowed (the exhaust wins); a still-stuck inlet trips it again.
     assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
-    r.run(300);
+    r.run(600);
     assert!(r.ctl.poll_outputs().exhaust_open);
     assert_eq!(r.ctl.mode(), Mode::Safe);
     // A plan whose inflate sticks the inlet: the pop it asked for happens and is confirmed;
@@ -825,7 +842,8 @@ fn a_stuck_open_inlet_is_vented_and_never_pushes_the_trunk_on() {
         max = max.max(r.plant.p_kpa);
     }
     assert!(r.faults_raised().contains(&FaultCode::InletStuck));
-    assert!(max < 4.0, "{max} kPa");
+    // The vent's balance (2 kPa) plus ≈ 3 kPa while the watch confirms the rise (300 ms).
+    assert!(max < 6.0, "{max} kPa");
     assert_eq!(r.plant.state, DF);
     assert!(r.ctl.poll_outputs().exhaust_open);
 }

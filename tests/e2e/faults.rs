@@ -1,11 +1,6 @@
 //! Injected faults end in a clean failure — exit 1, `ok: false`, an error naming the step and
-//! why — with the actuators safe and the pressure never above its limit; line noise is survived.
-//!
-//! Known finding (hil-sim's `a_weak_servo_supply_fails_the_pull_cleanly`): with `servo-stall`
-//! the plan fails cleanly, but the controller's safe state holds the servos at the angle it
-//! believes they reached, short of where they stalled, so they stay energised at their stall
-//! torque and the simulator does not call the actuators safe. This test pins that down and
-//! fails ("now safe") once the firmware releases stalled servos.
+//! why — with the actuators safe (for `servo-stall`: the safe state stops the servo pulses, so
+//! the stalled servos go limp) and the pressure never above its limit; line noise is survived.
 
 use std::time::Duration;
 
@@ -93,14 +88,7 @@ fn each_fault_ends_in_a_clean_failure_naming_the_step() {
             "{fault}: {v}"
         );
         let sim = &v["sim"];
-        if fault == "servo-stall" {
-            assert_eq!(
-                sim["actuators_safe"], false,
-                "servo-stall: the actuators are now safe: update this test and docs/host.md: {v}"
-            );
-        } else {
-            assert_eq!(sim["actuators_safe"], true, "{fault}: {v}");
-        }
+        assert_eq!(sim["actuators_safe"], true, "{fault}: {v}");
         let max = sim["max_pressure_kpa"].as_f64().unwrap();
         let limit = sim["pressure_limit_kpa"].as_f64().unwrap();
         assert!(max <= limit, "{fault}: {max} kPa > {limit} kPa");

@@ -1,12 +1,7 @@
 //! Every (initial, target) pair through the real `host-tool` binary against the simulator on a
-//! pty: the device reports the target, and the simulator's physics agrees.
-//!
-//! Known finding (hil-sim's tests, `BLIND_EDGES`): two tendon edges, `F&D → F&F` and
-//! `F&F → F&P`, are *blind*: the simulated trunk makes the transition but the controller's snap
-//! detector sees no pressure signature, so it refuses to confirm it (E-04) and goes safe. Plans
-//! through them must then fail cleanly at that edge, naming it, with belief and truth exactly
-//! one edge apart. When the controller learns to see these snaps this test fails at the
-//! "blind edge now works" check: remove the edge from [`BLIND_EDGES`] then.
+//! pty: the device reports the target, and the simulator's physics agrees. That includes the
+//! tendon edges `F&D → F&F` and `F&F → F&P`, whose snaps make no pressure spike under the
+//! pinning tendons: the controller confirms them by the sealed release (docs/firmware.md).
 
 use std::time::{Duration, Instant};
 
@@ -19,11 +14,9 @@ pub const SPEED: &str = "30";
 /// sleep between polls, so more than the 2 cores is fine).
 const THREADS: usize = 6;
 const LIMIT: Duration = Duration::from_secs(60);
-/// Tendon edges the controller cannot confirm today (see the module docs).
-const BLIND_EDGES: [(&str, &str); 2] = [("F&D", "F&F"), ("F&F", "F&P")];
 
 #[test]
-fn all_36_plans_reach_their_target_or_stop_cleanly_at_a_known_blind_edge() {
+fn all_36_plans_reach_their_target() {
     let pairs: Vec<(&str, &str)> = STATES
         .iter()
         .flat_map(|a| STATES.iter().map(move |b| (*a, *b)))
@@ -55,37 +48,6 @@ fn all_36_plans_reach_their_target_or_stop_cleanly_at_a_known_blind_edge() {
         let plan = planner::graph::Graph::nominal()
             .plan(from.parse().unwrap(), to.parse().unwrap())
             .unwrap();
-        let blind =
-            plan.steps().iter().enumerate().find(|(_, st)| {
-                BLIND_EDGES.contains(&(st.edge.from().name(), st.edge.to().name()))
-            });
-        if let Some((index, edge)) = blind {
-            let (bf, bt) = (edge.edge.from().name(), edge.edge.to().name());
-            let named = format!(
-                "step {}/{} (tendon {bf} → {bt}) failed: {}",
-                index + 1,
-                plan.steps().len(),
-                protocol::FaultCode::TransitionNotConfirmed.description()
-            );
-            let clean = out.code() == 1
-                && v["ok"] == false
-                && v["error"].as_str().is_some_and(|e| e.starts_with(&named))
-                && v["final_state"] == bf
-                && v["sim"]["true_state"] == bt
-                && v["sim"]["actuators_safe"] == true
-                && v["steps"].as_array().map(Vec::len) == Some(index + 1);
-            if v["ok"] == true {
-                failures.push(format!(
-                    "{from} → {to}: blind edge {bf} → {bt} now works: remove it from BLIND_EDGES"
-                ));
-            } else if !clean {
-                failures.push(format!(
-                    "{from} → {to}: not a clean failure at {bf} → {bt}: {v}"
-                ));
-            }
-            continue;
-        }
-        reached += 1;
         let ok = out.code() == 0
             && v["ok"] == true
             && v["from"] == *from
@@ -98,6 +60,7 @@ fn all_36_plans_reach_their_target_or_stop_cleanly_at_a_known_blind_edge() {
             failures.push(format!("{from} → {to}: exit {} {v}", out.code()));
             continue;
         }
+        reached += 1;
         let steps = v["steps"].as_array().expect("steps is an array");
         let expected = plan;
         assert_eq!(steps.len(), expected.steps().len(), "{from} → {to}: {v}");
@@ -124,6 +87,5 @@ fn all_36_plans_reach_their_target_or_stop_cleanly_at_a_known_blind_edge() {
         failures.len(),
         failures.join("\n")
     );
-    // Every pair whose plan avoids the blind edges reached its target: 26 of 36.
-    assert_eq!(reached, 26);
+    assert_eq!(reached, 36);
 }

@@ -39,6 +39,11 @@ struct PullCheck {
     phase: PullPhase,
     /// Filtered pressure when the pull started (valves closed).
     baseline_kpa: f32,
+    /// Pressure lost through the relief valve during the pull (the drops while it was open),
+    /// added back before the comparison: that gas left, the volume did not grow.
+    relieved_kpa: f32,
+    /// Pressure when the relief valve last opened (while it is open).
+    relief_from_kpa: Option<f32>,
     /// Servo angles when the pull started: the sealed release returns there.
     start_deg: [f32; 3],
     /// When the current phase began to wait (at the length, or released).
@@ -95,7 +100,7 @@ fn pull_check(
             if now.saturating_sub(t) < settle {
                 return CheckStep::Running;
             }
-            if p - c.baseline_kpa >= want as f32 * cfg.min_rise_kpa_per_snap {
+            if p - c.baseline_kpa + c.relieved_kpa >= want as f32 * cfg.min_rise_kpa_per_snap {
                 c.phase = PullPhase::Venting;
                 CheckStep::Vent
             } else {
@@ -396,6 +401,8 @@ impl Controller {
             Primitive::TendonPull { snaps, .. } if snaps > 0 => Some(PullCheck {
                 phase: PullPhase::Pulling,
                 baseline_kpa: p,
+                relieved_kpa: 0.0,
+                relief_from_kpa: None,
                 start_deg,
                 since_ms: None,
             }),
@@ -513,6 +520,19 @@ impl Controller {
                     }
                     Some(_) => e.relieving = false,
                 }
+                if let Some(c) = e.pull.as_mut() {
+                    // Account for the gas the relief lets out (measured as the drop while open;
+                    // the pull's own compression meanwhile makes it an underestimate, which errs
+                    // toward not confirming).
+                    match (e.relieving, c.relief_from_kpa) {
+                        (true, None) => c.relief_from_kpa = Some(p),
+                        (false, Some(from)) => {
+                            c.relieved_kpa += (from - p).max(0.0);
+                            c.relief_from_kpa = None;
+                        }
+                        _ => {}
+                    }
+                }
                 match e.pull.as_mut() {
                     // A positioning pull: done at the length.
                     None => {
@@ -531,7 +551,15 @@ impl Controller {
                             Progress::Running
                         }
                         CheckStep::Vent => {
-                            if p <= c.baseline_kpa.max(0.0) + vent_tol {
+                            // Back to the pressure before the pull; a baseline within the
+                            // vent tolerance of ambient counts as ambient (no creep from step
+                            // to step).
+                            let to = if c.baseline_kpa < vent_tol {
+                                0.0
+                            } else {
+                                c.baseline_kpa
+                            };
+                            if p <= to + vent_tol {
                                 Progress::Done { evidence: true }
                             } else {
                                 exhaust = true;

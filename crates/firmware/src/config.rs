@@ -337,7 +337,13 @@ impl CraneConfig {
                 None => Some(layers * self.packed_layer_mm as f64),
                 Some(s) => {
                     let d = ModuleDesign::new(m.n as u32, m.beta_deg as f64).ok()?;
-                    Some(layers * d.pose(s).d * m.edge_mm as f64)
+                    // `folded_d`/`w` rather than `pose`: the same d for these two states, without
+                    // pulling the pop-out states' trigonometry into the board binary.
+                    let slant = match s {
+                        ShapeState::Folded => d.folded_d().unwrap_or(0.0),
+                        _ => d.w(),
+                    };
+                    Some(layers * slant * m.edge_mm as f64)
                 }
             }
         };

@@ -55,20 +55,16 @@ pub enum BootRecord {
     Corrupt,
 }
 
-/// CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF), bitwise: a few bytes, no table needed.
-fn crc16(bytes: &[u8]) -> u16 {
-    let mut crc: u16 = 0xFFFF;
-    for &b in bytes {
-        crc ^= (b as u16) << 8;
-        for _ in 0..8 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
-        }
-    }
-    crc
+/// CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, not reflected, no final xor; the catalogue
+/// calls it CRC-16/IBM-3740). Bitwise (`NoTable`): records are a few bytes and are written
+/// rarely, so a 512-byte table in flash would buy nothing.
+const CCITT_FALSE: crc::Crc<u16, crc::NoTable> =
+    crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_3740);
+
+/// CRC-16/CCITT-FALSE of `bytes`: the check of a stored record (bytes 6–7) and of the board's
+/// flash-log slots (`board::flash_log`), so both stay one on-flash format.
+pub fn crc16(bytes: &[u8]) -> u16 {
+    CCITT_FALSE.checksum(bytes)
 }
 
 impl StoredState {
@@ -113,6 +109,23 @@ impl StoredState {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn crc_is_ccitt_false() {
+        // The catalogue's check value for CRC-16/CCITT-FALSE.
+        assert_eq!(crc16(b"123456789"), 0x29B1);
+    }
+
+    #[test]
+    fn record_bytes_are_pinned() {
+        // Bytes written by the hand-rolled bitwise CRC this crate used before the `crc` crate:
+        // records already in a board's flash must still decode.
+        let golden = [b'Y', b'C', 1, 4, 1, 0, 0x99, 0x50];
+        let s = StoredState::from_bytes(&golden).unwrap().unwrap();
+        assert_eq!(s.state.index(), 4);
+        assert!(s.confirmed);
+        assert_eq!(s.to_bytes(), golden);
+    }
 
     #[test]
     fn every_state_round_trips() {

@@ -192,3 +192,16 @@ fn garbage_without_a_valid_slot_is_reported_corrupt() {
     FlashLog::new(&mut f, 0).save(&st(2, true)).unwrap();
     assert_eq!(FlashLog::new(&mut f, 0).load(), Ok(Some(st(2, true))));
 }
+
+#[test]
+fn a_slot_written_by_the_older_firmware_still_loads() {
+    // Pinned bytes of one slot (sequence 7, a confirmed `D&F` record: index 4) as written before
+    // the CRC moved to the `crc` crate: the on-flash format must not change.
+    let mut f = EmuFlash::new();
+    f.mem[..16].copy_from_slice(&[
+        7, 0, 0, 0, b'Y', b'C', 1, 4, 1, 0, 0x99, 0x50, 0x25, 0x59, 0xFF, 0xFF,
+    ]);
+    let loaded = FlashLog::new(&mut f, 0).load().unwrap().unwrap();
+    assert_eq!(loaded.state, TrunkState::from_index(4).unwrap());
+    assert!(loaded.confirmed);
+}

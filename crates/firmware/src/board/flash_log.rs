@@ -9,7 +9,7 @@
 //! |--------|---------------------------------------------------|
 //! | 0–3    | sequence number, u32 LE (newest record = highest) |
 //! | 4–11   | [`StoredState::to_bytes`] (carries its own CRC)    |
-//! | 12–13  | CRC-16/CCITT-FALSE over bytes 0–11, LE            |
+//! | 12–13  | CRC-16/CCITT-FALSE ([`crc16`]) over bytes 0–11, LE |
 //! | 14–15  | never written (stay `0xFF`)                        |
 //!
 //! A save appends one slot. When the current block is full, the save erases the *other* block
@@ -18,7 +18,7 @@
 //! once per `SLOTS_PER_BLOCK` saves (64 with 1 KiB blocks).
 
 use firmware::hw::StateStore;
-use firmware::store::{StoredState, STORED_LEN};
+use firmware::store::{crc16, StoredState, STORED_LEN};
 
 /// Bytes per slot.
 pub const SLOT_LEN: usize = 16;
@@ -62,22 +62,6 @@ pub const fn slots_per_block(block_size: usize) -> usize {
 /// Slots per block with the RA4M1's 1 KiB data-flash blocks.
 #[allow(dead_code)] // named by the host tests and the docs; the board computes it per flash
 pub const SLOTS_PER_BLOCK: usize = slots_per_block(1024);
-
-/// CRC-16/CCITT-FALSE, bitwise (a dozen bytes per save: no table needed).
-fn crc16(bytes: &[u8]) -> u16 {
-    let mut crc: u16 = 0xFFFF;
-    for &b in bytes {
-        crc ^= (b as u16) << 8;
-        for _ in 0..8 {
-            crc = if crc & 0x8000 != 0 {
-                (crc << 1) ^ 0x1021
-            } else {
-                crc << 1
-            };
-        }
-    }
-    crc
-}
 
 /// What a slot holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

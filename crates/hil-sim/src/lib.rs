@@ -42,4 +42,4 @@ pub mod servo;
 pub mod sim;
 
 pub use fault::{Fault, ParseFaultError};
-pub use sim::{GroundTruth, HeldButtons, Sim, SimOptions};
+pub use sim::{GroundTruth, Sim, SimOptions};

@@ -4,7 +4,7 @@ use std::collections::VecDeque;
 use std::fmt::Write as _;
 
 use firmware::hw::{PinInputs, PinOutputs, ServoOutput, ServoPulse, Shell};
-use firmware::{Controller, CraneConfig, StoredState};
+use firmware::{Buttons, Controller, CraneConfig, StoredState};
 use geometry::TrunkState;
 use protocol::messages::{Board, DeviceMessage, Event, ManualTask, Mode, ModuleConfig};
 use protocol::FrameDecoder;
@@ -129,23 +129,6 @@ type SimInputs = PinInputs<
 type SimOutputs = PinOutputs<SimPwm, SimPwm, SimPwm, SimOutputPin, SimOutputPin, SimOutputPin>;
 type SimShell = Shell<SimInputs, SimOutputs, SimDisplay, SimFlash, SimSerial>;
 
-/// Buttons a test or a person holds (`true` = pressed).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct HeldButtons {
-    /// Step up.
-    pub up: bool,
-    /// Step down.
-    pub down: bool,
-    /// Gripper.
-    pub gripper: bool,
-    /// E-stop.
-    pub estop: bool,
-    /// Confirm.
-    pub confirm: bool,
-    /// Show pressure.
-    pub show_pressure: bool,
-}
-
 /// The crane's configuration as the simulator builds it: the firmware's defaults (the same
 /// trunk: a test checks it), with the board of this simulator; the trunk is still set from
 /// the physics' constants, so a change there reaches the controller.
@@ -181,7 +164,9 @@ pub struct Sim {
     shell: SimShell,
     ctl: Controller,
     operator: Operator,
-    held: HeldButtons,
+    /// Buttons a test or a person holds: the controller's own [`Buttons`] (`true` = pressed);
+    /// the shell's pins carry them (active-low, the e-stop normally closed).
+    held: Buttons,
     joystick: [f64; 2],
     /// Device → host bytes after the link (noise, drop).
     to_host: VecDeque<u8>,
@@ -276,7 +261,7 @@ impl Sim {
             shell,
             ctl,
             operator,
-            held: HeldButtons::default(),
+            held: Buttons::default(),
             joystick: [0.0; 2],
             to_host: VecDeque::new(),
             sniffer: FrameDecoder::default(),
@@ -319,7 +304,7 @@ impl Sim {
     }
 
     /// Holds buttons (as a person at the crane would), until changed.
-    pub fn set_buttons(&mut self, held: HeldButtons) {
+    pub fn set_buttons(&mut self, held: Buttons) {
         self.held = held;
     }
 

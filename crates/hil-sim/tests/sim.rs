@@ -1,6 +1,7 @@
 //! hil-sim's integration tests: the real controller driving the simulated crane in-process,
 //! the discovered transition graph, faults, determinism, the trace snapshot and the pty.
 
+use firmware::Buttons;
 use geometry::TrunkState;
 use hil_sim::discovery::{self, RigConfig};
 use hil_sim::host::SimHost;
@@ -344,12 +345,12 @@ fn the_pty_serves_the_controller_to_a_serial_client() {
 fn the_step_up_button_unpacks_the_trunk_without_a_host() {
     let mut sim = Sim::new(SimOptions::default());
     sim.run_for(100);
-    sim.set_buttons(hil_sim::HeldButtons {
+    sim.set_buttons(Buttons {
         up: true,
         ..Default::default()
     });
     sim.run_for(100);
-    sim.set_buttons(hil_sim::HeldButtons::default());
+    sim.set_buttons(Buttons::default());
     let done = sim.run_until(30_000, |s| {
         let t = s.ground_truth();
         t.believed_state == st("F&F") && t.mode == Mode::Standalone && !t.exhaust_open
@@ -419,15 +420,15 @@ fn a_power_cycle_boots_from_the_emulated_flash() {
 fn the_gripper_button_closes_the_gripper_and_the_e_stop_latches() {
     let mut sim = Sim::new(SimOptions::default());
     sim.run_for(100);
-    let press = |sim: &mut Sim, held: hil_sim::HeldButtons| {
+    let press = |sim: &mut Sim, held: Buttons| {
         sim.set_buttons(held);
         sim.run_for(100);
-        sim.set_buttons(hil_sim::HeldButtons::default());
+        sim.set_buttons(Buttons::default());
         sim.run_for(500);
     };
     press(
         &mut sim,
-        hil_sim::HeldButtons {
+        Buttons {
             gripper: true,
             ..Default::default()
         },
@@ -435,7 +436,7 @@ fn the_gripper_button_closes_the_gripper_and_the_e_stop_latches() {
     assert!(sim.ground_truth().gripper_closed);
     press(
         &mut sim,
-        hil_sim::HeldButtons {
+        Buttons {
             estop: true,
             ..Default::default()
         },

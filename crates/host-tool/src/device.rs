@@ -10,7 +10,7 @@ use protocol::DeviceInfo;
 
 use crate::failure::Failure;
 use crate::session::{Session, SessionError, Timing};
-use crate::sim::{SimConfig, SimRun};
+use crate::sim::{SimConfig, SimRun, SimTruth};
 use crate::transport::{self, Port};
 
 /// Device selection, shared by `plan`, `status`, `monitor` and `stop`.
@@ -107,6 +107,15 @@ pub struct Connection {
     pub sim: Option<SimRun>,
 }
 
+impl Connection {
+    /// Ends the session, then stops the simulator (if it is one) and returns its ground truth.
+    pub fn close(self) -> Option<SimTruth> {
+        // The session goes first: the simulator stops serving once its port is closed.
+        drop(self.session);
+        self.sim.map(SimRun::finish)
+    }
+}
+
 /// Why a connection could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum ConnectError {
@@ -123,6 +132,13 @@ pub enum ConnectError {
         /// The simulator, so its ground truth can still be reported.
         sim: Option<Box<SimRun>>,
     },
+}
+
+impl From<ConnectError> for Failure {
+    fn from(err: ConnectError) -> Self {
+        // Its message already carries the source's (`{0:#}`, `…: {source}`): not chained again.
+        Failure::Runtime(anyhow::anyhow!("{err}"))
+    }
 }
 
 impl DeviceConfig {

@@ -55,7 +55,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         let cancel = cancel.clone();
         let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::SeqCst));
     }
-    let mut conn = device.connect().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut conn = device.connect()?;
     let s = &mut conn.session;
     let previous = match s.command(RequestBody::GetParam(ParamId::TelemetryHz)) {
         Ok(ResponseBody::Param { value, .. }) => Some(value),
@@ -118,10 +118,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             value,
         });
     }
-    drop(conn.session);
-    if let Some(sim) = conn.sim {
-        sim.finish();
-    }
+    conn.close();
     result.map_err(Failure::Runtime)
 }
 

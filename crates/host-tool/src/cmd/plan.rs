@@ -117,8 +117,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             stats.requests, stats.retries, link.frames_dropped
         );
     }
-    drop(conn.session);
-    let truth = conn.sim.map(|s| s.finish());
+    let truth = conn.close();
     finish(&cfg, &outcome, truth)
 }
 
@@ -210,7 +209,7 @@ fn dry_run(cfg: &Config) -> Result<(), Failure> {
         (None, DeviceConfig::Sim(sim)) => sim.initial,
         (None, DeviceConfig::Port(_)) => {
             // Read-only: handshake and status, no command.
-            let mut conn = cfg.device.connect().map_err(|e| anyhow::anyhow!("{e}"))?;
+            let mut conn = cfg.device.connect()?;
             conn.session
                 .status()
                 .map_err(|e| anyhow::anyhow!("reading the device's state: {e}"))?

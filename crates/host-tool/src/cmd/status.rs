@@ -1,6 +1,6 @@
 //! `host-tool status`: one snapshot of the device.
 
-use protocol::{Board, DeviceInfo, Mode, PlanPhase, Status};
+use protocol::{Board, DeviceInfo, Mode, PlanPhase, RequestBody, Status};
 use serde_json::{json, Value};
 
 use crate::device::DeviceArgs;
@@ -8,7 +8,7 @@ use crate::executor::fault_list;
 use crate::failure::Failure;
 use crate::sim::SimTruth;
 
-/// Arguments of `host-tool status`.
+/// Arguments of `host-tool status` (and of `host-tool stop`).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
@@ -18,14 +18,42 @@ pub struct Args {
     pub json: bool,
 }
 
-/// Runs `host-tool status`.
-pub fn run(args: Args) -> Result<(), Failure> {
-    let device = args.device.validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?;
-    let mut conn = device.connect().map_err(|e| anyhow::anyhow!("{e}"))?;
+/// What `status` and `stop` report: one status of the device, who the device is and, for the
+/// simulator, its ground truth.
+pub struct Snapshot {
+    /// The device's status, read after the request.
+    pub status: Status,
+    /// Who the device is (from the handshake).
+    pub info: DeviceInfo,
+    /// The simulator's ground truth, if the device is the simulator.
+    pub truth: Option<SimTruth>,
+}
+
+/// Connects to the device, sends `request` (if any), reads its status and closes the connection.
+pub fn snapshot(device: &DeviceArgs, request: Option<RequestBody>) -> Result<Snapshot, Failure> {
+    let device = device.validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?;
+    let mut conn = device.connect()?;
+    if let Some(request) = request {
+        conn.session
+            .command(request)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
     let status = conn.session.status().map_err(|e| anyhow::anyhow!("{e}"))?;
     let info = conn.info.clone();
-    drop(conn.session);
-    let truth = conn.sim.map(|s| s.finish());
+    Ok(Snapshot {
+        status,
+        info,
+        truth: conn.close(),
+    })
+}
+
+/// Runs `host-tool status`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    let Snapshot {
+        status,
+        info,
+        truth,
+    } = snapshot(&args.device, None)?;
     if args.json {
         println!("{}", status_json(&status, &info, truth.as_ref()));
     } else {

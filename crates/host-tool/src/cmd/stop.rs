@@ -2,32 +2,20 @@
 
 use serde_json::json;
 
-use crate::cmd::status::{mode_name, status_json};
-use crate::device::DeviceArgs;
+use crate::cmd::status::{mode_name, snapshot, status_json, Snapshot};
 use crate::failure::Failure;
 use protocol::RequestBody;
 
-/// Arguments of `host-tool stop`.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(flatten)]
-    pub device: DeviceArgs,
-    /// Print one JSON object on stdout.
-    #[arg(long)]
-    pub json: bool,
-}
+/// Arguments of `host-tool stop`: the same as `status`'s (the device, `--json`).
+pub use crate::cmd::status::Args;
 
 /// Runs `host-tool stop`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let device = args.device.validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?;
-    let mut conn = device.connect().map_err(|e| anyhow::anyhow!("{e}"))?;
-    conn.session
-        .command(RequestBody::Abort)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let status = conn.session.status().map_err(|e| anyhow::anyhow!("{e}"))?;
-    let info = conn.info.clone();
-    drop(conn.session);
-    let truth = conn.sim.map(|s| s.finish());
+    let Snapshot {
+        status,
+        info,
+        truth,
+    } = snapshot(&args.device, Some(RequestBody::Abort))?;
     let safe = !status.inlet_open;
     if args.json {
         let mut v = status_json(&status, &info, truth.as_ref());

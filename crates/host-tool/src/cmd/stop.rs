@@ -4,7 +4,7 @@ use serde_json::json;
 
 use crate::cmd::status::{mode_name, snapshot, status_json, Snapshot};
 use crate::failure::Failure;
-use protocol::RequestBody;
+use protocol::{Mode, RequestBody};
 
 /// Arguments of `host-tool stop`: the same as `status`'s (the device, `--json`).
 pub use crate::cmd::status::Args;
@@ -25,7 +25,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     } else {
         println!(
             "aborted: the device is in mode {} at {}; inlet {}, exhaust {}, pressure {:.1} kPa, \
-             servos held at {:.1}° {:.1}° {:.1}°",
+             servos {} {:.1}° {:.1}° {:.1}°",
             mode_name(status.mode),
             status.state,
             if status.inlet_open { "OPEN" } else { "closed" },
@@ -35,6 +35,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 "closed"
             },
             status.pressure_kpa,
+            // The safe state stops the servo pulses; the status then reports the last command.
+            if matches!(status.mode, Mode::Safe | Mode::EStop) {
+                "off (limp), last commanded"
+            } else {
+                "at"
+            },
             status.servo_deg[0],
             status.servo_deg[1],
             status.servo_deg[2]

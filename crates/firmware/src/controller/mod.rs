@@ -190,9 +190,10 @@ pub struct Controller {
     servo_target_deg: [f32; 3],
     /// Servo pulses on (off in the safe state).
     servos_enabled: bool,
-    /// Tendon shortening that takes up the current state's slack (joystick and `Bend`),
-    /// computed once per state change.
-    take_up_mm: f32,
+    /// Tendon shortening that takes up each state's slack (joystick and `Bend`), by
+    /// [`TrunkState::index`]: computed once here, because the heights are `f64` (software on the
+    /// M4) and a plan's upload check needs the take-up of every step's `from`.
+    take_up_mm: [f32; 6],
     /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
     /// change.
     max_bend_deg: f32,
@@ -239,7 +240,7 @@ impl Controller {
             ),
         };
         let servo_deg = slack_angles(&cfg);
-        let take_up_mm = take_up_mm(&cfg, state);
+        let take_up_mm = TrunkState::ALL.map(|s| take_up_mm(&cfg, s));
         let max_bend_deg = max_bend_deg(&cfg, state);
         let mut ctl = Self {
             cfg,
@@ -513,7 +514,6 @@ impl Controller {
     fn set_state(&mut self, state: TrunkState, confirmed: bool) {
         let changed = state != self.state || confirmed != self.confirmed;
         if state != self.state {
-            self.take_up_mm = take_up_mm(&self.cfg, state);
             self.max_bend_deg = max_bend_deg(&self.cfg, state);
         }
         self.state = state;
@@ -861,11 +861,8 @@ impl Controller {
     /// state's taken-up slack: the tendon on the inside of the bend is reeled in by
     /// r_t·θ·cos(φ − φ_i) more, the others pay out (a tendon cannot push: never below 0).
     fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> Option<[f32; 3]> {
-        if libm::fabs(angle_rad) > (self.max_bend_deg as f64).to_radians() + 1e-6
-            && self.take_up_mm > 0.0
-            && self.max_bend_deg < self.cfg.joystick.max_bend_deg
-        {
-            // A stiff state would buckle before it bends that far.
+        let take_up_mm = self.take_up_for(self.state);
+        if bend_too_stiff(&self.cfg, take_up_mm, self.max_bend_deg, angle_rad) {
             return None;
         }
         let bend = geometry::tendon::Bend::new(direction_rad, angle_rad);
@@ -873,7 +870,12 @@ impl Controller {
             Ok(g) => g.length_changes(bend),
             Err(_) => [0.0; 3],
         };
-        Some(dl.map(|d| (self.take_up_mm - d as f32).max(0.0)))
+        Some(dl.map(|d| (take_up_mm - d as f32).max(0.0)))
+    }
+
+    /// The tendon shortening that takes up `state`'s slack (0 outside the flexible states).
+    fn take_up_for(&self, state: TrunkState) -> f32 {
+        self.take_up_mm[state.index()]
     }
 
     fn standalone_joystick(&mut self) {
@@ -904,10 +906,11 @@ impl Controller {
             ..jc
         };
         let dl = joystick_lengths_f32(x, y, &jc, self.cfg.tendon_radius_mm);
+        let take_up_mm = self.take_up_for(self.state);
         for (i, d) in dl.iter().enumerate() {
             // Around the state's taken-up slack: the inside tendon shortens, the others pay
             // out. Human input is clamped silently to the limits (a plan's would fault).
-            let l = crate::clampf(self.take_up_mm + d, 0.0, self.cfg.max_tendon_mm);
+            let l = crate::clampf(take_up_mm + d, 0.0, self.cfg.max_tendon_mm);
             self.servo_target_deg[i] = self
                 .cfg
                 .servo
@@ -1092,6 +1095,15 @@ fn max_bend_deg(cfg: &CraneConfig, state: TrunkState) -> f32 {
     } else {
         cfg.joystick.stiff_max_bend_deg
     }
+}
+
+/// Whether a bend of `angle_rad` is refused in a state with this take-up and largest bend: a
+/// stiff state (D&P: no folded module) would buckle before it bends that far. The same rule
+/// at a plan's upload (for each step's `from`) and when a `Bend` runs.
+fn bend_too_stiff(cfg: &CraneConfig, take_up_mm: f32, max_bend_deg: f32, angle_rad: f64) -> bool {
+    libm::fabs(angle_rad) > (max_bend_deg as f64).to_radians() + 1e-6
+        && take_up_mm > 0.0
+        && max_bend_deg < cfg.joystick.max_bend_deg
 }
 
 /// The tendon shortening that takes up `state`'s slack, short of taut by the margin: in the

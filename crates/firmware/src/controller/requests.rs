@@ -1,5 +1,6 @@
 //! Protocol requests: one response each, echoing `seq`.
 
+use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
     DeviceInfo, DeviceMessage, FaultCode, ParamId, Plan, PlanPhase, PlanStatus, Primitive,
@@ -9,7 +10,7 @@ use protocol::{
 
 use super::exec::Origin;
 use super::link;
-use super::Controller;
+use super::{bend_too_stiff, max_bend_deg, Controller};
 
 /// Longest step time limit accepted (one hour).
 pub const MAX_STEP_TIMEOUT_MS: u32 = 3_600_000;
@@ -182,7 +183,7 @@ impl Controller {
                 return Err(RejectReason::OutOfRange);
             }
             for p in &s.primitives {
-                if !self.primitive_in_range(p) {
+                if !self.primitive_in_range(p, s.from) {
                     return Err(RejectReason::OutOfRange);
                 }
             }
@@ -193,7 +194,8 @@ impl Controller {
         Ok(())
     }
 
-    fn primitive_in_range(&self, p: &Primitive) -> bool {
+    /// Whether `p`'s values fit, for a step that starts in `from`.
+    fn primitive_in_range(&self, p: &Primitive, from: TrunkState) -> bool {
         let pressure_ok =
             |kpa: f32| kpa.is_finite() && kpa >= 0.0 && kpa <= self.cfg.pressure_limit_kpa;
         match *p {
@@ -211,13 +213,22 @@ impl Controller {
                 direction_deg,
                 angle_deg,
             } => {
-                // Conservative and cheap (no trigonometry: the upload of a full plan of bends
-                // must fit in one loop pass): the most any tendon is pulled by a bend of θ is
+                // The bend runs around `from`'s taken-up slack (`bend_lengths`), so a bend that
+                // cannot fit there is refused now, not as a `ServoLimit` mid-plan. Conservative
+                // and cheap (no trigonometry: the upload of a full plan of bends must fit in
+                // one loop pass): the most any tendon is pulled by a bend of θ is take-up +
                 // r_t·θ, whatever the direction.
-                let worst_mm = self.cfg.tendon_radius_mm * angle_deg.to_radians();
+                let take_up_mm = self.take_up_for(from);
+                let worst_mm = take_up_mm + self.cfg.tendon_radius_mm * angle_deg.to_radians();
                 direction_deg.is_finite()
                     && angle_deg.is_finite()
                     && (0.0..=180.0).contains(&angle_deg)
+                    && !bend_too_stiff(
+                        &self.cfg,
+                        take_up_mm,
+                        max_bend_deg(&self.cfg, from),
+                        (angle_deg as f64).to_radians(),
+                    )
                     && self.angles_for([worst_mm; 3]).is_some()
             }
         }

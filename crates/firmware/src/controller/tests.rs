@@ -1134,6 +1134,79 @@ fn gripper_and_bend_primitives() {
     assert!(r.ctl.status().state_confirmed);
 }
 
+/// A `Bend` runs around its state's taken-up slack, so the upload check adds the take-up of the
+/// step's `from`: a bend that cannot fit there is refused at upload (`OutOfRange`), not left to
+/// fail as a `ServoLimit` mid-plan. F&F takes up 103.2 mm; the 185 mm tendon limit leaves
+/// r_t·θ ≤ 81.8 mm, θ ≤ 78.1° (at r_t = 60 mm).
+#[test]
+fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
+    let bend = |from: TrunkState, angle_deg: f32| {
+        step(
+            StepKind::Tendon,
+            from,
+            from,
+            &[Primitive::Bend {
+                direction_deg: 0.0,
+                angle_deg,
+            }],
+            10_000,
+        )
+    };
+    let upload = |r: &mut Rig, id: u16, steps: &[Step]| {
+        r.request(RequestBody::UploadPlan(Plan {
+            plan_id: id,
+            steps: heapless::Vec::from_slice(steps).unwrap(),
+        }))
+    };
+    let reject = |x| (ResultCode::Rejected(x), ResponseBody::None);
+    let mut r = Rig::connected(FF);
+    let limit_deg = (r.cfg.max_tendon_mm - r.ctl.take_up_for(FF)) / r.cfg.tendon_radius_mm;
+    assert!((limit_deg.to_degrees() - 78.1).abs() < 0.1, "{limit_deg}");
+    // 90° (94 mm of pull alone: the old check, without the take-up, let it through).
+    assert_eq!(
+        upload(&mut r, 1, &[bend(FF, 90.0)]),
+        reject(RejectReason::OutOfRange)
+    );
+    assert_eq!(
+        r.request(RequestBody::RunStep(bend(FF, 90.0))),
+        reject(RejectReason::OutOfRange)
+    );
+    // The same bend in D&D (no slack to take up) passes.
+    let mut dd = Rig::connected(DD);
+    assert_eq!(upload(&mut dd, 1, &[bend(DD, 90.0)]).0, ResultCode::Ok);
+    // The check uses each step's own `from`, not the current state: a plan that reaches F&F
+    // first is refused for its later bend.
+    let mut fp = Rig::connected(FP);
+    let to_ff = Rig::nominal(FP, FF);
+    assert_eq!(
+        upload(&mut fp, 2, &[to_ff.clone(), bend(FF, 90.0)]),
+        reject(RejectReason::OutOfRange)
+    );
+    assert_eq!(
+        upload(&mut fp, 3, &[to_ff, bend(FF, 20.0)]).0,
+        ResultCode::Ok
+    );
+    // Stiff D&P bends at most 8°: refused above it at upload too.
+    let mut dp = Rig::connected(DP);
+    assert_eq!(
+        upload(&mut dp, 4, &[bend(DP, 10.0)]),
+        reject(RejectReason::OutOfRange)
+    );
+    assert_eq!(upload(&mut dp, 5, &[bend(DP, 8.0)]).0, ResultCode::Ok);
+    // Just inside the limit, the accepted bend runs to its end: no ServoLimit.
+    r.heartbeat_every_ms = 250;
+    assert_eq!(
+        r.request(RequestBody::RunStep(bend(FF, 77.0))).0,
+        ResultCode::InProgress
+    );
+    r.run_until(20_000, |r| r.plan_done().is_some()).unwrap();
+    assert_eq!(r.plan_done(), Some((true, FF)), "{:?}", r.faults_raised());
+    let o = r.ctl.poll_outputs();
+    let pulled = r.cfg.servo.length_for_angle(0, o.servo_deg[0]);
+    let want = r.ctl.take_up_for(FF) + r.cfg.tendon_radius_mm * 77f32.to_radians();
+    assert!((pulled - want).abs() < 0.01, "{pulled} vs {want}");
+}
+
 // ---------------------------------------------------------------------------------------------
 // Safety
 // ---------------------------------------------------------------------------------------------

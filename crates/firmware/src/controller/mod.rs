@@ -862,7 +862,9 @@ impl Controller {
     /// r_t·θ·cos(φ − φ_i) more, the others pay out (a tendon cannot push: never below 0).
     fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> Option<[f32; 3]> {
         let take_up_mm = self.take_up_for(self.state);
-        if bend_too_stiff(&self.cfg, take_up_mm, self.max_bend_deg, angle_rad) {
+        if stiff_bend_limit_rad(&self.cfg, take_up_mm, self.max_bend_deg)
+            .is_some_and(|limit_rad| libm::fabs(angle_rad) > limit_rad)
+        {
             return None;
         }
         let bend = geometry::tendon::Bend::new(direction_rad, angle_rad);
@@ -1097,13 +1099,13 @@ fn max_bend_deg(cfg: &CraneConfig, state: TrunkState) -> f32 {
     }
 }
 
-/// Whether a bend of `angle_rad` is refused in a state with this take-up and largest bend: a
-/// stiff state (D&P: no folded module) would buckle before it bends that far. The same rule
-/// at a plan's upload (for each step's `from`) and when a `Bend` runs.
-fn bend_too_stiff(cfg: &CraneConfig, take_up_mm: f32, max_bend_deg: f32, angle_rad: f64) -> bool {
-    libm::fabs(angle_rad) > (max_bend_deg as f64).to_radians() + 1e-6
-        && take_up_mm > 0.0
-        && max_bend_deg < cfg.joystick.max_bend_deg
+/// The largest bend a stiff state takes before it buckles (D&P: no folded module), with a
+/// rounding allowance, or `None` where only the tendons limit a bend. The same rule at a
+/// plan's upload (each step's `from`) and when a `Bend` runs. The cheap `f32` tests come first:
+/// the `f64` (software on the M4) only runs for a stiff state.
+fn stiff_bend_limit_rad(cfg: &CraneConfig, take_up_mm: f32, max_bend_deg: f32) -> Option<f64> {
+    (take_up_mm > 0.0 && max_bend_deg < cfg.joystick.max_bend_deg)
+        .then(|| (max_bend_deg as f64).to_radians() + 1e-6)
 }
 
 /// The tendon shortening that takes up `state`'s slack, short of taut by the margin: in the

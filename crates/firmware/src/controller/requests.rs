@@ -10,7 +10,7 @@ use protocol::{
 
 use super::exec::Origin;
 use super::link;
-use super::{bend_too_stiff, max_bend_deg, Controller};
+use super::{max_bend_deg, stiff_bend_limit_rad, Controller};
 
 /// Longest step time limit accepted (one hour).
 pub const MAX_STEP_TIMEOUT_MS: u32 = 3_600_000;
@@ -223,12 +223,8 @@ impl Controller {
                 direction_deg.is_finite()
                     && angle_deg.is_finite()
                     && (0.0..=180.0).contains(&angle_deg)
-                    && !bend_too_stiff(
-                        &self.cfg,
-                        take_up_mm,
-                        max_bend_deg(&self.cfg, from),
-                        (angle_deg as f64).to_radians(),
-                    )
+                    && !stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
+                        .is_some_and(|limit_rad| (angle_deg as f64).to_radians() > limit_rad)
                     && self.angles_for([worst_mm; 3]).is_some()
             }
         }

@@ -155,6 +155,25 @@ pub struct InletWatchConfig {
     pub vent_min_pressure_kpa: f32,
 }
 
+/// Stalled-inflation watch (`docs/firmware.md`, "Safety"): the inflate regulator has the inlet
+/// open but the pressure does not rise.
+///
+/// In the simulator a nominal inflation rises 7.6–15 kPa/s with the inlet open (slowest just
+/// before the bottom module's snap at ≈ 19 kPa) and never goes 0.1 s without gaining 0.5 kPa,
+/// except across the snap itself (≤ 71 ms); a 2.5 mm hole plateaus at ≈ 4 kPa, a stuck-closed
+/// inlet stays at 0 ± 0.1 kPa.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RiseWatchConfig {
+    /// With the inlet open throughout this window, the pressure must gain at least
+    /// `min_gain_kpa` across it (now against a window ago).
+    pub window_ms: u32,
+    /// See `window_ms`.
+    pub min_gain_kpa: f32,
+    /// A stall at or above this pressure is a Leak (gas comes in, but goes out as fast); below
+    /// it the pressure never left ambient: NoPressureRise (supply off, inlet stuck closed).
+    pub ambient_band_kpa: f32,
+}
+
 /// Joystick calibration and standalone bending.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JoystickConfig {
@@ -214,6 +233,8 @@ pub struct CraneConfig {
     pub tendon_check: TendonCheckConfig,
     /// Stuck-open inlet watch.
     pub inlet_watch: InletWatchConfig,
+    /// Stalled-inflation watch (a leak the supply cannot beat, or no rise at all).
+    pub rise_watch: RiseWatchConfig,
     /// Snap-through detector.
     pub snap: SnapConfig,
     /// Leak detector.
@@ -296,6 +317,15 @@ impl Default for CraneConfig {
                 vent_window_ms: 1_000,
                 vent_min_drop_kpa: 0.5,
                 vent_min_pressure_kpa: 3.0,
+            },
+            rise_watch: RiseWatchConfig {
+                // 3 s and 0.5 kPa: a supply 45× slower than the simulator's slowest nominal
+                // rise still passes; a leak or a dead supply is named within ≈ 4.5 s instead of
+                // the step's 30 s time limit.
+                window_ms: 3_000,
+                min_gain_kpa: 0.5,
+                // 10× the filtered noise (±0.1 kPa), a quarter of the simulated leak's plateau.
+                ambient_band_kpa: 1.0,
             },
             snap: SnapConfig {
                 threshold_kpa: 1.5,
@@ -435,6 +465,10 @@ impl CraneConfig {
         self.inlet_watch.rise_kpa = fix(self.inlet_watch.rise_kpa, 0.2, 20.0, 1.0);
         self.inlet_watch.drift_kpa_per_s = fix(self.inlet_watch.drift_kpa_per_s, 0.0, 5.0, 0.2);
         self.inlet_watch.vent_window_ms = self.inlet_watch.vent_window_ms.clamp(100, 60_000);
+        // A window shorter than a snap's dip (≈ 70 ms) or a zero gain would misfire or never fire.
+        self.rise_watch.window_ms = self.rise_watch.window_ms.clamp(500, 30_000);
+        self.rise_watch.min_gain_kpa = fix(self.rise_watch.min_gain_kpa, 0.05, 10.0, 0.5);
+        self.rise_watch.ambient_band_kpa = fix(self.rise_watch.ambient_band_kpa, 0.2, 20.0, 1.0);
         if !(self.joystick.half_range_raw.is_finite() && self.joystick.half_range_raw >= 1.0) {
             self.joystick.half_range_raw = d.joystick.half_range_raw;
         }

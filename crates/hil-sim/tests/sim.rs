@@ -6,7 +6,7 @@ use geometry::TrunkState;
 use hil_sim::discovery::{self, RigConfig};
 use hil_sim::host::SimHost;
 use hil_sim::{Fault, GroundTruth, Sim, SimOptions};
-use protocol::messages::{Mode, Step};
+use protocol::messages::{Mode, PlanPhase, Step, StepKind};
 use protocol::transitions::{transition, TRANSITIONS};
 
 fn st(s: &str) -> TrunkState {
@@ -178,6 +178,140 @@ fn pneumatic_faults_fail_the_plan_cleanly() {
     for fault in [Fault::ValveStuckClosed, Fault::Leak, Fault::SensorDropout] {
         let (ok, t) = fault_run(fault, "F&F", "D&F");
         assert_failed_safely(ok, &t, fault.name());
+    }
+}
+
+/// The filtered pressure the controller acts on and its inlet command, every millisecond of
+/// one step from `from` to `to` until the plan ends (at most 32 s).
+fn inflate_trace(from: &str, to: &str, faults: &[Fault], seed: u64) -> Vec<(f32, bool)> {
+    let mut sim = Sim::new(SimOptions {
+        initial: st(from),
+        faults: faults.to_vec(),
+        seed,
+        ..SimOptions::default()
+    });
+    let mut host = SimHost::new();
+    sim.run_for(50);
+    host.hello(&mut sim).expect("handshake");
+    let mut plan = protocol::Plan {
+        plan_id: 3,
+        steps: heapless::Vec::new(),
+    };
+    plan.steps
+        .push(transition(st(from), st(to)).unwrap().step())
+        .unwrap();
+    host.request_ok(&mut sim, protocol::RequestBody::UploadPlan(plan), 1_000)
+        .unwrap();
+    host.request_ok(
+        &mut sim,
+        protocol::RequestBody::StartPlan { plan_id: 3 },
+        1_000,
+    )
+    .unwrap();
+    let mut trace = Vec::new();
+    while trace.len() < 32_000 && sim.controller().mode() == Mode::Running {
+        sim.step();
+        if sim.now_ms() % 200 == 0 {
+            let _ = host.send(&mut sim, protocol::RequestBody::Heartbeat);
+            host.poll(&mut sim);
+        }
+        let c = sim.controller();
+        trace.push((c.pressure_kpa(), c.poll_outputs().inlet_open));
+    }
+    trace
+}
+
+#[test]
+fn nominal_inflation_rises_far_faster_than_the_rise_watch_asks() {
+    // The firmware's stalled-inflation watch (docs/firmware.md, "Safety") wants 0.5 kPa per
+    // 3 s with the inlet open. Measured here, on every pneumatic edge and three seeds: the
+    // slowest 100 ms of rise before the snap is 7.6 kPa/s (just before the bottom module's
+    // snap at ≈ 19 kPa, where the soft top stretches), and the longest the pressure goes
+    // without gaining 0.5 kPa with the inlet open is ≤ 71 ms (across the snap's own drop).
+    let rw = hil_sim::sim::sim_crane_config().rise_watch;
+    assert_eq!((rw.window_ms, rw.min_gain_kpa), (3_000, 0.5));
+    for t in TRANSITIONS.iter().filter(|t| t.kind == StepKind::Pneumatic) {
+        for seed in [1, 7, 42] {
+            let what = format!("{} -> {} seed {seed}", t.from, t.to);
+            let tr = inflate_trace(&t.from.to_string(), &t.to.to_string(), &[], seed);
+            let first_open = tr.iter().position(|x| x.1).expect(&what);
+            let (peak, _) = tr
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1 .0.total_cmp(&b.1 .0))
+                .unwrap();
+            let slowest = (first_open + 100..=peak)
+                .step_by(10)
+                .map(|i| (tr[i].0 - tr[i - 100].0) * 10.0)
+                .fold(f32::MAX, f32::min);
+            assert!(slowest >= 6.0, "{what}: {slowest} kPa/s");
+            // The watch's rule with the window shrunk to the longest gap allowed here.
+            let mut since: Option<(usize, f32)> = None;
+            let mut longest = 0;
+            for (i, &(p, open)) in tr.iter().enumerate() {
+                if !open {
+                    since = None;
+                    continue;
+                }
+                let (i0, base) = since.get_or_insert((i, p));
+                *base = base.min(p);
+                if p - *base >= rw.min_gain_kpa {
+                    since = Some((i, p));
+                } else {
+                    longest = longest.max(i - *i0);
+                }
+            }
+            assert!(longest <= 150, "{what}: {longest} ms without 0.5 kPa");
+            // And it never comes near a full window with the inlet open: each inflate is over
+            // in ≤ 2.5 s.
+            assert!(tr.iter().filter(|x| x.1).count() < 2_500, "{what}");
+        }
+    }
+}
+
+#[test]
+fn a_leak_or_a_closed_inlet_is_named_well_before_the_step_time_limit() {
+    // Today's stand-in was the step's 30 s time limit (E-03). The leak plateaus at ≈ 4 kPa
+    // (p(t) − p(t − 3 s) < 0.5 kPa at 4.0–4.6 s over edges and seeds); the stuck-closed inlet
+    // never leaves 0 kPa (one window: 3.0 s).
+    let cases = [
+        (
+            Fault::Leak,
+            protocol::FaultCode::Leak,
+            "E-08",
+            3_800..=5_000,
+        ),
+        (
+            Fault::ValveStuckClosed,
+            protocol::FaultCode::NoPressureRise,
+            "E-12",
+            3_000..=3_200,
+        ),
+    ];
+    for (fault, code, display, within_ms) in cases {
+        for t in TRANSITIONS.iter().filter(|t| t.kind == StepKind::Pneumatic) {
+            let what = format!("{} {} -> {}", fault.name(), t.from, t.to);
+            let (mut sim, mut host) = sim_at(t.from, &[fault]);
+            let start = sim.now_ms();
+            let r = host.run_plan(&mut sim, 7, &[t.step()], 60_000);
+            assert!(matches!(r, Ok((false, _))), "{what}: {r:?}");
+            let took = sim.now_ms() - start;
+            assert!(within_ms.contains(&took), "{what}: {took} ms");
+            let st = sim.controller().status();
+            assert_eq!(
+                st.plan.map(|p| p.phase),
+                Some(PlanPhase::Failed(code)),
+                "{what}"
+            );
+            assert_eq!(st.faults, code.bit(), "{what}: only the diagnosis");
+            let g = sim.ground_truth();
+            assert!(g.display.starts_with(display), "{what}: {g:?}");
+            // The existing safe state: the trunk where it was, both valves closed.
+            assert_eq!(g.true_state, Some(t.from), "{what}: {g:?}");
+            assert_eq!(g.believed_state, t.from, "{what}: {g:?}");
+            assert!(!g.inlet_open && !g.exhaust_open, "{what}: {g:?}");
+            assert!(g.actuators_safe, "{what}: {g:?}");
+        }
     }
 }
 

@@ -451,7 +451,8 @@ pub enum FaultCode {
     EStop = 6,
     /// A servo command was outside the configured limits (clamped; step aborted).
     ServoLimit = 7,
-    /// Pressure decays faster than the trunk's leak allowance with valves closed.
+    /// Pressure decays faster than the trunk's leak allowance with valves closed, or it stalls
+    /// well above ambient while inflating with the inlet open (the supply cannot beat the leak).
     Leak = 8,
     /// The board restarted through its watchdog.
     Watchdog = 9,
@@ -460,11 +461,14 @@ pub enum FaultCode {
     /// The pressure rises (or will not vent) with the inlet commanded closed: the inlet valve
     /// is stuck open. The exhaust stays open.
     InletStuck = 11,
+    /// The pressure stays at ambient while inflating with the inlet open: the supply is off or
+    /// the inlet valve is stuck closed.
+    NoPressureRise = 12,
 }
 
 impl FaultCode {
     /// All faults.
-    pub const ALL: [FaultCode; 11] = [
+    pub const ALL: [FaultCode; 12] = [
         FaultCode::OverPressure,
         FaultCode::PressureSensor,
         FaultCode::StepTimeout,
@@ -476,6 +480,7 @@ impl FaultCode {
         FaultCode::Watchdog,
         FaultCode::StateStorage,
         FaultCode::InletStuck,
+        FaultCode::NoPressureRise,
     ];
 
     /// The numeric code shown on the display as `E-xx`.
@@ -498,10 +503,13 @@ impl FaultCode {
             FaultCode::LinkLoss => "host link lost during a plan",
             FaultCode::EStop => "emergency stop pressed",
             FaultCode::ServoLimit => "servo command outside its limits",
-            FaultCode::Leak => "pressure leak detected",
+            FaultCode::Leak => "pressure leak: it falls sealed or stalls while inflating",
             FaultCode::Watchdog => "restarted by the watchdog",
             FaultCode::StateStorage => "stored trunk state unreadable",
             FaultCode::InletStuck => "inlet stuck open: pressure rises with it closed",
+            FaultCode::NoPressureRise => {
+                "no pressure rise with the inlet open: supply off or inlet stuck closed"
+            }
         }
     }
 }

@@ -111,6 +111,70 @@ fn pull_check(
     }
 }
 
+/// Samples of the stalled-inflation watch's history: the window in `RISE_SLOTS - 1` intervals
+/// (100 ms each for the default 3 s window).
+const RISE_SLOTS: usize = 31;
+
+/// The stalled-inflation watch (`docs/firmware.md`, "Safety"): the filtered pressure sampled
+/// across the last window while the inflate regulator has the inlet open. Compared now against
+/// a window ago (not against the start of the stall): the verdict comes a fixed time after the
+/// rise stopped, whatever the noise did on the way.
+#[derive(Debug, Clone, Copy)]
+struct RiseWatch {
+    /// A ring of samples; once full, the oldest (a window ago) is at `next`.
+    kpa: [f32; RISE_SLOTS],
+    next: usize,
+    len: usize,
+    /// When the next sample is due.
+    due_ms: u64,
+}
+
+impl RiseWatch {
+    const EMPTY: Self = Self {
+        kpa: [0.0; RISE_SLOTS],
+        next: 0,
+        len: 0,
+        due_ms: 0,
+    };
+
+    /// Forgets the history (the inlet closed: a new window starts when it opens again).
+    fn reset(&mut self) {
+        self.len = 0;
+        self.next = 0;
+    }
+
+    /// One look at the pressure `p` with the inlet open since the last look; returns the
+    /// diagnosis when the pressure gained less than the minimum across a whole window with the
+    /// inlet open throughout: `Leak` when it stalled above the ambient band (gas comes in but
+    /// goes out as fast), else `NoPressureRise` (it never left ambient: no supply, or an inlet
+    /// stuck closed).
+    fn feed(&mut self, now: u64, p: f32, cfg: crate::config::RiseWatchConfig) -> Option<FaultCode> {
+        let slot_ms = (cfg.window_ms as u64 / (RISE_SLOTS as u64 - 1)).max(1);
+        if self.len > 0 {
+            if now < self.due_ms {
+                return None;
+            }
+            if now >= self.due_ms + slot_ms {
+                // The loop stalled for more than a slot: the samples would not be a window
+                // apart. Start again (late rather than wrong).
+                self.reset();
+            }
+        }
+        self.due_ms = if self.len == 0 { now } else { self.due_ms } + slot_ms;
+        self.kpa[self.next] = p;
+        self.next = (self.next + 1) % RISE_SLOTS;
+        self.len = (self.len + 1).min(RISE_SLOTS);
+        if self.len < RISE_SLOTS || p - self.kpa[self.next] >= cfg.min_gain_kpa {
+            return None;
+        }
+        Some(if p >= cfg.ambient_band_kpa {
+            FaultCode::Leak
+        } else {
+            FaultCode::NoPressureRise
+        })
+    }
+}
+
 /// The running plan.
 #[derive(Debug, Clone)]
 pub(super) struct Exec {
@@ -131,6 +195,8 @@ pub(super) struct Exec {
     hold_kpa: Option<f32>,
     /// Regulator state: inlet wanted open.
     filling: bool,
+    /// Stalled-inflation watch over the regulator's open inlet.
+    rise: RiseWatch,
     /// Relief state during a pull: exhaust wanted open.
     relieving: bool,
     /// The sealed-release check of the current `TendonPull` (with snaps).
@@ -205,6 +271,7 @@ impl Controller {
             evidence: false,
             hold_kpa: None,
             filling: false,
+            rise: RiseWatch::EMPTY,
             relieving: false,
             pull: None,
             pre_release,
@@ -447,6 +514,10 @@ impl Controller {
         let vent_tol = self.cfg.vent_tolerance_kpa;
         let gripper_ms = self.cfg.gripper_settle_ms as u64;
         let check = self.cfg.tendon_check;
+        let rise_cfg = self.cfg.rise_watch;
+        // The inlet command in force since the last look (after the safety overlay: the cap,
+        // an invalid reading or a safety vent keep it shut whatever the regulator wants).
+        let inlet_was_open = self.outputs.inlet_open;
         let Some(e) = self.exec.as_mut() else {
             return Progress::Running;
         };
@@ -463,6 +534,14 @@ impl Controller {
                 e.filling = true;
             }
             inlet = e.filling;
+        }
+        // Stalled inflation: the regulator had the inlet open, yet the pressure does not rise.
+        // Not while a person works on the trunk (their hands move it).
+        let mut stall = None;
+        if e.hold_kpa.is_some() && inlet_was_open && !matches!(prim, Primitive::Manual(_)) {
+            stall = e.rise.feed(now, p, rise_cfg);
+        } else {
+            e.rise.reset();
         }
         let elapsed = now.saturating_sub(e.prim_start_ms);
         let reached = |e: &mut Exec, cond: bool| {
@@ -620,6 +699,11 @@ impl Controller {
                 }
             }
         };
+        // A primitive that completed (or failed by itself) in this pass keeps its verdict.
+        let result = match (result, stall) {
+            (Progress::Running, Some(code)) => Progress::Fail(code),
+            (r, _) => r,
+        };
         if let Some(ps) = self.plan_status.as_mut() {
             if matches!(prim, Primitive::Manual(_)) && matches!(result, Progress::Running) {
                 ps.phase = PlanPhase::WaitingManual;
@@ -687,6 +771,7 @@ impl Controller {
             e.evidence = false;
             e.hold_kpa = None;
             e.filling = false;
+            e.rise.reset();
             e.relieving = false;
             e.pull = None;
         }

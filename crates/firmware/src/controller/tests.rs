@@ -40,6 +40,13 @@ struct Plant {
     pulled_mm: f32,
     pack_snaps: u8,
     leak_kpa_per_s: f32,
+    /// A hole: the pressure falls at this fraction of itself per second (an orifice), so an
+    /// open inlet plateaus at `inlet_kpa_per_s / hole_per_s`.
+    hole_per_s: f32,
+    /// What the open inlet adds per second.
+    inlet_kpa_per_s: f32,
+    /// The inlet never opens (stuck closed, or the supply is off).
+    inlet_blocked: bool,
     /// Snaps disabled (a trunk that does not move).
     stuck: bool,
     /// Tendon snaps show as a pressure spike; `false`: the tendons pin the height and the
@@ -62,6 +69,9 @@ impl Plant {
             pulled_mm: 0.0,
             pack_snaps: 0,
             leak_kpa_per_s: 0.0,
+            hole_per_s: 0.0,
+            inlet_kpa_per_s: 10.0,
+            inlet_blocked: false,
             stuck: false,
             tendon_spike: true,
             inlet_sticks: false,
@@ -118,9 +128,10 @@ impl Plant {
         if out.inlet_open && self.inlet_sticks {
             self.inlet_stuck_open = true;
         }
-        if out.inlet_open || self.inlet_stuck_open {
-            self.p_kpa += 10.0 * dt;
+        if (out.inlet_open && !self.inlet_blocked) || self.inlet_stuck_open {
+            self.p_kpa += self.inlet_kpa_per_s * dt;
         }
+        self.p_kpa -= self.p_kpa * self.hole_per_s * dt;
         if out.exhaust_open {
             self.p_kpa -= self.p_kpa * dt / 0.2;
         }
@@ -1859,4 +1870,142 @@ fn an_assumed_state_stops_the_next_step_of_a_plan() {
         .collect();
     assert_eq!(done, [(0, true), (1, false)]);
     assert_eq!(r.plant.p_kpa, 0.0, "step 1 never inflated");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stalled inflation (the rise watch, docs/firmware.md "Safety")
+// ---------------------------------------------------------------------------------------------
+
+/// Runs the nominal F&P → F&F step (inflate to 16 kPa for one snap) on `r`; returns the time
+/// from its start to the first fault, with the fault, the filtered pressure then and the
+/// outputs then.
+fn inflate_until_fault(r: &mut Rig) -> (u64, FaultCode, f32, Outputs) {
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(5, &[FP, FF]));
+    let t0 = r.now;
+    r.run_until(30_000, |r| !r.faults_raised().is_empty())
+        .expect("a fault before the step's time limit");
+    (
+        r.now - t0,
+        r.faults_raised()[0],
+        r.ctl.pressure_kpa(),
+        r.ctl.poll_outputs(),
+    )
+}
+
+#[test]
+fn a_leak_the_supply_cannot_beat_is_named_leak_at_the_documented_time() {
+    // The hole takes 2.5 p per second: the 10 kPa/s inlet plateaus at 4 kPa (time constant
+    // 0.4 s), far below the 10 kPa snap. p(t) − p(t − 3 s) = 4·e^(−t/0.4)·(e^(3/0.4) − 1)
+    // falls below 0.5 kPa at t = 3 s + 0.4 s·ln 8 = 3.83 s; the watch samples every 100 ms.
+    let mut r = Rig::connected(FP);
+    r.plant.hole_per_s = 2.5;
+    let (t, code, p, out) = inflate_until_fault(&mut r);
+    assert_eq!(code, FaultCode::Leak);
+    assert!((3_830..=4_000).contains(&t), "{t} ms");
+    assert!((p - 4.0).abs() < 0.3, "{p} kPa");
+    assert_eq!(r.faults_raised(), [FaultCode::Leak]);
+    // The existing safe state: inlet and exhaust closed, servos limp, state unchanged.
+    assert!(!out.inlet_open && !out.exhaust_open && !out.servos_enabled);
+    let s = r.ctl.status();
+    assert_eq!((s.state, s.state_confirmed, s.mode), (FP, true, Mode::Safe));
+    assert_eq!(s.plan.unwrap().phase, PlanPhase::Failed(FaultCode::Leak));
+    assert_eq!(r.plan_done(), Some((false, FP)));
+    assert_eq!(r.ctl.poll_display(), display::fault(8));
+    // Cleared by a reset (the cause is a trunk that needs mending, not a live hazard).
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+}
+
+#[test]
+fn an_inlet_that_never_opens_is_no_pressure_rise_after_one_window() {
+    // Stuck closed or no supply: the pressure stays at 0 ± 0.1 kPa. The window is full 3 s
+    // after the inlet was commanded open (one control pass after the step started).
+    let mut r = Rig::connected(FP);
+    r.plant.inlet_blocked = true;
+    let (t, code, p, out) = inflate_until_fault(&mut r);
+    assert_eq!(code, FaultCode::NoPressureRise);
+    assert!((3_000..=3_010).contains(&t), "{t} ms");
+    assert!(p.abs() < 0.2, "{p} kPa");
+    assert!(!out.inlet_open && !out.exhaust_open && !out.servos_enabled);
+    assert_eq!(r.ctl.status().state, FP);
+    assert_eq!(r.plan_done(), Some((false, FP)));
+    assert_eq!(r.ctl.poll_display(), display::fault(12));
+    // A supply that comes back after a reset: the same step now succeeds.
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    r.plant.inlet_blocked = false;
+    r.msgs.clear();
+    r.upload_and_start(Rig::plan(6, &[FP, FF]));
+    r.run_until(10_000, |r| r.plan_done().is_some()).unwrap();
+    assert_eq!(r.plan_done(), Some((true, FF)));
+    assert!(r.faults_raised().is_empty());
+}
+
+#[test]
+fn a_slow_but_steady_rise_is_not_a_stall() {
+    // A supply 10× slower than the nominal 10 kPa/s gains 3 kPa per 3 s window, six times the
+    // 0.5 kPa the watch asks for: both inflates reach their snaps, in ≈ 30 s.
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    r.plant.inlet_kpa_per_s = 1.0;
+    r.upload_and_start(Rig::plan(5, &[FP, FF, DF]));
+    let took = r
+        .run_until(60_000, |r| r.plan_done().is_some())
+        .expect("plan finishes");
+    assert_eq!(r.plan_done(), Some((true, DF)));
+    assert!(r.faults_raised().is_empty());
+    // 10 kPa then 18 kPa at 1 kPa/s, plus the vents.
+    assert!((28_000..40_000).contains(&took), "{took}");
+    // Around the threshold: 0.2 kPa/s (0.6 kPa per window) keeps going; 0.15 kPa/s (0.45 kPa
+    // per window) is a stall at the first full window, still within the 1 kPa ambient band:
+    // NoPressureRise.
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    r.plant.inlet_kpa_per_s = 0.2;
+    r.upload_and_start(Rig::plan(5, &[FP, FF]));
+    r.run(10_000);
+    assert!(r.faults_raised().is_empty());
+    assert_eq!(r.ctl.mode(), Mode::Running);
+    let mut r = Rig::connected(FP);
+    r.plant.inlet_kpa_per_s = 0.15;
+    let (t, code, p, _) = inflate_until_fault(&mut r);
+    assert_eq!(code, FaultCode::NoPressureRise);
+    assert!((3_000..=3_010).contains(&t), "{t} ms");
+    assert!((p - 0.45).abs() < 0.15, "{p} kPa");
+}
+
+#[test]
+fn a_leak_while_the_regulator_holds_is_named_leak() {
+    // The regulator holds 2.5 kPa (below the sealed leak check's 3 kPa floor); then a hole
+    // opens that the inlet can only hold at 2 kPa (10 kPa/s against 5 p per second): the
+    // inlet stays open, the pressure stalls at 2 kPa, above the ambient band.
+    let mut r = Rig::connected(FP);
+    r.heartbeat_every_ms = 250;
+    let s = step(
+        StepKind::Pneumatic,
+        FP,
+        FP,
+        &[
+            Primitive::Inflate {
+                pressure_kpa: 2.5,
+                snaps: 0,
+            },
+            Primitive::Hold {
+                duration_ms: 20_000,
+            },
+        ],
+        30_000,
+    );
+    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run(2_000);
+    assert!(r.faults_raised().is_empty());
+    r.plant.hole_per_s = 5.0;
+    let t0 = r.now;
+    r.run_until(10_000, |r| !r.faults_raised().is_empty())
+        .unwrap();
+    assert_eq!(r.faults_raised(), [FaultCode::Leak]);
+    // The inlet reopens once the pressure is 1 kPa under the target (a few ms), then the
+    // pressure settles at 2 kPa within ≈ 0.5 s: the window closes 3 s after that.
+    assert!((3_000..=4_000).contains(&(r.now - t0)), "{}", r.now - t0);
+    assert!((r.ctl.pressure_kpa() - 2.0).abs() < 0.2);
 }

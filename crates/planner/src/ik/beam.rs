@@ -53,6 +53,37 @@ pub(crate) fn complete_greedily(
     (prefix, evaluated)
 }
 
+/// The best (lowest `g`, the first of equals) of the deepest layer reached, traced back
+/// through every layer's `(parent, candidate)` links and, when the search stopped below the
+/// top module, completed greedily. `last`: the deepest layer's `(g, frame)`s. Returns the
+/// states and the tips the completion evaluated. Shared by the beam and the DP.
+pub(crate) fn trace_back_best(
+    problem: &Problem,
+    layers: &[Vec<(u32, u16)>],
+    last: impl IntoIterator<Item = (f64, Frame)>,
+) -> (Vec<usize>, u64) {
+    let mut best: Option<(usize, f64, Frame)> = None;
+    for (i, (g, frame)) in last.into_iter().enumerate() {
+        if best.is_none_or(|(_, best_g, _)| g.total_cmp(&best_g).is_lt()) {
+            best = Some((i, g, frame));
+        }
+    }
+    let (best, frame) = best.map_or((0, Frame::identity()), |(i, _, f)| (i, f));
+    let depth = layers.len();
+    let mut states = vec![0usize; depth];
+    let mut idx = best as u32;
+    for d in (0..depth).rev() {
+        let (p, c) = layers[d][idx as usize];
+        states[d] = c as usize;
+        idx = p;
+    }
+    if depth < problem.m() {
+        complete_greedily(problem, frame, states)
+    } else {
+        (states, 0)
+    }
+}
+
 #[derive(Clone, Copy)]
 struct Entry {
     score: f64,
@@ -161,27 +192,8 @@ pub fn beam_with(
         cur = next;
     }
     control.add_evaluated(evaluated);
-    // Best entry of the deepest layer reached, traced back.
-    let depth = layers.len();
-    let best = (0..cur.len())
-        .min_by(|&a, &b| cur[a].g.total_cmp(&cur[b].g))
-        .unwrap_or(0);
-    let mut states = vec![0usize; depth];
-    let mut idx = best as u32;
-    for d in (0..depth).rev() {
-        let (p, c) = layers[d][idx as usize];
-        states[d] = c as usize;
-        idx = p;
-    }
-    if depth < m {
-        let frame = cur
-            .get(best)
-            .map(|e| e.frame)
-            .unwrap_or_else(Frame::identity);
-        let (s, n) = complete_greedily(problem, frame, states);
-        states = s;
-        evaluated += n;
-    }
+    let (states, n) = trace_back_best(problem, &layers, cur.iter().map(|e| (e.g, e.frame)));
+    evaluated += n;
     let g = problem.cost_sum(&states);
     control.offer_best(g);
     (states, g, evaluated, interrupted)

@@ -197,26 +197,9 @@ pub(crate) fn solve(
         layers.push(next.iter().map(|s| (s.parent, s.cand)).collect());
         cur = next;
     }
-    let depth = layers.len();
-    let best = (0..cur.len())
-        .min_by(|&a, &b| cur[a].g.total_cmp(&cur[b].g))
-        .unwrap_or(0);
-    let mut states = vec![0usize; depth];
-    let mut idx = best as u32;
-    for d in (0..depth).rev() {
-        let (p, c) = layers[d][idx as usize];
-        states[d] = c as usize;
-        idx = p;
-    }
-    if depth < m {
-        let frame = cur
-            .get(best)
-            .map(|s| s.frame)
-            .unwrap_or_else(Frame::identity);
-        let (s, n) = super::beam::complete_greedily(problem, frame, states);
-        states = s;
-        evaluated += n;
-    }
+    let (states, n) =
+        super::beam::trace_back_best(problem, &layers, cur.iter().map(|s| (s.g, s.frame)));
+    evaluated += n;
     control.offer_best(problem.cost_sum(&states));
     Ok(Raw {
         states,

@@ -34,25 +34,36 @@ fn plan_with(fault: &str, from: &str, to: &str) -> (e2e::Output, serde_json::Val
 #[test]
 fn each_fault_ends_in_a_clean_failure_naming_the_step() {
     // Each fault on a plan that exercises the faulty part: pressure for the valve and the leak,
-    // tendons for the servo, any plan for the link.
+    // tendons for the servo, any plan for the link. Each case: the step the error names, the
+    // diagnosis it gives, and how long the failed step may have run (device time).
     let cases = vec![
+        // The inlet never opens: the pressure stays at ambient, named after one 3 s window of
+        // the rise watch (not the step's 30 s limit).
         (
             "valve-stuck-closed",
             "F&P",
             "D&F",
             "step 1/2 (pneumatic F&P → F&F) failed",
+            "no pressure rise with the inlet open: supply off or inlet stuck closed (E-12)",
+            5_000,
         ),
+        // The supply cannot beat the 2.5 mm hole: the pressure stalls at ≈ 4 kPa, named at
+        // ≈ 4.3 s.
         (
             "leak",
             "F&P",
             "D&F",
             "step 1/2 (pneumatic F&P → F&F) failed",
+            "pressure leak: it stalls while inflating or falls while sealed (E-08)",
+            7_000,
         ),
         (
             "servo-stall",
             "D&D",
             "F&D",
             "step 1/1 (tendon D&D → F&D) failed",
+            "transition not confirmed by the sensors (E-04)",
+            30_000,
         ),
         // The link goes silent 1 s (device time) into the plan: during the first step.
         (
@@ -60,13 +71,15 @@ fn each_fault_ends_in_a_clean_failure_naming_the_step() {
             "F&P",
             "D&D",
             "link lost during step 1/3 (pneumatic F&P → F&F)",
+            "the device aborts to its safe state by itself",
+            30_000,
         ),
     ];
-    let results = parallel(cases, 4, |(fault, from, to, step)| {
+    let results = parallel(cases, 4, |(fault, from, to, step, why, max_ms)| {
         let (out, v) = plan_with(fault, from, to);
-        (fault, step, out, v)
+        (fault, step, why, max_ms, out, v)
     });
-    for (fault, step, out, v) in results {
+    for (fault, step, why, max_ms, out, v) in results {
         assert_eq!(out.code(), 1, "{fault}: {v}\n{}", out.stderr);
         assert_eq!(v["ok"], false, "{fault}: {v}");
         let error = v["error"]
@@ -80,13 +93,18 @@ fn each_fault_ends_in_a_clean_failure_naming_the_step() {
             error.contains(step),
             "{fault}: error does not name {step:?}: {error}"
         );
+        assert!(
+            error.contains(why),
+            "{fault}: error does not say {why:?}: {error}"
+        );
         // The last reported step is the failed one.
         let steps = v["steps"].as_array().unwrap();
-        assert_eq!(
-            steps.last().map(|s| s["ok"].clone()),
-            Some(false.into()),
-            "{fault}: {v}"
-        );
+        let last = steps.last().unwrap_or_else(|| panic!("{fault}: {v}"));
+        assert_eq!(last["ok"], false, "{fault}: {v}");
+        // The link-drop step reports no duration (the host lost the device).
+        if let Some(ms) = last["duration_ms"].as_u64() {
+            assert!(ms <= max_ms, "{fault}: the step ran {ms} ms: {v}");
+        }
         let sim = &v["sim"];
         assert_eq!(sim["actuators_safe"], true, "{fault}: {v}");
         let max = sim["max_pressure_kpa"].as_f64().unwrap();

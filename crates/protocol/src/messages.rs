@@ -503,7 +503,7 @@ impl FaultCode {
             FaultCode::LinkLoss => "host link lost during a plan",
             FaultCode::EStop => "emergency stop pressed",
             FaultCode::ServoLimit => "servo command outside its limits",
-            FaultCode::Leak => "pressure leak: it falls sealed or stalls while inflating",
+            FaultCode::Leak => "pressure leak: it stalls while inflating or falls while sealed",
             FaultCode::Watchdog => "restarted by the watchdog",
             FaultCode::StateStorage => "stored trunk state unreadable",
             FaultCode::InletStuck => "inlet stuck open: pressure rises with it closed",

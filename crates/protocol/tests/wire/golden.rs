@@ -18,7 +18,7 @@ use crate::samples::{largest_request, st, status_response};
 /// included): update this one constant deliberately, together with the golden bytes if the
 /// wire form changed, and tell the firmware/host/simulator engineers (old builds will refuse
 /// the new ones at the handshake).
-const EXPECTED_SCHEMA_ID: u32 = 0x1034_2b01;
+const EXPECTED_SCHEMA_ID: u32 = 0x221e_e9a8;
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()

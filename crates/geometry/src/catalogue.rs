@@ -159,18 +159,25 @@ impl ModuleDesign {
 
     /// Hyperfold angle ζ (eq 13), radians:
     /// cos ζ = (2 sin²(90°/n) − sin²β) / sin²β, for β ∈ (90°/n, 45°]; `None` outside.
+    /// Verified as the measured turn between consecutive facets of the 3D construction
+    /// ([`crate::SelfPacked3d::hyperfold_angle`]).
+    ///
+    /// Evaluated in the equivalent half-angle form sin(ζ/2) = √(sin(β − x) sin(β + x)) / sin β,
+    /// x = 90°/n, because acos of eq 13's right-hand side loses half the digits near the
+    /// flat-foldable limit where it approaches 1.
     pub fn zeta(&self) -> Option<f64> {
         if !self.can_self_pack() {
             return None;
         }
-        let s0 = libm::sin(PI / (2.0 * self.n() as f64));
-        let sb = libm::sin(self.beta());
-        let c = (2.0 * s0 * s0 - sb * sb) / (sb * sb);
-        Some(libm::acos(c.clamp(-1.0, 1.0)))
+        let x = PI / (2.0 * self.n() as f64);
+        let b = self.beta();
+        let s2 = (libm::sin(b - x) * libm::sin(b + x)).max(0.0);
+        Some(2.0 * libm::asin((libm::sqrt(s2) / libm::sin(b)).min(1.0)))
     }
 
     /// Inner radius of the self-packed layer, r_in = 1 / (2 tan 2β) (eq 14), units of l, for
-    /// β ∈ (90°/n, 45°]; `None` outside.
+    /// β ∈ (90°/n, 45°]; `None` outside. Verified as the measured distance from the hyperfold's
+    /// centre to its nearest panel ([`crate::SelfPacked3d::inner_radius`]).
     pub fn r_in(&self) -> Option<f64> {
         if !self.can_self_pack() {
             return None;

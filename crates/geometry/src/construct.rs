@@ -29,6 +29,10 @@ use nalgebra::{Point3, Vector3};
 use crate::design::{ModuleDesign, MAX_N};
 use crate::pose::Pose;
 
+/// The self-packed state leaves eq 5's framework (its boundary is no longer the eq 3
+/// polygon), so it has its own construction; re-exported here beside [`Module3d`].
+pub use crate::hyperfold::SelfPacked3d;
+
 const N: usize = MAX_N as usize;
 
 /// Which diagonal of the rhombus around a vertex is folded.

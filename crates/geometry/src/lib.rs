@@ -17,6 +17,9 @@
 //!   [`ModuleDesign::state_info`]) — the 2(n+1) states deployed, folded, `edge-i`, `vertex-i`;
 //!   [`SymmetricState`] adds flat-folded and self-packed (ζ, r_in); [`popout`] solves β_in and
 //!   β_out.
+//! * [`hyperfold::SelfPacked3d`] (also `construct::SelfPacked3d`) — the self-packed
+//!   (hyperfolded) module built in 3D, d = 0 with the 2n virtual creases of §3.1.2: measures
+//!   the hyperfold angle ζ (eq 13), the inner radius r_in (eq 14) and the strain.
 //! * [`fk`] — forward kinematics of a stack (eqs 33–35), tips in units of l.
 //! * [`tendon`] — three-tendon constant-curvature bending and the joystick map.
 //! * [`trunk`] — the crane trunk's six states `F&P` … `D&D`.
@@ -60,6 +63,7 @@ pub mod catalogue;
 pub mod construct;
 pub mod design;
 pub mod fk;
+pub mod hyperfold;
 pub mod popout;
 pub mod pose;
 pub mod state;
@@ -69,6 +73,7 @@ pub mod trunk;
 pub use catalogue::{StateInfo, STRAIN_TOLERANCE};
 pub use construct::Module3d;
 pub use design::{DesignError, ModuleDesign, MAX_N, MIN_N};
+pub use hyperfold::{SelfPackError, SelfPacked3d};
 pub use pose::Pose;
 pub use state::{ParseShapeStateError, ParseShapeStateErrorKind, ShapeState, SymmetricState};
 pub use trunk::{BottomState, ParseTrunkStateError, TopState, TrunkState};

@@ -290,6 +290,195 @@ fn flat_folded_and_self_packed_ranges_follow_table_1() {
     );
 }
 
+// ---------------------------------------------------------------- self-packed (hyperfold) in 3D
+
+/// Eq 13 as printed: cos ζ = (2 sin²(90°/n) − sin²β) / sin²β.
+fn eq_13_cos_zeta(n: u32, beta: f64) -> f64 {
+    let s0 = (PI / (2.0 * n as f64)).sin();
+    let sb = beta.sin();
+    (2.0 * s0 * s0 - sb * sb) / (sb * sb)
+}
+
+/// Eq 13 in its well-conditioned half-angle form (identical algebraically):
+/// sin(ζ/2) = √(sin(β − x) sin(β + x)) / sin β, x = 90°/n.
+fn eq_13_zeta(n: u32, beta: f64) -> f64 {
+    let x = PI / (2.0 * n as f64);
+    2.0 * (((beta - x).sin() * (beta + x).sin()).max(0.0).sqrt() / beta.sin())
+        .min(1.0)
+        .asin()
+}
+
+/// Azimuth of `p` measured from `from`, wrapped into (−π, π].
+fn azimuth_from(p: Point3<f64>, from: f64) -> f64 {
+    let a = p.y.atan2(p.x) - from;
+    (a + PI).rem_euclid(2.0 * PI) - PI
+}
+
+/// Everything the self-packed module must satisfy, for β ∈ [90°/n, 45°]; the tolerances are
+/// the module-wide ones: lengths EXACT (1e-9 l), angles 1e-9 rad.
+fn check_self_packed(n: u32, beta_deg: f64) -> Result<(), TestCaseError> {
+    let d = design(n, beta_deg);
+    let m = d.build_self_packed().unwrap();
+    let (beta, w) = (d.beta(), d.w());
+    let nn = n as usize;
+    // every crease segment keeps its flat length, including the 2n virtual creases (w/2)
+    prop_assert_eq!(m.creases().count(), 8 * nn);
+    prop_assert_eq!(m.virtual_creases().count(), 2 * nn);
+    for c in m.virtual_creases() {
+        prop_assert!((c.flat_length - 0.5 * w).abs() < 1e-15);
+    }
+    prop_assert!(m.max_strain() <= EXACT, "strain {}", m.max_strain());
+    // fully compacted: top boundary on the bottom boundary, d = 0
+    prop_assert!(m.height() <= 1e-12);
+    for (t, b) in m.top().iter().zip(m.bottom()) {
+        prop_assert!((t - b).norm() <= 1e-15);
+    }
+    // the hyperfold angle measured at every virtual crease is eq 13
+    let zeta = eq_13_zeta(n, beta);
+    for k in 0..2 * nn {
+        let z = m.hyperfold_angle(k);
+        prop_assert!((z - zeta).abs() <= 1e-9, "k {}: {} vs {}", k, z, zeta);
+        prop_assert!((z.cos() - eq_13_cos_zeta(n, beta)).abs() <= 1e-9);
+    }
+    // the measured inner radius is eq 14
+    let r_in = if (beta_deg - 45.0).abs() < 1e-12 {
+        0.0
+    } else {
+        0.5 / (2.0 * beta).tan()
+    };
+    prop_assert!((m.inner_radius() - r_in).abs() <= EXACT);
+    if d.can_self_pack() {
+        prop_assert!((d.zeta().unwrap() - m.hyperfold_angle(0)).abs() <= 1e-9);
+        prop_assert!((d.r_in().unwrap() - m.inner_radius()).abs() <= EXACT);
+    }
+    // each facet is a flat sector of the centre (the two half-panels in it are folded flat
+    // onto each other) and lies in its own azimuth range [kπ/n, (k+1)π/n]: facets meet only
+    // along their shared virtual creases, and the layer keeps r_in ≥ 0 from the centre
+    for (k, tri) in m.panels() {
+        let [a, b, c] = tri;
+        prop_assert!(a.coords.cross(&b.coords).dot(&c.coords).abs() <= EXACT);
+        for p in tri {
+            if p.coords.norm() > 1e-12 {
+                let az = azimuth_from(p, k as f64 * PI / n as f64);
+                prop_assert!(az >= -1e-9 && az <= PI / n as f64 + 1e-9, "facet {}", k);
+            }
+        }
+    }
+    // the boundary vertices stay a planar regular n-gon (radius 1/(4 sin β cos(90°/n))); each
+    // boundary edge is bent by ζ at its midpoint, so its chord is cos(ζ/2)
+    let rb = 1.0 / (4.0 * beta.sin() * (PI / (2.0 * n as f64)).cos());
+    for j in 0..nn {
+        let b = m.bottom()[j];
+        prop_assert!((b.z - m.bottom()[0].z).abs() <= 1e-12);
+        prop_assert!((Vector3::new(b.x, b.y, 0.0).norm() - rb).abs() <= EXACT);
+        let chord = (m.bottom()[(j + 1) % nn] - b).norm();
+        prop_assert!((chord - (0.5 * zeta).cos()).abs() <= EXACT);
+    }
+    // thickness: B nodes at +ρ sin ε, P nodes at −ρ sin ε
+    let zmax = m.bottom().iter().map(|p| p.z).fold(f64::MIN, f64::max);
+    let zmin = m.mid().iter().map(|p| p.z).fold(f64::MAX, f64::min);
+    prop_assert!((zmax - zmin - m.thickness()).abs() <= 1e-12);
+    Ok(())
+}
+
+proptest! {
+    #[test]
+    fn self_packed_closes_exactly_with_zeta_of_eq_13_and_r_in_of_eq_14(
+        n in 3u32..=12,
+        t in 1e-6f64..=1.0,
+    ) {
+        let lo = 90.0 / n as f64;
+        check_self_packed(n, lo + t * (45.0 - lo))?;
+    }
+}
+
+#[test]
+fn self_packed_degenerates_to_flat_folded_at_90_over_n() {
+    for n in 3..=12u32 {
+        let d = design(n, 90.0 / n as f64);
+        check_self_packed(n, 90.0 / n as f64).unwrap();
+        let m = d.build_self_packed().unwrap();
+        assert_eq!(m.twist_elevation(), 0.0);
+        assert!(m.thickness() <= 1e-15);
+        for k in 0..2 * n as usize {
+            assert!(m.hyperfold_angle(k) <= 1e-7, "ζ = {}", m.hyperfold_angle(k));
+        }
+        // boundary = eq 3's polygon, mid-plane points on the same circle at 180°/n offsets,
+        // nearest panel point = the apothem: the flat-folded state of §3.1.1
+        for j in 0..n {
+            assert!((m.bottom()[j as usize] - d.bottom_vertex(j)).norm() <= 1e-12);
+            let p = m.mid()[j as usize];
+            assert_relative_eq!(p.coords.norm(), d.r(), epsilon = 1e-12);
+            assert!(p.z.abs() <= 1e-15);
+        }
+        assert_relative_eq!(m.inner_radius(), d.apothem(), epsilon = 1e-12);
+        // and the hyperfold angle grows continuously from 0 just above it
+        let just = design(n, 90.0 / n as f64 + 1e-6)
+            .build_self_packed()
+            .unwrap();
+        assert!(just.hyperfold_angle(0) > 0.0 && just.hyperfold_angle(0) < 2e-2);
+        assert!(just.thickness() < 1e-2);
+    }
+}
+
+#[test]
+fn self_packed_r_in_vanishes_at_45_and_the_state_does_not_exist_outside_eq_15() {
+    for n in 3..=12u32 {
+        check_self_packed(n, 45.0).unwrap();
+        let m = design(n, 45.0).build_self_packed().unwrap();
+        assert!(m.inner_radius() <= 1e-15);
+        // every boundary edge midpoint touches the centre: the closed end of eq 15's range
+        for j in 0..n as usize {
+            assert!(m.edge_bend(j).coords.norm() <= 1e-15);
+            assert!(m.mid_fold_bend(j).coords.norm() <= 1e-15);
+        }
+        // ζ(45°) = acos(1 − 2 cos(180°/n)) (eq 13 at sin²β = 1/2)
+        let z45 = (1.0 - 2.0 * (PI / n as f64).cos()).acos();
+        assert_relative_eq!(m.hyperfold_angle(1), z45, epsilon = 1e-9);
+        // r_in decreases monotonically to 0 over the range
+        let lo = 90.0 / n as f64;
+        let mut last = f64::INFINITY;
+        for k in 0..=20 {
+            let r = design(n, lo + k as f64 * (45.0 - lo) / 20.0)
+                .build_self_packed()
+                .unwrap()
+                .inner_radius();
+            assert!(r < last);
+            last = r;
+        }
+        assert_eq!(
+            design(n, 45.001).build_self_packed().unwrap_err(),
+            geometry::SelfPackError::Above45
+        );
+        assert_eq!(
+            design(n, lo - 0.01).build_self_packed().unwrap_err(),
+            geometry::SelfPackError::BelowFlatFoldable
+        );
+    }
+}
+
+#[test]
+fn crane_modules_self_pack_exactly_with_pinned_figures() {
+    // n = 3, β = 35°: the trunk's P module (§5–6)
+    let m = design(3, 35.0).build_self_packed().unwrap();
+    assert!(m.max_strain() <= 1e-12);
+    assert_relative_eq!(
+        m.hyperfold_angle(0).to_degrees(),
+        58.680_937,
+        epsilon = 1e-5
+    );
+    assert_relative_eq!(m.inner_radius(), 0.181_985_117, epsilon = 1e-8);
+    assert_relative_eq!(m.thickness(), 0.345_357_913, epsilon = 1e-8);
+    assert_relative_eq!(m.twist_elevation().to_degrees(), 18.937_120, epsilon = 1e-5);
+    // golden n = 3 (tan β = 1/φ): cos ζ = φ/2, i.e. ζ = 36°, and r_in = 1/4 exactly
+    let g = design(3, golden_beta_deg()).build_self_packed().unwrap();
+    assert!(g.max_strain() <= 1e-12);
+    for k in 0..6 {
+        assert_relative_eq!(g.hyperfold_angle(k).to_degrees(), 36.0, epsilon = 1e-9);
+    }
+    assert_relative_eq!(g.inner_radius(), 0.25, epsilon = 1e-12);
+}
+
 // ---------------------------------------------------------------- pop-out states
 
 /// β range where a pop-out with lever λ exists: w ≤ 2λ.

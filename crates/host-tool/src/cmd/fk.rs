@@ -3,7 +3,7 @@
 use geometry::{fk, ModuleDesign, Pose, ShapeState, SymmetricState};
 use serde_json::Value;
 
-use super::states::{design_from, ordered_object, parse_beta, parse_n};
+use super::states::{designs_from, ordered_object, parse_n};
 use crate::failure::Failure;
 
 /// Arguments of `host-tool fk`.
@@ -62,24 +62,16 @@ fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
             "--states must be a comma-separated list of state names, one per module (e.g. deployed,edge-0,folded)",
         ));
     }
-    let betas = args
-        .beta
-        .split(',')
-        .map(parse_beta)
-        .collect::<Result<Vec<f64>, Failure>>()?;
-    if betas.len() != 1 && betas.len() != names.len() {
-        return Err(Failure::usage(format!(
-            "--beta has {} values but --states has {} modules; give one β for all modules or one per module",
-            betas.len(),
-            names.len()
-        )));
-    }
+    let designs = designs_from(
+        n,
+        &args.beta,
+        names.len(),
+        &format!("--states has {} modules", names.len()),
+    )?;
     names
         .iter()
-        .enumerate()
-        .map(|(k, name)| {
-            let beta = if betas.len() == 1 { betas[0] } else { betas[k] };
-            let design = design_from(n, beta)?;
+        .zip(designs)
+        .map(|(name, design)| {
             let pose = parse_state(&design, name)?;
             Ok(Module {
                 design,

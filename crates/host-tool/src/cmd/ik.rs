@@ -14,7 +14,7 @@ use geometry::ModuleDesign;
 use planner::ik::{self, dp::DpParams, Algorithm, Catalogue, Control, Metric, Problem, Target};
 use serde_json::Value;
 
-use super::states::{design_from, ordered_object, parse_beta, parse_n};
+use super::states::{designs_from, ordered_object, parse_n};
 use crate::failure::Failure;
 
 mod svg;
@@ -130,20 +130,7 @@ impl Args {
                 "--modules must be at least 1 (got m = 0): a boom needs at least one module",
             ));
         }
-        let betas = self
-            .beta
-            .split(',')
-            .map(parse_beta)
-            .collect::<Result<Vec<f64>, Failure>>()?;
-        if betas.len() != 1 && betas.len() != m {
-            return Err(Failure::usage(format!(
-                "--beta has {} values but --modules is {m}; give one β for all modules or one per module, bottom first",
-                betas.len()
-            )));
-        }
-        let designs = (0..m)
-            .map(|i| design_from(n, betas[if betas.len() == 1 { 0 } else { i }]))
-            .collect::<Result<Vec<_>, Failure>>()?;
+        let designs = designs_from(n, &self.beta, m, &format!("--modules is {m}"))?;
         let (target, source) = match (&self.target_file, &self.target) {
             (Some(_), Some(_)) => {
                 return Err(Failure::usage(

@@ -55,6 +55,30 @@ pub fn parse_beta(text: &str) -> Result<f64, Failure> {
     Ok(beta)
 }
 
+/// Parses a `--beta` list (one β for all `m` modules, or one per module, bottom first) and builds
+/// the module designs. `count` says where `m` came from, for the error message
+/// (e.g. `"--modules is 4"`).
+pub fn designs_from(
+    n: u32,
+    beta_list: &str,
+    m: usize,
+    count: &str,
+) -> Result<Vec<ModuleDesign>, Failure> {
+    let betas = beta_list
+        .split(',')
+        .map(parse_beta)
+        .collect::<Result<Vec<f64>, Failure>>()?;
+    if betas.len() != 1 && betas.len() != m {
+        return Err(Failure::usage(format!(
+            "--beta has {} values but {count}; give one β for all modules or one per module, bottom first",
+            betas.len()
+        )));
+    }
+    (0..m)
+        .map(|i| design_from(n, betas[if betas.len() == 1 { 0 } else { i }]))
+        .collect()
+}
+
 /// A validated module design from `--n`/`--beta` text.
 pub fn design_from(n: u32, beta_deg: f64) -> Result<ModuleDesign, Failure> {
     ModuleDesign::new(n, beta_deg).map_err(|e| Failure::usage(e.to_string()))

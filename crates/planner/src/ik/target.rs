@@ -571,6 +571,10 @@ pub fn generators_help() -> String {
     s
 }
 
+/// Most polyline points a generator may produce (a typo such as `turns=1e9` is refused, not
+/// allocated).
+const MAX_GENERATED_POINTS: f64 = 1_000_000.0;
+
 /// Builds a target from a generator spec `name:key=value,key=value,…` (e.g.
 /// `helix:radius=1,pitch=4,turns=1.5`); omitted parameters take their defaults (see
 /// [`GENERATORS`]).
@@ -628,7 +632,7 @@ pub fn generate(spec: &str) -> Result<Target, IkError> {
         }
     };
     let samples = |k: &str, v: f64| -> Result<usize, IkError> {
-        if (2.0..=1_000_000.0).contains(&v) {
+        if (2.0..=MAX_GENERATED_POINTS).contains(&v) {
             Ok(v.round() as usize)
         } else {
             Err(IkError::Generator(format!(
@@ -640,7 +644,13 @@ pub fn generate(spec: &str) -> Result<Target, IkError> {
         "helix" => {
             let (r, p, turns) = (positive("radius")?, get("pitch"), positive("turns")?);
             let per_turn = samples("samples", get("samples"))?;
-            let count = ((per_turn as f64 * turns).ceil() as usize).max(2);
+            let total = (per_turn as f64 * turns).ceil();
+            if total > MAX_GENERATED_POINTS {
+                return Err(IkError::Generator(format!(
+                    "helix samples × turns must be at most {MAX_GENERATED_POINTS} points (got {total})"
+                )));
+            }
+            let count = (total as usize).max(2);
             (0..=count)
                 .map(|i| {
                     let t = 2.0 * PI * turns * i as f64 / count as f64;
@@ -768,6 +778,13 @@ mod tests {
         assert!(generate("spiral").is_err());
         assert!(generate("helix:radius=-1").is_err());
         assert!(generate("helix:radius=nan").is_err());
+    }
+
+    #[test]
+    fn a_generator_refuses_an_absurd_point_count() {
+        let err = generate("helix:radius=1,pitch=1,turns=1e9").unwrap_err();
+        assert!(err.to_string().contains("at most 1000000 points"), "{err}");
+        assert!(generate("helix:radius=1,pitch=1,turns=1000,samples=1000").is_ok());
     }
 
     #[test]

@@ -275,6 +275,13 @@ fn bad_input_is_a_usage_error_with_a_clear_message() {
         &with(&["--target-file", "/nonexistent/target.csv"]),
         "cannot read",
     );
+    // An endless file is refused after 64 MiB instead of exhausting memory.
+    usage_error(&with(&["--target-file", "/dev/zero"]), "larger than 64 MiB");
+    // A generator whose point count would exhaust memory is refused before allocating.
+    usage_error(
+        &with(&["--target", "helix:radius=1,pitch=1,turns=1e9"]),
+        "at most 1000000 points",
+    );
     usage_error(
         &with(&[
             "--target-file",

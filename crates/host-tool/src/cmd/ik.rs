@@ -117,6 +117,25 @@ fn parse_count(flag: &str, text: &str, min: usize, max: usize) -> Result<usize, 
     Ok(v)
 }
 
+/// Largest target file read (a million `x,y,z` rows fit easily; `/dev/zero` does not).
+const MAX_TARGET_FILE_BYTES: u64 = 64 << 20;
+
+/// Reads a text file of at most `limit` bytes.
+fn read_bounded(path: &std::path::Path, limit: u64) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut text = String::new();
+    std::fs::File::open(path)?
+        .take(limit + 1)
+        .read_to_string(&mut text)?;
+    if text.len() as u64 > limit {
+        return Err(std::io::Error::other(format!(
+            "larger than {} MiB; a target curve needs far fewer points",
+            limit >> 20
+        )));
+    }
+    Ok(text)
+}
+
 /// Longest boom accepted (the heuristics are linear in m; exact and exhaustive are not).
 const MAX_MODULES: usize = 10_000;
 
@@ -144,7 +163,7 @@ impl Args {
             )))
             }
             (Some(path), None) => {
-                let text = std::fs::read_to_string(path).map_err(|e| {
+                let text = read_bounded(path, MAX_TARGET_FILE_BYTES).map_err(|e| {
                     Failure::usage(format!("cannot read --target-file {}: {e}", path.display()))
                 })?;
                 let t = ik::target::parse_csv(&text).map_err(|e| {

@@ -41,6 +41,10 @@ enum Command {
     Status(cmd::status::Args),
     /// Live telemetry until Ctrl-C or --duration.
     Monitor(cmd::monitor::Args),
+    /// Tell the device the trunk's true state (after folding it by hand), e.g. declare 'D&D'.
+    Declare(cmd::declare::Args),
+    /// Read (`param get [NAME]`) or change (`param set NAME VALUE`) a device parameter.
+    Param(cmd::param::Args),
     /// Abort whatever runs; report the safe state.
     Stop(cmd::stop::Args),
     /// List serial ports; recognise Arduino UNO R4 boards.
@@ -56,6 +60,8 @@ fn main() -> ExitCode {
         Command::Plan(args) => cmd::plan::run(args),
         Command::Status(args) => cmd::status::run(args),
         Command::Monitor(args) => cmd::monitor::run(args),
+        Command::Declare(args) => cmd::declare::run(args),
+        Command::Param(args) => cmd::param::run(args),
         Command::Stop(args) => cmd::stop::run(args),
         Command::Ports(args) => cmd::ports::run(args),
     };

@@ -1,8 +1,10 @@
 //! One module per subcommand: `Args` (clap) and `run`.
 
+pub mod declare;
 pub mod fk;
 pub mod ik;
 pub mod monitor;
+pub mod param;
 pub mod plan;
 pub mod ports;
 pub mod states;

@@ -1,0 +1,59 @@
+//! `host-tool declare STATE`: tell the device the trunk's true state (after it was folded by
+//! hand outside a plan), then report the state the device holds.
+
+use protocol::RequestBody;
+use serde_json::json;
+
+use crate::cmd::status::{mode_name, snapshot, status_json, Snapshot};
+use crate::device::{parse_state, DeviceArgs};
+use crate::failure::Failure;
+
+/// Arguments of `host-tool declare`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The trunk's true state: F&P, F&F, F&D, D&P, D&F or D&D.
+    #[arg(value_name = "STATE")]
+    pub state: String,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `host-tool declare`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    // Validated before any connection: a typo never reaches the device.
+    let declared = parse_state("state", &args.state)?;
+    let Snapshot {
+        status,
+        info,
+        truth,
+    } = snapshot(&args.device, Some(RequestBody::DeclareState(declared)))?;
+    if args.json {
+        let mut v = status_json(&status, &info, truth.as_ref());
+        v["declared"] = json!(declared.name());
+        println!("{v}");
+    } else {
+        println!(
+            "declared {declared}: the device now reports {}{} (mode {})",
+            status.state,
+            if status.state_confirmed {
+                ", confirmed"
+            } else {
+                ", not confirmed"
+            },
+            mode_name(status.mode)
+        );
+    }
+    // The status read after the request is the truth; a device that kept another state did
+    // not do what was asked.
+    if status.state == declared {
+        Ok(())
+    } else {
+        Err(Failure::Runtime(anyhow::anyhow!(
+            "the device accepted the declaration of {declared} but reports {}",
+            status.state
+        )))
+    }
+}

@@ -91,6 +91,15 @@ pub fn document(pattern: &Pattern, frames: &[(String, Folded)], creator: &str) -
             })
         })
         .collect();
+    // Rows (y, mm) where two modules meet: β changes there, so Kawasaki's theorem fails at
+    // their interior vertices by 2(β_above − β_below) (checked by tools/fabrication).
+    let mut interfaces = Vec::new();
+    let layers = pattern.layers();
+    for k in 1..layers.len() {
+        if layers[k].0 != layers[k - 1].0 && layers[k].1.beta_deg() != layers[k - 1].1.beta_deg() {
+            interfaces.push(round(pattern.row_y(k) * l));
+        }
+    }
     json!({
         "file_spec": 1.2,
         "file_creator": creator,
@@ -106,5 +115,6 @@ pub fn document(pattern: &Pattern, frames: &[(String, Folded)], creator: &str) -
         "edges_foldAngle": key_angles,
         "faces_vertices": faces,
         "file_frames": file_frames,
+        "yoshimura:module_interface_y_mm": interfaces,
     })
 }

@@ -69,11 +69,6 @@ impl Output {
         self.flag
     }
 
-    /// The path.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// Replaces the file's contents with what `fill` writes.
     pub fn write(
         self,
@@ -92,16 +87,4 @@ impl Output {
         w.flush().map_err(fail)?;
         Ok(())
     }
-}
-
-/// Creates (if needed) the directory for `--stl-dir`-style flags and checks it is a directory.
-pub fn ensure_dir(flag: &str, dir: &Path) -> Result<(), Failure> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(Failure::usage(format!(
-            "{flag} {} exists and is not a directory",
-            dir.display()
-        )));
-    }
-    std::fs::create_dir_all(dir)
-        .map_err(|e| Failure::usage(format!("cannot create {flag} {}: {e}", dir.display())))
 }

@@ -73,11 +73,6 @@ impl TrunkArgs {
         list_len(&self.beta).max(list_len(&self.layers))
     }
 
-    /// Whether the module list is the default crane trunk.
-    pub fn is_default_trunk(&self) -> bool {
-        self.beta.trim() == Defaults::BETA
-    }
-
     /// Validates into a trunk.
     pub fn trunk(&self) -> Result<Trunk, Failure> {
         let n = parse_n(&self.n)?;

@@ -989,9 +989,10 @@ impl PlanRunner {
                 }
                 // Done but elsewhere (should not happen): plan on from what it reports.
                 if st.state_confirmed {
-                    return self.make_plan(session, now_ms);
+                    self.make_plan(session, now_ms);
+                } else {
+                    self.finish(None);
                 }
-                return self.finish(None);
             }
             PlanPhase::Failed(fault) => {
                 let duration = f.event_durations[current].or(Some(elapsed));

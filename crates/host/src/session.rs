@@ -357,13 +357,10 @@ impl Session {
     /// Bytes received from the device, in any chunking.
     pub fn handle_bytes(&mut self, bytes: &[u8], now_ms: u64) {
         for &b in bytes {
-            match self.decoder.push::<DeviceMessage>(b) {
-                Some(Ok(msg)) => {
-                    self.last_rx_ms = now_ms;
-                    self.on_message(msg);
-                }
-                // Counted by the decoder; decoding resumes at the next delimiter.
-                Some(Err(_)) | None => {}
+            // A bad frame is counted by the decoder; decoding resumes at the next delimiter.
+            if let Some(Ok(msg)) = self.decoder.push::<DeviceMessage>(b) {
+                self.last_rx_ms = now_ms;
+                self.on_message(msg);
             }
         }
         self.pump(now_ms);

@@ -97,22 +97,27 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 format!("[{}]", xyz.join(","))
             })
             .collect();
-        println!(
+        crate::out!(
             "{}",
             ordered_object(&[("tips", format!("[{}]", list.join(",")))])
         );
         return Ok(());
     }
-    println!(
+    crate::out!(
         "tips of a {}-module stack (units of the edge l, bottom module first)",
         stack.len()
     );
-    println!(
+    crate::out!(
         "  {:>3}  {:<12} {:>8} {:>10} {:>10} {:>10}",
-        "#", "state", "β (°)", "x", "y", "z"
+        "#",
+        "state",
+        "β (°)",
+        "x",
+        "y",
+        "z"
     );
     for (k, (m, p)) in stack.iter().zip(&tips).enumerate() {
-        println!(
+        crate::out!(
             "  {:>3}  {:<12} {:>8.3} {:>10.5} {:>10.5} {:>10.5}",
             k + 1,
             m.name,

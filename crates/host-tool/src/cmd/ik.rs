@@ -277,7 +277,7 @@ fn spawn_progress(
                 });
                 b.set_message(msg);
             } else if last_line.elapsed() >= Duration::from_secs(2) || bar.is_none() {
-                eprintln!("{msg}");
+                crate::say!("{msg}");
                 last_line = Instant::now();
                 bar = Some(indicatif::ProgressBar::hidden());
             }
@@ -315,7 +315,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let _ = progress.join();
     let solution = result.map_err(|e| Failure::usage(e.to_string()))?;
     if solution.interrupted {
-        eprintln!("interrupted: showing the best boom found so far (not proven optimal)");
+        crate::say!("interrupted: showing the best boom found so far (not proven optimal)");
     }
     if let Some(path) = &cfg.svg {
         let caption = caption(&cfg, &solution);
@@ -328,7 +328,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         })?;
     }
     if cfg.json {
-        println!("{}", solution_json(&solution));
+        crate::out!("{}", solution_json(&solution));
     } else {
         print_table(&cfg, &problem, &solution);
     }
@@ -401,15 +401,15 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
     } else {
         "not proven optimal"
     };
-    println!("algorithm  {} ({status})", cfg.algorithm.name());
-    println!("boom       {}", describe_boom(cfg));
-    println!(
+    crate::out!("algorithm  {} ({status})", cfg.algorithm.name());
+    crate::out!("boom       {}", describe_boom(cfg));
+    crate::out!(
         "target     {} ({} points, length {:.4} l)",
         describe_target(cfg),
         cfg.target.points().len(),
         cfg.target.length()
     );
-    println!(
+    crate::out!(
         "metric     {}{}",
         cfg.metric.name(),
         if cfg.feasible_only {
@@ -418,17 +418,22 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
             ""
         }
     );
-    println!("RMS        {:.9} l", s.rms);
-    println!("evaluated  {}", s.evaluated);
-    println!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
-    println!();
-    println!(
+    crate::out!("RMS        {:.9} l", s.rms);
+    crate::out!("evaluated  {}", s.evaluated);
+    crate::out!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
+    crate::out!();
+    crate::out!(
         "{:>4}  {:<10} {:>10} {:>10} {:>10} {:>10}",
-        "i", "state", "x", "y", "z", "error"
+        "i",
+        "state",
+        "x",
+        "y",
+        "z",
+        "error"
     );
     for (i, (name, p)) in s.names.iter().zip(&s.tips).enumerate() {
         let err = problem.objective.cost(i, p).sqrt();
-        println!(
+        crate::out!(
             "{:>4}  {:<10} {:>10.5} {:>10.5} {:>10.5} {:>10.5}",
             i + 1,
             name,

@@ -136,7 +136,7 @@ impl Mesh {
             }
         }
         let v = self.volume();
-        if !(v > 0.0) {
+        if v.is_nan() || v <= 0.0 {
             return Err(SolidError::NonPositiveVolume(v));
         }
         Ok(())

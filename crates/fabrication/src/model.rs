@@ -128,10 +128,12 @@ impl Model {
             bin.extend(x.to_le_bytes());
         }
         let pos_len = 4 * positions.len();
-        let mut root = json::Root::default();
-        root.asset = json::Asset {
-            generator: Some(generator.to_string()),
-            version: "2.0".to_string(),
+        let mut root = json::Root {
+            asset: json::Asset {
+                generator: Some(generator.to_string()),
+                version: "2.0".to_string(),
+                ..Default::default()
+            },
             ..Default::default()
         };
         let buffer = root.push(json::Buffer {

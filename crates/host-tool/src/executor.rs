@@ -123,7 +123,7 @@ enum Followed {
 }
 
 /// Runs plans on one device until it reports `target`, or fails cleanly.
-pub struct Executor<'a, T> {
+pub struct Executor<'a, T: std::io::Read + std::io::Write> {
     session: &'a mut Session<T>,
     graph: &'a Graph,
     options: ExecOptions,

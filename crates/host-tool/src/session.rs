@@ -134,6 +134,15 @@ pub fn reject_text(reason: RejectReason) -> &'static str {
         RejectReason::OutOfRange => "a value is out of range",
         RejectReason::NoManualPending => "no manual step is waiting for confirmation",
         RejectReason::NotAllowed => "not allowed now",
+        RejectReason::NotSessionOwner => {
+            "another host's session holds the crane (or it restarted): handshake again"
+        }
+        RejectReason::SessionBusy => {
+            "another host is connected to the crane (it holds the session); take over explicitly"
+        }
+        RejectReason::Unconfirmed => {
+            "the trunk state is unconfirmed: identify or declare it before running steps"
+        }
     }
 }
 
@@ -157,11 +166,14 @@ pub struct SessionStats {
     pub stale_responses: u64,
 }
 
-/// A conversation with one device.
-pub struct Session<T> {
+/// A conversation with one device. Dropping it ends the device's session (a `Close` sent
+/// without waiting), so the next host can shake hands at once.
+pub struct Session<T: Read + Write> {
     link: Link<T>,
     timing: Timing,
     next_seq: u16,
+    /// The session the handshake opened (0 before it), sent in every request.
+    session: u32,
     events: VecDeque<Event>,
     stats: SessionStats,
 }
@@ -181,6 +193,23 @@ pub fn request_name(body: &RequestBody) -> &'static str {
         RequestBody::DeclareState(_) => "DeclareState",
         RequestBody::GetParam(_) => "GetParam",
         RequestBody::SetParam { .. } => "SetParam",
+        RequestBody::Close => "Close",
+        RequestBody::Identify => "Identify",
+    }
+}
+
+impl<T: Read + Write> Drop for Session<T> {
+    fn drop(&mut self) {
+        if self.session == 0 {
+            return;
+        }
+        let close = Request {
+            seq: self.next_seq,
+            session: self.session,
+            body: RequestBody::Close,
+        };
+        // Best effort: if it is lost, the device frees the session after its link timeout.
+        let _ = self.link.send(&close);
     }
 }
 
@@ -193,6 +222,7 @@ impl<T: Read + Write> Session<T> {
             // Start away from 0 so a device that rebooted (its cache empty) and a fresh host
             // do not agree on a stale sequence number by accident.
             next_seq: 1,
+            session: 0,
             events: VecDeque::new(),
             stats: SessionStats::default(),
         }
@@ -230,7 +260,11 @@ impl<T: Read + Write> Session<T> {
         self.next_seq = self.next_seq.wrapping_add(1).max(1);
         self.stats.requests += 1;
         let name = request_name(&body);
-        let request = Request { seq, body };
+        let request = Request {
+            seq,
+            session: self.session,
+            body,
+        };
         for attempt in 0..self.timing.attempts {
             if attempt > 0 {
                 self.stats.retries += 1;
@@ -272,10 +306,7 @@ impl<T: Read + Write> Session<T> {
 
     /// The handshake: exchanges protocol version and schema identity, refuses a mismatch.
     pub fn handshake(&mut self) -> Result<DeviceInfo, SessionError> {
-        let reply = self.request(RequestBody::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            schema_id: SCHEMA_ID,
-        })?;
+        let reply = self.request(RequestBody::hello())?;
         let info = match reply.body {
             ResponseBody::Hello(info) => info,
             other => {
@@ -303,6 +334,7 @@ impl<T: Read + Write> Session<T> {
                 reason,
             });
         }
+        self.session = info.session;
         Ok(info)
     }
 

@@ -88,6 +88,8 @@ impl FakeDevice {
         Status {
             state: self.state,
             state_confirmed: true,
+            candidates: protocol::StateSet::single(self.state),
+            interrupted: None,
             mode: self.mode,
             pressure_kpa: 0.0,
             servo_deg: [90.0; 3],
@@ -210,6 +212,7 @@ impl FakeDevice {
             RequestBody::Hello {
                 protocol_version,
                 schema_id,
+                ..
             } => {
                 let info = DeviceInfo {
                     protocol_version: self.version.0,
@@ -231,6 +234,8 @@ impl FakeDevice {
                         },
                         pressure_limit_kpa: 45.0,
                     },
+                    session: 7,
+                    reset_cause: protocol::ResetCause::PowerOn,
                 };
                 if (protocol_version, schema_id) == self.version {
                     self.handshake = true;

@@ -92,6 +92,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         inlet_open: st.inlet_open,
                         exhaust_open: st.exhaust_open,
                         state: st.state,
+                        state_confirmed: st.state_confirmed,
                     },
                     Some(mode_name(st.mode)),
                 ),
@@ -189,6 +190,14 @@ fn print_event(json: bool, ev: &Event) {
         ),
         Event::FaultRaised(f) => format!("FAULT {}", fault_list(f.bit())),
         Event::FaultCleared(f) => format!("fault cleared: {}", fault_list(f.bit())),
+        Event::IdentifyNeedsOperator { candidates } => format!(
+            "identification needs the operator: the trunk is one of {}",
+            candidates
+                .iter()
+                .map(|s| s.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     };
     if json {
         println!("{}", json!({"type": "event", "text": text}));

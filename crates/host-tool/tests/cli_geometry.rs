@@ -143,7 +143,8 @@ fn fk_json_gives_one_tip_per_module_bottom_first() {
         "--json",
     ]);
     let obj = v.as_object().unwrap();
-    assert_eq!(obj.len(), 1);
+    assert_eq!(obj.len(), 2);
+    assert_eq!(v["infeasible"], serde_json::json!([]));
     let tips = v["tips"].as_array().unwrap();
     assert_eq!(tips.len(), 2);
     let w = 35f64.to_radians().tan();
@@ -175,7 +176,14 @@ fn fk_accepts_one_beta_per_module_and_symmetric_extras() {
     let tips = v["tips"].as_array().unwrap();
     assert_eq!(tips.len(), 2);
     assert_eq!(tips[0], serde_json::json!([0.0, 0.0, 0.0]));
-    let out = host_tool(&[
+    assert_eq!(v["infeasible"], serde_json::json!([]));
+}
+
+/// fk accepts only feasible states unless `--all-states`; then every output marks them.
+#[test]
+fn fk_refuses_infeasible_states_unless_all_states_and_marks_them() {
+    // n = 3, β = 35°: vertex pop-outs carry a crease strain far above 1 %.
+    let args = [
         "fk",
         "--n",
         "3",
@@ -183,9 +191,49 @@ fn fk_accepts_one_beta_per_module_and_symmetric_extras() {
         "35",
         "--states",
         "folded,vertex-2",
-    ]);
+    ];
+    let out = host_tool(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("module 2 state 'vertex-2' is infeasible")
+            && stderr.contains("--all-states"),
+        "{stderr}"
+    );
+    let mut all = args.to_vec();
+    all.push("--all-states");
+    let out = host_tool(&all);
     assert!(out.status.success());
-    assert!(String::from_utf8_lossy(&out.stdout).contains("vertex-2"));
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("vertex-2"), "{table}");
+    assert_eq!(table.matches("INFEASIBLE (strain").count(), 1, "{table}");
+    assert!(table.contains("1 of 2 modules use states the geometry marks infeasible"));
+    all.push("--json");
+    let v = json(&all);
+    let marked = v["infeasible"].as_array().unwrap();
+    assert_eq!(marked.len(), 1);
+    assert_eq!(marked[0]["module"], 2);
+    assert_eq!(marked[0]["state"], "vertex-2");
+    let strain = marked[0]["strain"].as_f64().unwrap();
+    assert!(strain > geometry_tolerance(), "{strain}");
+    // The pop-outs of n = 3 at β = 31.72° are feasible: accepted without the flag.
+    let v = json(&[
+        "fk",
+        "--n",
+        "3",
+        "--beta",
+        "31.72",
+        "--states",
+        "deployed,edge-0,vertex-2",
+        "--json",
+    ]);
+    assert_eq!(v["tips"].as_array().map(Vec::len), Some(3));
+    assert_eq!(v["infeasible"], serde_json::json!([]));
+}
+
+/// `geometry::STRAIN_TOLERANCE`, as documented by `host-tool states`.
+fn geometry_tolerance() -> f64 {
+    0.01
 }
 
 #[test]

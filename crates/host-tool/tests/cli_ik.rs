@@ -60,14 +60,24 @@ fn json_has_exactly_the_documented_keys() {
     assert_eq!(
         keys,
         [
+            "all_states",
             "elapsed_ms",
             "evaluated",
+            "gap",
+            "infeasible",
+            "lower_bound_rms",
             "optimal",
             "rms",
             "states",
+            "stop",
             "tips"
         ]
     );
+    assert_eq!(v["stop"], "finished");
+    assert_eq!(v["gap"].as_f64(), Some(0.0));
+    assert_eq!(v["lower_bound_rms"].as_f64(), v["rms"].as_f64());
+    assert_eq!(v["all_states"], Value::Bool(false));
+    assert_eq!(v["infeasible"], serde_json::json!([]));
     assert_eq!(v["states"].as_array().map(Vec::len), Some(6));
     assert_eq!(v["tips"].as_array().map(Vec::len), Some(6));
     assert_eq!(v["optimal"], Value::Bool(true));
@@ -142,6 +152,186 @@ fn target_file_per_module_beta_and_svg() {
     }
     // Module outlines: 2 modules × 4 side edges, 3 boundary polygons, in each of 3 views.
     assert_eq!(text.matches("<polygon").count(), 3 * 3);
+}
+
+/// The README's flagship fit: by default only the states the geometry marks feasible (for
+/// n = 4, β = 35° the two symmetric ones); `--all-states` reproduces the paper's catalogue and
+/// every output names each infeasible state used and its strain.
+#[test]
+fn feasible_states_by_default_and_all_states_marks_the_infeasible() {
+    let args = [
+        "--n",
+        "4",
+        "--beta",
+        "35",
+        "--modules",
+        "10",
+        "--target",
+        "helix:radius=1,pitch=2,turns=1",
+    ];
+    let v = json(&args);
+    for s in v["states"].as_array().into_iter().flatten() {
+        let name = s.as_str().unwrap_or_default();
+        assert!(name == "deployed" || name == "folded", "{name}");
+    }
+    assert_eq!(v["infeasible"], serde_json::json!([]));
+    assert_eq!(v["optimal"], Value::Bool(true));
+    let feasible_rms = v["rms"].as_f64().expect("rms");
+
+    let mut all = args.to_vec();
+    all.push("--all-states");
+    let v = json(&all);
+    assert_eq!(v["all_states"], Value::Bool(true));
+    let all_rms = v["rms"].as_f64().expect("rms");
+    assert!(all_rms < feasible_rms, "{all_rms} vs {feasible_rms}");
+    let states: Vec<&str> = v["states"]
+        .as_array()
+        .expect("states")
+        .iter()
+        .filter_map(Value::as_str)
+        .collect();
+    let marked = v["infeasible"].as_array().expect("infeasible list");
+    let popouts = states
+        .iter()
+        .filter(|s| s.starts_with("edge") || s.starts_with("vertex"))
+        .count();
+    assert!(popouts > 0);
+    assert_eq!(marked.len(), popouts);
+    for entry in marked {
+        let module = entry["module"].as_u64().expect("1-based module") as usize;
+        assert_eq!(entry["state"].as_str(), Some(states[module - 1]));
+        let strain = entry["strain"].as_f64().expect("strain");
+        // `host-tool states --n 4 --beta 35`: edge 0.190, vertex 0.201.
+        assert!((0.18..0.21).contains(&strain), "{strain}");
+    }
+
+    let svg = temp_file("all-states.svg", "");
+    let mut with_svg = all.clone();
+    with_svg.extend(["--svg", svg.to_str().expect("utf-8 path")]);
+    let out = host_tool(&with_svg);
+    assert!(out.status.success());
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        table.matches("INFEASIBLE (strain 0.").count(),
+        popouts,
+        "{table}"
+    );
+    assert!(
+        table.contains("use states the geometry marks infeasible"),
+        "{table}"
+    );
+    let text = std::fs::read_to_string(&svg).expect("svg written");
+    // n = 4 side edges per module drawn in each of the 3 views.
+    assert_eq!(
+        text.matches(r#"class="infeasible""#).count(),
+        popouts * 4 * 3
+    );
+    assert!(
+        text.contains("orange:") && text.contains("strain 0.190") || text.contains("strain 0.201")
+    );
+
+    let out = host_tool(&args);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(!table.contains("INFEASIBLE") && table.contains("feasible states only"));
+}
+
+/// `--time-limit` and `--gap` stop `exact` with `optimal: false`, a certified lower bound below
+/// the incumbent and the relative gap between them.
+#[test]
+fn time_limit_and_gap_stop_exact_with_a_certified_gap() {
+    let hard = [
+        "--n",
+        "6",
+        "--beta",
+        "35",
+        "--modules",
+        "100",
+        "--target",
+        "helix:radius=2,pitch=10,turns=3",
+        "--all-states",
+    ];
+    let mut a = hard.to_vec();
+    a.extend(["--time-limit", "0.3"]);
+    let v = json(&a);
+    assert_eq!(v["optimal"], Value::Bool(false));
+    assert_eq!(v["stop"], "time-limit");
+    let rms = v["rms"].as_f64().expect("rms");
+    let lb = v["lower_bound_rms"].as_f64().expect("bound");
+    let gap = v["gap"].as_f64().expect("gap");
+    assert!(lb >= 0.0 && lb <= rms, "{lb} {rms}");
+    assert!((gap - (rms - lb) / rms).abs() < 1e-9, "{gap} {rms} {lb}");
+    assert!(v["elapsed_ms"].as_f64().expect("ms") < 30_000.0);
+
+    let mut a = BOOM.to_vec();
+    a.extend([
+        "--target",
+        "sine:amplitude=1,wavelength=4,length=5",
+        "--all-states",
+        "--gap",
+        "0.5",
+    ]);
+    let v = json(&a);
+    let gap = v["gap"].as_f64().expect("gap");
+    assert!(gap <= 0.5, "{gap}");
+    match v["stop"].as_str() {
+        Some("gap") => assert_eq!(v["optimal"], Value::Bool(false)),
+        Some("finished") => assert_eq!(v["optimal"], Value::Bool(true)),
+        other => panic!("stop {other:?}"),
+    }
+    // Heuristics prove nothing: no bound, no gap.
+    let mut a = BOOM.to_vec();
+    a.extend(["--target", "helix", "--algo", "beam"]);
+    let v = json(&a);
+    assert_eq!(v["lower_bound_rms"], Value::Null);
+    assert_eq!(v["gap"], Value::Null);
+}
+
+/// Ctrl-C (SIGINT) while `exact` runs returns the incumbent with its certified gap, exit 0.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_returns_the_incumbent_with_its_gap() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_host-tool"))
+        .args([
+            "ik",
+            "--n",
+            "6",
+            "--beta",
+            "35",
+            "--modules",
+            "100",
+            "--target",
+            "helix:radius=2,pitch=10,turns=3",
+            "--all-states",
+            "--json",
+            "--time-limit",
+            "60",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn host-tool");
+    // The progress line (after a second of solving) shows the bound and the gap.
+    let mut stderr = BufReader::new(child.stderr.take().expect("stderr"));
+    let mut line = String::new();
+    stderr.read_line(&mut line).expect("progress line");
+    assert!(
+        line.contains("lower bound") && line.contains("gap"),
+        "{line}"
+    );
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(status.success());
+    let out = child.wait_with_output().expect("wait");
+    assert!(out.status.success());
+    let v: Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(v["optimal"], Value::Bool(false));
+    assert_eq!(v["stop"], "interrupted");
+    assert!(v["gap"].as_f64().is_some_and(|g| (0.0..=1.0).contains(&g)));
+    assert_eq!(v["states"].as_array().map(Vec::len), Some(100));
 }
 
 #[test]
@@ -291,6 +481,98 @@ fn bad_input_is_a_usage_error_with_a_clear_message() {
         ]),
         "not both",
     );
+    // Inputs that cannot be fitted.
+    let huge = temp_file("huge.csv", "0,0,0\n1e308,0,1e308\n");
+    usage_error(
+        &with(&["--target-file", huge.to_str().unwrap_or_default()]),
+        "within ±1000000 l",
+    );
+    let far = temp_file("far.csv", "0,0,0\n0,0,2e6\n");
+    usage_error(
+        &with(&["--target-file", far.to_str().unwrap_or_default()]),
+        "too far away",
+    );
+    let point = temp_file("point.csv", "0,0,1\n");
+    usage_error(
+        &with(&["--target-file", point.to_str().unwrap_or_default()]),
+        "shorter than one module",
+    );
+    // Folded n = 4, β = 35° is 0.5646 l long: a 0.5 l segment is shorter.
+    let short = temp_file("short.csv", "0,0,0\n0,0,0.5\n");
+    usage_error(
+        &with(&["--target-file", short.to_str().unwrap_or_default()]),
+        "shorter than one module",
+    );
+    usage_error(
+        &with(&["--target", "sine:length=0.1"]),
+        "shorter than one module",
+    );
+    // Stopping rules.
+    for bad in ["0", "-1", "nan", "inf", "1e7", "ten"] {
+        usage_error(
+            &with(&["--target", "helix", "--time-limit", bad]),
+            "--time-limit",
+        );
+    }
+    for bad in ["1", "-0.1", "nan", "1.5", "x"] {
+        usage_error(
+            &with(&["--target", "helix", "--gap", bad]),
+            "--gap must be a fraction in [0, 1)",
+        );
+    }
+    usage_error(
+        &with(&["--target", "helix", "--algo", "beam", "--gap", "0.01"]),
+        "--gap needs --algo exact",
+    );
+    usage_error(
+        &with(&["--target", "helix", "--all-states", "--feasible-only"]),
+        "contradict",
+    );
+}
+
+/// The edges of the accepted ranges work.
+#[test]
+fn range_edges_of_the_stopping_options_are_accepted() {
+    let mut a = BOOM.to_vec();
+    a.extend(["--target", "helix", "--gap", "0", "--time-limit", "1000000"]);
+    let v = json(&a);
+    assert_eq!(v["optimal"], Value::Bool(true));
+    let mut a = BOOM.to_vec();
+    a.extend([
+        "--target",
+        "helix",
+        "--gap",
+        "0.999999",
+        "--time-limit",
+        "1e-9",
+    ]);
+    let v = json(&a);
+    assert!(v["rms"].as_f64().is_some_and(f64::is_finite));
+    assert_eq!(v["states"].as_array().map(Vec::len), Some(6));
+    // A target exactly one module long is accepted: the shortest feasible state of n = 4,
+    // β = 35° is folded, d as `host-tool states` reports it.
+    let states = Command::new(env!("CARGO_BIN_EXE_host-tool"))
+        .args(["states", "--n", "4", "--beta", "35", "--json"])
+        .output()
+        .expect("run host-tool states");
+    let states: Value = serde_json::from_slice(&states.stdout).expect("states JSON");
+    let d = states["states"]
+        .as_array()
+        .and_then(|s| s.iter().find(|s| s["name"] == "folded"))
+        .and_then(|s| s["d"].as_f64())
+        .expect("folded d");
+    let f = temp_file("one-module.csv", &format!("0,0,0\n0,0,{d}\n"));
+    let v = json(&[
+        "--n",
+        "4",
+        "--beta",
+        "35",
+        "--modules",
+        "1",
+        "--target-file",
+        f.to_str().unwrap_or_default(),
+    ]);
+    assert!(v["rms"].as_f64().is_some_and(|r| r < 1e-9), "{v}");
 }
 
 #[test]
@@ -306,6 +588,9 @@ fn help_documents_the_generators() {
         "arc:radius=",
         "angle",
         "--feasible-only",
+        "--all-states",
+        "--time-limit",
+        "--gap",
         "--metric",
         "--beam-width",
         "--svg",

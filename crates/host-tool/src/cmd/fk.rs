@@ -20,7 +20,12 @@ pub struct Args {
     /// edge-<i>, vertex-<i> (0 ≤ i < n), or self-packed / flat-folded where β allows.
     #[arg(long, allow_hyphen_values = true)]
     pub states: String,
-    /// Print JSON (`{"tips": [[x, y, z], …]}`) instead of a table.
+    /// Accept states the geometry marks infeasible (crease strain above 1 %: the paper's full
+    /// catalogue); each one used is marked with its strain. Default: only feasible states.
+    #[arg(long)]
+    pub all_states: bool,
+    /// Print JSON (`{"tips": [[x, y, z], …], "infeasible": [{"module", "state", "strain"}, …]}`)
+    /// instead of a table.
     #[arg(long)]
     pub json: bool,
 }
@@ -30,13 +35,17 @@ struct Module {
     design: ModuleDesign,
     name: String,
     pose: Pose,
+    /// `Some(strain)` when the geometry marks the state infeasible.
+    infeasible: Option<f64>,
 }
 
-fn parse_state(design: &ModuleDesign, name: &str) -> Result<Pose, Failure> {
+/// The state's pose and, if the geometry marks it infeasible, its strain. The symmetric extras
+/// (self-packed, flat-folded) are exact where they exist, so they are feasible.
+fn parse_state(design: &ModuleDesign, name: &str) -> Result<(Pose, Option<f64>), Failure> {
     let trimmed = name.trim();
     for sym in [SymmetricState::SelfPacked, SymmetricState::FlatFolded] {
         if trimmed.eq_ignore_ascii_case(sym.name()) {
-            return design.symmetric_pose(sym).ok_or_else(|| {
+            return design.symmetric_pose(sym).map(|p| (p, None)).ok_or_else(|| {
                 Failure::usage(format!(
                     "state '{trimmed}' does not exist for β = {}° (self-packed needs β in ({:.4}°, 45°], flat-folded needs β = {:.4}°)",
                     design.beta_deg(),
@@ -51,7 +60,8 @@ fn parse_state(design: &ModuleDesign, name: &str) -> Result<Pose, Failure> {
             "'{name}': {e} (and self-packed, flat-folded where β allows)"
         ))
     })?;
-    Ok(design.pose(state))
+    let info = design.state_info(state);
+    Ok((info.pose, (!info.feasible).then_some(info.max_strain)))
 }
 
 fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
@@ -71,12 +81,26 @@ fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
     names
         .iter()
         .zip(designs)
-        .map(|(name, design)| {
-            let pose = parse_state(&design, name)?;
+        .enumerate()
+        .map(|(i, (name, design))| {
+            let (pose, infeasible) = parse_state(&design, name)?;
+            let name = name.trim().to_ascii_lowercase();
+            if let (Some(strain), false) = (infeasible, args.all_states) {
+                return Err(Failure::usage(format!(
+                    "module {} state '{name}' is infeasible for n = {}, β = {}°: its crease strain {strain:.3} exceeds the {} % tolerance (see `host-tool states --n {} --beta {}`); pass --all-states to use the paper's full catalogue anyway",
+                    i + 1,
+                    design.n(),
+                    design.beta_deg(),
+                    geometry::STRAIN_TOLERANCE * 100.0,
+                    design.n(),
+                    design.beta_deg()
+                )));
+            }
             Ok(Module {
                 design,
-                name: name.trim().to_ascii_lowercase(),
+                name,
                 pose,
+                infeasible,
             })
         })
         .collect()
@@ -97,29 +121,61 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 format!("[{}]", xyz.join(","))
             })
             .collect();
-        println!(
+        let infeasible: Vec<String> = stack
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| {
+                m.infeasible.map(|strain| {
+                    ordered_object(&[
+                        ("module", (i + 1).to_string()),
+                        ("state", Value::from(m.name.as_str()).to_string()),
+                        ("strain", Value::from(strain).to_string()),
+                    ])
+                })
+            })
+            .collect();
+        crate::out!(
             "{}",
-            ordered_object(&[("tips", format!("[{}]", list.join(",")))])
+            ordered_object(&[
+                ("tips", format!("[{}]", list.join(","))),
+                ("infeasible", format!("[{}]", infeasible.join(","))),
+            ])
         );
         return Ok(());
     }
-    println!(
+    crate::out!(
         "tips of a {}-module stack (units of the edge l, bottom module first)",
         stack.len()
     );
-    println!(
-        "  {:>3}  {:<12} {:>8} {:>10} {:>10} {:>10}",
-        "#", "state", "β (°)", "x", "y", "z"
+    crate::out!(
+        "  {:>3}  {:<12} {:>8} {:>10} {:>10} {:>10}  feasibility",
+        "#",
+        "state",
+        "β (°)",
+        "x",
+        "y",
+        "z"
     );
     for (k, (m, p)) in stack.iter().zip(&tips).enumerate() {
-        println!(
-            "  {:>3}  {:<12} {:>8.3} {:>10.5} {:>10.5} {:>10.5}",
+        let mark = m.infeasible.map_or_else(
+            || "feasible".to_string(),
+            |strain| format!("INFEASIBLE (strain {strain:.3})"),
+        );
+        crate::out!(
+            "  {:>3}  {:<12} {:>8.3} {:>10.5} {:>10.5} {:>10.5}  {mark}",
             k + 1,
             m.name,
             m.design.beta_deg(),
             p.x,
             p.y,
             p.z
+        );
+    }
+    let used = stack.iter().filter(|m| m.infeasible.is_some()).count();
+    if used > 0 {
+        crate::out!(
+            "warning: {used} of {} modules use states the geometry marks infeasible (--all-states)",
+            stack.len()
         );
     }
     Ok(())

@@ -69,10 +69,24 @@ pub struct Args {
     /// ordered (tip i matched to the point at arc length i·L/m, covering the whole curve).
     #[arg(long, default_value = "eq36")]
     pub metric: String,
-    /// Only use the states the geometry marks feasible (default: all 2(n+1) states).
+    /// Use the paper's full catalogue of 2(n+1) states, including those the geometry marks
+    /// infeasible (crease strain above 1 %); every output then marks each infeasible state used
+    /// and its strain. Default: only the feasible states (see `host-tool states`).
+    #[arg(long)]
+    pub all_states: bool,
+    /// Only the feasible states: the default, accepted for compatibility.
     #[arg(long)]
     pub feasible_only: bool,
-    /// Print exactly `{"states", "rms", "optimal", "evaluated", "elapsed_ms", "tips"}` as JSON.
+    /// Stop after this many seconds (> 0) and report the best boom so far; `exact` also
+    /// reports its certified lower bound and gap.
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
+    pub time_limit: Option<String>,
+    /// `--algo exact` only: stop as soon as the certified relative gap
+    /// (RMS − lower bound) / RMS is at most FRACTION (in [0, 1); 0 = prove the optimum).
+    #[arg(long, value_name = "FRACTION", allow_hyphen_values = true)]
+    pub gap: Option<String>,
+    /// Print JSON: `{"states", "rms", "optimal", "lower_bound_rms", "gap", "stop",
+    /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible"}`.
     #[arg(long)]
     pub json: bool,
     /// Write an SVG of the target and the fitted boom (three orthographic views) to this file.
@@ -95,7 +109,9 @@ pub struct Config {
     source: TargetSource,
     metric: Metric,
     algorithm: Algorithm,
-    feasible_only: bool,
+    all_states: bool,
+    time_limit: Option<Duration>,
+    gap: f64,
     json: bool,
     svg: Option<PathBuf>,
 }
@@ -134,6 +150,36 @@ fn read_bounded(path: &std::path::Path, limit: u64) -> std::io::Result<String> {
         )));
     }
     Ok(text)
+}
+
+/// Longest `--time-limit` accepted, in seconds (about 11.6 days).
+const MAX_TIME_LIMIT_S: f64 = 1e6;
+
+fn parse_time_limit(text: &str) -> Result<Duration, Failure> {
+    let v: f64 = text.trim().parse().map_err(|_| {
+        Failure::usage(format!(
+            "--time-limit must be a number of seconds in (0, {MAX_TIME_LIMIT_S}], got '{text}'"
+        ))
+    })?;
+    if !(v.is_finite() && v > 0.0 && v <= MAX_TIME_LIMIT_S) {
+        return Err(Failure::usage(format!(
+            "--time-limit must be a number of seconds in (0, {MAX_TIME_LIMIT_S}], got '{text}'"
+        )));
+    }
+    Ok(Duration::from_secs_f64(v))
+}
+
+fn parse_gap(text: &str) -> Result<f64, Failure> {
+    let bad = || {
+        Failure::usage(format!(
+            "--gap must be a fraction in [0, 1) (e.g. 0.01 for 1 %), got '{text}'"
+        ))
+    };
+    let v: f64 = text.trim().parse().map_err(|_| bad())?;
+    if !(v.is_finite() && (0.0..1.0).contains(&v)) {
+        return Err(bad());
+    }
+    Ok(v)
 }
 
 /// Longest boom accepted (the heuristics are linear in m; exact and exhaustive are not).
@@ -228,13 +274,32 @@ impl Args {
                 )))
             }
         };
+        if self.all_states && self.feasible_only {
+            return Err(Failure::usage(
+                "--all-states and --feasible-only contradict each other; feasible states are the default, --all-states adds the infeasible ones",
+            ));
+        }
+        let time_limit = self
+            .time_limit
+            .as_deref()
+            .map(parse_time_limit)
+            .transpose()?;
+        let gap = self.gap.as_deref().map(parse_gap).transpose()?;
+        if gap.is_some() && algorithm != Algorithm::Exact {
+            return Err(Failure::usage(format!(
+                "--gap needs --algo exact (the only solver that proves a lower bound); got --algo {}",
+                algorithm.name()
+            )));
+        }
         Ok(Config {
             designs,
             target,
             source,
             metric,
             algorithm,
-            feasible_only: self.feasible_only,
+            all_states: self.all_states,
+            time_limit,
+            gap: gap.unwrap_or(0.0),
             json: self.json,
             svg: self.svg,
         })
@@ -261,12 +326,18 @@ fn spawn_progress(
                 continue;
             }
             let evaluated = control.evaluated.load(Ordering::Relaxed);
-            let best = control
-                .best_rms(m)
-                .map_or_else(|| "-".to_string(), |r| format!("{r:.6}"));
+            let best = control.best_rms(m);
+            let best_text = best.map_or_else(|| "-".to_string(), |r| format!("{r:.6}"));
             let of = total.map_or(String::new(), |t| format!(" of {t}"));
+            let bound = if algo == "exact" {
+                let lb = control.lower_bound_rms(m);
+                let gap = best.map_or(1.0, |b| ik::relative_gap(b, lb));
+                format!(", lower bound {lb:.6}, gap {:.2} %", 100.0 * gap)
+            } else {
+                String::new()
+            };
             let msg = format!(
-                "{algo}: {evaluated}{of} evaluated, best RMS {best}, {:.1} s (Ctrl-C returns the best so far)",
+                "{algo}: {evaluated}{of} evaluated, best RMS {best_text}{bound}, {:.1} s (Ctrl-C returns the best so far)",
                 start.elapsed().as_secs_f64()
             );
             if tty {
@@ -277,7 +348,7 @@ fn spawn_progress(
                 });
                 b.set_message(msg);
             } else if last_line.elapsed() >= Duration::from_secs(2) || bar.is_none() {
-                eprintln!("{msg}");
+                crate::say!("{msg}");
                 last_line = Instant::now();
                 bar = Some(indicatif::ProgressBar::hidden());
             }
@@ -291,12 +362,17 @@ fn spawn_progress(
 /// Runs `host-tool ik`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let cfg = args.validate()?;
-    let catalogue = Catalogue::from_designs(&cfg.designs, cfg.feasible_only)
+    let catalogue = Catalogue::from_designs(&cfg.designs, !cfg.all_states)
         .map_err(|e| Failure::usage(e.to_string()))?;
     let m = catalogue.len();
     let total = catalogue.sequences();
     let problem = Problem::new(catalogue, cfg.target.clone(), cfg.metric);
-    let control = Control::new();
+    problem
+        .check_fittable()
+        .map_err(|e| Failure::usage(e.to_string()))?;
+    let mut control = Control::new();
+    control.deadline = cfg.time_limit.map(|t| Instant::now() + t);
+    control.target_gap = cfg.gap;
     {
         let stop = control.stop.clone();
         // A second handler cannot be installed (tests calling run twice): Ctrl-C then kills.
@@ -314,12 +390,31 @@ pub fn run(args: Args) -> Result<(), Failure> {
     done.store(true, Ordering::Relaxed);
     let _ = progress.join();
     let solution = result.map_err(|e| Failure::usage(e.to_string()))?;
-    if solution.interrupted {
-        eprintln!("interrupted: showing the best boom found so far (not proven optimal)");
+    if !solution.rms.is_finite() {
+        return Err(Failure::usage(
+            ik::IkError::NotFinite(solution.rms).to_string(),
+        ));
+    }
+    match solution.stop {
+        ik::Stop::Interrupted => {
+            crate::say!("interrupted: showing the best boom found so far (not proven optimal)")
+        }
+        ik::Stop::TimeLimit => {
+            crate::say!(
+                "time limit reached: showing the best boom found so far (not proven optimal)"
+            )
+        }
+        ik::Stop::Gap | ik::Stop::Finished => {}
     }
     if let Some(path) = &cfg.svg {
         let caption = caption(&cfg, &solution);
-        let text = svg::render(&problem, &cfg.designs, &solution, &caption);
+        let text = svg::render(
+            &problem,
+            &cfg.designs,
+            &solution,
+            &caption,
+            &infeasible_note(&problem, &solution),
+        );
         std::fs::write(path, text).map_err(|e| {
             Failure::Runtime(anyhow::anyhow!(
                 "cannot write --svg {}: {e}",
@@ -328,15 +423,58 @@ pub fn run(args: Args) -> Result<(), Failure> {
         })?;
     }
     if cfg.json {
-        println!("{}", solution_json(&solution));
+        crate::out!("{}", solution_json(&cfg, &problem, &solution));
     } else {
         print_table(&cfg, &problem, &solution);
     }
     Ok(())
 }
 
-fn solution_json(s: &ik::Solution) -> String {
+/// The modules of the solution whose state the geometry marks infeasible:
+/// (1-based module, state name, strain).
+fn infeasible_used<'a>(problem: &'a Problem, s: &'a ik::Solution) -> Vec<(usize, &'a str, f64)> {
+    problem
+        .catalogue
+        .infeasible(&s.states)
+        .map(|(i, c)| (i + 1, c.name.as_str(), c.strain))
+        .collect()
+}
+
+/// One line naming every infeasible state used, or an empty string.
+fn infeasible_note(problem: &Problem, s: &ik::Solution) -> String {
+    let used = infeasible_used(problem, s);
+    if used.is_empty() {
+        return String::new();
+    }
+    let list: Vec<String> = used
+        .iter()
+        .map(|(i, name, strain)| format!("{i} {name} (strain {strain:.3})"))
+        .collect();
+    format!(
+        "{} of {} modules use states the geometry marks infeasible (crease strain above {} %; --all-states): module {}",
+        used.len(),
+        s.states.len(),
+        geometry::STRAIN_TOLERANCE * 100.0,
+        list.join(", ")
+    )
+}
+
+fn opt_value(x: Option<f64>) -> String {
+    x.map_or_else(|| "null".to_string(), |v| Value::from(v).to_string())
+}
+
+fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
     let states: Vec<Value> = s.names.iter().map(|n| Value::from(n.as_str())).collect();
+    let infeasible: Vec<String> = infeasible_used(problem, s)
+        .into_iter()
+        .map(|(i, name, strain)| {
+            ordered_object(&[
+                ("module", i.to_string()),
+                ("state", Value::from(name).to_string()),
+                ("strain", Value::from(strain).to_string()),
+            ])
+        })
+        .collect();
     let tips: Vec<Value> = s
         .tips
         .iter()
@@ -346,12 +484,17 @@ fn solution_json(s: &ik::Solution) -> String {
         ("states", Value::from(states).to_string()),
         ("rms", Value::from(s.rms).to_string()),
         ("optimal", Value::from(s.optimal).to_string()),
+        ("lower_bound_rms", opt_value(s.lower_bound_rms)),
+        ("gap", opt_value(s.gap)),
+        ("stop", Value::from(s.stop.name()).to_string()),
         ("evaluated", Value::from(s.evaluated).to_string()),
         (
             "elapsed_ms",
             Value::from(s.elapsed.as_secs_f64() * 1e3).to_string(),
         ),
         ("tips", Value::from(tips).to_string()),
+        ("all_states", Value::from(cfg.all_states).to_string()),
+        ("infeasible", format!("[{}]", infeasible.join(","))),
     ])
 }
 
@@ -389,47 +532,78 @@ fn caption(cfg: &Config, s: &ik::Solution) -> String {
         describe_target(cfg),
         cfg.metric.name(),
         s.rms,
-        if s.optimal { " (proven optimal)" } else { "" }
+        if s.optimal {
+            " (proven optimal)".to_string()
+        } else if let Some(gap) = s.gap {
+            format!(" (≤ {:.2} % above the optimum)", 100.0 * gap)
+        } else {
+            String::new()
+        }
     )
 }
 
 fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
     let status = if s.optimal {
-        "proven optimal"
-    } else if s.interrupted {
-        "interrupted, best so far"
+        "proven optimal".to_string()
     } else {
-        "not proven optimal"
+        let why = match s.stop {
+            ik::Stop::Interrupted => "interrupted, best so far",
+            ik::Stop::TimeLimit => "time limit reached, best so far",
+            ik::Stop::Gap => "gap reached",
+            ik::Stop::Finished => "no optimality proof",
+        };
+        format!("{why}; not proven optimal")
     };
-    println!("algorithm  {} ({status})", cfg.algorithm.name());
-    println!("boom       {}", describe_boom(cfg));
-    println!(
+    crate::out!("algorithm  {} ({status})", cfg.algorithm.name());
+    crate::out!("boom       {}", describe_boom(cfg));
+    crate::out!(
         "target     {} ({} points, length {:.4} l)",
         describe_target(cfg),
         cfg.target.points().len(),
         cfg.target.length()
     );
-    println!(
-        "metric     {}{}",
+    crate::out!(
+        "metric     {}, {}",
         cfg.metric.name(),
-        if cfg.feasible_only {
-            ", feasible states only"
+        if cfg.all_states {
+            "all catalogue states (--all-states)"
         } else {
-            ""
+            "feasible states only"
         }
     );
-    println!("RMS        {:.9} l", s.rms);
-    println!("evaluated  {}", s.evaluated);
-    println!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
-    println!();
-    println!(
-        "{:>4}  {:<10} {:>10} {:>10} {:>10} {:>10}",
-        "i", "state", "x", "y", "z", "error"
+    crate::out!("RMS        {:.9} l", s.rms);
+    if let (Some(lb), Some(gap)) = (s.lower_bound_rms, s.gap) {
+        crate::out!(
+            "bound      RMS ≥ {lb:.9} l (certified; gap {:.4} %)",
+            100.0 * gap
+        );
+    }
+    crate::out!("evaluated  {}", s.evaluated);
+    crate::out!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
+    let note = infeasible_note(problem, s);
+    if !note.is_empty() {
+        crate::out!("warning    {note}");
+    }
+    crate::out!();
+    crate::out!(
+        "{:>4}  {:<10} {:>10} {:>10} {:>10} {:>10}  feasibility",
+        "i",
+        "state",
+        "x",
+        "y",
+        "z",
+        "error"
     );
     for (i, (name, p)) in s.names.iter().zip(&s.tips).enumerate() {
         let err = problem.objective.cost(i, p).sqrt();
-        println!(
-            "{:>4}  {:<10} {:>10.5} {:>10.5} {:>10.5} {:>10.5}",
+        let c = &problem.catalogue.candidates(i)[s.states[i]];
+        let mark = if c.feasible {
+            "feasible".to_string()
+        } else {
+            format!("INFEASIBLE (strain {:.3})", c.strain)
+        };
+        crate::out!(
+            "{:>4}  {:<10} {:>10.5} {:>10.5} {:>10.5} {:>10.5}  {mark}",
             i + 1,
             name,
             p.x,

@@ -26,6 +26,8 @@ pub(crate) fn greedy(problem: &Problem, control: &Control) -> Raw {
         optimal: problem.m() == 0,
         evaluated,
         interrupted: false,
+        lower_bound: None,
+        stop: None,
     }
 }
 
@@ -112,6 +114,8 @@ pub(crate) fn beam(problem: &Problem, width: usize, control: &Control) -> Raw {
         optimal: false,
         evaluated,
         interrupted,
+        lower_bound: None,
+        stop: None,
     }
 }
 

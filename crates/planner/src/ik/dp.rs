@@ -206,5 +206,7 @@ pub(crate) fn solve(
         optimal: exact_merge && !capped && !interrupted,
         evaluated,
         interrupted,
+        lower_bound: None,
+        stop: None,
     })
 }

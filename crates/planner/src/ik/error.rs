@@ -28,13 +28,41 @@ pub enum IkError {
         /// z coordinate.
         z: f64,
     },
+    /// A point lies beyond [`crate::ik::target::MAX_COORDINATE`].
+    #[error(
+        "target point {index} ({x}, {y}, {z}) is too far away: coordinates must lie within ±{max} l (units of the fold length l; the boom starts at the origin)",
+        max = crate::ik::target::MAX_COORDINATE
+    )]
+    TooFar {
+        /// 0-based index of the point.
+        index: usize,
+        /// x coordinate.
+        x: f64,
+        /// y coordinate.
+        y: f64,
+        /// z coordinate.
+        z: f64,
+    },
+    /// The target is shorter than the shortest module the boom can start with.
+    #[error(
+        "the target curve is {length} l long, shorter than one module (the shortest state of the bottom module, {module} l): give a curve at least one module long"
+    )]
+    TooShort {
+        /// Arc length of the target (units of l).
+        length: f64,
+        /// Length of the shortest state of the bottom module (units of l).
+        module: f64,
+    },
+    /// The fit cannot be scored in floating point.
+    #[error("the fit's RMS is not a finite number ({0}); the target cannot be fitted")]
+    NotFinite(f64),
     /// A generator specification is invalid.
     #[error("{0}")]
     Generator(String),
     /// The boom has no modules.
     #[error("the boom needs at least one module (got m = 0)")]
     NoModules,
-    /// A module has no candidate states (e.g. `--feasible-only` and the geometry marks none feasible).
+    /// A module has no candidate states (e.g. the geometry marks none feasible and `--all-states` is not given).
     #[error("module {module} has no candidate states{hint}")]
     NoCandidates {
         /// 0-based module index (bottom first).

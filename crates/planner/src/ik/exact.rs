@@ -1,42 +1,64 @@
-//! Exact solver: branch and bound with a proof of optimality.
+//! Exact solver: anytime branch and bound with a certified lower bound.
 //!
 //! - **Incumbent**: beam search (width [`SEED_BEAM_WIDTH`]) polished by sliding windows of 2
-//!   modules gives an upper bound U on the optimal cost sum before the search starts.
+//!   modules gives an upper bound U on the optimal cost sum before the search starts; every
+//!   better complete boom the search meets replaces it.
 //! - **Bound** of a prefix of length j with top frame F: its exact cost `g` (tips 1..j) plus the
 //!   reachable-set bound of [`super::reach`] for every remaining tip. Both are lower bounds on
-//!   the cost of any completion, so pruning when `g + lb ≥ U` never discards a strictly better
-//!   boom (the bound is shaved by a relative 1e-12 against rounding).
-//! - **Order**: depth first; a node's children are visited in increasing bound, and the loop
-//!   stops at the first child whose bound reaches the (possibly improved) incumbent.
-//! - **Parallelism**: the prefixes of the first few modules are sorted by bound and searched as
-//!   rayon tasks sharing the incumbent through an atomic (non-negative `f64` bits order like the
-//!   floats); the best sequence itself is kept under a mutex, touched only on improvement.
-//!
-//! When the search finishes, every sequence was either evaluated or proven no better than the
-//! incumbent, so the result is a global optimum (`optimal: true`); if it is stopped (Ctrl-C), the
-//! incumbent is returned with `optimal: false`.
+//!   the cost of any completion (the argument is in `docs/ik.md`), shaved by a relative 1e-12
+//!   against floating-point rounding.
+//! - **Tasks**: the prefixes of the first few modules (at least [`MIN_TASKS`]). Each task keeps
+//!   a certified lower bound `lb` on every completion of its prefix; a task is *closed* once
+//!   `lb ≥ U`. The certified lower bound on the optimum is `L = min(U, min over tasks of lb)`:
+//!   every sequence extends exactly one task prefix.
+//! - **Passes** (iterative deepening on the bound): pass p searches every open task whose `lb`
+//!   is below a threshold `t_p ≤ U`, depth first, pruning every node whose bound reaches
+//!   `min(t_p, U)`. When a task's pass completes, every completion of its prefix was either
+//!   evaluated or lies below a pruned node, so the least pruned bound (or evaluated cost) is a
+//!   new certified `lb` for the task. Thresholds grow from a histogram of the pruned bounds so
+//!   each pass roughly doubles the work; the last pass has `t = U` and proves optimality.
+//! - **Order, parallelism**: tasks of a pass run lowest `lb` first as rayon tasks sharing U
+//!   through an atomic (non-negative `f64` bits order like the floats); within a task a node's
+//!   children are visited in increasing bound.
+//! - **Stopping**: the caller's stop flag or deadline ([`Control`]) abandons the running tasks
+//!   (their `lb` stays at its last certified value); a target gap stops the search as soon as
+//!   `1 − sqrt(L/U) ≤ gap`. Either way the incumbent is returned with the certified `L`.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Mutex;
+use std::time::Instant;
 
 use rayon::prelude::*;
 
 use super::exhaustive::{prefixes, split_depth};
 use super::reach::Reach;
-use super::{Control, Frame, Problem, Raw};
+use super::{relative_gap, Control, Frame, Problem, Raw, Stop};
 
 /// Beam width of the seeding incumbent.
 pub const SEED_BEAM_WIDTH: usize = 64;
 
-const SHAVE: f64 = 1.0 - 1e-12;
+/// Fewest top-level tasks (the granularity of the certified bound and of the parallel split).
+pub const MIN_TASKS: u128 = 2048;
+
+/// Bounds are multiplied by `1 − shave(m)`: a relative margin above the rounding error of a
+/// sum of m non-negative terms (m·ε by the standard bound; 4m·ε, at least 1e-12).
+fn shave(m: usize) -> f64 {
+    1.0 - (4.0 * m as f64 * f64::EPSILON).max(1e-12)
+}
+
+/// Histogram bins of pruned bounds between the pass threshold and U.
+const BINS: usize = 64;
 
 struct Shared<'a> {
     problem: &'a Problem,
+    /// `shave(m)`.
+    shave: f64,
     reach: &'a Reach,
     control: &'a Control,
     ub_bits: AtomicU64,
     best: Mutex<(f64, Vec<usize>)>,
-    stopped: AtomicBool,
+    /// Set when the caller's stop flag or deadline fired, or the target gap was reached.
+    abort: AtomicBool,
 }
 
 impl Shared<'_> {
@@ -60,64 +82,147 @@ impl Shared<'_> {
     }
 }
 
+/// One top-level subtree.
+struct Task {
+    prefix: Vec<usize>,
+    frame: Frame,
+    g: f64,
+    /// Certified lower bound on the cost of every completion of `prefix`, as `f64` bits.
+    lb: AtomicU64,
+}
+
+impl Task {
+    #[inline]
+    fn lb(&self) -> f64 {
+        f64::from_bits(self.lb.load(Ordering::Relaxed))
+    }
+}
+
 struct Worker<'a, 'b> {
     shared: &'b Shared<'a>,
+    /// The pass threshold t: nodes whose bound reaches `min(t, U)` are pruned.
+    threshold: f64,
+    /// Histogram of pruned bounds in `[hist_lo, hist_hi)`.
+    hist: [u64; BINS],
+    hist_lo: f64,
+    hist_scale: f64,
     path: Vec<usize>,
     /// Per-depth child buffers: (bound, g, candidate, frame).
     bufs: Vec<Vec<(f64, f64, usize, Frame)>>,
     nodes: u64,
     unflushed: u64,
+    aborted: bool,
 }
 
 impl Worker<'_, '_> {
-    fn dfs(&mut self, j: usize, frame: &Frame, g: f64) {
+    #[inline]
+    fn prune_level(&self) -> f64 {
+        self.threshold.min(self.shared.ub())
+    }
+
+    #[inline]
+    fn pruned(&mut self, bound: f64) {
+        let x = (bound - self.hist_lo) * self.hist_scale;
+        if (0.0..BINS as f64).contains(&x) {
+            self.hist[x as usize] += 1;
+        }
+    }
+
+    /// Searches below the prefix `path[..j]` (frame `frame`, cost `g`); returns a lower bound on
+    /// the cost of every completion of it (the least pruned bound or evaluated leaf cost), valid
+    /// only if `self.aborted` is still false.
+    fn dfs(&mut self, j: usize, frame: &Frame, g: f64) -> f64 {
         let sh = self.shared;
         let problem = sh.problem;
         let m = problem.m();
         let obj = &problem.objective;
+        let shave = sh.shave;
+        let mut least = f64::INFINITY;
         let mut kids = std::mem::take(&mut self.bufs[j]);
         kids.clear();
-        let mut ub = sh.ub();
+        let mut level = self.prune_level();
         for (a, c) in problem.catalogue.candidates(j).iter().enumerate() {
             let f = frame.compose(&c.frame);
             let gc = g + obj.cost(j, &f.origin());
             self.nodes += 1;
-            if gc * SHAVE >= ub {
-                continue;
-            }
             if j + 1 == m {
                 self.path[j] = a;
                 sh.offer(gc, &self.path);
-                ub = sh.ub();
+                least = least.min(gc);
+                level = self.prune_level();
                 continue;
             }
+            if gc * shave >= level {
+                least = least.min(gc * shave);
+                self.pruned(gc * shave);
+                continue;
+            }
+            let ub = sh.ub();
             let lb = sh.reach.suffix_lower_bound(obj, &f, j + 1, ub - gc);
-            let bound = (gc + lb) * SHAVE;
-            if bound < ub {
+            let bound = (gc + lb) * shave;
+            if bound < level {
                 kids.push((bound, gc, a, f));
+            } else {
+                least = least.min(bound);
+                self.pruned(bound);
             }
         }
         self.unflushed += problem.catalogue.candidates(j).len() as u64;
-        if self.unflushed >= 1 << 16 {
+        if self.unflushed >= 1 << 15 {
             sh.control.add_evaluated(self.unflushed);
             self.unflushed = 0;
             if sh.control.stopped() {
-                sh.stopped.store(true, Ordering::Relaxed);
+                sh.abort.store(true, Ordering::Relaxed);
             }
         }
         kids.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.2.cmp(&y.2)));
-        for &(bound, gc, a, f) in &kids {
-            if bound >= sh.ub() || sh.stopped.load(Ordering::Relaxed) {
+        for (i, &(bound, gc, a, f)) in kids.iter().enumerate() {
+            if sh.abort.load(Ordering::Relaxed) {
+                self.aborted = true;
+                break;
+            }
+            if bound >= self.prune_level() {
+                // Sorted: every remaining child is pruned too.
+                least = least.min(bound);
+                for k in &kids[i..] {
+                    self.pruned(k.0);
+                }
                 break;
             }
             self.path[j] = a;
-            self.dfs(j + 1, &f, gc);
+            let sub = self.dfs(j + 1, &f, gc);
+            least = least.min(sub);
+            if self.aborted {
+                break;
+            }
         }
         self.bufs[j] = kids;
+        least
     }
 }
 
+/// The certified lower bound `min(U, min over tasks of lb)`.
+fn global_lower_bound(tasks: &[Task], ub: f64) -> f64 {
+    tasks.iter().map(Task::lb).fold(ub, f64::min)
+}
+
 pub(crate) fn solve(problem: &Problem, control: &Control) -> Raw {
+    solve_with(problem, control, MIN_TASKS, None)
+}
+
+/// [`solve`] with at least `min_tasks` top-level tasks; every certified lower bound it computes
+/// is also pushed to `trace` (for tests).
+pub(crate) fn solve_with(
+    problem: &Problem,
+    control: &Control,
+    min_tasks: u128,
+    trace: Option<&Mutex<Vec<f64>>>,
+) -> Raw {
+    let record = |lb: f64| {
+        if let Some(t) = trace {
+            t.lock().unwrap_or_else(|e| e.into_inner()).push(lb);
+        }
+    };
     let m = problem.m();
     let reach = Reach::new(&problem.catalogue, m);
     // Incumbent: beam, then window polish.
@@ -129,52 +234,157 @@ pub(crate) fn solve(problem: &Problem, control: &Control) -> Raw {
     control.offer_best(seed_cost);
     let shared = Shared {
         problem,
+        shave: shave(m),
         reach: &reach,
         control,
         ub_bits: AtomicU64::new(seed_cost.to_bits()),
         best: Mutex::new((seed_cost, seed)),
-        stopped: AtomicBool::new(control.stopped()),
+        abort: AtomicBool::new(false),
     };
-    // Top-level subtrees: prefixes with their bounds, most promising first.
-    let depth = split_depth(problem, 512).min(m.saturating_sub(1));
-    let mut tasks: Vec<(f64, Vec<usize>, Frame, f64)> = prefixes(problem, depth)
+    // Top-level tasks with their initial bounds.
+    let depth = split_depth(problem, min_tasks).min(m.saturating_sub(1));
+    let mut tasks: Vec<Task> = prefixes(problem, depth)
         .into_iter()
-        .map(|(p, f, g)| {
-            let lb = reach.suffix_lower_bound(&problem.objective, &f, depth, f64::INFINITY);
-            ((g + lb) * SHAVE, p, f, g)
+        .map(|(prefix, frame, g)| {
+            let lb = reach.suffix_lower_bound(&problem.objective, &frame, depth, f64::INFINITY);
+            Task {
+                prefix,
+                frame,
+                g,
+                lb: AtomicU64::new(((g + lb) * shave(m)).to_bits()),
+            }
         })
         .collect();
-    let top_nodes = tasks.len() as u64;
-    tasks.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-    let nodes: u64 = tasks
-        .par_iter()
-        .map(|(bound, prefix, frame, g)| {
-            if *bound >= shared.ub() || shared.stopped.load(Ordering::Relaxed) {
-                return 0;
+    let mut evaluated = tasks.len() as u64 + seed_evals + polish_evals;
+    tasks.sort_by(|a, b| {
+        a.lb()
+            .total_cmp(&b.lb())
+            .then_with(|| a.prefix.cmp(&b.prefix))
+    });
+    let gap_target = control.target_gap.max(0.0);
+    let gap_reached = |lb: f64, ub: f64| {
+        gap_target > 0.0
+            && relative_gap((ub / m as f64).sqrt(), (lb / m as f64).sqrt()) <= gap_target
+    };
+    let last_check = Mutex::new(Instant::now());
+    let mut stop = None;
+    let mut optimal = false;
+    // The first threshold: the bound below which about an eighth of the open tasks lie.
+    let mut threshold = {
+        let ub = shared.ub();
+        let open: Vec<f64> = tasks.iter().map(Task::lb).filter(|&b| b < ub).collect();
+        open.get(open.len() / 8).copied().unwrap_or(ub)
+    };
+    loop {
+        let ub = shared.ub();
+        let lb = global_lower_bound(&tasks, ub);
+        control.offer_lower_bound(lb);
+        record(lb);
+        if lb >= ub {
+            optimal = true;
+            break;
+        }
+        if gap_reached(lb, ub) {
+            stop = Some(Stop::Gap);
+            break;
+        }
+        if control.stopped() || shared.abort.load(Ordering::Relaxed) {
+            break;
+        }
+        let t = threshold.min(ub).max(lb);
+        let hist_lo = t;
+        let hist_scale = if ub > t { BINS as f64 / (ub - t) } else { 0.0 };
+        let results: Vec<(u64, [u64; BINS])> = tasks
+            .par_iter()
+            .filter(|task| task.lb() < t)
+            .map(|task| {
+                if shared.abort.load(Ordering::Relaxed) {
+                    return (0, [0; BINS]);
+                }
+                let mut w = Worker {
+                    shared: &shared,
+                    threshold: t,
+                    hist: [0; BINS],
+                    hist_lo,
+                    hist_scale,
+                    path: vec![0; m],
+                    bufs: vec![Vec::new(); m],
+                    nodes: 0,
+                    unflushed: 0,
+                    aborted: false,
+                };
+                w.path[..depth].copy_from_slice(&task.prefix);
+                let least = if depth == m {
+                    shared.offer(task.g, &task.prefix);
+                    task.g
+                } else {
+                    w.dfs(depth, &task.frame, task.g)
+                };
+                control.add_evaluated(w.unflushed);
+                if !w.aborted {
+                    // Both the old and the new bound are certified; keep the larger.
+                    task.lb.fetch_max(least.to_bits(), Ordering::Relaxed);
+                    // Now and then, publish the certified bound and check the target gap.
+                    let mut last = last_check.lock().unwrap_or_else(|e| e.into_inner());
+                    if last.elapsed().as_millis() >= 20 {
+                        *last = Instant::now();
+                        let ub = shared.ub();
+                        let lb = global_lower_bound(&tasks, ub);
+                        control.offer_lower_bound(lb);
+                        record(lb);
+                        if gap_reached(lb, ub) {
+                            shared.abort.store(true, Ordering::Relaxed);
+                        }
+                    }
+                }
+                (w.nodes, w.hist)
+            })
+            .collect();
+        // The frontier: pruned nodes, and the open tasks this pass did not search.
+        let mut hist = [0u64; BINS];
+        for task in &tasks {
+            let x = (task.lb() - hist_lo) * hist_scale;
+            if (0.0..BINS as f64).contains(&x) {
+                hist[x as usize] += 1;
             }
-            let mut w = Worker {
-                shared: &shared,
-                path: vec![0; m],
-                bufs: vec![Vec::new(); m],
-                nodes: 0,
-                unflushed: 0,
-            };
-            w.path[..depth].copy_from_slice(prefix);
-            if depth == m {
-                shared.offer(*g, prefix);
-                return 1;
+        }
+        let mut nodes = 0;
+        for (n, h) in &results {
+            nodes += n;
+            for (a, b) in hist.iter_mut().zip(h) {
+                *a += b;
             }
-            w.dfs(depth, frame, *g);
-            control.add_evaluated(w.unflushed);
-            w.nodes
-        })
-        .sum();
-    let interrupted = shared.stopped.load(Ordering::Relaxed);
+        }
+        evaluated += nodes;
+        if t >= ub {
+            // A complete pass at t = U closes every task; the loop head confirms it.
+            continue;
+        }
+        // Next threshold: enough pruned nodes below it to roughly double the work.
+        let want = (nodes / 2).max(256);
+        let mut cum = 0;
+        let mut next = ub;
+        for (i, c) in hist.iter().enumerate() {
+            cum += c;
+            if cum >= want {
+                next = hist_lo + (i + 1) as f64 / hist_scale;
+                break;
+            }
+        }
+        threshold = next;
+    }
+    let interrupted = !optimal && stop.is_none();
+    let ub = shared.ub();
+    let lb = global_lower_bound(&tasks, ub);
+    control.offer_lower_bound(lb);
+    record(lb);
     let (_, states) = shared.best.into_inner().unwrap_or_else(|e| e.into_inner());
     Raw {
         states,
-        optimal: !interrupted,
-        evaluated: nodes + top_nodes + seed_evals + polish_evals,
+        optimal,
+        evaluated,
         interrupted,
+        lower_bound: Some(lb),
+        stop,
     }
 }

@@ -138,5 +138,7 @@ pub(crate) fn solve(problem: &Problem, control: &Control) -> Raw {
         optimal: !interrupted,
         evaluated,
         interrupted,
+        lower_bound: None,
+        stop: None,
     }
 }

@@ -96,31 +96,70 @@ impl Algorithm {
 }
 
 /// Shared controls between a running solver and its caller: a stop flag the solver polls
-/// (Ctrl-C), and counters the caller may read for progress.
-#[derive(Debug, Clone, Default)]
+/// (Ctrl-C), an optional deadline and target gap, and counters the caller may read for
+/// progress.
+#[derive(Debug, Clone)]
 pub struct Control {
     /// Set to ask the solver to stop and return the best boom found so far.
     pub stop: Arc<AtomicBool>,
+    /// Stop (as if `stop` were set) once this instant has passed.
+    pub deadline: Option<Instant>,
+    /// `exact` stops as soon as its certified relative gap ([`Solution::gap`]) is at most
+    /// this (0: run until the optimum is proven).
+    pub target_gap: f64,
     /// Sequences or search nodes evaluated so far (updated in batches).
     pub evaluated: Arc<AtomicU64>,
     /// Best sum of squared tip costs found so far, as `f64` bits (`u64::MAX` before any).
     pub best_sum_bits: Arc<AtomicU64>,
+    /// Best proven lower bound on the optimal sum of squared tip costs, as `f64` bits
+    /// (0 before any; only `exact` and a finished `exhaustive` raise it).
+    pub lower_bound_bits: Arc<AtomicU64>,
+}
+
+impl Default for Control {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl Control {
-    /// A fresh control: not stopped, nothing evaluated.
+    /// A fresh control: not stopped, no deadline, gap 0, nothing evaluated.
     pub fn new() -> Self {
         Control {
             stop: Arc::new(AtomicBool::new(false)),
+            deadline: None,
+            target_gap: 0.0,
             evaluated: Arc::new(AtomicU64::new(0)),
             best_sum_bits: Arc::new(AtomicU64::new(u64::MAX)),
+            lower_bound_bits: Arc::new(AtomicU64::new(0)),
         }
     }
 
-    /// Whether the caller asked to stop.
+    /// Whether the caller asked to stop or the deadline has passed.
     #[inline]
     pub fn stopped(&self) -> bool {
-        self.stop.load(Ordering::Relaxed)
+        self.stop.load(Ordering::Relaxed) || self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    /// Why the solver should stop now, if it should.
+    pub(crate) fn stop_reason(&self) -> Option<Stop> {
+        if self.stop.load(Ordering::Relaxed) {
+            Some(Stop::Interrupted)
+        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(Stop::TimeLimit)
+        } else {
+            None
+        }
+    }
+
+    pub(crate) fn offer_lower_bound(&self, sum: f64) {
+        self.lower_bound_bits
+            .fetch_max(sum.max(0.0).to_bits(), Ordering::Relaxed);
+    }
+
+    /// Best proven lower bound on the RMS of any boom of `m` modules.
+    pub fn lower_bound_rms(&self, m: usize) -> f64 {
+        (f64::from_bits(self.lower_bound_bits.load(Ordering::Relaxed)) / m as f64).sqrt()
     }
 
     pub(crate) fn add_evaluated(&self, n: u64) {
@@ -158,8 +197,51 @@ pub struct Solution {
     pub elapsed: Duration,
     /// The tips x_1..x_m of the boom (units of l).
     pub tips: Vec<Point3<f64>>,
-    /// Whether the solver stopped early because [`Control::stop`] was set.
+    /// Whether the solver stopped early because [`Control::stop`] was set or the deadline
+    /// passed.
     pub interrupted: bool,
+    /// Why the solver returned.
+    pub stop: Stop,
+    /// A proven lower bound on the RMS of every boom (`exact`, and `exhaustive` when it
+    /// finishes); `None` for solvers that prove nothing.
+    pub lower_bound_rms: Option<f64>,
+    /// The certified relative gap `(rms − lower_bound_rms) / rms` (0 when `rms` is 0): the
+    /// optimum's RMS is at least `rms·(1 − gap)`. `None` without a lower bound.
+    pub gap: Option<f64>,
+}
+
+/// Why a solver returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stop {
+    /// It ran to completion (for `exact`/`exhaustive`: the optimum is proven).
+    Finished,
+    /// `exact` reached the requested gap ([`Control::target_gap`]).
+    Gap,
+    /// The deadline ([`Control::deadline`]) passed.
+    TimeLimit,
+    /// [`Control::stop`] was set (Ctrl-C).
+    Interrupted,
+}
+
+impl Stop {
+    /// The name used in reports (`finished`, `gap`, `time-limit`, `interrupted`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stop::Finished => "finished",
+            Stop::Gap => "gap",
+            Stop::TimeLimit => "time-limit",
+            Stop::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// The relative gap between an incumbent RMS and a lower bound on it.
+pub fn relative_gap(rms: f64, lower_bound_rms: f64) -> f64 {
+    if rms <= 0.0 {
+        0.0
+    } else {
+        ((rms - lower_bound_rms) / rms).clamp(0.0, 1.0)
+    }
 }
 
 /// What a solver returns before the common bookkeeping.
@@ -168,6 +250,10 @@ pub(crate) struct Raw {
     pub optimal: bool,
     pub evaluated: u64,
     pub interrupted: bool,
+    /// Proven lower bound on the optimal cost sum, if the solver proves one.
+    pub lower_bound: Option<f64>,
+    /// `Some(Stop::Gap)` when the solver stopped at the target gap.
+    pub stop: Option<Stop>,
 }
 
 /// Runs `algorithm` on `problem`.
@@ -197,19 +283,36 @@ pub fn solve(
         }
         Algorithm::Dp(params) => dp::solve(problem, params, control)?,
     };
-    Ok(finish(problem, raw, start.elapsed()))
+    Ok(finish(problem, raw, start.elapsed(), control))
 }
 
-fn finish(problem: &Problem, raw: Raw, elapsed: Duration) -> Solution {
+fn finish(problem: &Problem, raw: Raw, elapsed: Duration, control: &Control) -> Solution {
     let tips = problem.catalogue.tips(&raw.states);
+    let rms = problem.objective.rms(&tips);
+    let m = problem.m();
+    let optimal = raw.optimal && !raw.interrupted;
+    let lower_bound_rms = if optimal {
+        Some(rms)
+    } else {
+        raw.lower_bound
+            .map(|lb| (lb.max(0.0) / m as f64).sqrt().min(rms))
+    };
+    let stop = if raw.interrupted {
+        control.stop_reason().unwrap_or(Stop::Interrupted)
+    } else {
+        raw.stop.unwrap_or(Stop::Finished)
+    };
     Solution {
         names: problem.catalogue.names(&raw.states),
-        rms: problem.objective.rms(&tips),
-        optimal: raw.optimal && !raw.interrupted,
+        rms,
+        optimal,
         evaluated: raw.evaluated,
         elapsed,
         tips,
         interrupted: raw.interrupted,
+        stop,
+        lower_bound_rms,
+        gap: lower_bound_rms.map(|lb| if optimal { 0.0 } else { relative_gap(rms, lb) }),
         states: raw.states,
     }
 }

@@ -14,6 +14,11 @@ pub struct Candidate {
     pub name: String,
     /// The module's transform in this state (eq 5), units of l.
     pub frame: Frame,
+    /// Whether the geometry marks the state feasible (`StateInfo::feasible`: it exists for
+    /// this β and its crease strain is within `geometry::STRAIN_TOLERANCE`).
+    pub feasible: bool,
+    /// The state's largest relative crease-length error (`StateInfo::max_strain`).
+    pub strain: f64,
 }
 
 /// The candidate states of every module of a boom, bottom module first.
@@ -80,13 +85,15 @@ impl Catalogue {
                 .map(|info| Candidate {
                     name: info.state.to_string(),
                     frame: Frame::from_isometry(&info.pose.isometry()),
+                    feasible: info.feasible,
+                    strain: info.max_strain,
                 })
                 .collect();
             if cands.is_empty() {
                 return Err(IkError::NoCandidates {
                     module: i,
                     hint: format!(
-                        ": no state of n = {}, β = {}° is feasible; drop --feasible-only or choose another β",
+                        ": no state of n = {}, β = {}° is feasible; pass --all-states for the paper's full catalogue or choose another β",
                         d.n(),
                         d.beta_deg()
                     ),
@@ -147,6 +154,19 @@ impl Catalogue {
                 f
             })
             .collect()
+    }
+
+    /// The modules of `states` whose state the geometry marks infeasible:
+    /// `(module index, candidate)`, bottom first.
+    pub fn infeasible<'a>(
+        &'a self,
+        states: &'a [usize],
+    ) -> impl Iterator<Item = (usize, &'a Candidate)> + 'a {
+        states
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| (i, &self.modules[i][s]))
+            .filter(|(_, c)| !c.feasible)
     }
 
     /// The names of `states`.
@@ -277,6 +297,28 @@ impl Problem {
     /// Number of modules m.
     pub fn m(&self) -> usize {
         self.catalogue.len()
+    }
+
+    /// The length of one module for [`check_fittable`](Self::check_fittable): the shortest
+    /// step `|T·0|` (bottom to top centroid) among the bottom module's candidates.
+    pub fn shortest_module(&self) -> f64 {
+        self.catalogue
+            .candidates(0)
+            .iter()
+            .map(|c| c.frame.translation.norm())
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Refuses a target the boom cannot follow: one shorter (in arc length) than the
+    /// [`shortest_module`](Self::shortest_module), less a relative 1e-9 for rounding. (A single
+    /// point has length 0.)
+    pub fn check_fittable(&self) -> Result<(), IkError> {
+        let length = self.objective.target().length();
+        let module = self.shortest_module();
+        if length < module * (1.0 - 1e-9) {
+            return Err(IkError::TooShort { length, module });
+        }
+        Ok(())
     }
 
     /// Sum of squared per-tip costs of `states`.

@@ -99,8 +99,14 @@ struct LowerBoundGrid {
 
 const LEAF_SIZE: usize = 4;
 
+/// Largest coordinate magnitude a target point may have, in units of l (a million fold
+/// lengths: far beyond any boom of the accepted 10 000 modules, and small enough that every
+/// squared distance and sum stays finite).
+pub const MAX_COORDINATE: f64 = 1e6;
+
 impl Target {
-    /// A target through `points` (at least one, all finite).
+    /// A target through `points` (at least one, all finite, every coordinate within
+    /// ±[`MAX_COORDINATE`]).
     pub fn new(points: Vec<Point3<f64>>) -> Result<Self, IkError> {
         if points.is_empty() {
             return Err(IkError::EmptyTarget);
@@ -108,6 +114,14 @@ impl Target {
         for (index, p) in points.iter().enumerate() {
             if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
                 return Err(IkError::NonFinite {
+                    index,
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                });
+            }
+            if p.coords.amax() > MAX_COORDINATE {
+                return Err(IkError::TooFar {
                     index,
                     x: p.x,
                     y: p.y,

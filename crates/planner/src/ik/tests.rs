@@ -162,3 +162,98 @@ proptest! {
         prop_assert!((dp.rms - ex.rms).abs() <= 1e-9);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// The certified lower bound of `exact` never exceeds the optimum found by `exhaustive`: not
+    /// at the start, not after any task of any pass, not when it stops at a target gap or a
+    /// passed deadline; and the reported gap is honest (rms·(1 − gap) ≤ optimum ≤ rms).
+    #[test]
+    fn exact_lower_bound_never_exceeds_the_optimum(
+        n in 3usize..5,
+        m in 2usize..6,
+        pts in arb_points(),
+        ordered in any::<bool>(),
+        target_gap in prop::sample::select(vec![0.0, 0.01, 0.1, 0.5, 0.9]),
+        min_tasks in prop::sample::select(vec![1u128, 8, 2048]),
+    ) {
+        let metric = if ordered { Metric::Ordered } else { Metric::Eq36 };
+        let p = problem(n, m, pts, metric);
+        let ex = solve(&p, Algorithm::Exhaustive, &Control::new()).unwrap();
+        let opt_sum = ex.rms * ex.rms * m as f64;
+        let tol = 1e-9 * opt_sum + 1e-15;
+        let trace = std::sync::Mutex::new(Vec::new());
+        let mut control = Control::new();
+        control.target_gap = target_gap;
+        let raw = exact::solve_with(&p, &control, min_tasks, Some(&trace));
+        let bounds = trace.into_inner().unwrap();
+        prop_assert!(!bounds.is_empty());
+        for &lb in &bounds {
+            prop_assert!(lb <= opt_sum + tol, "bound {lb} > optimum {opt_sum}");
+        }
+        let lb = raw.lower_bound.unwrap();
+        prop_assert!(lb <= opt_sum + tol);
+        let rms = p.rms(&raw.states);
+        prop_assert!(rms >= ex.rms - 1e-9);
+        if raw.optimal {
+            prop_assert!((rms - ex.rms).abs() <= 1e-9, "exact {rms} vs exhaustive {}", ex.rms);
+        } else {
+            prop_assert_eq!(raw.stop, Some(Stop::Gap));
+            let lb_rms = (lb / m as f64).sqrt();
+            prop_assert!(relative_gap(rms, lb_rms) <= target_gap);
+        }
+        // Through `solve`: the reported bound and gap.
+        let s = solve(&p, Algorithm::Exact, &control).unwrap();
+        let lb_rms = s.lower_bound_rms.unwrap();
+        prop_assert!(lb_rms <= ex.rms + 1e-9);
+        prop_assert!(s.rms * (1.0 - s.gap.unwrap()) <= ex.rms + 1e-9);
+        prop_assert_eq!(s.optimal, s.stop == Stop::Finished);
+
+        // A deadline that has already passed: the bound of the initial tasks alone.
+        let mut late = Control::new();
+        late.deadline = Some(std::time::Instant::now());
+        let s = solve(&p, Algorithm::Exact, &late).unwrap();
+        prop_assert!(s.lower_bound_rms.unwrap() <= ex.rms + 1e-9);
+        prop_assert!(s.rms >= ex.rms - 1e-9);
+        if !s.optimal {
+            prop_assert_eq!(s.stop, Stop::TimeLimit);
+            prop_assert!(s.interrupted);
+        }
+    }
+}
+
+/// On an instance too hard to finish at once, the certified bound rises over the passes,
+/// stays below the incumbent, and a target gap stops the search with `optimal: false`.
+#[test]
+fn lower_bound_rises_and_a_target_gap_stops_the_search() {
+    let pts = vec![
+        Point3::origin(),
+        Point3::new(1.5, 0.5, 2.0),
+        Point3::new(0.0, 2.0, 3.5),
+        Point3::new(-1.0, 0.0, 5.0),
+    ];
+    let p = problem(4, 10, pts, Metric::Eq36);
+    let trace = std::sync::Mutex::new(Vec::new());
+    let raw = exact::solve_with(&p, &Control::new(), 64, Some(&trace));
+    let bounds = trace.into_inner().unwrap();
+    let ub = p.cost_sum(&raw.states);
+    assert!(raw.optimal);
+    assert!(bounds.len() >= 3, "{bounds:?}");
+    assert!(bounds[0] < ub * 0.999, "{bounds:?} vs {ub}");
+    assert!((bounds[bounds.len() - 1] - ub).abs() <= 1e-12 * ub);
+    for &b in &bounds {
+        assert!(b <= ub * (1.0 + 1e-12));
+    }
+    let mut c = Control::new();
+    c.target_gap = 0.2;
+    let s = solve(&p, Algorithm::Exact, &c).unwrap();
+    let gap = s.gap.unwrap();
+    assert!(gap <= 0.2, "{gap}");
+    if !s.optimal {
+        assert_eq!(s.stop, Stop::Gap);
+        assert!(!s.interrupted);
+    }
+    let opt_rms = (ub / 10.0).sqrt();
+    assert!(s.rms >= opt_rms - 1e-12 && s.rms * (1.0 - gap) <= opt_rms + 1e-12);
+}

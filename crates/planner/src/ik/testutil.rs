@@ -20,10 +20,14 @@ pub fn synthetic(n: usize) -> Vec<Candidate> {
         Candidate {
             name: "deployed".into(),
             frame: eq5(1.3, 0.0, 0.0),
+            feasible: true,
+            strain: 0.0,
         },
         Candidate {
             name: "folded".into(),
             frame: eq5(0.35, 0.0, 0.0),
+            feasible: true,
+            strain: 0.0,
         },
     ];
     for i in 0..n {
@@ -31,6 +35,8 @@ pub fn synthetic(n: usize) -> Vec<Candidate> {
         v.push(Candidate {
             name: format!("edge-{i}"),
             frame: eq5(0.8, 0.55, psi),
+            feasible: true,
+            strain: 0.0,
         });
     }
     for i in 0..n {
@@ -38,6 +44,8 @@ pub fn synthetic(n: usize) -> Vec<Candidate> {
         v.push(Candidate {
             name: format!("vertex-{i}"),
             frame: eq5(0.85, 0.45, psi),
+            feasible: true,
+            strain: 0.0,
         });
     }
     v

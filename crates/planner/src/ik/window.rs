@@ -31,6 +31,8 @@ pub(crate) fn solve(problem: &Problem, w: usize, control: &Control) -> Raw {
                 optimal: false,
                 evaluated: evaluated + n,
                 interrupted: true,
+                lower_bound: None,
+                stop: None,
             };
         }
         let hi = (j + w).min(m);
@@ -52,6 +54,8 @@ pub(crate) fn solve(problem: &Problem, w: usize, control: &Control) -> Raw {
         optimal: false,
         evaluated: evaluated + n,
         interrupted: control.stopped(),
+        lower_bound: None,
+        stop: None,
     }
 }
 

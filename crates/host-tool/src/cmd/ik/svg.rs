@@ -21,7 +21,8 @@ const VIEWS: [(usize, usize, &str); 3] = [
 struct Drawing {
     /// Closed polygons (module boundaries) and open polylines (module side edges).
     polygons: Vec<Vec<Point3<f64>>>,
-    edges: Vec<[Point3<f64>; 2]>,
+    /// Side edges, each with whether its module's state is infeasible.
+    edges: Vec<([Point3<f64>; 2], bool)>,
 }
 
 fn boom_drawing(problem: &Problem, designs: &[ModuleDesign], s: &Solution) -> Drawing {
@@ -35,11 +36,12 @@ fn boom_drawing(problem: &Problem, designs: &[ModuleDesign], s: &Solution) -> Dr
             frames[i - 1]
         };
         let top = frames[i];
+        let infeasible = !problem.catalogue.candidates(i)[s.states[i]].feasible;
         let ring: Vec<Point3<f64>> = (0..d.n()).map(|k| d.bottom_vertex(k)).collect();
         let b: Vec<Point3<f64>> = ring.iter().map(|p| bottom.apply(p)).collect();
         let t: Vec<Point3<f64>> = ring.iter().map(|p| top.apply(p)).collect();
         for k in 0..ring.len() {
-            edges.push([b[k], t[k]]);
+            edges.push(([b[k], t[k]], infeasible));
         }
         if i == 0 {
             polygons.push(b);
@@ -49,14 +51,38 @@ fn boom_drawing(problem: &Problem, designs: &[ModuleDesign], s: &Solution) -> Dr
     Drawing { polygons, edges }
 }
 
+/// Splits `text` at spaces into lines of at most about `width` characters.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines = vec![String::new()];
+    for word in text.split(' ') {
+        let last = lines.last_mut().expect("non-empty");
+        if !last.is_empty() && last.chars().count() + 1 + word.chars().count() > width {
+            lines.push(word.to_string());
+        } else {
+            if !last.is_empty() {
+                last.push(' ');
+            }
+            last.push_str(word);
+        }
+    }
+    lines
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
 }
 
-/// Renders the SVG document.
-pub fn render(problem: &Problem, designs: &[ModuleDesign], s: &Solution, caption: &str) -> String {
+/// Renders the SVG document. A non-empty `infeasible_note` (which infeasible states the boom
+/// uses) is printed under the views, and those modules' side edges are drawn in orange.
+pub fn render(
+    problem: &Problem,
+    designs: &[ModuleDesign],
+    s: &Solution,
+    caption: &str,
+    infeasible_note: &str,
+) -> String {
     let drawing = boom_drawing(problem, designs, s);
     let target = problem.objective.target().points();
     let origin = Point3::origin();
@@ -77,7 +103,13 @@ pub fn render(problem: &Problem, designs: &[ModuleDesign], s: &Solution, caption
     let extent = (0..3).map(|k| hi[k] - lo[k]).fold(1e-9, f64::max);
     let scale = (VIEW - 2.0 * PAD) / extent;
     let width = 3.0 * VIEW;
-    let height = TOP + VIEW + 40.0;
+    let note_lines = wrap(&format!("orange: {infeasible_note}"), 150);
+    let note_lines = if infeasible_note.is_empty() {
+        Vec::new()
+    } else {
+        note_lines
+    };
+    let height = TOP + VIEW + 40.0 + 18.0 * note_lines.len() as f64;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -126,12 +158,20 @@ pub fn render(problem: &Problem, designs: &[ModuleDesign], s: &Solution, caption
             r##"<polyline points="{}" fill="none" stroke="#1f6fd0" stroke-width="2"/>"##,
             pts(target)
         );
-        for e in &drawing.edges {
-            let _ = writeln!(
-                out,
-                r##"<polyline points="{}" fill="none" stroke="#444" stroke-width="0.8"/>"##,
-                pts(e)
-            );
+        for (e, infeasible) in &drawing.edges {
+            let _ = if *infeasible {
+                writeln!(
+                    out,
+                    r##"<polyline class="infeasible" points="{}" fill="none" stroke="#e07000" stroke-width="1.4"/>"##,
+                    pts(e)
+                )
+            } else {
+                writeln!(
+                    out,
+                    r##"<polyline points="{}" fill="none" stroke="#444" stroke-width="0.8"/>"##,
+                    pts(e)
+                )
+            };
         }
         for poly in &drawing.polygons {
             let _ = writeln!(
@@ -151,6 +191,14 @@ pub fn render(problem: &Problem, designs: &[ModuleDesign], s: &Solution, caption
         let _ = writeln!(
             out,
             r##"<circle cx="{x0:.2}" cy="{y0:.2}" r="3" fill="none" stroke="#090"/></g>"##
+        );
+    }
+    for (i, line) in note_lines.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            r##"<text x="{PAD}" y="{:.1}" fill="#e07000">{}</text>"##,
+            TOP + VIEW + 50.0 + 18.0 * i as f64,
+            esc(line)
         );
     }
     out.push_str("</svg>\n");

@@ -29,3 +29,13 @@ $PY dxf "$OUT/golden.dxf" --fold "$OUT/golden.fold" --edge-mm 609.6 --seam-mm 0
 echo "--- n = 6, two modules of different beta (FOLD)"
 "$H" pattern --n 6 --beta 15.104295,40 --layers 1,2 --edge-mm 20 --fold "$OUT/n6.fold"
 $FOLDCHECK "$OUT/n6.fold"
+
+echo "--- crane trunk printable panel: 3MF and one STL per material (trimesh)"
+"$H" pattern --3mf "$OUT/crane.3mf" --stl-dir "$OUT/stl"
+$PY panel "$OUT/crane.3mf" --stl-dir "$OUT/stl"
+"$H" pattern --n 6 --beta 20,30 --layers 1,2 --edge-mm 40 --gap-mm 1,2 --facet-mm 1 --base-mm 0.4 --3mf "$OUT/n6.3mf"
+$PY panel "$OUT/n6.3mf"
+
+echo "--- the paper's meter-scale build (four 2 ft golden modules): 180 hinges, 720 screws"
+"$H" pattern --beta 31.72 --layers 4 --edge-mm 609.6 --kit "$OUT/kit.json"
+$PY kit "$OUT/kit.json" --hinges 180 --screws 720

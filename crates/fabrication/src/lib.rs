@@ -23,6 +23,9 @@
 pub mod dxf_out;
 pub mod fold;
 pub mod folded;
+pub mod kit;
+pub mod mesh;
+pub mod panel;
 pub mod pattern;
 pub mod svg;
 mod trunk;

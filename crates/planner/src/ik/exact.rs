@@ -171,7 +171,7 @@ impl Worker<'_, '_> {
                 continue;
             }
             let ub = sh.ub();
-            let lb = sh.reach.suffix_lower_bound(obj, &f, j + 1, ub - gc);
+            let lb = sh.reach.suffix_lower_bound_grouped(obj, &f, j + 1, ub - gc);
             let bound = (gc + lb) * shave;
             if bound < level {
                 kids.push((bound, gc, a, f));
@@ -243,10 +243,11 @@ fn split(shared: &Shared<'_>, tasks: Vec<Task>, ub: f64) -> Vec<Task> {
             }
             let frame = task.frame.compose(&c.frame);
             let g = task.g + obj.cost(j, &frame.origin());
-            let own = (g + shared
-                .reach
-                .suffix_lower_bound(obj, &frame, j + 1, f64::INFINITY))
-                * shared.shave;
+            let own =
+                (g + shared
+                    .reach
+                    .suffix_lower_bound_grouped(obj, &frame, j + 1, f64::INFINITY))
+                    * shared.shave;
             let mut prefix = task.prefix.clone();
             prefix.push(a);
             out.push(Task {
@@ -314,7 +315,8 @@ pub(crate) fn solve_with(
         .into_iter()
         .filter(|(prefix, _, _)| mirror.as_ref().is_none_or(|mi| mi.canonical(prefix)))
         .map(|(prefix, frame, g)| {
-            let lb = reach.suffix_lower_bound(&problem.objective, &frame, depth, f64::INFINITY);
+            let lb =
+                reach.suffix_lower_bound_grouped(&problem.objective, &frame, depth, f64::INFINITY);
             Task {
                 fixed: mirror.as_ref().is_some_and(|mi| mi.fixed(&prefix)),
                 prefix,

@@ -36,6 +36,7 @@ pub mod discovery;
 pub mod fault;
 pub mod host;
 pub mod operator;
+pub mod pair;
 pub mod physics;
 pub mod pty;
 pub mod servo;

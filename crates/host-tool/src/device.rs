@@ -1,31 +1,34 @@
 //! Which device a command talks to: arguments → validated config → open, handshake.
 //!
-//! Without `--port` every device command uses the built-in simulator and says so on stderr,
-//! so hardware is never actuated by accident.
+//! A command that acts on a crane needs `--port` (a real crane, or an outside simulator's
+//! pty) or an explicit `--sim` (the built-in simulator, in-process): without either it is a
+//! usage error, so hardware is never actuated by accident and no throw-away simulator reports
+//! a success that nothing earned.
 
 use std::str::FromStr;
 
 use geometry::TrunkState;
+use host::{Driver, Host, SessionError, Timing};
 use protocol::DeviceInfo;
 
 use crate::failure::Failure;
-use crate::session::{Session, SessionError, Timing};
-use crate::sim::{SimConfig, SimRun, SimTruth};
-use crate::transport::{self, Port};
+use crate::sim::{SimConfig, SimTruth};
+use crate::transport::{self, AnyIo, SerialIo};
 
 /// Device selection, shared by `plan`, `status`, `monitor` and `stop`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DeviceArgs {
-    /// Serial device of a real crane, e.g. /dev/ttyACM0 (without it: the built-in simulator).
+    /// Serial device of a real crane, e.g. /dev/ttyACM0 (or a `hil-sim --pty` device).
     #[arg(long, value_name = "PATH")]
     pub port: Option<String>,
-    /// Use the built-in simulator on a pseudo-terminal (the default without --port).
+    /// Use the built-in simulator, in-process (needed when no --port is given).
     #[arg(long, conflicts_with = "port")]
     pub sim: bool,
     /// Simulator: the trunk's initial state [default: F&P].
     #[arg(long, value_name = "STATE")]
     pub sim_initial: Option<String>,
-    /// Simulator: virtual time runs this many times faster than wall time.
+    /// Simulator: pace virtual time at X times wall time, 0.1–1000 [default: as fast as
+    /// the CPU allows; `monitor`: 1].
     #[arg(long, value_name = "X")]
     pub sim_speed: Option<f64>,
     /// Simulator: inject a fault (repeatable): valve-stuck-closed, valve-stuck-open, leak,
@@ -53,8 +56,9 @@ pub fn parse_state(what: &str, value: &str) -> Result<TrunkState, Failure> {
 }
 
 impl DeviceArgs {
-    /// Validates the selection. `default_speed`: the simulator speed when none is given.
-    pub fn validate(&self, default_speed: f64) -> Result<DeviceConfig, Failure> {
+    /// Validates the selection. `default_speed`: the simulator's pacing when none is given
+    /// (`None`: as fast as possible).
+    pub fn validate(&self, default_speed: Option<f64>) -> Result<DeviceConfig, Failure> {
         if let Some(path) = &self.port {
             let sim_only = [
                 (self.sim_initial.is_some(), "--sim-initial"),
@@ -78,15 +82,23 @@ impl DeviceArgs {
             Some(s) => parse_state("--sim-initial", s)?,
             None => TrunkState::AS_MANUFACTURED,
         };
-        let speed = self.sim_speed.unwrap_or(default_speed);
-        if !(speed.is_finite() && (0.1..=1000.0).contains(&speed)) {
-            return Err(Failure::usage(format!(
-                "invalid --sim-speed {speed}: it must be between 0.1 and 1000"
-            )));
+        let speed = self.sim_speed.or(default_speed);
+        if let Some(speed) = speed {
+            if !(speed.is_finite() && (0.1..=1000.0).contains(&speed)) {
+                return Err(Failure::usage(format!(
+                    "invalid --sim-speed {speed}: it must be between 0.1 and 1000"
+                )));
+            }
         }
         let mut faults = Vec::new();
         for name in &self.sim_faults {
             faults.push(crate::sim::parse_fault(name).map_err(Failure::usage)?);
+        }
+        if !self.sim {
+            return Err(Failure::usage(
+                "this command acts on a crane: give --port PATH (e.g. /dev/ttyACM0; \
+                 `host-tool ports` lists them) or --sim for the built-in simulator",
+            ));
         }
         Ok(DeviceConfig::Sim(SimConfig {
             initial,
@@ -97,29 +109,41 @@ impl DeviceArgs {
     }
 }
 
-/// An open, handshaken connection.
+/// An open, handshaken connection: the host engine driven over the device's I/O.
 pub struct Connection {
-    /// The protocol session.
-    pub session: Session<Port>,
+    /// The engine and its I/O.
+    pub session: Driver<AnyIo>,
     /// Who the device is.
     pub info: DeviceInfo,
-    /// The simulator behind the port, if it is one.
-    pub sim: Option<SimRun>,
 }
 
 impl Connection {
-    /// Ends the session, then stops the simulator (if it is one) and returns its ground truth.
-    pub fn close(self) -> Option<SimTruth> {
-        // The session goes first: the simulator stops serving once its port is closed.
-        drop(self.session);
-        self.sim.map(SimRun::finish)
+    /// The simulator's ground truth now, if the device is the built-in simulator.
+    pub fn truth(&self) -> Option<SimTruth> {
+        match &self.session.io {
+            AnyIo::Sim(io) => Some(io.sim.ground_truth().into()),
+            AnyIo::Serial(_) => None,
+        }
+    }
+
+    /// Ends the session and returns the simulator's final ground truth, if it is one. After a
+    /// lost link the simulator first runs on for the device's link timeout (and a margin), so
+    /// the truth shows what the crane did about the silent host, as a real one would.
+    pub fn close(mut self) -> Option<SimTruth> {
+        if let AnyIo::Sim(io) = &mut self.session.io {
+            if self.session.host.session().is_closed() {
+                io.sim
+                    .run_for(u64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) + 1_000);
+            }
+        }
+        self.truth()
     }
 }
 
 /// Why a connection could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum ConnectError {
-    /// The port or the simulator could not be opened.
+    /// The port could not be opened.
     #[error("{0:#}")]
     Open(anyhow::Error),
     /// The handshake failed (version mismatch, no answer).
@@ -129,8 +153,8 @@ pub enum ConnectError {
         device: String,
         /// Why.
         source: SessionError,
-        /// The simulator, so its ground truth can still be reported.
-        sim: Option<Box<SimRun>>,
+        /// The simulator's ground truth, if it is one.
+        truth: Option<SimTruth>,
     },
 }
 
@@ -141,50 +165,48 @@ impl From<ConnectError> for Failure {
     }
 }
 
-impl DeviceConfig {
-    /// Timing suited to the device.
-    pub fn timing(&self) -> Timing {
-        match self {
-            DeviceConfig::Port(_) => Timing::hardware(),
-            DeviceConfig::Sim(cfg) => Timing::simulator(cfg.speed),
-        }
-    }
+/// A first sequence number that differs between host processes (a device answers a repeated
+/// sequence number from its cache).
+fn first_seq() -> u16 {
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    ((t ^ std::process::id()) & 0x7fff) as u16 + 1
+}
 
+impl DeviceConfig {
     /// Opens the device (starting the simulator if it is one) and does the handshake.
-    /// Announces the simulator on stderr.
     pub fn connect(&self) -> Result<Connection, ConnectError> {
-        let (path, sim) = match self {
-            DeviceConfig::Port(path) => (path.clone(), None),
-            DeviceConfig::Sim(cfg) => {
-                let run = SimRun::start(cfg).map_err(ConnectError::Open)?;
-                eprintln!(
-                    "note: no --port given: using the built-in simulator on {} \
-                     (initial state {}, speed ×{}, seed {}{}); no hardware is touched",
-                    run.path(),
-                    cfg.initial,
-                    cfg.speed,
-                    cfg.seed,
-                    if cfg.faults.is_empty() {
-                        String::new()
-                    } else {
-                        format!(", faults: {}", cfg.fault_names().join(", "))
-                    }
-                );
-                (run.path().to_string(), Some(run))
+        let (name, io, seq) = match self {
+            DeviceConfig::Port(path) => {
+                let port = transport::open(path).map_err(ConnectError::Open)?;
+                (
+                    path.clone(),
+                    AnyIo::Serial(SerialIo::new(port)),
+                    first_seq(),
+                )
             }
+            // Deterministic: the same run for the same seed, down to the sequence numbers.
+            DeviceConfig::Sim(cfg) => (
+                "the simulator".to_string(),
+                AnyIo::Sim(Box::new(crate::sim::start(cfg))),
+                1,
+            ),
         };
-        let port = match transport::open(&path) {
-            Ok(p) => p,
-            Err(e) => return Err(ConnectError::Open(e)),
-        };
-        let mut session = Session::new(port, self.timing());
-        match session.handshake() {
-            Ok(info) => Ok(Connection { session, info, sim }),
-            Err(source) => Err(ConnectError::Handshake {
-                device: path,
-                source,
-                sim: sim.map(Box::new),
-            }),
+        let mut session = Driver::new(Host::new(Timing::standard(), seq), io);
+        match session.connect() {
+            Ok(info) => Ok(Connection { session, info }),
+            Err(source) => {
+                let conn_truth = match &session.io {
+                    AnyIo::Sim(io) => Some(io.sim.ground_truth().into()),
+                    AnyIo::Serial(_) => None,
+                };
+                Err(ConnectError::Handshake {
+                    device: name,
+                    source,
+                    truth: conn_truth,
+                })
+            }
         }
     }
 }
@@ -205,13 +227,23 @@ mod tests {
     }
 
     #[test]
-    fn no_port_means_the_simulator_with_defaults() {
-        let cfg = args().validate(20.0).unwrap();
+    fn neither_port_nor_sim_is_a_usage_error() {
+        let Err(Failure::Usage(msg)) = args().validate(None) else {
+            panic!()
+        };
+        assert!(msg.contains("--port") && msg.contains("--sim"), "{msg}");
+    }
+
+    #[test]
+    fn sim_runs_unpaced_with_defaults() {
+        let mut a = args();
+        a.sim = true;
+        let cfg = a.validate(None).unwrap();
         let DeviceConfig::Sim(sim) = cfg else {
             panic!("{cfg:?}")
         };
         assert_eq!(sim.initial, TrunkState::AS_MANUFACTURED);
-        assert_eq!(sim.speed, 20.0);
+        assert_eq!(sim.speed, None);
     }
 
     #[test]
@@ -219,7 +251,7 @@ mod tests {
         let mut a = args();
         a.port = Some("/dev/ttyACM0".into());
         a.sim_speed = Some(5.0);
-        let Err(Failure::Usage(msg)) = a.validate(20.0) else {
+        let Err(Failure::Usage(msg)) = a.validate(None) else {
             panic!()
         };
         assert!(msg.contains("--sim-speed"), "{msg}");
@@ -228,8 +260,9 @@ mod tests {
     #[test]
     fn a_bad_initial_state_lists_the_six_states() {
         let mut a = args();
+        a.sim = true;
         a.sim_initial = Some("X&Y".into());
-        let Err(Failure::Usage(msg)) = a.validate(20.0) else {
+        let Err(Failure::Usage(msg)) = a.validate(None) else {
             panic!()
         };
         for s in ["F&P", "F&F", "F&D", "D&P", "D&F", "D&D"] {
@@ -240,7 +273,8 @@ mod tests {
     #[test]
     fn a_bad_speed_is_a_usage_error() {
         let mut a = args();
+        a.sim = true;
         a.sim_speed = Some(f64::NAN);
-        assert!(matches!(a.validate(20.0), Err(Failure::Usage(_))));
+        assert!(matches!(a.validate(None), Err(Failure::Usage(_))));
     }
 }

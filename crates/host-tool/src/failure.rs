@@ -1,4 +1,5 @@
-//! How a command fails: a usage error (exit 2) or a runtime failure (exit 1).
+//! How a command fails: a usage error (exit 2), a runtime failure (exit 1), or an interrupt
+//! (exit 130, after the crane was made safe).
 
 use std::process::ExitCode;
 
@@ -9,6 +10,8 @@ pub enum Failure {
     Usage(String),
     /// The command was valid but failed (device, link, plan, I/O). Exit code 1.
     Runtime(anyhow::Error),
+    /// Stopped by SIGINT, SIGTERM or SIGHUP after making the crane safe. Exit code 130.
+    Interrupted(String),
 }
 
 impl Failure {
@@ -21,12 +24,16 @@ impl Failure {
     pub fn report(self) -> std::process::ExitCode {
         match self {
             Failure::Usage(msg) => {
-                eprintln!("error: {msg}");
+                crate::say!("error: {msg}");
                 ExitCode::from(2)
             }
             Failure::Runtime(err) => {
-                eprintln!("error: {err:#}");
+                crate::say!("error: {err:#}");
                 ExitCode::from(1)
+            }
+            Failure::Interrupted(msg) => {
+                crate::say!("interrupted: {msg}");
+                ExitCode::from(130)
             }
         }
     }

@@ -7,15 +7,47 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+/// A line on stderr. A closed stderr (the terminal went away) is no reason to die mid-plan:
+/// the run goes on to its safe end.
+#[macro_export]
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
+/// Text on stderr without a newline (as [`say!`]).
+#[macro_export]
+macro_rules! say_raw {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($t)*);
+    }};
+}
+
+/// A line on stdout; a closed stdout (`| head`) ends nothing abruptly.
+#[macro_export]
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// Text on stdout without a newline (as [`out!`]).
+#[macro_export]
+macro_rules! out_raw {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
+
 mod cmd;
 mod device;
-mod executor;
 mod failure;
-mod link;
 mod progress;
-mod session;
-#[cfg(test)]
-mod session_fake;
 mod sim;
 mod transport;
 
@@ -35,7 +67,9 @@ enum Command {
     Fk(cmd::fk::Args),
     /// Inverse kinematics: fit a stacked boom to a target curve.
     Ik(cmd::ik::Args),
-    /// Take the crane (default: the built-in simulator) to a trunk state, e.g. --target D&F.
+    /// Files to make a trunk: crease pattern (SVG, DXF, FOLD), printable panel (3MF, STL), kit.
+    Pattern(cmd::pattern::Args),
+    /// Take the crane (--port) or the simulator (--sim) to a trunk state, e.g. --target 'D&F'.
     Plan(cmd::plan::Args),
     /// One status snapshot of the crane (or the simulator).
     Status(cmd::status::Args),
@@ -57,6 +91,7 @@ fn main() -> ExitCode {
         Command::States(args) => cmd::states::run(args),
         Command::Fk(args) => cmd::fk::run(args),
         Command::Ik(args) => cmd::ik::run(args),
+        Command::Pattern(args) => cmd::pattern::run(args),
         Command::Plan(args) => cmd::plan::run(args),
         Command::Status(args) => cmd::status::run(args),
         Command::Monitor(args) => cmd::monitor::run(args),

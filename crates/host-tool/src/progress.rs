@@ -7,7 +7,23 @@ use indicatif::{ProgressBar, ProgressStyle};
 use planner::graph::{kind_name, manual_task_text, Plan};
 use protocol::ManualTask;
 
-use crate::executor::{Progress, StepReport};
+use host::StepReport;
+
+/// Where a run shows its progress (a terminal, plain lines, nothing).
+pub trait Progress {
+    /// A plan was made (`replan`: after a surprise).
+    fn plan(&mut self, plan: &Plan, replan: bool);
+    /// Step `index` of `total` started.
+    fn step_started(&mut self, index: usize, total: usize, plan: &Plan);
+    /// Step `index` is running: `elapsed_ms` of device time, latest pressure.
+    fn step_progress(&mut self, index: usize, elapsed_ms: u32, pressure_kpa: f32);
+    /// A manual step waits for a person; `enter_confirms`: Enter on stdin works too.
+    fn manual_prompt(&mut self, index: usize, task: ManualTask, enter_confirms: bool);
+    /// Step `index` ended.
+    fn step_finished(&mut self, index: usize, report: &StepReport);
+    /// Anything else worth a line.
+    fn note(&mut self, message: &str);
+}
 
 /// Plain lines on stderr (pipes, logs, CI).
 pub struct Lines;
@@ -50,27 +66,27 @@ fn manual_line(task: ManualTask, enter: bool) -> String {
 impl Progress for Lines {
     fn plan(&mut self, plan: &Plan, replan: bool) {
         if replan {
-            eprintln!("new plan:");
+            crate::say!("new plan:");
         }
-        eprint!("{plan}");
+        crate::say_raw!("{plan}");
     }
 
     fn step_started(&mut self, index: usize, _total: usize, plan: &Plan) {
-        eprintln!("{} …", step_line(plan, index));
+        crate::say!("{} …", step_line(plan, index));
     }
 
     fn step_progress(&mut self, _: usize, _: u32, _: f32) {}
 
     fn manual_prompt(&mut self, _index: usize, task: ManualTask, enter_confirms: bool) {
-        eprintln!("{}", manual_line(task, enter_confirms));
+        crate::say!("{}", manual_line(task, enter_confirms));
     }
 
     fn step_finished(&mut self, index: usize, report: &StepReport) {
-        eprintln!("{}", finished_line(index, report));
+        crate::say!("{}", finished_line(index, report));
     }
 
     fn note(&mut self, message: &str) {
-        eprintln!("{message}");
+        crate::say!("{message}");
     }
 }
 
@@ -90,9 +106,9 @@ impl Bars {
 impl Progress for Bars {
     fn plan(&mut self, plan: &Plan, replan: bool) {
         if replan {
-            eprintln!("new plan:");
+            crate::say!("new plan:");
         }
-        eprint!("{plan}");
+        crate::say_raw!("{plan}");
     }
 
     fn step_started(&mut self, index: usize, _total: usize, plan: &Plan) {
@@ -124,7 +140,7 @@ impl Progress for Bars {
         let line = manual_line(task, enter_confirms);
         match &self.bar {
             Some(bar) => bar.println(line),
-            None => eprintln!("{line}"),
+            None => crate::say!("{line}"),
         }
     }
 
@@ -133,16 +149,16 @@ impl Progress for Bars {
         match self.done() {
             Some(bar) => {
                 bar.finish_and_clear();
-                eprintln!("{line}");
+                crate::say!("{line}");
             }
-            None => eprintln!("{line}"),
+            None => crate::say!("{line}"),
         }
     }
 
     fn note(&mut self, message: &str) {
         match &self.bar {
             Some(bar) => bar.println(message),
-            None => eprintln!("{message}"),
+            None => crate::say!("{message}"),
         }
     }
 }

@@ -1,14 +1,12 @@
-//! The built-in simulator: `hil-sim` run in-process on a pseudo-terminal.
-//!
-//! The host talks to it through [`crate::transport`] exactly as to a board (the simulator
-//! serves the real firmware controller behind the pty); only the start, the stop and the
-//! simulator's ground truth (for reports and tests) are specific to it.
+//! The built-in simulator, in-process: the host engine, the real firmware controller and the
+//! physics on the simulator's one virtual clock (`hil_sim::pair`). Same seed, same run; as
+//! fast as the CPU allows unless `--sim-speed` asks for wall pacing.
 
 use std::str::FromStr;
 
 use geometry::TrunkState;
-use hil_sim::pty::PtySim;
-use hil_sim::{Fault, GroundTruth, SimOptions};
+use hil_sim::pair::SimIo;
+use hil_sim::{Fault, GroundTruth, Sim, SimOptions};
 use serde_json::{json, Value};
 
 /// Checks a fault name; the error lists the valid ones.
@@ -21,19 +19,12 @@ pub fn parse_fault(name: &str) -> Result<Fault, String> {
 pub struct SimConfig {
     /// Initial trunk state.
     pub initial: TrunkState,
-    /// Virtual time / wall time.
-    pub speed: f64,
+    /// Virtual time / wall time (`None`: as fast as possible).
+    pub speed: Option<f64>,
     /// Injected faults.
     pub faults: Vec<Fault>,
     /// Random seed.
     pub seed: u64,
-}
-
-impl SimConfig {
-    /// The fault names, for messages.
-    pub fn fault_names(&self) -> Vec<&'static str> {
-        self.faults.iter().map(|f| f.name()).collect()
-    }
 }
 
 /// What the simulator knows that the device can only estimate.
@@ -72,40 +63,16 @@ impl SimTruth {
     }
 }
 
-/// A running simulator.
-#[derive(Debug)]
-pub struct SimRun {
-    pty: PtySim,
-    path: String,
-}
-
-impl SimRun {
-    /// Starts the simulator on a new pseudo-terminal (with its simulated operator, who does
-    /// manual steps and presses the confirm button).
-    pub fn start(cfg: &SimConfig) -> anyhow::Result<Self> {
-        let pty = PtySim::spawn(SimOptions {
-            initial: cfg.initial,
-            seed: cfg.seed,
-            faults: cfg.faults.clone(),
-            speed: cfg.speed,
-            operator: true,
-        })?;
-        let path = pty.path().to_string_lossy().into_owned();
-        Ok(Self { pty, path })
-    }
-
-    /// The pty's device path.
-    pub fn path(&self) -> &str {
-        &self.path
-    }
-
-    /// The simulator's ground truth now.
-    pub fn truth(&self) -> SimTruth {
-        self.pty.ground_truth().into()
-    }
-
-    /// Stops the simulator and returns its final ground truth.
-    pub fn finish(self) -> SimTruth {
-        self.pty.stop().into()
-    }
+/// Starts the simulator (with its simulated operator, who does manual steps and presses the
+/// confirm button) as the engine's I/O.
+pub fn start(cfg: &SimConfig) -> SimIo {
+    let mut io = SimIo::new(Sim::new(SimOptions {
+        initial: cfg.initial,
+        seed: cfg.seed,
+        faults: cfg.faults.clone(),
+        speed: cfg.speed.unwrap_or(f64::INFINITY),
+        operator: true,
+    }));
+    io.pace(cfg.speed);
+    io
 }

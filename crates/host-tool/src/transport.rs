@@ -1,23 +1,112 @@
-//! The byte transport to a device: a serial port, real or a simulator's pseudo-terminal.
-//!
-//! There is exactly one code path: `--sim` opens the simulator's pty with the same
-//! `serialport` calls as a USB serial device, so what the end-to-end tests exercise is what a
-//! real crane gets.
+//! The byte transport to a device, as the host engine's I/O ([`host::Io`]): a serial port on
+//! the wall clock (a real crane, or a simulator's pseudo-terminal), or the simulator in-process
+//! on its virtual clock ([`hil_sim::pair::SimIo`]).
 
-use std::time::Duration;
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
+use hil_sim::pair::SimIo;
 
 /// The link's baud rate (ignored by USB CDC-ACM and ptys, used by a real UART bridge).
 pub const BAUD: u32 = 115_200;
 
-/// How long one read may block: short, so the session's own deadlines stay precise.
+/// How long one read may block: short, so the engine's deadlines stay precise and a signal is
+/// seen within a few ms.
 const READ_TIMEOUT: Duration = Duration::from_millis(2);
+/// Longest wait of one [`host::Io::read`] on a serial port, so the shell looks at its signals
+/// (Ctrl-C, SIGTERM, SIGHUP) at least this often.
+const MAX_WAIT: Duration = Duration::from_millis(20);
 
 /// An open serial port.
 pub type Port = Box<dyn serialport::SerialPort>;
 
-/// Opens the serial device at `path` (8N1, no flow control, 115200 baud).
+/// A serial port on the wall clock.
+pub struct SerialIo {
+    port: Port,
+    start: Instant,
+}
+
+impl SerialIo {
+    /// The I/O over an open port; its clock starts now.
+    pub fn new(port: Port) -> Self {
+        Self {
+            port,
+            start: Instant::now(),
+        }
+    }
+}
+
+impl host::Io for SerialIo {
+    fn now_ms(&mut self) -> u64 {
+        self.start.elapsed().as_millis() as u64
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.port.write_all(bytes)?;
+        self.port.flush()
+    }
+
+    fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        let until =
+            (self.start + Duration::from_millis(deadline_ms)).min(Instant::now() + MAX_WAIT);
+        let mut chunk = [0u8; 512];
+        loop {
+            match self.port.read(&mut chunk) {
+                Ok(0) => {}
+                Ok(n) => {
+                    buf.extend_from_slice(&chunk[..n]);
+                    return Ok(());
+                }
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::TimedOut
+                            | std::io::ErrorKind::WouldBlock
+                            | std::io::ErrorKind::Interrupted
+                    ) => {}
+                Err(e) => return Err(e),
+            }
+            if Instant::now() >= until {
+                return Ok(());
+            }
+        }
+    }
+}
+
+/// The engine's I/O: a serial port or the in-process simulator.
+pub enum AnyIo {
+    /// A serial device (a crane, or an outside simulator's pty).
+    Serial(SerialIo),
+    /// The simulator, in-process on its own clock.
+    Sim(Box<SimIo>),
+}
+
+impl host::Io for AnyIo {
+    fn now_ms(&mut self) -> u64 {
+        match self {
+            AnyIo::Serial(io) => io.now_ms(),
+            AnyIo::Sim(io) => io.now_ms(),
+        }
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        match self {
+            AnyIo::Serial(io) => io.write(bytes),
+            AnyIo::Sim(io) => io.write(bytes),
+        }
+    }
+
+    fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        match self {
+            AnyIo::Serial(io) => io.read(deadline_ms, buf),
+            AnyIo::Sim(io) => io.read(deadline_ms, buf),
+        }
+    }
+}
+
+/// Opens the serial device at `path` (8N1, no flow control, 115200 baud). A port held by
+/// another process is named with that process, if the system tells.
 pub fn open(path: &str) -> anyhow::Result<Port> {
     let port = serialport::new(path, BAUD)
         .data_bits(serialport::DataBits::Eight)
@@ -25,12 +114,61 @@ pub fn open(path: &str) -> anyhow::Result<Port> {
         .stop_bits(serialport::StopBits::One)
         .flow_control(serialport::FlowControl::None)
         .timeout(READ_TIMEOUT)
-        .open()
+        .open_native()
         .with_context(|| format!("cannot open serial port {path}"))?;
+    // One host per crane: an advisory lock that every host-tool takes (root ignores the
+    // port's TIOCEXCL, so that alone does not keep a second host out).
+    {
+        use std::os::fd::AsRawFd;
+        #[allow(deprecated)]
+        let locked = nix::fcntl::flock(
+            port.as_raw_fd(),
+            nix::fcntl::FlockArg::LockExclusiveNonblock,
+        );
+        if locked.is_err() {
+            let holder = lock_holder(path).unwrap_or_else(|| "another process".to_string());
+            anyhow::bail!(
+                "serial port {path} is in use by {holder}: only one host drives the crane at a \
+                 time; stop the crane from there (Ctrl-C in that terminal) or with the crane's \
+                 e-stop"
+            );
+        }
+    }
+    let port: Port = Box::new(port);
     // Bytes the device sent before we listened would only be decoded as noise. Only the
     // input: whatever is queued toward the device is its business (and it survives garbage).
     let _ = port.clear(serialport::ClearBuffer::Input);
     Ok(port)
+}
+
+/// The process that holds the advisory lock on `path` (from `/proc/locks`, Linux), as
+/// "process PID (COMMAND)".
+fn lock_holder(path: &str) -> Option<String> {
+    use std::os::unix::fs::MetadataExt;
+    let inode = std::fs::metadata(path).ok()?.ino();
+    let locks = std::fs::read_to_string("/proc/locks").ok()?;
+    for line in locks.lines() {
+        // "1: FLOCK  ADVISORY  WRITE 12345 00:19:7 0 EOF"
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f.len() < 6 || f[1] != "FLOCK" {
+            continue;
+        }
+        let pid = f[4];
+        if f[5].rsplit(':').next().and_then(|i| i.parse::<u64>().ok()) != Some(inode) {
+            continue;
+        }
+        let cmd = std::fs::read(format!("/proc/{pid}/cmdline"))
+            .map(|b| {
+                String::from_utf8_lossy(&b)
+                    .split('\0')
+                    .filter(|s| !s.is_empty())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .unwrap_or_default();
+        return Some(format!("process {pid} ({cmd})"));
+    }
+    None
 }
 
 /// The USB vendor id of Arduino boards.

@@ -33,9 +33,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
     if args.json {
         let mut v = status_json(&status, &info, truth.as_ref());
         v["declared"] = json!(declared.name());
-        println!("{v}");
+        crate::out!("{v}");
     } else {
-        println!(
+        crate::out!(
             "declared {declared}: the device now reports {}{} (mode {})",
             status.state,
             if status.state_confirmed {

@@ -134,7 +134,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 })
             })
             .collect();
-        println!(
+        crate::out!(
             "{}",
             ordered_object(&[
                 ("tips", format!("[{}]", list.join(","))),
@@ -143,20 +143,25 @@ pub fn run(args: Args) -> Result<(), Failure> {
         );
         return Ok(());
     }
-    println!(
+    crate::out!(
         "tips of a {}-module stack (units of the edge l, bottom module first)",
         stack.len()
     );
-    println!(
+    crate::out!(
         "  {:>3}  {:<12} {:>8} {:>10} {:>10} {:>10}  feasibility",
-        "#", "state", "β (°)", "x", "y", "z"
+        "#",
+        "state",
+        "β (°)",
+        "x",
+        "y",
+        "z"
     );
     for (k, (m, p)) in stack.iter().zip(&tips).enumerate() {
         let mark = m.infeasible.map_or_else(
             || "feasible".to_string(),
             |strain| format!("INFEASIBLE (strain {strain:.3})"),
         );
-        println!(
+        crate::out!(
             "  {:>3}  {:<12} {:>8.3} {:>10.5} {:>10.5} {:>10.5}  {mark}",
             k + 1,
             m.name,
@@ -168,7 +173,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     let used = stack.iter().filter(|m| m.infeasible.is_some()).count();
     if used > 0 {
-        println!(
+        crate::out!(
             "warning: {used} of {} modules use states the geometry marks infeasible (--all-states)",
             stack.len()
         );

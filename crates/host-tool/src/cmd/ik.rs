@@ -348,7 +348,7 @@ fn spawn_progress(
                 });
                 b.set_message(msg);
             } else if last_line.elapsed() >= Duration::from_secs(2) || bar.is_none() {
-                eprintln!("{msg}");
+                crate::say!("{msg}");
                 last_line = Instant::now();
                 bar = Some(indicatif::ProgressBar::hidden());
             }
@@ -397,10 +397,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     match solution.stop {
         ik::Stop::Interrupted => {
-            eprintln!("interrupted: showing the best boom found so far (not proven optimal)")
+            crate::say!("interrupted: showing the best boom found so far (not proven optimal)")
         }
         ik::Stop::TimeLimit => {
-            eprintln!("time limit reached: showing the best boom found so far (not proven optimal)")
+            crate::say!(
+                "time limit reached: showing the best boom found so far (not proven optimal)"
+            )
         }
         ik::Stop::Gap | ik::Stop::Finished => {}
     }
@@ -421,7 +423,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         })?;
     }
     if cfg.json {
-        println!("{}", solution_json(&cfg, &problem, &solution));
+        crate::out!("{}", solution_json(&cfg, &problem, &solution));
     } else {
         print_table(&cfg, &problem, &solution);
     }
@@ -552,15 +554,15 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
         };
         format!("{why}; not proven optimal")
     };
-    println!("algorithm  {} ({status})", cfg.algorithm.name());
-    println!("boom       {}", describe_boom(cfg));
-    println!(
+    crate::out!("algorithm  {} ({status})", cfg.algorithm.name());
+    crate::out!("boom       {}", describe_boom(cfg));
+    crate::out!(
         "target     {} ({} points, length {:.4} l)",
         describe_target(cfg),
         cfg.target.points().len(),
         cfg.target.length()
     );
-    println!(
+    crate::out!(
         "metric     {}, {}",
         cfg.metric.name(),
         if cfg.all_states {
@@ -569,23 +571,28 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
             "feasible states only"
         }
     );
-    println!("RMS        {:.9} l", s.rms);
+    crate::out!("RMS        {:.9} l", s.rms);
     if let (Some(lb), Some(gap)) = (s.lower_bound_rms, s.gap) {
-        println!(
+        crate::out!(
             "bound      RMS ≥ {lb:.9} l (certified; gap {:.4} %)",
             100.0 * gap
         );
     }
-    println!("evaluated  {}", s.evaluated);
-    println!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
+    crate::out!("evaluated  {}", s.evaluated);
+    crate::out!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
     let note = infeasible_note(problem, s);
     if !note.is_empty() {
-        println!("warning    {note}");
+        crate::out!("warning    {note}");
     }
-    println!();
-    println!(
+    crate::out!();
+    crate::out!(
         "{:>4}  {:<10} {:>10} {:>10} {:>10} {:>10}  feasibility",
-        "i", "state", "x", "y", "z", "error"
+        "i",
+        "state",
+        "x",
+        "y",
+        "z",
+        "error"
     );
     for (i, (name, p)) in s.names.iter().zip(&s.tips).enumerate() {
         let err = problem.objective.cost(i, p).sqrt();
@@ -595,7 +602,7 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
         } else {
             format!("INFEASIBLE (strain {:.3})", c.strain)
         };
-        println!(
+        crate::out!(
             "{:>4}  {:<10} {:>10.5} {:>10.5} {:>10.5} {:>10.5}  {mark}",
             i + 1,
             name,

@@ -4,17 +4,17 @@
 //! prints each sample and every event; if the device refuses the rate, it polls the status at
 //! that rate instead. With the simulator it runs in real time by default: a person watches.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use host::{text, Io as _};
 
 use protocol::{Event, ParamId, RequestBody, ResponseBody, Telemetry};
 use serde_json::json;
 
-use crate::cmd::status::mode_name;
 use crate::device::DeviceArgs;
-use crate::executor::fault_list;
 use crate::failure::Failure;
+use host::text::fault_list;
 
 /// Arguments of `host-tool monitor`.
 #[derive(Debug, clap::Args)]
@@ -34,7 +34,7 @@ pub struct Args {
 
 /// Runs `host-tool monitor`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let device = args.device.validate(1.0)?;
+    let device = args.device.validate(Some(1.0))?;
     let duration = match args.duration {
         Some(d) if !(d.is_finite() && d > 0.0) => {
             return Err(Failure::usage(format!(
@@ -50,11 +50,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             args.rate
         )));
     }
-    let cancel = Arc::new(AtomicBool::new(false));
-    {
-        let cancel = cancel.clone();
-        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::SeqCst));
-    }
+    let cancel = crate::cmd::plan::interrupt_flag();
     let mut conn = device.connect()?;
     let s = &mut conn.session;
     let previous = match s.command(RequestBody::GetParam(ParamId::TelemetryHz)) {
@@ -68,20 +64,22 @@ pub fn run(args: Args) -> Result<(), Failure> {
         })
         .is_ok();
     if !streaming {
-        eprintln!(
+        crate::say!(
             "note: the device refused telemetry at {} Hz: polling its status instead",
             args.rate
         );
     }
-    let start = Instant::now();
-    let period = s.timing().poll_period;
-    let status_period = Duration::from_secs_f64(1.0 / f64::from(args.rate));
-    let mut next_status = Instant::now();
+    // Durations on the engine's clock: wall time on a port, the simulator's (paced) otherwise.
+    let start = s.io.now_ms();
+    let duration_ms = duration.map(|d| d.as_millis() as u64);
+    let status_period_ms = (1000 / u64::from(args.rate)).max(1);
+    let mut next_status = start;
     let mut result = Ok(());
-    while !cancel.load(Ordering::SeqCst) && duration.is_none_or(|d| start.elapsed() < d) {
-        // Any request feeds the device's link watchdog; the status doubles as a sample.
-        if !streaming && Instant::now() >= next_status {
-            next_status += status_period;
+    while !cancel.load(Ordering::SeqCst)
+        && duration_ms.is_none_or(|d| s.io.now_ms().saturating_sub(start) < d)
+    {
+        if !streaming && s.io.now_ms() >= next_status {
+            next_status += status_period_ms;
             match s.status() {
                 Ok(st) => print_sample(
                     args.json,
@@ -92,23 +90,22 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         inlet_open: st.inlet_open,
                         exhaust_open: st.exhaust_open,
                         state: st.state,
+                        state_confirmed: st.state_confirmed,
                     },
-                    Some(mode_name(st.mode)),
+                    Some(text::mode(st.mode)),
                 ),
                 Err(e) => {
                     result = Err(anyhow::anyhow!("{e}"));
                     break;
                 }
             }
-        } else if let Err(e) = s.request(RequestBody::Heartbeat) {
+        }
+        // The engine keeps the heartbeat going while it waits.
+        if let Err(e) = s.idle(20) {
             result = Err(anyhow::anyhow!("{e}"));
             break;
         }
-        if let Err(e) = s.listen(period) {
-            result = Err(anyhow::anyhow!("{e}"));
-            break;
-        }
-        for ev in s.take_events() {
+        while let Some(ev) = s.device_events.pop_front() {
             print_event(args.json, &ev);
         }
     }
@@ -137,9 +134,9 @@ fn print_sample(json: bool, t: &Telemetry, mode: Option<&str>) {
         if let Some(mode) = mode {
             v["mode"] = json!(mode);
         }
-        println!("{v}");
+        crate::out!("{v}");
     } else {
-        println!(
+        crate::out!(
             "{:>9.2} s  {}  {:5.1} kPa  servos {:5.1}° {:5.1}° {:5.1}°  inlet {}  exhaust {}{}",
             f64::from(t.uptime_ms) / 1000.0,
             t.state,
@@ -189,10 +186,18 @@ fn print_event(json: bool, ev: &Event) {
         ),
         Event::FaultRaised(f) => format!("FAULT {}", fault_list(f.bit())),
         Event::FaultCleared(f) => format!("fault cleared: {}", fault_list(f.bit())),
+        Event::IdentifyNeedsOperator { candidates } => format!(
+            "identification needs the operator: the trunk is one of {}",
+            candidates
+                .iter()
+                .map(|s| s.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     };
     if json {
-        println!("{}", json!({"type": "event", "text": text}));
+        crate::out!("{}", json!({"type": "event", "text": text}));
     } else {
-        println!("event: {text}");
+        crate::out!("event: {text}");
     }
 }

@@ -7,7 +7,7 @@ use serde_json::{json, Value};
 
 use crate::device::{Connection, DeviceArgs};
 use crate::failure::Failure;
-use crate::session::SessionError;
+use host::SessionError;
 
 /// Arguments of `host-tool param`.
 #[derive(Debug, clap::Args)]
@@ -182,9 +182,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 Some(n) => vec![parse_param(&n)?],
                 None => ParamId::ALL.to_vec(),
             };
-            let mut conn = device
-                .validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?
-                .connect()?;
+            let mut conn = device.validate(None)?.connect()?;
             let mut values = Vec::with_capacity(ids.len());
             for &id in &ids {
                 values.push((id, get(&mut conn, id)?));
@@ -192,10 +190,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
             conn.close();
             if json {
                 let params: Vec<Value> = values.iter().map(|&(id, v)| param_json(id, v)).collect();
-                println!("{}", json!({ "params": params }));
+                crate::out!("{}", json!({ "params": params }));
             } else {
                 for (id, v) in values {
-                    println!("{}", param_line(id, v));
+                    crate::out!("{}", param_line(id, v));
                 }
             }
             Ok(())
@@ -208,9 +206,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         } => {
             let id = parse_param(&name)?;
             let value = parse_value(id, &value)?;
-            let mut conn = device
-                .validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?
-                .connect()?;
+            let mut conn = device.validate(None)?.connect()?;
             let previous = get(&mut conn, id)?;
             let now = match conn
                 .session
@@ -225,9 +221,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
             if json {
                 let mut v = param_json(id, now);
                 v["previous"] = json_f32(previous);
-                println!("{v}");
+                crate::out!("{v}");
             } else {
-                println!(
+                crate::out!(
                     "{} set: {} {} (was {} {})",
                     param_name(id),
                     now,

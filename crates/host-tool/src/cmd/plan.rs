@@ -9,17 +9,15 @@ use std::sync::mpsc;
 use std::sync::Arc;
 
 use geometry::TrunkState;
-use planner::graph::{kind_name, Graph, PrimitiveText};
+use host::{text, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
+use planner::graph::{kind_name, Graph, Plan, PrimitiveText};
 use serde_json::{json, Value};
 
 use crate::device::{parse_state, ConnectError, DeviceArgs, DeviceConfig};
-use crate::executor::{ExecOptions, Executor, Outcome, Progress};
 use crate::failure::Failure;
-use crate::progress::{Bars, Lines};
+use crate::progress::{Bars, Lines, Progress};
 use crate::sim::SimTruth;
-
-/// The simulator's default speed for `plan` (virtual seconds per wall second).
-pub const DEFAULT_SIM_SPEED: f64 = 20.0;
+use crate::transport::AnyIo;
 
 /// Arguments of `host-tool plan`.
 #[derive(Debug, clap::Args)]
@@ -54,7 +52,16 @@ impl Args {
     fn validate(&self) -> Result<Config, Failure> {
         Ok(Config {
             target: parse_state("target", &self.target)?,
-            device: self.device.validate(DEFAULT_SIM_SPEED)?,
+            // A dry run with no device plans from the simulator's initial state (or --from).
+            device: if self.dry_run && self.device.port.is_none() {
+                DeviceArgs {
+                    sim: true,
+                    ..self.device.clone()
+                }
+                .validate(None)?
+            } else {
+                self.device.validate(None)?
+            },
             dry_run: self.dry_run,
             from: self
                 .from
@@ -66,68 +73,198 @@ impl Args {
     }
 }
 
+/// Sets `flag` on SIGINT, SIGTERM and SIGHUP (a closed terminal): the run aborts on the
+/// device and waits for its safe state instead of dying with the crane mid-step.
+pub fn interrupt_flag() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    // A second handler cannot be installed (a second run in one process): the first one's
+    // flag is then not this one; the device's link watchdog still makes the crane safe.
+    let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
+    flag
+}
+
+/// The terminal side of a run: progress, the operator's Enter for manual steps, the
+/// operator's answer when the state must be identified, and the interrupt.
+struct CliShell {
+    ui: Box<dyn Progress>,
+    pending: Option<ShellAction>,
+    plan: Option<Plan>,
+    interrupted: Arc<AtomicBool>,
+    cancel_sent: bool,
+    confirm: Option<mpsc::Receiver<String>>,
+    identify: Option<Vec<TrunkState>>,
+}
+
+impl RunShell<AnyIo> for CliShell {
+    fn event(&mut self, event: &RunEvent, io: &mut AnyIo) {
+        match event {
+            RunEvent::Plan { plan, replan } => {
+                self.ui.plan(plan, *replan);
+                self.plan = Some(plan.clone());
+            }
+            RunEvent::StepStarted { index, total } => {
+                if let Some(plan) = &self.plan {
+                    self.ui.step_started(*index, *total, plan);
+                }
+            }
+            RunEvent::StepProgress {
+                index,
+                elapsed_ms,
+                pressure_kpa,
+            } => self.ui.step_progress(*index, *elapsed_ms, *pressure_kpa),
+            RunEvent::ManualPrompt { index, task } => {
+                self.ui.manual_prompt(*index, *task, self.confirm.is_some())
+            }
+            RunEvent::StepFinished { index, report } => self.ui.step_finished(*index, report),
+            RunEvent::Note(m) => self.ui.note(m),
+            RunEvent::IdentifyPrompt {
+                believed,
+                candidates,
+            } => {
+                let names: Vec<&str> = candidates.iter().map(|s| s.name()).collect();
+                self.ui.note(&format!(
+                    "the device has not confirmed its state (last confirmed: {believed}); \
+                     it may be any of {}",
+                    names.join(", ")
+                ));
+                if let AnyIo::Sim(sim) = io {
+                    // The simulated person at the crane looks at the simulated trunk.
+                    let truth = sim.sim.ground_truth().true_state;
+                    self.ui.note(&format!(
+                        "simulated operator: the trunk is {}",
+                        truth.map_or("between states", |s| s.name())
+                    ));
+                    self.identify = None;
+                    self.pending = Some(ShellAction::Declare(truth));
+                } else if self.confirm.is_some() {
+                    self.ui.note(
+                        "look at the trunk and type its state (e.g. D&F) and Enter, or an empty \
+                         line if you cannot tell",
+                    );
+                    self.identify = Some(candidates.clone());
+                } else {
+                    self.pending = Some(ShellAction::Declare(None));
+                }
+            }
+            RunEvent::Finished => {}
+        }
+    }
+
+    fn poll(&mut self, _io: &mut AnyIo) -> Option<ShellAction> {
+        if self.interrupted.load(Ordering::SeqCst) && !self.cancel_sent {
+            self.cancel_sent = true;
+            return Some(ShellAction::Cancel(
+                "interrupted: Ctrl-C, SIGTERM or SIGHUP".into(),
+            ));
+        }
+        if let Some(a) = self.pending.take() {
+            return Some(a);
+        }
+        let line = self.confirm.as_ref()?.try_recv().ok()?;
+        match self.identify.take() {
+            Some(candidates) => {
+                let answer = line.trim();
+                if answer.is_empty() {
+                    return Some(ShellAction::Declare(None));
+                }
+                match answer.parse::<TrunkState>() {
+                    Ok(s) if candidates.contains(&s) => Some(ShellAction::Declare(Some(s))),
+                    _ => {
+                        self.ui.note(&format!(
+                            "'{answer}' is not one of the candidates; type one of them, or an \
+                             empty line"
+                        ));
+                        self.identify = Some(candidates);
+                        None
+                    }
+                }
+            }
+            None => Some(ShellAction::ConfirmManual),
+        }
+    }
+}
+
 /// Runs `host-tool plan`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let cfg = args.validate()?;
     if cfg.dry_run {
         return dry_run(&cfg);
     }
-    let cancel = Arc::new(AtomicBool::new(false));
-    {
-        let cancel = cancel.clone();
-        // A second handler cannot be installed (e.g. in tests calling run twice): then Ctrl-C
-        // simply kills the process, and the device's link watchdog makes it safe.
-        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::SeqCst));
-    }
+    let interrupted = interrupt_flag();
     let mut conn = match cfg.device.connect() {
         Ok(c) => c,
         Err(e) => {
-            let truth = match e {
-                ConnectError::Handshake {
-                    sim: Some(ref sim), ..
-                } => Some(sim.truth()),
-                _ => None,
+            let truth = match &e {
+                ConnectError::Handshake { truth, .. } => truth.clone(),
+                ConnectError::Open(_) => None,
             };
             let out = Outcome {
                 target: Some(cfg.target),
-                error: Some(e.to_string()),
+                failure: Some(host::RunFailure {
+                    kind: host::FailureKind::LinkLost,
+                    step: None,
+                    fault: None,
+                    reject: None,
+                    message: e.to_string(),
+                }),
                 ..Outcome::default()
             };
             return finish(&cfg, &out, truth);
         }
     };
-    let graph = Graph::nominal();
-    let mut ui: Box<dyn Progress> = if std::io::stderr().is_terminal() {
+    let ui: Box<dyn Progress> = if std::io::stderr().is_terminal() {
         Box::new(Bars::default())
     } else {
         Box::new(Lines)
     };
-    let confirm = stdin_confirmations();
-    let options = ExecOptions {
-        cancel,
-        ..ExecOptions::default()
+    let mut shell = CliShell {
+        ui,
+        plan: None,
+        interrupted: interrupted.clone(),
+        cancel_sent: false,
+        confirm: stdin_lines(),
+        identify: None,
+        pending: None,
     };
-    let outcome =
-        Executor::new(&mut conn.session, &graph, options, ui.as_mut(), confirm).run(cfg.target);
-    let stats = conn.session.stats();
-    let link = conn.session.link_stats();
-    if stats.retries > 0 || link.frames_dropped > 0 {
-        eprintln!(
-            "link: {} requests, {} retried, {} corrupt frames dropped",
-            stats.requests, stats.retries, link.frames_dropped
+    let outcome = conn.session.run_plan(
+        Graph::nominal(),
+        cfg.target,
+        RunOptions::default(),
+        &mut shell,
+    );
+    let stats = conn.session.host.session().stats();
+    if stats.retries > 0 || stats.frames_dropped > 0 {
+        crate::say!(
+            "link: {} requests, {} retried, {} corrupt frame{} dropped",
+            stats.requests,
+            stats.retries,
+            stats.frames_dropped,
+            if stats.frames_dropped == 1 { "" } else { "s" }
         );
     }
     let truth = conn.close();
-    finish(&cfg, &outcome, truth)
+    let result = finish(&cfg, &outcome, truth);
+    if interrupted.load(Ordering::SeqCst) {
+        return Err(Failure::Interrupted(
+            outcome
+                .error()
+                .unwrap_or("interrupted after the target was reached")
+                .to_string(),
+        ));
+    }
+    result
 }
 
 /// Prints the outcome (JSON or a summary) and turns it into the exit status.
 fn finish(cfg: &Config, out: &Outcome, truth: Option<SimTruth>) -> Result<(), Failure> {
     if cfg.json {
-        println!("{}", outcome_json(out, truth.as_ref()));
+        crate::out!("{}", outcome_json(out, truth.as_ref()));
+    } else if out.ok() && out.steps.is_empty() {
+        crate::say!("already at {}", cfg.target);
     } else if out.ok() {
         let steps = out.steps.len();
-        eprintln!(
+        crate::say!(
             "reached {} ({} step{}{})",
             cfg.target,
             steps,
@@ -145,7 +282,7 @@ fn finish(cfg: &Config, out: &Outcome, truth: Option<SimTruth>) -> Result<(), Fa
     }
     if let Some(t) = &truth {
         if !cfg.json {
-            eprintln!(
+            crate::say!(
                 "simulator: true state {}, max pressure {:.1} kPa (limit {:.1}), actuators {}",
                 t.true_state.map_or("between states", |s| s.name()),
                 t.max_pressure_kpa,
@@ -159,19 +296,40 @@ fn finish(cfg: &Config, out: &Outcome, truth: Option<SimTruth>) -> Result<(), Fa
     } else {
         Err(Failure::Runtime(anyhow::anyhow!(
             "{}",
-            out.error.as_deref().unwrap_or("the target was not reached")
+            out.error().unwrap_or("the target was not reached")
         )))
     }
 }
 
-/// The `plan --json` object: exactly `ok, from, target, final_state, steps, error, sim`.
+/// The `plan --json` object: `ok, from, target, final_state, state_confirmed, steps, error,
+/// failure (kind, step, fault_code, fault), sim`. `final_state` is the last state the device
+/// reported; `state_confirmed` says whether the device had confirmed it then — after a lost
+/// link it is `false`: the report is stale.
 pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
     let name = |s: Option<TrunkState>| s.map(|s| s.name());
+    let failure = out.failure.as_ref().map(|f| {
+        json!({
+            "kind": f.kind.name(),
+            "step": f.step.map(|s| json!({
+                "index": s.index,
+                "total": s.total,
+                "kind": kind_name(s.kind),
+                "from": s.from.name(),
+                "to": s.to.name(),
+            })),
+            "fault_code": f.fault.map(text::fault_code),
+            "fault": f.fault.map(text::fault_name),
+            "reject": f.reject.map(text::reject_name),
+            "message": f.message,
+        })
+    });
     json!({
         "ok": out.ok(),
         "from": name(out.from),
         "target": name(out.target),
         "final_state": name(out.final_state),
+        "state_confirmed": out.state_confirmed,
+        "identified": out.identified,
         "steps": out.steps.iter().map(|s| json!({
             "kind": kind_name(s.kind),
             "from": s.from.name(),
@@ -179,14 +337,17 @@ pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
             "ok": s.ok,
             "duration_ms": s.duration_ms,
         })).collect::<Vec<_>>(),
-        "error": out.error,
+        "error": out.error(),
+        "fault_code": out.failure.as_ref().and_then(|f| f.fault).map(text::fault_code),
+        "failure": failure,
         "sim": truth.map(SimTruth::to_json),
     })
 }
 
-/// A thread that turns each line typed on a terminal into a confirmation; none when stdin is
-/// not a terminal (never block on a pipe or /dev/null).
-fn stdin_confirmations() -> Option<mpsc::Receiver<()>> {
+/// A thread that hands on each line typed on a terminal (Enter confirms a manual step; a state
+/// name answers an identify prompt); none when stdin is not a terminal (never block on a pipe
+/// or /dev/null).
+fn stdin_lines() -> Option<mpsc::Receiver<String>> {
     if !std::io::stdin().is_terminal() {
         return None;
     }
@@ -194,8 +355,7 @@ fn stdin_confirmations() -> Option<mpsc::Receiver<()>> {
     std::thread::spawn(move || {
         let mut line = String::new();
         while std::io::stdin().read_line(&mut line).is_ok_and(|n| n > 0) {
-            line.clear();
-            if tx.send(()).is_err() {
+            if tx.send(std::mem::take(&mut line)).is_err() {
                 break;
             }
         }
@@ -236,7 +396,7 @@ fn dry_run(cfg: &Config) -> Result<(), Failure> {
                 })
             })
             .collect();
-        println!(
+        crate::out!(
             "{}",
             json!({
                 "dry_run": true,
@@ -247,8 +407,8 @@ fn dry_run(cfg: &Config) -> Result<(), Failure> {
             })
         );
     } else {
-        print!("{plan}");
-        println!("(dry run: nothing was sent to the device)");
+        crate::out_raw!("{plan}");
+        crate::out!("(dry run: nothing was sent to the device)");
     }
     Ok(())
 }

@@ -45,11 +45,11 @@ pub fn run(args: Args) -> Result<(), Failure> {
         })
         .collect();
     if args.json {
-        println!("{}", serde_json::Value::Array(rows));
+        crate::out!("{}", serde_json::Value::Array(rows));
         return Ok(());
     }
     if rows.is_empty() {
-        println!("no serial ports found (use --sim, or the default simulator, to try host-tool without hardware)");
+        crate::out!("no serial ports found (use --sim, or the default simulator, to try host-tool without hardware)");
         return Ok(());
     }
     for r in &rows {
@@ -67,7 +67,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         if let Some(board) = r["board"].as_str() {
             line += &format!("  ← {board}");
         }
-        println!("{line}");
+        crate::out!("{line}");
     }
     Ok(())
 }

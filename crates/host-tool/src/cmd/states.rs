@@ -142,10 +142,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
             ("beta_out_deg", opt_num(beta_out)),
             ("states", format!("[{}]", states.join(","))),
         ]);
-        println!("{json}");
+        crate::out!("{json}");
         return Ok(());
     }
-    print!("{}", table(&design, &infos, beta_in, beta_out));
+    crate::out_raw!("{}", table(&design, &infos, beta_in, beta_out));
     Ok(())
 }
 

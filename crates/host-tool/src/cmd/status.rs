@@ -4,9 +4,9 @@ use protocol::{Board, DeviceInfo, Mode, PlanPhase, RequestBody, Status};
 use serde_json::{json, Value};
 
 use crate::device::DeviceArgs;
-use crate::executor::fault_list;
 use crate::failure::Failure;
 use crate::sim::SimTruth;
+use host::text::fault_list;
 
 /// Arguments of `host-tool status` (and of `host-tool stop`).
 #[derive(Debug, clap::Args)]
@@ -31,7 +31,7 @@ pub struct Snapshot {
 
 /// Connects to the device, sends `request` (if any), reads its status and closes the connection.
 pub fn snapshot(device: &DeviceArgs, request: Option<RequestBody>) -> Result<Snapshot, Failure> {
-    let device = device.validate(crate::cmd::plan::DEFAULT_SIM_SPEED)?;
+    let device = device.validate(None)?;
     let mut conn = device.connect()?;
     if let Some(request) = request {
         conn.session
@@ -55,11 +55,11 @@ pub fn run(args: Args) -> Result<(), Failure> {
         truth,
     } = snapshot(&args.device, None)?;
     if args.json {
-        println!("{}", status_json(&status, &info, truth.as_ref()));
+        crate::out!("{}", status_json(&status, &info, truth.as_ref()));
     } else {
-        print!("{}", status_text(&status, &info));
+        crate::out_raw!("{}", status_text(&status, &info));
         if let Some(t) = truth {
-            println!(
+            crate::out!(
                 "simulator:    true state {}, max pressure {:.1} kPa",
                 t.true_state.map_or("between states", |s| s.name()),
                 t.max_pressure_kpa

@@ -21,9 +21,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
         let mut v = status_json(&status, &info, truth.as_ref());
         v["aborted"] = json!(true);
         v["safe"] = json!(safe);
-        println!("{v}");
+        crate::out!("{v}");
     } else {
-        println!(
+        crate::out!(
             "aborted: the device is in mode {} at {}; inlet {}, exhaust {}, pressure {:.1} kPa, \
              servos {} {:.1}° {:.1}° {:.1}°",
             mode_name(status.mode),

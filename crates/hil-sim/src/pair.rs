@@ -1,0 +1,114 @@
+//! The whole system on one virtual clock: the real host engine ([`host::Host`]), the real
+//! controller (through `firmware::hw::Shell`) and the physics, stepped together with seeded
+//! randomness — quinn-proto's test `Pair`, for a crane.
+//!
+//! [`SimIo`] is the engine's I/O: writing puts bytes on the simulated line, waiting steps the
+//! simulator (1 ms a step) until the device has sent something or the engine's deadline comes.
+//! Nothing reads the wall clock unless [`SimIo::pace`] asks for wall pacing so a person can
+//! watch; same seed, same run, byte for byte.
+
+use std::time::{Duration, Instant};
+
+use host::{Driver, Host, Io, Timing};
+
+use crate::{Sim, SimOptions};
+
+/// Wall pacing: virtual time runs at most `speed` times faster than wall time.
+#[derive(Debug, Clone, Copy)]
+struct Pacer {
+    speed: f64,
+    wall0: Instant,
+    virt0: u64,
+}
+
+/// The simulator as the host engine's I/O.
+#[derive(Debug)]
+pub struct SimIo {
+    /// The simulator.
+    pub sim: Sim,
+    pacer: Option<Pacer>,
+}
+
+impl SimIo {
+    /// The simulator, unpaced (as fast as the CPU allows).
+    pub fn new(sim: Sim) -> Self {
+        Self { sim, pacer: None }
+    }
+
+    /// Paces virtual time to `speed` × wall time from now on (`None`: as fast as possible).
+    pub fn pace(&mut self, speed: Option<f64>) {
+        self.pacer = speed
+            .filter(|s| s.is_finite() && *s > 0.0)
+            .map(|speed| Pacer {
+                speed,
+                wall0: Instant::now(),
+                virt0: self.sim.now_ms(),
+            });
+    }
+
+    fn wait_for_wall(&self) {
+        if let Some(p) = self.pacer {
+            let virt = (self.sim.now_ms() - p.virt0) as f64;
+            let due = p.wall0 + Duration::from_secs_f64(virt / 1000.0 / p.speed);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+        }
+    }
+}
+
+impl Io for SimIo {
+    fn now_ms(&mut self) -> u64 {
+        self.sim.now_ms()
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.sim.write_host_bytes(bytes);
+        Ok(())
+    }
+
+    fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        while !self.sim.has_device_bytes() && self.sim.now_ms() < deadline_ms {
+            self.sim.step();
+            // Pace in 10 ms slices: fine enough to watch, coarse enough to cost nothing.
+            if self.pacer.is_some() && self.sim.now_ms() % 10 == 0 {
+                self.wait_for_wall();
+            }
+        }
+        buf.extend(self.sim.read_device_bytes());
+        Ok(())
+    }
+}
+
+/// The host engine driving the simulated crane, in-process, on the simulator's clock.
+pub type Pair = Driver<SimIo>;
+
+/// A pair: a new simulator with `opts` and a fresh host engine (not yet connected).
+pub fn pair(opts: SimOptions) -> Pair {
+    Driver::new(Host::new(Timing::standard(), 1), SimIo::new(Sim::new(opts)))
+}
+
+/// A shell for runs on the simulator: it keeps every run event, and the simulated person at
+/// the crane answers an identify prompt by looking at the trunk (its true state; "cannot
+/// tell" while it is between states). Manual steps are the simulator's own operator's job
+/// (the crane's confirm button).
+#[derive(Debug, Default)]
+pub struct SimShell {
+    /// Every run event, in order.
+    pub events: Vec<host::RunEvent>,
+    answer: Option<host::ShellAction>,
+}
+
+impl host::RunShell<SimIo> for SimShell {
+    fn event(&mut self, event: &host::RunEvent, io: &mut SimIo) {
+        if let host::RunEvent::IdentifyPrompt { .. } = event {
+            self.answer = Some(host::ShellAction::Declare(io.sim.ground_truth().true_state));
+        }
+        self.events.push(event.clone());
+    }
+
+    fn poll(&mut self, _io: &mut SimIo) -> Option<host::ShellAction> {
+        self.answer.take()
+    }
+}

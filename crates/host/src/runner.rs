@@ -1,0 +1,1112 @@
+//! The plan runner: status → (identify) → plan → upload → start → follow → replan, without I/O.
+//!
+//! The device's status is the truth: while a plan runs its `plan` field (step index and phase)
+//! is polled every [`RunOptions::poll_ms`], which also feeds the device's link watchdog. Events
+//! (step done, faults) are hints that refine the report (exact step durations) but are never
+//! waited for: on a noisy line any frame can be lost.
+//!
+//! A state the device has not confirmed is never planned from: the runner first has the state
+//! identified (the operator names it; the device refuses a step from a state it cannot vouch
+//! for anyway), then plans.
+
+use std::collections::VecDeque;
+
+use geometry::TrunkState;
+use planner::graph::{kind_name, Graph, Plan};
+use protocol::{
+    Event, FaultCode, ManualTask, Mode, PlanPhase, Primitive, RejectReason, RequestBody,
+    ResponseBody, Status, StepKind,
+};
+
+use crate::session::{RequestId, Session, SessionError, SessionEvent};
+use crate::text;
+
+/// What happened to one step that was started on the device.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReport {
+    /// How it was actuated.
+    pub kind: StepKind,
+    /// Start state.
+    pub from: TrunkState,
+    /// Planned end state.
+    pub to: TrunkState,
+    /// Whether the device confirmed `to`.
+    pub ok: bool,
+    /// Device time the step took (from the device's `StepDone` event, or from its uptime in the
+    /// status polls around the step when that event was lost).
+    pub duration_ms: Option<u32>,
+}
+
+/// Which step a failure happened in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepRef {
+    /// Index in its plan (0-based).
+    pub index: usize,
+    /// Steps in its plan.
+    pub total: usize,
+    /// How it was actuated.
+    pub kind: StepKind,
+    /// Start state.
+    pub from: TrunkState,
+    /// Planned end state.
+    pub to: TrunkState,
+}
+
+impl std::fmt::Display for StepRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "step {}/{} ({} {} → {})",
+            self.index + 1,
+            self.total,
+            kind_name(self.kind),
+            self.from,
+            self.to
+        )
+    }
+}
+
+/// What kind of failure ended a run (machine-readable; the message says it for people).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FailureKind {
+    /// The device raised a fault during a step.
+    Fault,
+    /// The link was lost (or never came up).
+    LinkLost,
+    /// Stopped by the operator (Ctrl-C, a signal, the crane's stop button, another host).
+    Aborted,
+    /// The device refused a request.
+    Refused,
+    /// No sequence of transitions leads to the target (after the failures seen).
+    NoPath,
+    /// The e-stop is latched.
+    EStop,
+    /// The device is busy (a plan runs already).
+    Busy,
+    /// The device's state is unconfirmed and could not be identified.
+    Unidentified,
+    /// A step ran past its time limit and the host aborted it.
+    Timeout,
+    /// Anything else the device did that makes no sense for the request.
+    Protocol,
+}
+
+impl FailureKind {
+    /// A stable name for JSON.
+    pub const fn name(self) -> &'static str {
+        match self {
+            FailureKind::Fault => "fault",
+            FailureKind::LinkLost => "link-lost",
+            FailureKind::Aborted => "aborted",
+            FailureKind::Refused => "refused",
+            FailureKind::NoPath => "no-path",
+            FailureKind::EStop => "e-stop",
+            FailureKind::Busy => "busy",
+            FailureKind::Unidentified => "unidentified",
+            FailureKind::Timeout => "timeout",
+            FailureKind::Protocol => "protocol",
+        }
+    }
+}
+
+/// Why a run failed: typed (kind, step, fault code) and in words.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunFailure {
+    /// What kind of failure.
+    pub kind: FailureKind,
+    /// The step it happened in, if one ran.
+    pub step: Option<StepRef>,
+    /// The device's fault code, where it gave one.
+    pub fault: Option<FaultCode>,
+    /// The device's refusal, where it gave one.
+    pub reject: Option<RejectReason>,
+    /// For people.
+    pub message: String,
+}
+
+impl RunFailure {
+    fn new(kind: FailureKind, message: impl Into<String>) -> Self {
+        Self {
+            kind,
+            step: None,
+            fault: None,
+            reject: None,
+            message: message.into(),
+        }
+    }
+
+    fn at(mut self, step: StepRef) -> Self {
+        self.step = Some(step);
+        self
+    }
+
+    fn from_session(context: &str, e: &SessionError) -> Self {
+        let (kind, reject) = match e {
+            SessionError::Timeout { .. } | SessionError::Closed => (FailureKind::LinkLost, None),
+            SessionError::Rejected { reason, .. } => (
+                if *reason == RejectReason::EStopLatched {
+                    FailureKind::EStop
+                } else {
+                    FailureKind::Refused
+                },
+                Some(*reason),
+            ),
+            SessionError::Busy { .. } => (FailureKind::Busy, None),
+            SessionError::VersionMismatch(_)
+            | SessionError::Unexpected { .. }
+            | SessionError::Preempted { .. } => (FailureKind::Protocol, None),
+        };
+        let message = match kind {
+            FailureKind::LinkLost => format!(
+                "link lost {context}: {e}; the device aborts to its safe state by itself when \
+                 the host falls silent"
+            ),
+            _ => format!("{context}: {e}"),
+        };
+        Self {
+            reject,
+            ..Self::new(kind, message)
+        }
+    }
+}
+
+/// The account of a whole run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Outcome {
+    /// The state the device reported before planning (None if it never answered).
+    pub from: Option<TrunkState>,
+    /// The state asked for.
+    pub target: Option<TrunkState>,
+    /// The state the device reported last (None if it never answered).
+    pub final_state: Option<TrunkState>,
+    /// Whether the device had confirmed `final_state` when it reported it last. A run that
+    /// ended without a fresh status (lost link) reports `false`: the last report is stale.
+    pub state_confirmed: bool,
+    /// The last status the device sent.
+    pub last_status: Option<Status>,
+    /// Every step started, across replans, in order.
+    pub steps: Vec<StepReport>,
+    /// Why the run failed (None on success).
+    pub failure: Option<RunFailure>,
+    /// Times the plan was remade after a surprise.
+    pub replans: u32,
+    /// Whether the state was identified (by the operator) before planning.
+    pub identified: bool,
+}
+
+impl Outcome {
+    /// Success: no failure and the device reports the target state, confirmed.
+    pub fn ok(&self) -> bool {
+        self.failure.is_none()
+            && self.state_confirmed
+            && self.final_state.is_some()
+            && self.final_state == self.target
+    }
+
+    /// The failure's message, if any.
+    pub fn error(&self) -> Option<&str> {
+        self.failure.as_ref().map(|f| f.message.as_str())
+    }
+}
+
+/// Options of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunOptions {
+    /// Surprises tolerated before giving up.
+    pub max_replans: u32,
+    /// Device time allowed past a step's own time limit before the host aborts it (the device
+    /// should fault first; this is the host's backstop).
+    pub step_grace_ms: u32,
+    /// Status polls this often while a plan runs (shell clock, ms).
+    pub poll_ms: u64,
+    /// A plan found running on the device (left by a host that died) is aborted and the run
+    /// goes on from the device's state afterwards, instead of refusing.
+    pub take_over_running: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            max_replans: 3,
+            step_grace_ms: 5_000,
+            poll_ms: 100,
+            take_over_running: false,
+        }
+    }
+}
+
+/// What the runner tells its shell (progress for people, prompts to answer).
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunEvent {
+    /// A plan was made (`replan`: after a surprise).
+    Plan {
+        /// The plan.
+        plan: Plan,
+        /// Made after a surprise.
+        replan: bool,
+    },
+    /// Step `index` of `total` started.
+    StepStarted {
+        /// Index.
+        index: usize,
+        /// Steps in the plan.
+        total: usize,
+    },
+    /// Step `index` is running: `elapsed_ms` of device time, latest pressure.
+    StepProgress {
+        /// Index.
+        index: usize,
+        /// Device time since the step started.
+        elapsed_ms: u32,
+        /// Latest pressure.
+        pressure_kpa: f32,
+    },
+    /// A manual step waits for a person: answer with [`PlanRunner::confirm_manual`] (or the
+    /// crane's confirm button).
+    ManualPrompt {
+        /// Index.
+        index: usize,
+        /// What to do.
+        task: ManualTask,
+    },
+    /// The device's state is unconfirmed: the operator must say which state the trunk is in
+    /// (answer with [`PlanRunner::declare`]); `candidates` are the states it can be in.
+    IdentifyPrompt {
+        /// What the device last had confirmed.
+        believed: TrunkState,
+        /// States the trunk may be in.
+        candidates: Vec<TrunkState>,
+    },
+    /// Step `index` ended.
+    StepFinished {
+        /// Index.
+        index: usize,
+        /// What happened.
+        report: StepReport,
+    },
+    /// Anything else worth a line.
+    Note(String),
+    /// The run is over; [`PlanRunner::outcome`] has the account.
+    Finished,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Wait {
+    /// The first status.
+    Status,
+    /// Old faults are being reset.
+    ResetFaults,
+    /// Faults were reset (or a state declared); the status after it.
+    StatusAfterReset,
+    /// A stray plan is being aborted.
+    TakeoverAbort,
+    /// A stray plan was aborted; the status after it.
+    StatusAfterTakeover,
+    /// The operator's answer to an identify prompt.
+    Operator,
+    /// A declared state; then the status.
+    Declared,
+    Upload,
+    Start,
+    /// Following the plan: a status poll is out.
+    Poll,
+    /// A manual confirmation from the host is out.
+    Confirm,
+    /// Resetting a fault before a replan.
+    ResetForReplan,
+    /// An abort is out; then the final status.
+    Abort,
+    /// The status after the abort.
+    StatusAfterAbort,
+    /// Over.
+    Done,
+}
+
+/// The plan being followed.
+#[derive(Debug, Clone)]
+struct Following {
+    plan_id: u16,
+    plan: Plan,
+    current: usize,
+    step_start_uptime: Option<u32>,
+    event_durations: Vec<Option<u32>>,
+    prompted: Vec<bool>,
+    polls_without_plan: u32,
+}
+
+/// Runs plans on one device until it reports `target`, or fails cleanly, as a state machine
+/// over a [`Session`] whose handshake is done.
+#[derive(Debug)]
+pub struct PlanRunner {
+    graph: Graph,
+    target: TrunkState,
+    options: RunOptions,
+    wait: Wait,
+    waiting_on: Option<RequestId>,
+    next_poll_ms: Option<u64>,
+    following: Option<Following>,
+    failed_edges: Vec<(TrunkState, TrunkState)>,
+    last_surprise: Option<String>,
+    next_plan_id: u16,
+    /// Failure to report once the abort that follows it is done.
+    abort_reason: Option<RunFailure>,
+    out: Outcome,
+    events: VecDeque<RunEvent>,
+    cancelled: bool,
+    manual_confirm_pending: bool,
+    status_fresh: bool,
+}
+
+impl PlanRunner {
+    /// A run toward `target` on `graph`.
+    pub fn new(graph: Graph, target: TrunkState, options: RunOptions) -> Self {
+        Self {
+            graph,
+            target,
+            options,
+            wait: Wait::Done,
+            waiting_on: None,
+            next_poll_ms: None,
+            following: None,
+            failed_edges: Vec::new(),
+            last_surprise: None,
+            next_plan_id: 1,
+            abort_reason: None,
+            out: Outcome {
+                target: Some(target),
+                ..Outcome::default()
+            },
+            events: VecDeque::new(),
+            cancelled: false,
+            manual_confirm_pending: false,
+            status_fresh: false,
+        }
+    }
+
+    /// Starts the run: asks for the device's status.
+    pub fn start(&mut self, session: &mut Session, now_ms: u64) {
+        self.ask(session, Wait::Status, RequestBody::GetStatus, now_ms);
+    }
+
+    /// Whether the run is over.
+    pub fn is_finished(&self) -> bool {
+        self.wait == Wait::Done
+    }
+
+    /// The account so far (final once [`PlanRunner::is_finished`]).
+    pub fn outcome(&self) -> &Outcome {
+        &self.out
+    }
+
+    /// The request whose answer the runner waits for.
+    pub fn waiting_on(&self) -> Option<RequestId> {
+        self.waiting_on
+    }
+
+    /// The next event for the shell.
+    pub fn poll_event(&mut self) -> Option<RunEvent> {
+        self.events.pop_front()
+    }
+
+    /// When [`PlanRunner::handle_timeout`] should be called next.
+    pub fn poll_timeout(&self) -> Option<u64> {
+        if self.waiting_on.is_none() && self.wait == Wait::Poll {
+            self.next_poll_ms
+        } else {
+            None
+        }
+    }
+
+    /// Stops the run: aborts whatever runs on the device (ahead of any queued request) and
+    /// ends with the device's state after the abort.
+    pub fn cancel(&mut self, session: &mut Session, now_ms: u64, why: &str) {
+        if self.wait == Wait::Done || self.cancelled {
+            return;
+        }
+        self.cancelled = true;
+        let step = self.current_step();
+        let message = match step {
+            Some(s) => format!("{s} aborted by the operator ({why})"),
+            None => format!("aborted by the operator ({why})"),
+        };
+        let mut failure = RunFailure::new(FailureKind::Aborted, message);
+        failure.step = step;
+        if self.following.is_some() {
+            self.report_current_failed(None);
+        }
+        self.abort(session, failure, now_ms);
+    }
+
+    /// The operator did the manual step the device waits for (Enter on the terminal).
+    pub fn confirm_manual(&mut self, session: &mut Session, now_ms: u64) {
+        if self.wait == Wait::Poll && !self.manual_confirm_pending {
+            if let Some(f) = &self.following {
+                if f.prompted.get(f.current).copied().unwrap_or(false) {
+                    self.manual_confirm_pending = true;
+                    self.ask(session, Wait::Confirm, RequestBody::ConfirmManual, now_ms);
+                }
+            }
+        }
+    }
+
+    /// The operator's answer to [`RunEvent::IdentifyPrompt`]: the trunk is in `state`
+    /// (`None`: the operator cannot tell, and the run fails unidentified).
+    pub fn declare(&mut self, session: &mut Session, state: Option<TrunkState>, now_ms: u64) {
+        if self.wait != Wait::Operator {
+            return;
+        }
+        match state {
+            Some(state) => {
+                self.out.identified = true;
+                self.events.push_back(RunEvent::Note(format!(
+                    "the operator identified the trunk as {state}"
+                )));
+                self.ask(
+                    session,
+                    Wait::Declared,
+                    RequestBody::DeclareState(state),
+                    now_ms,
+                );
+            }
+            None => self.finish(Some(RunFailure::new(
+                FailureKind::Unidentified,
+                "the device's state is unconfirmed and the operator could not identify it; \
+                 look at the trunk and run `host-tool declare STATE`",
+            ))),
+        }
+    }
+
+    /// Time has passed: poll the status when due.
+    pub fn handle_timeout(&mut self, session: &mut Session, now_ms: u64) {
+        if self.wait == Wait::Poll && self.waiting_on.is_none() {
+            if let Some(at) = self.next_poll_ms {
+                if now_ms >= at {
+                    self.next_poll_ms = Some(at.max(now_ms) + self.options.poll_ms);
+                    self.waiting_on = Some(session.request(RequestBody::GetStatus, now_ms));
+                }
+            }
+        }
+    }
+
+    /// A session event (the runner takes the replies to its own requests, device events and
+    /// link loss; it ignores the rest).
+    pub fn handle_session_event(&mut self, ev: &SessionEvent, session: &mut Session, now_ms: u64) {
+        if self.wait == Wait::Done {
+            return;
+        }
+        match ev {
+            SessionEvent::Device(event) => self.on_device_event(event),
+            SessionEvent::Reply { id, reply } if Some(*id) == self.waiting_on => {
+                self.waiting_on = None;
+                let reply = reply.clone();
+                self.on_reply(session, reply.result, reply.body, now_ms);
+            }
+            SessionEvent::Failed { id, error } if Some(*id) == self.waiting_on => {
+                self.waiting_on = None;
+                self.on_failed(error);
+            }
+            SessionEvent::LinkLost(error) => {
+                self.waiting_on = None;
+                self.on_failed(error);
+            }
+            _ => {}
+        }
+    }
+
+    fn ask(&mut self, session: &mut Session, wait: Wait, body: RequestBody, now_ms: u64) {
+        self.wait = wait;
+        let id = if matches!(body, RequestBody::Abort) {
+            session.request_first(body, now_ms)
+        } else {
+            session.request(body, now_ms)
+        };
+        self.waiting_on = Some(id);
+    }
+
+    fn current_step(&self) -> Option<StepRef> {
+        let f = self.following.as_ref()?;
+        let steps = f.plan.steps();
+        let i = f.current.min(steps.len().checked_sub(1)?);
+        let e = &steps[i].edge;
+        Some(StepRef {
+            index: i,
+            total: steps.len(),
+            kind: e.kind(),
+            from: e.from(),
+            to: e.to(),
+        })
+    }
+
+    fn finish(&mut self, failure: Option<RunFailure>) {
+        self.wait = Wait::Done;
+        self.waiting_on = None;
+        self.next_poll_ms = None;
+        let mut failure = failure;
+        if failure.is_none() && !self.out.ok() {
+            let state = self
+                .out
+                .final_state
+                .map_or("no state".to_string(), |s| s.to_string());
+            failure = Some(RunFailure::new(
+                FailureKind::Protocol,
+                format!(
+                    "the device reports {state}{} instead of the target {}",
+                    if self.out.state_confirmed {
+                        ""
+                    } else {
+                        " (unconfirmed)"
+                    },
+                    self.target
+                ),
+            ));
+        }
+        self.out.failure = failure;
+        self.events.push_back(RunEvent::Finished);
+    }
+
+    fn on_failed(&mut self, error: &SessionError) {
+        // Nothing fresh will come: the last report is stale.
+        self.out.state_confirmed = false;
+        let context = match self.current_step() {
+            Some(s) if self.following.is_some() => format!("during {s}"),
+            _ => match self.wait {
+                Wait::Upload => "uploading the plan".to_string(),
+                Wait::Start => "starting the plan".to_string(),
+                Wait::Status | Wait::StatusAfterReset => "before planning".to_string(),
+                _ => "".to_string(),
+            },
+        };
+        if self.wait == Wait::Abort || self.wait == Wait::StatusAfterAbort {
+            let mut f = self.abort_reason.take().unwrap_or_else(|| {
+                RunFailure::new(FailureKind::LinkLost, "link lost during the abort")
+            });
+            f.message = format!("{}; the abort was not acknowledged ({error})", f.message);
+            return self.finish(Some(f));
+        }
+        if self.following.is_some() {
+            self.report_current_failed(None);
+        }
+        let mut failure = RunFailure::from_session(&context, error);
+        failure.step = self.following.as_ref().and(self.current_step());
+        self.finish(Some(failure));
+    }
+
+    fn on_device_event(&mut self, event: &Event) {
+        match event {
+            Event::StepDone {
+                plan_id,
+                step,
+                duration_ms,
+                ..
+            } => {
+                if let Some(f) = self.following.as_mut().filter(|f| f.plan_id == *plan_id) {
+                    if let Some(slot) = f.event_durations.get_mut(usize::from(*step)) {
+                        *slot = Some(*duration_ms);
+                    }
+                }
+            }
+            Event::FaultRaised(code) => self.events.push_back(RunEvent::Note(format!(
+                "device fault {}",
+                text::fault(*code)
+            ))),
+            _ => {}
+        }
+    }
+
+    fn record_status(&mut self, status: &Status) {
+        self.out.final_state = Some(status.state);
+        self.out.state_confirmed = status.state_confirmed;
+        self.out.last_status = Some(status.clone());
+        self.status_fresh = true;
+    }
+
+    fn on_reply(
+        &mut self,
+        session: &mut Session,
+        result: protocol::ResultCode,
+        body: ResponseBody,
+        now_ms: u64,
+    ) {
+        let reply = crate::session::Reply { result, body };
+        match self.wait {
+            Wait::Status | Wait::StatusAfterReset | Wait::StatusAfterTakeover => {
+                let after = self.wait;
+                match reply.status() {
+                    Ok(st) => self.on_first_status(session, st, after, now_ms),
+                    Err(e) => self.finish(Some(RunFailure::from_session("before planning", &e))),
+                }
+            }
+            Wait::ResetFaults | Wait::TakeoverAbort => {
+                let (name, next) = if self.wait == Wait::ResetFaults {
+                    ("ResetFaults", Wait::StatusAfterReset)
+                } else {
+                    ("Abort", Wait::StatusAfterTakeover)
+                };
+                match reply.accepted(name) {
+                    Ok(_) => self.ask(session, next, RequestBody::GetStatus, now_ms),
+                    Err(e) => self.finish(Some(RunFailure::from_session("before planning", &e))),
+                }
+            }
+            Wait::Declared => match reply.accepted("DeclareState") {
+                Ok(_) => self.ask(
+                    session,
+                    Wait::StatusAfterReset,
+                    RequestBody::GetStatus,
+                    now_ms,
+                ),
+                Err(e) => self.finish(Some(RunFailure::from_session(
+                    "declaring the identified state",
+                    &e,
+                ))),
+            },
+            Wait::Upload => match reply.accepted("UploadPlan") {
+                Ok(_) => {
+                    let plan_id = self.following.as_ref().map_or(0, |f| f.plan_id);
+                    self.ask(
+                        session,
+                        Wait::Start,
+                        RequestBody::StartPlan { plan_id },
+                        now_ms,
+                    )
+                }
+                Err(e) => {
+                    self.following = None;
+                    self.finish(Some(RunFailure::from_session("uploading the plan", &e)))
+                }
+            },
+            Wait::Start => match reply.accepted("StartPlan") {
+                Ok(_) => {
+                    self.wait = Wait::Poll;
+                    self.next_poll_ms = Some(now_ms + self.options.poll_ms);
+                    if let Some(f) = &self.following {
+                        self.events.push_back(RunEvent::StepStarted {
+                            index: 0,
+                            total: f.plan.steps().len(),
+                        });
+                    }
+                }
+                Err(e) => {
+                    self.following = None;
+                    self.finish(Some(RunFailure::from_session("starting the plan", &e)))
+                }
+            },
+            Wait::Poll => match reply.status() {
+                Ok(st) => self.on_poll(session, st, now_ms),
+                Err(e) => {
+                    self.report_current_failed(None);
+                    let step = self.current_step();
+                    let mut f = RunFailure::from_session("polling the status", &e);
+                    f.step = step;
+                    self.finish(Some(f));
+                }
+            },
+            Wait::Confirm => {
+                self.manual_confirm_pending = false;
+                self.wait = Wait::Poll;
+                if let Err(e) = reply.accepted("ConfirmManual") {
+                    // The button may have confirmed it meanwhile: not an error.
+                    self.events
+                        .push_back(RunEvent::Note(format!("confirm not taken: {e}")));
+                }
+            }
+            Wait::ResetForReplan => match reply.accepted("ResetFaults") {
+                Ok(_) => self.make_plan(session, now_ms),
+                Err(e) => {
+                    let error = self.last_surprise.clone().unwrap_or_default();
+                    self.finish(Some(RunFailure::from_session(
+                        &format!("{error}; clearing the fault to replan"),
+                        &e,
+                    )))
+                }
+            },
+            Wait::Abort => {
+                if let Err(e) = reply.accepted("Abort") {
+                    let mut f = self.abort_reason.take().unwrap_or_else(|| {
+                        RunFailure::new(FailureKind::Aborted, "aborted".to_string())
+                    });
+                    f.message = format!("{}; the abort was not acknowledged ({e})", f.message);
+                    return self.finish(Some(f));
+                }
+                self.ask(
+                    session,
+                    Wait::StatusAfterAbort,
+                    RequestBody::GetStatus,
+                    now_ms,
+                );
+            }
+            Wait::StatusAfterAbort => {
+                let mut f = self
+                    .abort_reason
+                    .take()
+                    .unwrap_or_else(|| RunFailure::new(FailureKind::Aborted, "aborted"));
+                match reply.status() {
+                    Ok(st) => {
+                        self.record_status(&st);
+                        f.message = format!("{}; {}", f.message, after_abort_text(&st));
+                    }
+                    Err(e) => {
+                        self.out.state_confirmed = false;
+                        f.message = format!(
+                            "{}; abort acknowledged, no status after it ({e})",
+                            f.message
+                        );
+                    }
+                }
+                self.finish(Some(f));
+            }
+            Wait::Operator | Wait::Done => {}
+        }
+    }
+
+    fn on_first_status(&mut self, session: &mut Session, st: Status, after: Wait, now_ms: u64) {
+        self.record_status(&st);
+        if self.out.from.is_none() {
+            self.out.from = Some(st.state);
+        }
+        if st.estop {
+            return self.finish(Some(RunFailure::new(
+                FailureKind::EStop,
+                "the e-stop is latched: release it and reset faults first",
+            )));
+        }
+        if matches!(st.mode, Mode::Running | Mode::WaitingManual) {
+            if self.options.take_over_running && after != Wait::StatusAfterTakeover {
+                self.events.push_back(RunEvent::Note(
+                    "a plan left by another host is running: aborting it first".into(),
+                ));
+                return self.ask(session, Wait::TakeoverAbort, RequestBody::Abort, now_ms);
+            }
+            return self.finish(Some(RunFailure::new(
+                FailureKind::Busy,
+                "the device is already running a plan (`host-tool stop` aborts it)",
+            )));
+        }
+        if st.faults != 0 {
+            if after == Wait::StatusAfterReset {
+                return self.finish(Some(RunFailure::new(
+                    FailureKind::Fault,
+                    format!(
+                        "the device has active faults: {}",
+                        text::fault_list(st.faults)
+                    ),
+                )));
+            }
+            // A fault left from an earlier run whose cause is gone: clear it once.
+            self.events.push_back(RunEvent::Note(format!(
+                "clearing old faults: {}",
+                text::fault_list(st.faults)
+            )));
+            return self.ask(session, Wait::ResetFaults, RequestBody::ResetFaults, now_ms);
+        }
+        if !st.state_confirmed {
+            self.wait = Wait::Operator;
+            self.events.push_back(RunEvent::IdentifyPrompt {
+                believed: st.state,
+                candidates: TrunkState::ALL.to_vec(),
+            });
+            return;
+        }
+        self.next_plan_id = st.plan.map_or(0, |p| p.plan_id).wrapping_add(1).max(1);
+        if st.state == self.target {
+            return self.finish(None);
+        }
+        self.make_plan(session, now_ms);
+    }
+
+    fn make_plan(&mut self, session: &mut Session, now_ms: u64) {
+        let at = self.out.final_state.unwrap_or(TrunkState::AS_MANUFACTURED);
+        let plan = match self.graph.replan(at, self.target, &self.failed_edges) {
+            Ok(plan) => plan,
+            Err(e) => {
+                let message = match &self.last_surprise {
+                    Some(s) => format!("{s}; no other way on: {e}"),
+                    None => e.to_string(),
+                };
+                return self.finish(Some(RunFailure::new(FailureKind::NoPath, message)));
+            }
+        };
+        let plan_id = self.next_plan_id;
+        self.next_plan_id = plan_id.wrapping_add(1).max(1);
+        let wire = match plan.to_protocol(plan_id) {
+            Ok(w) => w,
+            Err(e) => {
+                return self.finish(Some(RunFailure::new(FailureKind::NoPath, e.to_string())))
+            }
+        };
+        self.events.push_back(RunEvent::Plan {
+            plan: plan.clone(),
+            replan: self.out.replans > 0,
+        });
+        let total = plan.steps().len();
+        self.following = Some(Following {
+            plan_id,
+            plan,
+            current: 0,
+            step_start_uptime: None,
+            event_durations: vec![None; total],
+            prompted: vec![false; total],
+            polls_without_plan: 0,
+        });
+        self.ask(session, Wait::Upload, RequestBody::UploadPlan(wire), now_ms);
+    }
+
+    fn abort(&mut self, session: &mut Session, failure: RunFailure, now_ms: u64) {
+        self.abort_reason = Some(failure);
+        self.following = None;
+        self.ask(session, Wait::Abort, RequestBody::Abort, now_ms);
+    }
+
+    fn finish_step(&mut self, index: usize, ok: bool, duration_ms: Option<u32>) {
+        let Some(f) = &self.following else { return };
+        let Some(step) = f.plan.steps().get(index) else {
+            return;
+        };
+        let report = StepReport {
+            kind: step.edge.kind(),
+            from: step.edge.from(),
+            to: step.edge.to(),
+            ok,
+            duration_ms,
+        };
+        self.events.push_back(RunEvent::StepFinished {
+            index,
+            report: report.clone(),
+        });
+        self.out.steps.push(report);
+    }
+
+    fn report_current_failed(&mut self, duration_ms: Option<u32>) {
+        if let Some(f) = &self.following {
+            let i = f.current;
+            let d = duration_ms.or(f.event_durations.get(i).copied().flatten());
+            self.finish_step(i, false, d);
+        }
+    }
+
+    fn on_poll(&mut self, session: &mut Session, st: Status, now_ms: u64) {
+        self.record_status(&st);
+        let Some(f) = self.following.as_mut() else {
+            return;
+        };
+        let total = f.plan.steps().len();
+        let plan_id = f.plan_id;
+        let Some(ps) = st.plan.filter(|p| p.plan_id == plan_id) else {
+            f.polls_without_plan += 1;
+            if f.polls_without_plan > 50 {
+                self.report_current_failed(None);
+                let step = self.current_step();
+                let mut fail = RunFailure::new(
+                    FailureKind::Protocol,
+                    format!("the device does not report plan {plan_id} after it was started"),
+                );
+                fail.step = step;
+                self.abort(session, fail, now_ms);
+            }
+            return;
+        };
+        let index = usize::from(ps.step).min(total - 1);
+        let start = *f.step_start_uptime.get_or_insert(st.uptime_ms);
+        // Steps the device finished between two polls.
+        while self.following.as_ref().is_some_and(|f| f.current < index) {
+            let f = self.following.as_mut().expect("checked");
+            let cur = f.current;
+            let duration = f.event_durations[cur].or(Some(st.uptime_ms.saturating_sub(start)));
+            self.finish_step(cur, true, duration);
+            let f = self.following.as_mut().expect("checked");
+            f.current += 1;
+            f.step_start_uptime = Some(st.uptime_ms);
+            self.events.push_back(RunEvent::StepStarted {
+                index: f.current,
+                total,
+            });
+        }
+        let f = self.following.as_mut().expect("checked");
+        let current = f.current;
+        let elapsed = st
+            .uptime_ms
+            .saturating_sub(f.step_start_uptime.unwrap_or(st.uptime_ms));
+        let edge = f.plan.steps()[current].edge;
+        match ps.phase {
+            PlanPhase::Ready => {
+                f.polls_without_plan += 1;
+                if f.polls_without_plan > 50 {
+                    let step = self.current_step();
+                    let mut fail = RunFailure::new(
+                        FailureKind::Protocol,
+                        format!("plan {plan_id} was started but the device still reports it ready"),
+                    );
+                    fail.step = step;
+                    self.abort(session, fail, now_ms);
+                }
+            }
+            PlanPhase::Running => {
+                self.events.push_back(RunEvent::StepProgress {
+                    index: current,
+                    elapsed_ms: elapsed,
+                    pressure_kpa: st.pressure_kpa,
+                });
+                let limit = edge.transition.timeout_ms;
+                if elapsed > limit.saturating_add(self.options.step_grace_ms) {
+                    self.report_current_failed(Some(elapsed));
+                    let step = self.current_step();
+                    let mut fail = RunFailure::new(
+                        FailureKind::Timeout,
+                        format!(
+                            "{} did not finish within its time limit of {limit} ms (device \
+                             time); the host aborted it",
+                            step.map_or(String::new(), |s| s.to_string())
+                        ),
+                    );
+                    fail.step = step;
+                    self.abort(session, fail, now_ms);
+                }
+            }
+            PlanPhase::WaitingManual => {
+                self.events.push_back(RunEvent::StepProgress {
+                    index: current,
+                    elapsed_ms: elapsed,
+                    pressure_kpa: st.pressure_kpa,
+                });
+                if !f.prompted[current] {
+                    f.prompted[current] = true;
+                    let task = manual_task(edge.transition.primitives);
+                    self.events.push_back(RunEvent::ManualPrompt {
+                        index: current,
+                        task,
+                    });
+                }
+            }
+            PlanPhase::Done => {
+                let d = f.event_durations.clone();
+                let duration = d[current].or(Some(elapsed));
+                self.finish_step(current, true, duration);
+                for (i, duration) in d.iter().enumerate().skip(current + 1) {
+                    self.finish_step(i, true, *duration);
+                }
+                self.following = None;
+                if st.state == self.target && st.state_confirmed {
+                    return self.finish(None);
+                }
+                // Done but elsewhere (should not happen): plan on from what it reports.
+                if st.state_confirmed {
+                    self.make_plan(session, now_ms);
+                } else {
+                    self.finish(None);
+                }
+            }
+            PlanPhase::Failed(fault) => {
+                let duration = f.event_durations[current].or(Some(elapsed));
+                let step = self.current_step();
+                self.finish_step(current, false, duration);
+                let step = step.expect("following a plan");
+                let message = format!(
+                    "{step} failed: {} ({}); the device reports {}{}",
+                    fault.description(),
+                    text::fault_code(fault),
+                    st.state,
+                    if st.state_confirmed {
+                        String::new()
+                    } else {
+                        " (unconfirmed)".to_string()
+                    }
+                );
+                // A surprise is a confirmed state that is neither end of the step: the trunk
+                // went somewhere else, and the way on starts there. A step that left the trunk
+                // where it was (or unconfirmed) failed: replanning a detour around it would act
+                // on a state nobody has confirmed.
+                if fault == FaultCode::TransitionNotConfirmed
+                    && st.state_confirmed
+                    && st.state != step.to
+                    && st.state != step.from
+                {
+                    self.following = None;
+                    self.failed_edges.push((step.from, step.to));
+                    self.out.replans += 1;
+                    if self.out.replans > self.options.max_replans {
+                        let mut fail = RunFailure::new(
+                            FailureKind::Fault,
+                            format!("{message}; gave up after {} replans", self.out.replans - 1),
+                        )
+                        .at(step);
+                        fail.fault = Some(fault);
+                        return self.finish(Some(fail));
+                    }
+                    self.events.push_back(RunEvent::Note(format!(
+                        "{message}; replanning from {}",
+                        st.state
+                    )));
+                    self.last_surprise = Some(message);
+                    self.ask(
+                        session,
+                        Wait::ResetForReplan,
+                        RequestBody::ResetFaults,
+                        now_ms,
+                    );
+                    return;
+                }
+                self.following = None;
+                let mut fail = RunFailure::new(FailureKind::Fault, message).at(step);
+                fail.fault = Some(fault);
+                self.finish(Some(fail));
+            }
+            PlanPhase::Aborted => {
+                let duration = f.event_durations[current].or(Some(elapsed));
+                let step = self.current_step();
+                self.finish_step(current, false, duration);
+                self.following = None;
+                let step = step.expect("following a plan");
+                let fail = RunFailure::new(
+                    FailureKind::Aborted,
+                    format!(
+                        "{step} was aborted on the device (its stop button, or another host); {}",
+                        after_abort_text(&st)
+                    ),
+                )
+                .at(step);
+                self.finish(Some(fail));
+            }
+        }
+    }
+}
+
+/// What the device reports after an abort, in words: mode, state and its confidence, and the
+/// pressure the trunk still holds (and how to vent it).
+pub fn after_abort_text(st: &Status) -> String {
+    let mut t = format!(
+        "the device reports {} at {}{}",
+        if st.mode == Mode::Safe {
+            "its safe state".to_string()
+        } else {
+            format!("mode {}", text::mode(st.mode))
+        },
+        st.state,
+        if st.state_confirmed {
+            String::new()
+        } else {
+            " (unconfirmed: the shape is not known)".to_string()
+        }
+    );
+    t += &format!(
+        " with the inlet {}",
+        if st.inlet_open { "OPEN" } else { "closed" }
+    );
+    if st.pressure_kpa >= 1.0 {
+        t += &format!(
+            "; the trunk holds {:.1} kPa (vent it with the crane's exhaust, or run a plan that \
+             ends in a vent)",
+            st.pressure_kpa
+        );
+    }
+    t
+}
+
+/// The manual task of a step's primitives (the catalogue has exactly one per manual step).
+fn manual_task(primitives: &[Primitive]) -> ManualTask {
+    primitives
+        .iter()
+        .find_map(|p| match p {
+            Primitive::Manual(task) => Some(*task),
+            _ => None,
+        })
+        .unwrap_or(ManualTask::PackBottomModule)
+}

@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! hil-sim --pty [--initial STATE] [--seed N] [--fault NAME]... [--speed X] [--no-operator]
+//!         [--firmware-elf PATH]
 //! hil-sim discover [--json | --dot]
 //! ```
 //! With `--pty` the first line of stdout ends with the device path; the simulator then runs until
@@ -43,6 +44,10 @@ struct Cli {
     /// No simulated operator: manual steps wait for the host or a real person.
     #[arg(long)]
     no_operator: bool,
+    /// Run this board ELF (`cargo firmware`: target/thumbv7em-none-eabihf/firmware/uno-r4) in
+    /// the RA4M1 emulator instead of the host-built controller (processor in the loop).
+    #[arg(long, value_name = "PATH")]
+    firmware_elf: Option<std::path::PathBuf>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -118,6 +123,7 @@ fn main() -> ExitCode {
                 faults: cli.faults,
                 speed: cli.speed,
                 operator: !cli.no_operator,
+                firmware_elf: cli.firmware_elf.clone(),
             };
             let sim = match PtySim::spawn(opts) {
                 Ok(s) => s,
@@ -129,10 +135,13 @@ fn main() -> ExitCode {
             let mut out = std::io::stdout();
             let _ = writeln!(
                 out,
-                "hil-sim: simulated crane (initial {}, seed {}, speed {}) on {}",
+                "hil-sim: simulated crane (initial {}, seed {}, speed {}{}) on {}",
                 cli.initial,
                 cli.seed,
                 cli.speed,
+                cli.firmware_elf
+                    .as_ref()
+                    .map_or(String::new(), |p| format!(", board ELF {}", p.display())),
                 sim.path().display()
             );
             let _ = out.flush();

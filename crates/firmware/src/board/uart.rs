@@ -281,7 +281,9 @@ impl embedded_io::Write for HostUart {
     }
 
     fn flush(&mut self) -> Result<(), Infallible> {
-        while TX_ACTIVE.load(Ordering::Acquire) {}
+        while TX_ACTIVE.load(Ordering::Acquire) {
+            core::hint::spin_loop();
+        }
         Ok(())
     }
 }

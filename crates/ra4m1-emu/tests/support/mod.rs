@@ -1,4 +1,5 @@
 //! Shared by the firmware tests: where the `uno-r4` ELF is, and a minimal host.
+#![allow(dead_code)] // each test binary uses a part of it
 
 use std::path::PathBuf;
 

@@ -159,3 +159,52 @@ fn storage_never_delays_a_loop_pass_beyond_2_ms_even_with_a_broken_flash() {
         }
     }
 }
+
+/// A power cut mid-step on the board ELF: after the reboot the device reports exactly what the
+/// host-built controller reports for the same cut (the same record survives in the emulated
+/// data flash and the same boot logic reads it). Whether that report is truthful is the
+/// controller's journal (crash-consistent state); this test makes the board inherit it.
+#[test]
+fn a_power_cut_mid_step_boots_the_elf_into_the_controllers_own_report() {
+    let from: TrunkState = "F&P".parse().unwrap();
+    let to: TrunkState = "D&F".parse().unwrap();
+    let plan = planner::graph::Graph::nominal().plan(from, to).unwrap();
+    let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
+    for cut_ms in [300u64, 1_200, 2_500] {
+        let mut reports = Vec::new();
+        for elf_mode in [false, true] {
+            let mut sim = Sim::try_new(SimOptions {
+                initial: from,
+                firmware_elf: elf_mode.then(elf),
+                ..SimOptions::default()
+            })
+            .unwrap();
+            sim.run_for(50);
+            let mut host = SimHost::new();
+            host.hello(&mut sim).unwrap();
+            let mut p = protocol::messages::Plan { plan_id: 5, steps: heapless::Vec::new() };
+            for s in &steps {
+                p.steps.push(s.clone()).unwrap();
+            }
+            host.request_ok(&mut sim, protocol::RequestBody::UploadPlan(p), 1_000).unwrap();
+            host.request_ok(&mut sim, protocol::RequestBody::StartPlan { plan_id: 5 }, 1_000).unwrap();
+            let t0 = sim.now_ms();
+            while sim.now_ms() < t0 + cut_ms {
+                sim.run_for(50);
+                let _ = host.send(&mut sim, protocol::RequestBody::Heartbeat);
+                host.poll(&mut sim);
+            }
+            sim.power_cycle();
+            sim.run_for(100);
+            let mut host = SimHost::new();
+            host.hello(&mut sim).expect("handshake after the cut");
+            let Ok((_, ResponseBody::Status(st))) =
+                host.request(&mut sim, protocol::RequestBody::GetStatus, 1_000)
+            else {
+                panic!("no status after the cut")
+            };
+            reports.push((st.state, st.state_confirmed, st.candidates, st.interrupted));
+        }
+        assert_eq!(reports[0], reports[1], "cut at {cut_ms} ms: host-built vs ELF");
+    }
+}

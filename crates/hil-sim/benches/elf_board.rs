@@ -14,12 +14,14 @@ use hil_sim::{Sim, SimOptions};
 use protocol::messages::{DeviceMessage, RequestBody, Step};
 
 fn elf() -> PathBuf {
-    std::env::var_os("UNO_R4_ELF").map(PathBuf::from).unwrap_or_else(|| {
-        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-        std::env::var_os("CARGO_TARGET_DIR")
-            .map_or(root.join("target"), PathBuf::from)
-            .join("thumbv7em-none-eabihf/firmware/uno-r4")
-    })
+    std::env::var_os("UNO_R4_ELF")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+            std::env::var_os("CARGO_TARGET_DIR")
+                .map_or(root.join("target"), PathBuf::from)
+                .join("thumbv7em-none-eabihf/firmware/uno-r4")
+        })
 }
 
 fn sim(initial: &str) -> Sim {
@@ -32,7 +34,8 @@ fn sim(initial: &str) -> Sim {
 }
 
 fn max_pass(sim: &Sim) -> u64 {
-    sim.elf_board().map_or(0, |b| b.emu.stats().max_awake_cycles)
+    sim.elf_board()
+        .map_or(0, |b| b.emu.stats().max_awake_cycles)
 }
 
 fn clear(sim: &mut Sim) {
@@ -52,7 +55,11 @@ fn main() {
             let _ = host.send(&mut s, RequestBody::hello());
         }
         s.step();
-        if host.poll(&mut s).iter().any(|m| matches!(m, DeviceMessage::Response { .. })) {
+        if host
+            .poll(&mut s)
+            .iter()
+            .any(|m| matches!(m, DeviceMessage::Response { .. }))
+        {
             answered = Some(s.now_ms());
         }
     }
@@ -86,7 +93,11 @@ fn main() {
 
     // 3. The largest plan's upload pass (refused or stored), then a real plan running.
     clear(&mut s);
-    let _ = host.request(&mut s, RequestBody::UploadPlan(firmware::bench::largest_plan(9)), 2_000);
+    let _ = host.request(
+        &mut s,
+        RequestBody::UploadPlan(firmware::bench::largest_plan(9)),
+        2_000,
+    );
     s.run_for(100);
     println!(
         "upload of the largest plan ({} steps of bends): longest pass {} cycles",

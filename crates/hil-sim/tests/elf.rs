@@ -182,12 +182,21 @@ fn a_power_cut_mid_step_boots_the_elf_into_the_controllers_own_report() {
             sim.run_for(50);
             let mut host = SimHost::new();
             host.hello(&mut sim).unwrap();
-            let mut p = protocol::messages::Plan { plan_id: 5, steps: heapless::Vec::new() };
+            let mut p = protocol::messages::Plan {
+                plan_id: 5,
+                steps: heapless::Vec::new(),
+            };
             for s in &steps {
                 p.steps.push(s.clone()).unwrap();
             }
-            host.request_ok(&mut sim, protocol::RequestBody::UploadPlan(p), 1_000).unwrap();
-            host.request_ok(&mut sim, protocol::RequestBody::StartPlan { plan_id: 5 }, 1_000).unwrap();
+            host.request_ok(&mut sim, protocol::RequestBody::UploadPlan(p), 1_000)
+                .unwrap();
+            host.request_ok(
+                &mut sim,
+                protocol::RequestBody::StartPlan { plan_id: 5 },
+                1_000,
+            )
+            .unwrap();
             let t0 = sim.now_ms();
             while sim.now_ms() < t0 + cut_ms {
                 sim.run_for(50);
@@ -205,6 +214,9 @@ fn a_power_cut_mid_step_boots_the_elf_into_the_controllers_own_report() {
             };
             reports.push((st.state, st.state_confirmed, st.candidates, st.interrupted));
         }
-        assert_eq!(reports[0], reports[1], "cut at {cut_ms} ms: host-built vs ELF");
+        assert_eq!(
+            reports[0], reports[1],
+            "cut at {cut_ms} ms: host-built vs ELF"
+        );
     }
 }

@@ -103,10 +103,7 @@ impl WorstCase {
         let cfg = CraneConfig::default();
         let mut ctl = Controller::new(
             cfg,
-            BootRecord::Stored(StoredState {
-                state: FF,
-                confirmed: true,
-            }),
+            BootRecord::Stored(StoredState::confirmed(FF)),
             0,
         );
         let mut buf = [0u8; MAX_FRAME_LEN];

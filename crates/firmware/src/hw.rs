@@ -405,13 +405,17 @@ where
                 Err(_) => self.stats.display_errors = self.stats.display_errors.wrapping_add(1),
             }
         }
-        // 5. Persisted state (kept and retried until a save succeeds).
+        // 5. Persisted state (kept and retried until a save succeeds, then acknowledged).
         if let Some(s) = ctl.poll_store() {
             self.pending_store = Some(s);
         }
         if let Some(s) = self.pending_store {
             match self.store.save(&s) {
-                Ok(()) => self.pending_store = None,
+                Ok(()) => {
+                    self.pending_store = None;
+                    // A step's journal is on flash: its actuation may begin.
+                    ctl.handle_stored();
+                }
                 Err(_) => self.stats.store_errors = self.stats.store_errors.wrapping_add(1),
             }
         }

@@ -347,10 +347,7 @@ fn shell_boots_unconfirmed_from_a_corrupt_store_and_retries_saves() {
     let stored = StoredState::from_bytes(&b.store.bytes.borrow().unwrap()).unwrap();
     assert_eq!(
         stored,
-        Some(StoredState {
-            state: "D&D".parse().unwrap(),
-            confirmed: true
-        })
+        Some(StoredState::confirmed("D&D".parse().unwrap()))
     );
 }
 

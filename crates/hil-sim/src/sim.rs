@@ -238,10 +238,7 @@ impl Sim {
             exhaust: SimOutputPin::default(),
             gripper: SimOutputPin::default(),
         };
-        let flash = SimFlash::holding(StoredState {
-            state: opts.initial,
-            confirmed: true,
-        });
+        let flash = SimFlash::holding(StoredState::confirmed(opts.initial));
         let mut shell = Shell::new(
             inputs,
             outputs,

@@ -103,9 +103,9 @@ impl StoredState {
         let flags = self.state.index() as u8
             | (self.confirmed as u8) << 3
             | (self.pending.is_some() as u8) << 4;
-        let step = self.pending.map_or(0, |t| {
-            t.from.index() as u8 | (t.to.index() as u8) << 3
-        });
+        let step = self
+            .pending
+            .map_or(0, |t| t.from.index() as u8 | (t.to.index() as u8) << 3);
         let mut b = [
             b'Y',
             b'C',

@@ -153,7 +153,9 @@ pub fn sim_crane_config() -> CraneConfig {
     cfg.validated()
 }
 
-/// The simulated crane running the real controller.
+/// The simulated crane running the real controller. `Clone` forks a run (the power-cut
+/// campaign cuts every 10 ms of one step without re-running its start).
+#[derive(Clone)]
 pub struct Sim {
     opts: SimOptions,
     rng: ChaCha8Rng,

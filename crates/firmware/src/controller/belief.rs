@@ -117,8 +117,8 @@ pub fn reach(step: &Step) -> StateSet {
 pub fn untouched(from: TrunkState, peak_kpa: f32, peak_pull_mm: f32) -> bool {
     let p_ok = next_edge(&PNEUMATIC_SNAP_KPA, from)
         .is_none_or(|(_, t)| peak_kpa < t - UNTOUCHED_MARGIN_KPA);
-    let l_ok =
-        next_edge(&TENDON_SNAP_MM, from).is_none_or(|(_, t)| peak_pull_mm < t - UNTOUCHED_MARGIN_MM);
+    let l_ok = next_edge(&TENDON_SNAP_MM, from)
+        .is_none_or(|(_, t)| peak_pull_mm < t - UNTOUCHED_MARGIN_MM);
     p_ok && l_ok
 }
 

@@ -471,18 +471,6 @@ impl Controller {
                 false
             }
             Progress::Done { evidence } => {
-                if evidence {
-                    // Confirmed now (and persisted), whatever the rest of the step does.
-                    if let Some(to) = self
-                        .exec
-                        .as_ref()
-                        .and_then(|e| e.plan.steps.get(e.step as usize))
-                        .filter(|s| s.from != s.to)
-                        .map(|s| s.to)
-                    {
-                        self.confirm_state(to);
-                    }
-                }
                 if let Some(e) = self.exec.as_mut() {
                     e.evidence |= evidence;
                     e.prim = e.prim.saturating_add(1);
@@ -886,7 +874,11 @@ impl Controller {
         }
         let pre_release =
             self.pre_release_needed(self.exec.as_ref().and_then(|e| e.plan.steps.get(next)));
-        let next_step = self.exec.as_ref().and_then(|e| e.plan.steps.get(next)).cloned();
+        let next_step = self
+            .exec
+            .as_ref()
+            .and_then(|e| e.plan.steps.get(next))
+            .cloned();
         let journal = self.journal_step(next_step.as_ref());
         if let Some(e) = self.exec.as_mut() {
             e.pre_release = pre_release;

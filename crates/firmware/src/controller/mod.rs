@@ -163,7 +163,7 @@ struct InletWatch {
 }
 
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Controller {
     cfg: CraneConfig,
     now_ms: u64,

@@ -3,9 +3,9 @@
 use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
-    DeviceInfo, DeviceMessage, ParamId, Plan, PlanPhase, PlanStatus, Primitive,
-    RejectReason, Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN,
-    PROTOCOL_VERSION, SCHEMA_ID,
+    DeviceInfo, DeviceMessage, ParamId, Plan, PlanPhase, PlanStatus, Primitive, RejectReason,
+    Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN, PROTOCOL_VERSION,
+    SCHEMA_ID,
 };
 
 use super::link::Fingerprint;

@@ -469,10 +469,7 @@ fn boot_corrupt_store_is_unconfirmed_with_storage_fault() {
     // Declaring the state clears the fault and is persisted.
     assert_eq!(r.request(RequestBody::DeclareState(DF)).0, ResultCode::Ok);
     r.run(1);
-    assert_eq!(
-        r.stores,
-        [StoredState::confirmed(DF)]
-    );
+    assert_eq!(r.stores, [StoredState::confirmed(DF)]);
     let s = r.ctl.status();
     assert_eq!(
         (s.state, s.state_confirmed, s.mode, s.faults),
@@ -878,7 +875,10 @@ fn a_step_without_its_snap_is_not_confirmed() {
     // Held sealed at 16 kPa, past the 13.1 kPa unpacking threshold, no snap seen: it may still
     // come. Unconfirmed, F&P or F&F.
     let s = r.ctl.status();
-    assert_eq!((s.state, s.state_confirmed, s.mode), (FP, false, Mode::Safe));
+    assert_eq!(
+        (s.state, s.state_confirmed, s.mode),
+        (FP, false, Mode::Safe)
+    );
     assert_eq!(s.candidates, protocol::StateSet::single(FP).with(FF));
     assert_eq!(
         s.plan.unwrap().phase,
@@ -1054,7 +1054,10 @@ fn abort_goes_to_the_safe_state_and_is_not_latched() {
     // Not latched: once the state is declared, a new step may start at once, the servos on
     // again from slack (where a limp servo really is is unknown; paying out pushes nothing).
     let truth = r.plant.state;
-    assert_eq!(r.request(RequestBody::DeclareState(truth)).0, ResultCode::Ok);
+    assert_eq!(
+        r.request(RequestBody::DeclareState(truth)).0,
+        ResultCode::Ok
+    );
     let next = transitions::step_down(truth).unwrap().to;
     assert_eq!(
         r.request(RequestBody::RunStep(Rig::nominal(truth, next))).0,

@@ -8,3 +8,4 @@ mod incremental;
 mod props;
 mod samples;
 mod smoke;
+mod mutation;

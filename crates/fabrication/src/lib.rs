@@ -25,6 +25,7 @@ pub mod fold;
 pub mod folded;
 pub mod kit;
 pub mod mesh;
+pub mod model;
 pub mod panel;
 pub mod pattern;
 pub mod svg;

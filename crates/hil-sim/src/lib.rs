@@ -33,6 +33,7 @@
 
 pub mod devices;
 pub mod discovery;
+pub mod elf_board;
 pub mod fault;
 pub mod host;
 pub mod operator;

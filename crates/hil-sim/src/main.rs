@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! hil-sim --pty [--initial STATE] [--seed N] [--fault NAME]... [--speed X] [--no-operator]
-//!               [--truth-log FILE]
+//!         [--firmware-elf PATH] [--truth-log FILE]
 //! hil-sim discover [--json | --dot]
 //! ```
 //! With `--pty` the first line of stdout ends with the device path; the simulator then runs until
@@ -50,6 +50,10 @@ struct Cli {
     /// {"t_ms", "true_state" (a state or "between"), "pressure_kpa", "actuators_safe", ...}.
     #[arg(long, value_name = "FILE", requires = "pty")]
     truth_log: Option<std::path::PathBuf>,
+    /// Run this board ELF (`cargo firmware`: target/thumbv7em-none-eabihf/firmware/uno-r4) in
+    /// the RA4M1 emulator instead of the host-built controller (processor in the loop).
+    #[arg(long, value_name = "PATH")]
+    firmware_elf: Option<std::path::PathBuf>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -125,6 +129,7 @@ fn main() -> ExitCode {
                 faults: cli.faults,
                 speed: cli.speed,
                 operator: !cli.no_operator,
+                firmware_elf: cli.firmware_elf.clone(),
             };
             let log = match cli.truth_log.as_deref().map(|p| {
                 std::fs::OpenOptions::new()
@@ -157,10 +162,13 @@ fn main() -> ExitCode {
             let mut out = std::io::stdout();
             let _ = writeln!(
                 out,
-                "hil-sim: simulated crane (initial {}, seed {}, speed {}) on {}",
+                "hil-sim: simulated crane (initial {}, seed {}, speed {}{}) on {}",
                 cli.initial,
                 cli.seed,
                 cli.speed,
+                cli.firmware_elf
+                    .as_ref()
+                    .map_or(String::new(), |p| format!(", board ELF {}", p.display())),
                 sim.path().display()
             );
             let _ = out.flush();

@@ -33,7 +33,7 @@ const MAX_CATCH_UP_MS: u64 = 2_000;
 pub struct PtySim {
     path: PathBuf,
     stop: Arc<AtomicBool>,
-    truth: Arc<Mutex<GroundTruth>>,
+    truth: Arc<Mutex<Option<GroundTruth>>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -64,16 +64,35 @@ impl PtySim {
         )
         .context("making the pty non-blocking")?;
         let path = nix::unistd::ttyname(pty.slave.as_fd()).context("naming the pty")?;
-        let sim = Sim::new(opts);
-        let truth = Arc::new(Mutex::new(sim.ground_truth()));
+        // The simulator is built on its own thread (an emulated board is not `Send`); the
+        // first ground truth, or why it could not start, comes back over a channel.
+        let truth = Arc::new(Mutex::new(None::<GroundTruth>));
         let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(), String>>(1);
         let thread = {
             let (truth, stop) = (Arc::clone(&truth), Arc::clone(&stop));
             std::thread::Builder::new()
                 .name("hil-sim".into())
-                .spawn(move || serve(sim, pty.master, pty.slave, &stop, &truth, log))
+                .spawn(move || match Sim::try_new(opts) {
+                    Ok(sim) => {
+                        *lock(&truth) = Some(sim.ground_truth());
+                        let _ = tx.send(Ok(()));
+                        serve(sim, pty.master, pty.slave, &stop, &truth, log);
+                    }
+                    Err(e) => {
+                        let _ = tx.send(Err(e.to_string()));
+                    }
+                })
                 .context("starting the simulator thread")?
         };
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                let _ = thread.join();
+                anyhow::bail!("{e}");
+            }
+            Err(_) => anyhow::bail!("the simulator thread died while starting"),
+        }
         Ok(PtySim {
             path,
             stop,
@@ -89,13 +108,15 @@ impl PtySim {
 
     /// The ground truth now (updated every few wall milliseconds).
     pub fn ground_truth(&self) -> GroundTruth {
-        lock(&self.truth).clone()
+        lock(&self.truth)
+            .clone()
+            .unwrap_or_else(|| unreachable!("set before spawn returns"))
     }
 
     /// Stops the simulator and returns its final ground truth.
     pub fn stop(mut self) -> GroundTruth {
         self.halt();
-        lock(&self.truth).clone()
+        self.ground_truth()
     }
 
     fn halt(&mut self) {
@@ -112,7 +133,7 @@ impl Drop for PtySim {
     }
 }
 
-fn lock(m: &Mutex<GroundTruth>) -> std::sync::MutexGuard<'_, GroundTruth> {
+fn lock(m: &Mutex<Option<GroundTruth>>) -> std::sync::MutexGuard<'_, Option<GroundTruth>> {
     // A poisoned lock only means the simulator thread panicked mid-update: the value is still
     // a complete GroundTruth.
     m.lock().unwrap_or_else(|e| e.into_inner())
@@ -125,7 +146,7 @@ fn serve(
     // Held open so the pty stays usable while no client has it open.
     _slave: OwnedFd,
     stop: &AtomicBool,
-    truth: &Mutex<GroundTruth>,
+    truth: &Mutex<Option<GroundTruth>>,
     log: Option<std::fs::File>,
 ) {
     use std::io::Write as _;
@@ -186,14 +207,14 @@ fn serve(
             }
         }
         if last_truth.elapsed() >= Duration::from_millis(5) {
-            *lock(truth) = sim.ground_truth();
+            *lock(truth) = Some(sim.ground_truth());
             last_truth = Instant::now();
         }
         if speed.is_finite() {
             std::thread::sleep(WALL_TICK);
         }
     }
-    *lock(truth) = sim.ground_truth();
+    *lock(truth) = Some(sim.ground_truth());
     if let Some((f, l)) = log.as_mut() {
         append(l.finish(&sim), f);
         let _ = f.flush();

@@ -88,7 +88,7 @@ fn cut_every_10_ms(from: TrunkState, to: TrunkState) -> Tally {
             after_end += 10;
         }
         assert!(sim.now_ms() < 120_000, "{from} -> {to} never ended");
-        let mut cut = sim.clone();
+        let mut cut = sim.fork().expect("no ELF: forkable");
         cut.power_cycle();
         let booted = cut.controller().status();
         cut.run_for(SETTLE_MS);

@@ -307,3 +307,127 @@ fn panel_usage_errors_say_what_is_valid() {
     );
     assert!(!Path::new(&mf).exists());
 }
+
+#[test]
+fn model_writes_gltf_obj_and_stl() {
+    let dir = TempDir::new("model");
+    let (glb, obj, stl) = (dir.file("m.glb"), dir.file("m.obj"), dir.file("m.stl"));
+    let out = ok(&[
+        "model",
+        "--states",
+        "self-packed,folded",
+        "--gltf",
+        &glb,
+        "--obj",
+        &obj,
+        "--stl",
+        &stl,
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("self-packed,self-packed,folded,folded"),
+        "{text}"
+    );
+    assert!(
+        text.contains("strained faces drawn red"),
+        "packed under folded does not close: {text}"
+    );
+    let bytes = std::fs::read(&glb).unwrap();
+    assert_eq!(&bytes[..4], b"glTF");
+    assert_eq!(fabrication::model::validate_glb(&bytes).unwrap(), 96);
+    assert_eq!(
+        std::fs::read_to_string(&obj)
+            .unwrap()
+            .lines()
+            .filter(|l| l.starts_with("f "))
+            .count(),
+        96
+    );
+    assert_eq!(std::fs::metadata(&stl).unwrap().len(), 84 + 50 * 96);
+    // One state per layer; a feasible stack is not reported as strained.
+    let out = ok(&[
+        "model",
+        "--beta",
+        "31.72",
+        "--layers",
+        "4",
+        "--states",
+        "edge-0,deployed,vertex-1,folded",
+        "--gltf",
+        &glb,
+    ]);
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("strained"));
+}
+
+#[test]
+fn model_usage_errors_say_what_is_valid() {
+    let dir = TempDir::new("model-usage");
+    let glb = dir.file("never.glb");
+    usage_error(&["model"], "give at least one of --gltf FILE");
+    usage_error(
+        &[
+            "model",
+            "--gltf",
+            &glb,
+            "--states",
+            "deployed,folded,deployed",
+        ],
+        "one per module (2) or one per layer (4)",
+    );
+    usage_error(
+        &["model", "--gltf", &glb, "--states", "vertex-9"],
+        "vertex-0 … vertex-2",
+    );
+    usage_error(
+        &["model", "--gltf", &glb, "--states", "deployed,,folded"],
+        "comma-separated",
+    );
+    usage_error(
+        &["model", "--gltf", &glb, "--states", "flat-folded"],
+        "flat-folded does not exist",
+    );
+    usage_error(
+        &["model", "--gltf", "/nonexistent-dir/m.glb"],
+        "cannot write --gltf",
+    );
+    assert!(!Path::new(&glb).exists());
+}
+
+#[test]
+fn ik_writes_the_fitted_boom_as_gltf() {
+    let dir = TempDir::new("ik");
+    let glb = dir.file("fit.glb");
+    ok(&[
+        "ik",
+        "--n",
+        "3",
+        "--beta",
+        "31.72",
+        "--modules",
+        "6",
+        "--target",
+        "helix:radius=1,pitch=4,turns=1",
+        "--algo",
+        "greedy",
+        "--gltf",
+        &glb,
+    ]);
+    let bytes = std::fs::read(&glb).unwrap();
+    assert_eq!(fabrication::model::validate_glb(&bytes).unwrap(), 6 * 24);
+    usage_error(
+        &[
+            "ik",
+            "--n",
+            "3",
+            "--beta",
+            "31.72",
+            "--modules",
+            "6",
+            "--target",
+            "helix",
+            "--gltf",
+            "/nonexistent-dir/x.glb",
+        ],
+        "cannot write --gltf",
+    );
+}

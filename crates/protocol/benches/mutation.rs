@@ -7,7 +7,7 @@
 
 use std::time::Instant;
 
-#[path = "mutation_campaign.rs"]
+#[path = "support/mutation_campaign.rs"]
 mod mutation_campaign;
 
 use mutation_campaign::{campaign, Report};
@@ -29,7 +29,7 @@ fn main() {
         handles
             .into_iter()
             .map(|h| h.join().expect("campaign thread"))
-            .fold(Report::default(), Report::add)
+            .fold(Report::default(), Report::plus)
     });
     let secs = start.elapsed().as_secs_f64();
     println!(

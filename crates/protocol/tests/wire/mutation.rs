@@ -1,6 +1,6 @@
 //! A 10^6-frame run of the mutation campaign (the 10^8 one is the `mutation` bench binary).
 
-#[path = "../../benches/mutation_campaign.rs"]
+#[path = "../../benches/support/mutation_campaign.rs"]
 mod mutation_campaign;
 
 #[test]

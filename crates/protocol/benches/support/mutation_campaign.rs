@@ -146,7 +146,7 @@ impl Rng {
     }
 
     /// The next 64 random bits.
-    pub fn next(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         let mut x = self.0;
         x ^= x >> 12;
         x ^= x << 25;
@@ -157,7 +157,7 @@ impl Rng {
 
     /// Uniform in `0..n`.
     pub fn below(&mut self, n: usize) -> usize {
-        ((self.next() >> 32) * n as u64 >> 32) as usize
+        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
     }
 }
 
@@ -165,7 +165,7 @@ impl Rng {
 /// burst of 2–32 bits (returns `false`).
 pub fn mutate(frame: &mut [u8], rng: &mut Rng) -> bool {
     let bits = frame.len() * 8;
-    if rng.next() & 1 == 0 {
+    if rng.next_u64() & 1 == 0 {
         let k = 1 + rng.below(4);
         let mut chosen = [usize::MAX; 4];
         let mut n = 0;
@@ -182,7 +182,7 @@ pub fn mutate(frame: &mut [u8], rng: &mut Rng) -> bool {
         let len = (2 + rng.below(31)).min(bits);
         let start = rng.below(bits - len + 1);
         for i in 0..len {
-            if i == 0 || i == len - 1 || rng.next() & 1 == 1 {
+            if i == 0 || i == len - 1 || rng.next_u64() & 1 == 1 {
                 let b = start + i;
                 frame[b / 8] ^= 1 << (b % 8);
             }
@@ -249,7 +249,7 @@ pub struct Report {
 
 impl Report {
     /// The sum of two reports.
-    pub fn add(self, o: Report) -> Report {
+    pub fn plus(self, o: Report) -> Report {
         Report {
             frames: self.frames + o.frames,
             bit_error_frames: self.bit_error_frames + o.bit_error_frames,
@@ -271,7 +271,7 @@ pub fn campaign(frames: u64, seed: u64, v1: bool) -> Report {
     for i in 0..frames {
         let s = &samples[(i % samples.len() as u64) as usize];
         // The same mutation (same random stream) for both framings.
-        let state = Rng(rng.next() | 1);
+        let state = Rng(rng.next_u64() | 1);
         buf.clear();
         buf.extend_from_slice(&s.v2);
         let bit_errors = mutate(&mut buf, &mut Rng(state.0));

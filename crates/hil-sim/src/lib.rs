@@ -33,6 +33,7 @@
 
 pub mod devices;
 pub mod discovery;
+pub mod elf_board;
 pub mod fault;
 pub mod host;
 pub mod operator;
@@ -43,4 +44,4 @@ pub mod servo;
 pub mod sim;
 
 pub use fault::{Fault, ParseFaultError};
-pub use sim::{GroundTruth, Sim, SimOptions};
+pub use sim::{GroundTruth, Sim, SimOptions, TruthLog};

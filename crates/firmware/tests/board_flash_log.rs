@@ -77,9 +77,18 @@ impl NorFlash for &mut EmuFlash {
 }
 
 fn st(i: usize, confirmed: bool) -> StoredState {
-    StoredState {
-        state: TrunkState::ALL[i % TrunkState::ALL.len()],
-        confirmed,
+    let state = TrunkState::ALL[i % TrunkState::ALL.len()];
+    if confirmed {
+        StoredState::confirmed(state)
+    } else {
+        // A journaled step: pending toward the next state, both candidates.
+        let to = TrunkState::ALL[(i + 1) % TrunkState::ALL.len()];
+        StoredState {
+            state,
+            confirmed: false,
+            candidates: protocol::StateSet::single(state).with(to),
+            pending: Some(protocol::Transition { from: state, to }),
+        }
     }
 }
 
@@ -235,10 +244,7 @@ mod backoff {
 
     #[test]
     fn a_failing_save_is_retried_with_doubling_waits_and_busy_is_not_a_failure() {
-        let s = StoredState {
-            state: TrunkState::AS_MANUFACTURED,
-            confirmed: true,
-        };
+        let s = StoredState::confirmed(TrunkState::AS_MANUFACTURED);
         NOW.store(1_000, Ordering::Relaxed);
         let mut b = Backoff::new(
             Flaky {

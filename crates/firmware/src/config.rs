@@ -373,7 +373,7 @@ impl CraneConfig {
                 Some(s) => {
                     let valid_n = (geometry::design::MIN_N..=geometry::design::MAX_N)
                         .contains(&u32::from(m.n));
-                    if !valid_n || !(m.beta_deg > 0.0 && m.beta_deg < 90.0) {
+                    if !(valid_n && m.beta_deg > 0.0 && m.beta_deg < 90.0) {
                         return None;
                     }
                     let w = libm::tanf(m.beta_deg.to_radians());

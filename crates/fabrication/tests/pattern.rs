@@ -442,3 +442,57 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn kawasaki_holds_except_where_two_modules_of_different_beta_meet() {
+    // Alternating sum of the sector angles between consecutive M/V creases around a vertex:
+    // π at every interior vertex of one β; π + 2(β_above − β_below) on a module interface.
+    for t in designs() {
+        let p = Pattern::new(&t, 0.0).unwrap();
+        for v in p.interior_vertices() {
+            let o = p.vertices[v];
+            let mut dirs: Vec<f64> = p
+                .edges
+                .iter()
+                .filter(|e| {
+                    e.v.contains(&v) && matches!(e.kind, LineKind::Mountain | LineKind::Valley)
+                })
+                .map(|e| {
+                    let w = p.vertices[if e.v[0] == v { e.v[1] } else { e.v[0] }];
+                    (w[1] - o[1]).atan2(w[0] - o[0])
+                })
+                .collect();
+            dirs.sort_by(f64::total_cmp);
+            let k = dirs.len();
+            let sectors: Vec<f64> = (0..k)
+                .map(|i| {
+                    let d = dirs[(i + 1) % k] - dirs[i];
+                    if i + 1 == k {
+                        d + std::f64::consts::TAU
+                    } else {
+                        d
+                    }
+                })
+                .collect();
+            let even: f64 = sectors.iter().step_by(2).sum();
+            let expected = match p.roles[v] {
+                VertexRole::B { row, .. } if p.layers()[row].1 != p.layers()[row - 1].1 => {
+                    let (below, above) = (p.layers()[row - 1].1.beta(), p.layers()[row].1.beta());
+                    // Either alternating sum, depending on where the sort starts.
+                    let d = std::f64::consts::PI + 2.0 * (above - below);
+                    if (even - d).abs() < 1e-9 {
+                        d
+                    } else {
+                        std::f64::consts::TAU - d
+                    }
+                }
+                _ => std::f64::consts::PI,
+            };
+            assert!(
+                (even - expected).abs() < 1e-9,
+                "{:?}: {even} vs {expected}",
+                p.roles[v]
+            );
+        }
+    }
+}

@@ -288,7 +288,7 @@ impl Controller {
                     && angle_deg.is_finite()
                     && (0.0..=180.0).contains(&angle_deg)
                     && !stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
-                        .is_some_and(|limit_rad| (angle_deg as f64).to_radians() > limit_rad)
+                        .is_some_and(|limit_rad| angle_deg.to_radians() > limit_rad)
                     && self.angles_for([worst_mm; 3]).is_some()
             }
         }

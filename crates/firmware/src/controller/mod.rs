@@ -18,6 +18,7 @@
 
 pub mod belief;
 mod exec;
+pub mod identify;
 pub mod link;
 mod requests;
 pub mod snap;
@@ -184,6 +185,9 @@ pub struct Controller {
     /// The operator is asked to tell the state: the candidate shown and selectable with the
     /// up/down buttons, accepted with confirm.
     asking_operator: Option<TrunkState>,
+    /// The identification probe's measurements while it runs.
+    probe: Option<identify::ProbeLog>,
+    last_probe: Option<identify::ProbeLog>,
 
     // Modes and faults.
     faults: u16,
@@ -296,6 +300,8 @@ impl Controller {
                 now_ms + LEAK_SETTLE_MS
             },
             asking_operator: None,
+            probe: None,
+            last_probe: None,
             faults,
             last_fault,
             estop_latched: false,
@@ -502,6 +508,11 @@ impl Controller {
     /// actuation waits for this (the journal is written ahead of the motion).
     pub fn handle_stored(&mut self) {
         self.store_persisted = self.store_polled;
+    }
+
+    /// What the last identification probe measured (for reports and calibration).
+    pub fn last_probe(&self) -> Option<identify::ProbeLog> {
+        self.last_probe
     }
 
     /// What the controller believes about the trunk.
@@ -1162,7 +1173,7 @@ impl Controller {
         let host_plan = self
             .exec
             .as_ref()
-            .is_some_and(|e| e.origin == exec::Origin::Host);
+            .is_some_and(|e| matches!(e.origin, exec::Origin::Host | exec::Origin::Identify));
         if host_plan
             && self.now_ms.saturating_sub(self.last_rx_ms) >= self.cfg.link_timeout_ms as u64
         {

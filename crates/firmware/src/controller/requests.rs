@@ -298,7 +298,7 @@ impl Controller {
         if self.exec.is_some() {
             return (ResultCode::Busy, ResponseBody::None);
         }
-        if plan.plan_id == 0 {
+        if plan.plan_id == 0 || plan.plan_id == super::identify::IDENTIFY_PLAN_ID {
             return reject(RejectReason::InvalidPlan);
         }
         if let Err(r) = self.validate(&plan.steps) {
@@ -339,7 +339,15 @@ impl Controller {
         if self.confirmed() {
             return ok();
         }
-        self.ask_operator();
+        if self.estop_latched {
+            return reject(RejectReason::EStopLatched);
+        }
+        if self.faults != 0 || !self.pressure_valid() {
+            // No probing with a fault active (reset it first, or a person tells).
+            self.ask_operator();
+        } else {
+            self.start_identify();
+        }
         (ResultCode::InProgress, ResponseBody::None)
     }
 

@@ -187,7 +187,14 @@ impl Reach {
     /// Sum of [`tip_lower_bound`](Self::tip_lower_bound) over the offsets `k0..` of the
     /// remaining tips, stopping once it exceeds `budget`.
     #[inline]
-    pub fn suffix_from(&self, obj: &Objective, frame: &Frame, j: usize, k0: usize, budget: f64) -> f64 {
+    pub fn suffix_from(
+        &self,
+        obj: &Objective,
+        frame: &Frame,
+        j: usize,
+        k0: usize,
+        budget: f64,
+    ) -> f64 {
         let kmax = self.horizon.min(self.m - j);
         let mut sum = 0.0;
         for k in k0..=kmax {

@@ -132,6 +132,15 @@ impl ElfBoard {
         })
     }
 
+    /// Appends `states` to the data flash's record log (before the board first runs: to wear
+    /// the log to a given point, e.g. both blocks full so the next save must erase).
+    pub fn save_records(&mut self, states: &[StoredState]) {
+        let mut log = flash_log::FlashLog::new(DataFlashImage(self.emu.data_flash_mut()), 0);
+        for s in states {
+            let _ = log.save(s);
+        }
+    }
+
     /// Moves the parts' states in, runs the chip to `now_ms`, moves its outputs out.
     pub fn step(
         &mut self,

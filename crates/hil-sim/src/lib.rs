@@ -44,4 +44,4 @@ pub mod servo;
 pub mod sim;
 
 pub use fault::{Fault, ParseFaultError};
-pub use sim::{GroundTruth, Sim, SimOptions};
+pub use sim::{GroundTruth, Sim, SimOptions, TruthLog};

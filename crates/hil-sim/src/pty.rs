@@ -18,7 +18,7 @@ use nix::errno::Errno;
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
-use crate::{GroundTruth, Sim, SimOptions};
+use crate::{GroundTruth, Sim, SimOptions, TruthLog};
 
 /// Bytes the device may have queued for a client that is not reading before the oldest are
 /// dropped (a serial line with nobody listening loses its bytes too).
@@ -40,6 +40,16 @@ pub struct PtySim {
 impl PtySim {
     /// Opens a pseudo-terminal and starts the simulator behind it.
     pub fn spawn(opts: SimOptions) -> anyhow::Result<PtySim> {
+        Self::spawn_with_truth_log(opts, None)
+    }
+
+    /// [`PtySim::spawn`], appending the ground truth to `log` ([`TruthLog`]: a JSON line at
+    /// start, at every change of the true state, the actuators' safety or the fault set, and
+    /// at [`PtySim::stop`]).
+    pub fn spawn_with_truth_log(
+        opts: SimOptions,
+        log: Option<std::fs::File>,
+    ) -> anyhow::Result<PtySim> {
         if opts.speed.is_nan() || opts.speed <= 0.0 {
             anyhow::bail!("speed must be positive (got {})", opts.speed);
         }
@@ -67,7 +77,7 @@ impl PtySim {
                     Ok(sim) => {
                         *lock(&truth) = Some(sim.ground_truth());
                         let _ = tx.send(Ok(()));
-                        serve(sim, pty.master, pty.slave, &stop, &truth);
+                        serve(sim, pty.master, pty.slave, &stop, &truth, log);
                     }
                     Err(e) => {
                         let _ = tx.send(Err(e.to_string()));
@@ -137,7 +147,19 @@ fn serve(
     _slave: OwnedFd,
     stop: &AtomicBool,
     truth: &Mutex<Option<GroundTruth>>,
+    log: Option<std::fs::File>,
 ) {
+    use std::io::Write as _;
+    let mut log = log.map(|f| (f, TruthLog::new()));
+    let append = |line: String, file: &mut std::fs::File| {
+        // A full disk or a closed file must not stop the crane's simulation.
+        let _ = writeln!(file, "{line}");
+    };
+    if let Some((f, l)) = log.as_mut() {
+        if let Some(line) = l.observe(&sim) {
+            append(line, f);
+        }
+    }
     let speed = sim.options().speed;
     let start = Instant::now();
     let v0 = sim.now_ms();
@@ -163,6 +185,11 @@ fn serve(
         let target = target.min(sim.now_ms() + MAX_CATCH_UP_MS);
         while sim.now_ms() < target {
             sim.step();
+            if let Some((f, l)) = log.as_mut() {
+                if let Some(line) = l.observe(&sim) {
+                    append(line, f);
+                }
+            }
         }
         // Device → host.
         pending.extend(sim.read_device_bytes());
@@ -188,4 +215,8 @@ fn serve(
         }
     }
     *lock(truth) = Some(sim.ground_truth());
+    if let Some((f, l)) = log.as_mut() {
+        append(l.finish(&sim), f);
+        let _ = f.flush();
+    }
 }

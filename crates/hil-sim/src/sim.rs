@@ -266,10 +266,7 @@ impl Sim {
             exhaust: SimOutputPin::default(),
             gripper: SimOutputPin::default(),
         };
-        let flash = SimFlash::holding(StoredState {
-            state: opts.initial,
-            confirmed: true,
-        });
+        let flash = SimFlash::holding(StoredState::confirmed(opts.initial));
         let mut shell = Shell::new(
             inputs,
             outputs,
@@ -282,10 +279,7 @@ impl Sim {
         let board = match &opts.firmware_elf {
             Some(path) => Some(Box::new(ElfBoard::new(
                 path,
-                StoredState {
-                    state: opts.initial,
-                    confirmed: true,
-                },
+                StoredState::confirmed(opts.initial),
             )?)),
             None => None,
         };
@@ -315,6 +309,42 @@ impl Sim {
             spare_gauss: None,
             board,
             board_error: None,
+        })
+    }
+
+    /// A copy of this run from now on (same state, same random stream), for the power-cut
+    /// campaign to cut every 10 ms of one step without re-running its start. `None` with the
+    /// firmware ELF (an emulated chip is not copied).
+    pub fn fork(&self) -> Option<Sim> {
+        if self.board.is_some() {
+            return None;
+        }
+        Some(Sim {
+            opts: self.opts.clone(),
+            rng: self.rng.clone(),
+            now_ms: self.now_ms,
+            cfg: self.cfg,
+            trunk: self.trunk.clone(),
+            servos: self.servos,
+            shell: self.shell.clone(),
+            ctl: self.ctl.clone(),
+            operator: self.operator.clone(),
+            held: self.held,
+            joystick: self.joystick,
+            to_host: self.to_host.clone(),
+            sniffer: self.sniffer.clone(),
+            max_pressure_kpa: self.max_pressure_kpa,
+            snaps: self.snaps,
+            inlet_stuck_open: self.inlet_stuck_open,
+            tendon_broken: self.tendon_broken,
+            first_running_ms: self.first_running_ms,
+            link_dropped: self.link_dropped,
+            sensor_lost: self.sensor_lost,
+            trace: self.trace.clone(),
+            payload_n: self.payload_n,
+            spare_gauss: self.spare_gauss,
+            board: None,
+            board_error: self.board_error.clone(),
         })
     }
 
@@ -665,6 +695,13 @@ impl Sim {
         }
     }
 
+    /// Writes `record` to the emulated data flash as the controller would (the next
+    /// [`Sim::power_cycle`] boots from it): a test's way to boot into any belief.
+    pub fn write_flash_record(&mut self, record: &StoredState) {
+        use firmware::hw::StateStore as _;
+        let _ = self.shell.store.save(record);
+    }
+
     /// Successful writes to the emulated data flash so far (with the ELF: records, counted
     /// as programmed bytes per 14-byte slot).
     pub fn flash_writes(&self) -> u32 {
@@ -703,12 +740,7 @@ impl Sim {
     pub fn ground_truth(&self) -> GroundTruth {
         let limit = self.cfg.pressure_limit_kpa;
         let p = self.trunk.pressure_kpa() as f32;
-        let inlet_open = (self.shell.outputs.inlet.high || self.inlet_stuck_open)
-            && !self.opts.faults.contains(&Fault::ValveStuckClosed);
-        let servos_still = self
-            .servos
-            .iter()
-            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
+        let inlet_open = self.inlet_passes();
         let (believed_state, mode) = match &self.board {
             Some(b) => (b.state, b.mode),
             None => {
@@ -721,7 +753,7 @@ impl Sim {
             true_state: self.trunk.state(),
             max_pressure_kpa: self.max_pressure_kpa as f32,
             pressure_limit_kpa: limit,
-            actuators_safe: !inlet_open && servos_still && p <= limit,
+            actuators_safe: self.actuators_safe(),
             pressure_kpa: p,
             time_ms: self.now_ms,
             module_heights_mm: [h[0] as f32, h[1] as f32],
@@ -742,9 +774,173 @@ impl Sim {
     }
 }
 
+/// The ground-truth log for outside clients (`hil-sim --pty --truth-log FILE`): one JSON object
+/// per line whenever the trunk's true state, the actuators' safety or the set of faults (the
+/// controller's active ones and the injected ones in effect) changes, and once more at the end.
+#[derive(Debug, Clone, Default)]
+pub struct TruthLog {
+    last: Option<(Option<TrunkState>, bool, u16, Vec<Fault>)>,
+}
+
+impl TruthLog {
+    /// A log that has written nothing.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The line to append after a simulation step, if anything it watches changed (the first
+    /// call always gives one).
+    pub fn observe(&mut self, sim: &Sim) -> Option<String> {
+        let key = sim.truth_key();
+        if self.last.as_ref() == Some(&key) {
+            return None;
+        }
+        self.last = Some(key);
+        Some(sim.truth_line())
+    }
+
+    /// The final line (at exit), whatever changed.
+    pub fn finish(&mut self, sim: &Sim) -> String {
+        self.last = Some(sim.truth_key());
+        sim.truth_line()
+    }
+}
+
+impl Sim {
+    fn inlet_passes(&self) -> bool {
+        (self.shell.outputs.inlet.high || self.inlet_stuck_open)
+            && !self.opts.faults.contains(&Fault::ValveStuckClosed)
+    }
+
+    fn actuators_safe(&self) -> bool {
+        let limit = self.ctl.config().pressure_limit_kpa as f64;
+        let servos_still = self
+            .servos
+            .iter()
+            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
+        !self.inlet_passes() && servos_still && self.trunk.pressure_kpa() <= limit
+    }
+
+    /// The injected faults in effect now (the mid-plan ones once they struck).
+    pub fn faults_in_effect(&self) -> Vec<Fault> {
+        self.opts
+            .faults
+            .iter()
+            .copied()
+            .filter(|f| match f {
+                Fault::LinkDrop => self.link_dropped,
+                Fault::SensorDropout => self.sensor_lost,
+                Fault::ValveStuckOpen => self.inlet_stuck_open,
+                Fault::TendonBreak => self.tendon_broken,
+                _ => true,
+            })
+            .collect()
+    }
+
+    /// The controller's active faults (none known from an emulated board).
+    fn device_faults(&self) -> u16 {
+        match &self.board {
+            Some(_) => 0,
+            None => self.ctl.status().faults,
+        }
+    }
+
+    fn truth_key(&self) -> (Option<TrunkState>, bool, u16, Vec<Fault>) {
+        (
+            self.trunk.state(),
+            self.actuators_safe(),
+            self.device_faults(),
+            self.faults_in_effect(),
+        )
+    }
+
+    /// One truth-log line: `{"t_ms", "true_state", "pressure_kpa", "actuators_safe", …}` with
+    /// `true_state` a state name or `"between"`, and what the controller believes beside it.
+    pub fn truth_line(&self) -> String {
+        let bits = self.device_faults();
+        let faults: Vec<String> = protocol::FaultCode::ALL
+            .iter()
+            .filter(|f| bits & f.bit() != 0)
+            .map(|f| format!("E-{:02}", f.code()))
+            .collect();
+        let injected: Vec<String> = self
+            .faults_in_effect()
+            .iter()
+            .map(|f| f.to_string())
+            .collect();
+        let mut v = serde_json::json!({
+            "t_ms": self.now_ms,
+            "true_state": self.trunk.state().map_or("between", |s| s.name()),
+            "pressure_kpa": (self.trunk.pressure_kpa() * 100.0).round() / 100.0,
+            "actuators_safe": self.actuators_safe(),
+            "faults": faults,
+            "injected_faults": injected,
+        });
+        // What the device believes: the controller's belief, or (an emulated board) the last
+        // state it reported.
+        match &self.board {
+            Some(b) => v["believed_state"] = b.state.name().into(),
+            None => {
+                let status = self.ctl.status();
+                v["believed_state"] = status.state.name().into();
+                v["state_confirmed"] = status.state_confirmed.into();
+                v["candidates"] = status
+                    .candidates
+                    .iter()
+                    .map(|s| s.name())
+                    .collect::<Vec<_>>()
+                    .into();
+            }
+        }
+        v.to_string()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_truth_log_writes_a_line_per_change_and_one_at_the_end() {
+        let mut sim = Sim::new(SimOptions {
+            initial: "F&P".parse().unwrap(),
+            ..SimOptions::default()
+        });
+        let mut log = TruthLog::new();
+        let first = log.observe(&sim).expect("the first observation is logged");
+        let v: serde_json::Value = serde_json::from_str(&first).unwrap();
+        assert_eq!(v["true_state"], "F&P");
+        assert_eq!(v["t_ms"], 0);
+        assert_eq!(v["actuators_safe"], true);
+        assert!(v["pressure_kpa"].as_f64().unwrap().abs() < 0.01);
+        // Nothing changes at rest: no line.
+        for _ in 0..100 {
+            sim.step();
+            assert_eq!(log.observe(&sim), None);
+        }
+        // The step-up button unpacks the trunk: the state goes F&P → between → F&F.
+        sim.set_buttons(Buttons {
+            up: true,
+            ..Buttons::default()
+        });
+        sim.run_for(50);
+        sim.set_buttons(Buttons::default());
+        let mut states = Vec::new();
+        for _ in 0..10_000 {
+            sim.step();
+            if let Some(line) = log.observe(&sim) {
+                let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+                states.push(v["true_state"].as_str().unwrap().to_string());
+            }
+        }
+        // (F&P lines while the valves change, then the snap.)
+        states.dedup();
+        assert_eq!(states, ["F&P", "between", "F&F"]);
+        let end: serde_json::Value = serde_json::from_str(&log.finish(&sim)).unwrap();
+        assert_eq!(end["true_state"], "F&F");
+        assert_eq!(end["believed_state"], "F&F");
+        assert_eq!(end["state_confirmed"], true);
+    }
 
     #[test]
     fn hand_is_what_the_firmware_draws() {

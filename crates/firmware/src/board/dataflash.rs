@@ -10,8 +10,10 @@
 //! `docs/hardware.md` lists what to check first.
 //!
 //! Data-flash programming runs while the CPU keeps executing from code flash, so nothing here
-//! has to run from RAM. Waits refresh the watchdog (a block erase may take up to ~0.5 s worst
-//! case, longer than the WDT timeout).
+//! has to run from RAM. Nothing here waits for the flash: a write programs one byte per call
+//! (≈ 52 µs each, bounded by 1 ms), and a block erase (≈ 9 ms typical, up to ~0.5 s) runs in
+//! the background; both return [`FlashError::Busy`] until done, each call checking
+//! FSTATR1.FRDY once — the caller (the record log, once per loop pass) calls again.
 //!
 //! Safety limits of this module: it only ever addresses 0x4010_0000..0x4010_2000 (data flash)
 //! through FSAR/FEAR, never code flash, never the option-setting memory, and never the extra
@@ -63,9 +65,9 @@ const FSTATR2_ERASE_ERR: u32 = 0x11; // ERERR | ILGLERR
 /// tDSTOP (data flash stop recovery) and tMS (mode setup), rounded up.
 const T_DSTOP_US: u32 = 6;
 const T_MS_US: u32 = 6;
-/// Completion bounds, well above the manual's maxima (byte write 886 µs, 1 KiB erase 504 ms,
-/// both at FCLK 4 MHz; FCLK is 24 MHz here).
-const WRITE_TIMEOUT_US: u32 = 2_000;
+/// Completion bounds, above the manual's maxima (byte write 886 µs, 1 KiB erase 504 ms, both at
+/// FCLK 4 MHz; FCLK is 24 MHz here).
+const WRITE_TIMEOUT_US: u32 = 1_000;
 const ERASE_TIMEOUT_US: u32 = 800_000;
 
 fn w8(a: usize, v: u8) {
@@ -97,6 +99,21 @@ fn r32(a: usize) -> u32 {
 #[derive(Debug)]
 pub struct DataFlash {
     core_hz: u32,
+    /// A background erase: its block and the cycle count when it started.
+    erasing: Option<(usize, u32)>,
+    /// A write programmed one byte per call: where, what, how far, and when the byte in
+    /// flight started (`None`: none in flight).
+    writing: Option<Writing>,
+}
+
+/// A write in progress.
+#[derive(Debug, Clone, Copy)]
+struct Writing {
+    offset: usize,
+    data: [u8; 16],
+    len: usize,
+    next: usize,
+    in_flight: Option<u32>,
 }
 
 impl DataFlash {
@@ -106,7 +123,11 @@ impl DataFlash {
             w8(DFLCTL, 1);
             delay_us(T_DSTOP_US);
         }
-        let df = Self { core_hz };
+        let df = Self {
+            core_hz,
+            erasing: None,
+            writing: None,
+        };
         // FISR is writable only in P/E mode.
         df.enter_pe();
         let mhz = fclk_hz.div_ceil(1_000_000);
@@ -179,6 +200,26 @@ impl DataFlash {
         res.and(exit)
     }
 
+    /// Checks a background erase once: `Busy` while it runs, its result when it has ended.
+    fn poll_erase(&mut self) -> Result<(), FlashError> {
+        let Some((_, started)) = self.erasing else {
+            return Ok(());
+        };
+        if r32(FSTATR1) & FSTATR1_FRDY == 0 {
+            let elapsed_us = cycles().wrapping_sub(started) / (self.core_hz / 1_000_000).max(1);
+            if elapsed_us <= ERASE_TIMEOUT_US {
+                return Err(FlashError::Busy);
+            }
+            self.erasing = None;
+            w32(FRESETR, 1);
+            w32(FRESETR, 0);
+            let _ = self.exit_pe();
+            return Err(FlashError::Timeout);
+        }
+        self.erasing = None;
+        self.finish(1_000, FSTATR2_ERASE_ERR, FlashError::Erase)
+    }
+
     fn set_range(start: u32, end_inclusive: u32) {
         w8(FASR, 0); // user area, never the extra area
         w16(FSARH, (start >> 16) as u16);
@@ -195,6 +236,10 @@ impl NorFlash for DataFlash {
         if offset + buf.len() > DF_SIZE {
             return Err(FlashError::OutOfRange);
         }
+        self.poll_erase()?;
+        if self.writing.is_some_and(|w| w.in_flight.is_some()) {
+            return Err(FlashError::Busy); // in P/E mode: not readable
+        }
         for (i, b) in buf.iter_mut().enumerate() {
             // SAFETY: inside the data flash's read window, readable since DFLCTL.DFLEN = 1.
             *b = unsafe { read_volatile((DF_READ_BASE + offset + i) as *const u8) };
@@ -202,31 +247,87 @@ impl NorFlash for DataFlash {
         Ok(())
     }
 
+    /// Programs `data` one byte per call: each call checks the byte in flight once (FRDY),
+    /// starts the next and returns [`FlashError::Busy`] until the last byte is done, so no
+    /// loop pass waits for the flash (≈ 52 µs a byte). Call it again with the same `offset`
+    /// and `data` to go on; different ones while a write is under way are refused
+    /// ([`FlashError::Program`]: the bytes already programmed make that slot torn).
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), FlashError> {
-        if offset + data.len() > DF_SIZE {
+        if offset + data.len() > DF_SIZE || data.len() > 16 {
             return Err(FlashError::OutOfRange);
         }
-        for (i, &b) in data.iter().enumerate() {
-            let a = DF_PE_BASE + (offset + i) as u32;
-            self.enter_pe();
-            w8(FASR, 0);
-            w16(FSARH, (a >> 16) as u16);
-            w16(FSARL, a as u16);
-            w32(FWBL0, b as u32);
-            w8(FCR, FCR_WRITE);
-            self.finish(WRITE_TIMEOUT_US, FSTATR2_WRITE_ERR, FlashError::Program)?;
+        self.poll_erase()?;
+        let mut w = match self.writing {
+            Some(w) if w.offset == offset && &w.data[..w.len] == data => w,
+            Some(_) => {
+                self.writing = None;
+                return Err(FlashError::Program);
+            }
+            None => {
+                let mut buf = [0xFF; 16];
+                buf[..data.len()].copy_from_slice(data);
+                Writing {
+                    offset,
+                    data: buf,
+                    len: data.len(),
+                    next: 0,
+                    in_flight: None,
+                }
+            }
+        };
+        if let Some(started) = w.in_flight {
+            if r32(FSTATR1) & FSTATR1_FRDY == 0 {
+                let per_us = (self.core_hz / 1_000_000).max(1);
+                if cycles().wrapping_sub(started) / per_us <= WRITE_TIMEOUT_US {
+                    self.writing = Some(w);
+                    return Err(FlashError::Busy);
+                }
+                self.writing = None;
+                w32(FRESETR, 1);
+                w32(FRESETR, 0);
+                let _ = self.exit_pe();
+                return Err(FlashError::Timeout);
+            }
+            w.in_flight = None;
+            if let Err(e) = self.finish(WRITE_TIMEOUT_US, FSTATR2_WRITE_ERR, FlashError::Program) {
+                self.writing = None;
+                return Err(e);
+            }
+            w.next += 1;
         }
-        Ok(())
+        if w.next >= w.len {
+            self.writing = None;
+            return Ok(());
+        }
+        let a = DF_PE_BASE + (offset + w.next) as u32;
+        self.enter_pe();
+        w8(FASR, 0);
+        w16(FSARH, (a >> 16) as u16);
+        w16(FSARL, a as u16);
+        w32(FWBL0, w.data[w.next] as u32);
+        w8(FCR, FCR_WRITE);
+        w.in_flight = Some(cycles());
+        self.writing = Some(w);
+        Err(FlashError::Busy)
     }
 
     fn erase(&mut self, block: usize) -> Result<(), FlashError> {
         if block >= DF_SIZE / DF_BLOCK {
             return Err(FlashError::OutOfRange);
         }
+        match self.erasing {
+            // This block's erase is running: has it ended?
+            Some((b, _)) if b == block => return self.poll_erase(),
+            Some(_) => {
+                self.poll_erase()?;
+            }
+            None => {}
+        }
         let start = DF_PE_BASE + (block * DF_BLOCK) as u32;
         self.enter_pe();
         Self::set_range(start, start + DF_BLOCK as u32 - 1);
         w8(FCR, FCR_ERASE);
-        self.finish(ERASE_TIMEOUT_US, FSTATR2_ERASE_ERR, FlashError::Erase)
+        self.erasing = Some((block, cycles()));
+        Err(FlashError::Busy)
     }
 }

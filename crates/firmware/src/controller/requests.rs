@@ -3,9 +3,9 @@
 use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
-    DeviceInfo, DeviceMessage, FaultCode, ParamId, Plan, PlanPhase, PlanStatus, Primitive,
-    RejectReason, Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN,
-    PROTOCOL_VERSION, SCHEMA_ID,
+    DeviceInfo, DeviceMessage, ParamId, Plan, PlanPhase, PlanStatus, Primitive, RejectReason,
+    Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN, PROTOCOL_VERSION,
+    SCHEMA_ID,
 };
 
 use super::link::Fingerprint;
@@ -198,14 +198,7 @@ impl Controller {
                 if self.exec.is_some() {
                     return (ResultCode::Busy, ResponseBody::None);
                 }
-                self.set_state(state, true);
-                if self.fault_active(FaultCode::StateStorage) {
-                    self.faults &= !FaultCode::StateStorage.bit();
-                    self.emit(protocol::Event::FaultCleared(FaultCode::StateStorage));
-                    if self.faults == 0 && !self.estop_latched {
-                        self.safe = false;
-                    }
-                }
+                self.declare(state);
                 ok()
             }
             RequestBody::GetParam(id) => (
@@ -256,7 +249,10 @@ impl Controller {
                 }
             }
         }
-        if steps[0].from != self.state || !self.confirmed {
+        if !self.confirmed() {
+            return Err(RejectReason::Unconfirmed);
+        }
+        if steps[0].from != self.state() {
             return Err(RejectReason::WrongState);
         }
         Ok(())
@@ -292,7 +288,7 @@ impl Controller {
                     && angle_deg.is_finite()
                     && (0.0..=180.0).contains(&angle_deg)
                     && !stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
-                        .is_some_and(|limit_rad| (angle_deg as f64).to_radians() > limit_rad)
+                        .is_some_and(|limit_rad| angle_deg.to_radians() > limit_rad)
                     && self.angles_for([worst_mm; 3]).is_some()
             }
         }
@@ -302,7 +298,7 @@ impl Controller {
         if self.exec.is_some() {
             return (ResultCode::Busy, ResponseBody::None);
         }
-        if plan.plan_id == 0 {
+        if plan.plan_id == 0 || plan.plan_id == super::identify::IDENTIFY_PLAN_ID {
             return reject(RejectReason::InvalidPlan);
         }
         if let Err(r) = self.validate(&plan.steps) {
@@ -337,14 +333,21 @@ impl Controller {
     /// Identification of an unconfirmed state: `Ok` when there is nothing to identify; else
     /// the device asks the operator ([`protocol::Event::IdentifyNeedsOperator`]).
     fn identify(&mut self) -> Answer {
-        if let Some(b) = self.start_blocker() {
-            return b;
+        if self.exec.is_some() {
+            return (ResultCode::Busy, ResponseBody::None);
         }
-        if self.confirmed {
+        if self.confirmed() {
             return ok();
         }
-        let candidates = self.status().candidates;
-        self.emit(protocol::Event::IdentifyNeedsOperator { candidates });
+        if self.estop_latched {
+            return reject(RejectReason::EStopLatched);
+        }
+        if self.faults != 0 || !self.pressure_valid() {
+            // No probing with a fault active (reset it first, or a person tells).
+            self.ask_operator();
+        } else {
+            self.start_identify();
+        }
         (ResultCode::InProgress, ResponseBody::None)
     }
 

@@ -218,3 +218,39 @@ fn a_power_cut_mid_step_boots_the_elf_into_the_controllers_own_report() {
         );
     }
 }
+
+/// The display decoded from the TM1637 pins and the buttons read from the port pins: the ELF
+/// shows what the host-built controller shows, and a press of the gripper button (a switch to
+/// ground on P107) closes the gripper (P100 high).
+#[test]
+fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
+    for initial in ["F&P", "D&F", "D&D"] {
+        let mut shown = Vec::new();
+        for elf_mode in [false, true] {
+            let mut sim = Sim::try_new(SimOptions {
+                initial: initial.parse().unwrap(),
+                firmware_elf: elf_mode.then(elf),
+                ..SimOptions::default()
+            })
+            .unwrap();
+            sim.run_for(500);
+            shown.push(sim.ground_truth().display);
+            if elf_mode {
+                assert!(!sim.ground_truth().gripper_closed);
+                sim.set_buttons(firmware::Buttons {
+                    gripper: true,
+                    ..Default::default()
+                });
+                sim.run_for(100);
+                sim.set_buttons(firmware::Buttons::default());
+                sim.run_for(500);
+                assert!(
+                    sim.ground_truth().gripper_closed,
+                    "{initial}: the button closes the gripper"
+                );
+            }
+        }
+        assert_eq!(shown[0], shown[1], "{initial}: host-built vs ELF display");
+        assert!(!shown[1].trim().is_empty(), "{initial}: something is shown");
+    }
+}

@@ -586,6 +586,44 @@ impl Emulator {
             && self.uc.mem_write(addr.into(), &v.to_le_bytes()).is_ok()
     }
 
+    /// Takes the bytes waiting in RTT up-channel 0 (`_SEGGER_RTT`, as defmt-rtt lays it out)
+    /// and marks them read, as a probe does; empty when the ELF has no RTT control block.
+    /// For defmt they are frames for `defmt-print -e ELF`.
+    pub fn rtt_take(&mut self) -> Vec<u8> {
+        let Some(cb) = self.symbol("_SEGGER_RTT") else {
+            return Vec::new();
+        };
+        let mut id = [0u8; 10];
+        if self.uc.mem_read(cb.into(), &mut id).is_err() || &id != b"SEGGER RTT" {
+            return Vec::new();
+        }
+        let ch = cb + 24;
+        let (Some(buf), Some(size), Some(write), Some(read)) = (
+            self.read_u32(ch + 4),
+            self.read_u32(ch + 8),
+            self.read_u32(ch + 12),
+            self.read_u32(ch + 16),
+        ) else {
+            return Vec::new();
+        };
+        if size == 0 || write >= size || read >= size {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        let mut r = read;
+        while r != write {
+            let end = if write > r { write } else { size };
+            let mut chunk = vec![0u8; (end - r) as usize];
+            if self.uc.mem_read(u64::from(buf + r), &mut chunk).is_err() {
+                return out;
+            }
+            out.extend(chunk);
+            r = end % size;
+        }
+        self.write_u32(ch + 16, write);
+        out
+    }
+
     /// The address of the ELF symbol `name`.
     pub fn symbol(&self, name: &str) -> Option<u32> {
         self.symbols.get(name).copied()

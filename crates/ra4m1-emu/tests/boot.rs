@@ -66,3 +66,26 @@ fn boots_and_answers_hello_and_status() {
         "the loop sleeps in WFI and wakes every 1 ms: {stats:?}"
     );
 }
+
+#[test]
+fn ra4m1_run_captures_the_boards_defmt_log_over_rtt() {
+    let path = support::elf_path();
+    let rtt = std::env::temp_dir().join(format!("uno-r4-rtt-{}", std::process::id()));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ra4m1-run"))
+        .args(["--timeout-ms", "100", "--rtt"])
+        .arg(&rtt)
+        .arg(&path)
+        .output()
+        .expect("ra4m1-run starts");
+    // The firmware never exits: the time limit ends the run.
+    assert_eq!(
+        out.status.code(),
+        Some(124),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let log = std::fs::read(&rtt).expect("the RTT capture");
+    let _ = std::fs::remove_file(&rtt);
+    // The boot line (clocks, reset cause, watchdog): a defmt frame of a few dozen bytes.
+    assert!(log.len() >= 8, "{} bytes of RTT", log.len());
+}

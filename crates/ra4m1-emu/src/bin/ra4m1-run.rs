@@ -2,24 +2,28 @@
 //! binaries (or any program) without a board.
 //!
 //! ```text
-//! ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] ELF
+//! ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] [--rtt PATH] ELF
 //! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="ra4m1-run" cargo test --target thumbv7em-none-eabihf …
 //! ```
 //! The program's semihosting output goes to stdout (SCI9's bytes too with `--uart`); the run
 //! ends with the program's semihosting exit code (SYS_EXIT / SYS_EXIT_EXTENDED), 124 when the
 //! virtual time limit passes first (default 10 s), 1 when the emulator stops on an access it
-//! does not model (the message names the address), 2 on a usage error.
+//! does not model (the message names the address), 2 on a usage error. `--rtt PATH` writes the
+//! RTT up-channel's bytes (defmt frames) to PATH, read as a probe would: decode them with
+//! `defmt-print -e ELF < PATH`.
 
 use std::io::Write as _;
 use std::process::ExitCode;
 
 use ra4m1_emu::{Board, Emulator, Options};
 
-const USAGE: &str = "usage: ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] ELF";
+const USAGE: &str =
+    "usage: ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] [--rtt PATH] ELF";
 
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
     let (mut timeout_ms, mut board, mut uart, mut elf) = (10_000u64, Board::Wifi, false, None);
+    let mut rtt_path: Option<String> = None;
     while let Some(a) = args.next() {
         if elf.is_some() {
             // Cargo passes the test binary's own arguments after the ELF: they are the
@@ -37,6 +41,10 @@ fn main() -> ExitCode {
                 _ => return usage("--board is wifi or minima"),
             },
             "--uart" => uart = true,
+            "--rtt" => match args.next() {
+                Some(p) => rtt_path = Some(p),
+                None => return usage("--rtt needs a file path"),
+            },
             "-h" | "--help" => {
                 println!("{USAGE}");
                 return ExitCode::SUCCESS;
@@ -68,11 +76,21 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    let mut rtt = match rtt_path.as_deref().map(std::fs::File::create).transpose() {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("ra4m1-run: --rtt: {e}");
+            return ExitCode::from(1);
+        }
+    };
     let mut out = std::io::stdout();
     let end = timeout_ms * 1_000_000;
     while emu.now_ns() < end && emu.exit_code().is_none() {
         let r = emu.run_until_ns((emu.now_ns() + 1_000_000).min(end));
         let _ = out.write_all(&emu.take_semihost_output());
+        if let Some(f) = rtt.as_mut() {
+            let _ = f.write_all(&emu.rtt_take());
+        }
         let tx = emu.host_take();
         if uart {
             let _ = out.write_all(&tx);

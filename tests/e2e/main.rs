@@ -7,5 +7,6 @@
 mod faults;
 mod graph_agreement;
 mod plans;
+mod pty;
 mod serial_garbage;
 mod usage;

@@ -115,6 +115,23 @@ pub struct GroundTruth {
     pub faults: Vec<Fault>,
 }
 
+/// The truth that judges safety ([`Sim::safety`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Safety {
+    /// The trunk's true state (`None` between states).
+    pub true_state: Option<TrunkState>,
+    /// True gauge pressure, kPa.
+    pub pressure_kpa: f32,
+    /// The controller's pressure cap, kPa.
+    pub pressure_limit_kpa: f32,
+    /// The inlet passes air.
+    pub inlet_open: bool,
+    /// The exhaust passes air.
+    pub exhaust_open: bool,
+    /// As [`GroundTruth::actuators_safe`].
+    pub actuators_safe: bool,
+}
+
 type SimInputs = PinInputs<
     SimAnalog,
     SimAnalog,
@@ -181,6 +198,9 @@ pub struct Sim {
     trace: Option<Trace>,
     payload_n: f64,
     spare_gauss: Option<f64>,
+    /// Byte corruption probability set at run time (`None`: [`LINE_NOISE_RATE`] under the
+    /// `line-noise` fault, else none).
+    line_noise_rate: Option<f64>,
 }
 
 impl std::fmt::Debug for Sim {
@@ -275,7 +295,18 @@ impl Sim {
             trace: None,
             payload_n: 0.0,
             spare_gauss: None,
+            line_noise_rate: None,
         }
+    }
+
+    /// The same simulator with the controller's link timeout set to `ms` (clamped to the
+    /// parameter's range), booted again; for a wall-clock client of a sped-up simulator, whose
+    /// heartbeats arrive `speed` times further apart in virtual time. Call before running.
+    pub fn with_link_timeout_ms(mut self, ms: u32) -> Self {
+        self.cfg.link_timeout_ms = ms;
+        self.cfg = self.cfg.validated();
+        self.ctl = self.shell.boot(self.cfg, self.now_ms);
+        self
     }
 
     /// The options it runs with.
@@ -336,7 +367,7 @@ impl Sim {
         if self.link_dropped {
             return;
         }
-        let noise = self.opts.faults.contains(&Fault::LineNoise);
+        let noise = self.noisy();
         for &b in bytes {
             let b = if noise { self.corrupt(b) } else { b };
             self.shell.link.rx.push_back(b);
@@ -353,8 +384,44 @@ impl Sim {
         !self.to_host.is_empty()
     }
 
+    fn noisy(&self) -> bool {
+        self.line_noise_rate.is_some_and(|r| r > 0.0)
+            || self.opts.faults.contains(&Fault::LineNoise)
+    }
+
+    /// Corrupts each byte on the link (both ways) with probability `rate` (0–1) from now on.
+    pub fn set_line_noise_rate(&mut self, rate: f64) {
+        self.line_noise_rate = Some(rate.clamp(0.0, 1.0));
+    }
+
+    /// Injects `fault` now (a fault with an onset, for the swarm tester): from this step on the
+    /// simulator behaves as if it had been given from the start; `link-drop` and
+    /// `sensor-dropout` act at once.
+    pub fn inject_fault(&mut self, fault: Fault) {
+        if self.opts.faults.contains(&fault) {
+            return;
+        }
+        self.opts.faults.push(fault);
+        match fault {
+            Fault::ServoStall => {
+                for s in &mut self.servos {
+                    s.spec.stall_torque_n_m *= SERVO_STALL_FAULT_TORQUE;
+                }
+            }
+            Fault::LinkDrop => self.link_dropped = true,
+            Fault::SensorDropout => self.sensor_lost = true,
+            _ => {}
+        }
+    }
+
+    /// The simulated operator (to script mistakes).
+    pub fn operator_mut(&mut self) -> &mut Operator {
+        &mut self.operator
+    }
+
     fn corrupt(&mut self, b: u8) -> u8 {
-        if self.rng.gen_bool(LINE_NOISE_RATE) {
+        let rate = self.line_noise_rate.unwrap_or(LINE_NOISE_RATE);
+        if self.rng.gen_bool(rate) {
             b ^ self.rng.gen_range(1..=255u8)
         } else {
             b
@@ -446,11 +513,7 @@ impl Sim {
                 if self.link_dropped {
                     continue;
                 }
-                let b = if self.opts.faults.contains(&Fault::LineNoise) {
-                    self.corrupt(b)
-                } else {
-                    b
-                };
+                let b = if self.noisy() { self.corrupt(b) } else { b };
                 self.to_host.push_back(b);
             }
         }
@@ -613,8 +676,8 @@ impl Sim {
         pred(self)
     }
 
-    /// What really happened.
-    pub fn ground_truth(&self) -> GroundTruth {
+    /// The part of the truth that judges safety, cheap enough to ask every step.
+    pub fn safety(&self) -> Safety {
         let limit = self.ctl.config().pressure_limit_kpa;
         let p = self.trunk.pressure_kpa() as f32;
         let inlet_open = (self.shell.outputs.inlet.high || self.inlet_stuck_open)
@@ -623,13 +686,32 @@ impl Sim {
             .servos
             .iter()
             .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
+        Safety {
+            true_state: self.trunk.state(),
+            pressure_kpa: p,
+            pressure_limit_kpa: limit,
+            inlet_open,
+            exhaust_open: self.shell.outputs.exhaust.high,
+            actuators_safe: !inlet_open && servos_still && p <= limit,
+        }
+    }
+
+    /// What really happened.
+    pub fn ground_truth(&self) -> GroundTruth {
+        let Safety {
+            pressure_limit_kpa: limit,
+            pressure_kpa: p,
+            inlet_open,
+            actuators_safe,
+            ..
+        } = self.safety();
         let status = self.ctl.status();
         let h = self.trunk.heights_mm();
         GroundTruth {
             true_state: self.trunk.state(),
             max_pressure_kpa: self.max_pressure_kpa as f32,
             pressure_limit_kpa: limit,
-            actuators_safe: !inlet_open && servos_still && p <= limit,
+            actuators_safe,
             pressure_kpa: p,
             time_ms: self.now_ms,
             module_heights_mm: [h[0] as f32, h[1] as f32],

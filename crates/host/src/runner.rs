@@ -967,6 +967,22 @@ impl PlanRunner {
                     elapsed_ms: elapsed,
                     pressure_kpa: st.pressure_kpa,
                 });
+                let limit = edge.transition.timeout_ms;
+                if elapsed > limit.saturating_add(self.options.step_grace_ms) {
+                    self.report_current_failed(Some(elapsed));
+                    let step = self.current_step();
+                    let mut fail = RunFailure::new(
+                        FailureKind::Timeout,
+                        format!(
+                            "{}: nobody did the manual step within its time limit of {limit} ms \
+                             (device time); the host aborted it",
+                            step.map_or(String::new(), |s| s.to_string())
+                        ),
+                    );
+                    fail.step = step;
+                    return self.abort(session, fail, now_ms);
+                }
+                let f = self.following.as_mut().expect("checked");
                 if !f.prompted[current] {
                     f.prompted[current] = true;
                     let task = manual_task(edge.transition.primitives);

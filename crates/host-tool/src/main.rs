@@ -67,6 +67,8 @@ enum Command {
     Fk(cmd::fk::Args),
     /// Inverse kinematics: fit a stacked boom to a target curve.
     Ik(cmd::ik::Args),
+    /// Files to make a trunk: crease pattern (SVG, DXF, FOLD), printable panel (3MF, STL), kit.
+    Pattern(cmd::pattern::Args),
     /// Take the crane (--port) or the simulator (--sim) to a trunk state, e.g. --target 'D&F'.
     Plan(cmd::plan::Args),
     /// One status snapshot of the crane (or the simulator).
@@ -89,6 +91,7 @@ fn main() -> ExitCode {
         Command::States(args) => cmd::states::run(args),
         Command::Fk(args) => cmd::fk::run(args),
         Command::Ik(args) => cmd::ik::run(args),
+        Command::Pattern(args) => cmd::pattern::run(args),
         Command::Plan(args) => cmd::plan::run(args),
         Command::Status(args) => cmd::status::run(args),
         Command::Monitor(args) => cmd::monitor::run(args),

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Reads host-tool's fabrication outputs back with independent readers: FOLD with rabbit-ear
+# (npm), DXF with ezdxf, 3MF/STL with trimesh (PyPI), the kit's counts. Installs its own
+# packages (tools/fabrication/requirements.txt, package-lock.json). Needs target/release/host-tool.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+H="$PWD/target/release/host-tool"
+[ -x "$H" ] || cargo build --release --locked -p host-tool
+python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tools/fabrication/requirements.txt
+(cd tools/fabrication && npm ci --no-audit --no-fund --silent)
+OUT="$(mktemp -d)"
+trap 'rm -rf "$OUT"' EXIT
+PY="python3 tools/fabrication/check_outputs.py"
+FOLDCHECK="node tools/fabrication/check_fold.js"
+
+echo "--- crane trunk (defaults): SVG, DXF, FOLD"
+"$H" pattern --svg "$OUT/crane.svg" --dxf "$OUT/crane.dxf" --fold "$OUT/crane.fold"
+$PY dxf "$OUT/crane.dxf" --fold "$OUT/crane.fold" --edge-mm 75 --seam-mm 5
+$FOLDCHECK "$OUT/crane.fold"
+rsvg-convert -w 800 "$OUT/crane.svg" -o "$OUT/crane.png" && echo "ok   SVG renders (rsvg-convert)"
+
+echo "--- golden n = 3 module, 4 layers, every catalogue state and self-packed (FOLD)"
+"$H" pattern --n 3 --beta 31.717474411461005 --layers 4 --edge-mm 609.6 --seam-mm 0 \
+  --states deployed,folded,edge-0,edge-1,edge-2,vertex-0,vertex-1,vertex-2,self-packed \
+  --fold "$OUT/golden.fold" --dxf "$OUT/golden.dxf"
+$FOLDCHECK "$OUT/golden.fold" --uniform
+$PY dxf "$OUT/golden.dxf" --fold "$OUT/golden.fold" --edge-mm 609.6 --seam-mm 0
+
+echo "--- n = 6, two modules of different beta (FOLD)"
+"$H" pattern --n 6 --beta 15.104295,40 --layers 1,2 --edge-mm 20 --fold "$OUT/n6.fold"
+$FOLDCHECK "$OUT/n6.fold"

@@ -1,0 +1,90 @@
+//! Output files of the fabrication commands: every one is opened before the work starts, so
+//! a typo in a path fails at once (usage error) instead of after the work.
+
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crate::failure::Failure;
+
+/// An output file opened for writing (not yet truncated: an existing file keeps its contents
+/// until [`Output::write`] replaces them).
+pub struct Output {
+    flag: &'static str,
+    path: PathBuf,
+    file: File,
+    created: bool,
+}
+
+/// Opens every `(flag, path)` for writing; on the first failure removes the files this call
+/// created and returns a usage error naming the flag and the reason.
+pub fn open_all(list: &[(&'static str, &Path)]) -> Result<Vec<Output>, Failure> {
+    let mut out: Vec<Output> = Vec::new();
+    for (flag, path) in list {
+        let existed = path.exists();
+        if path.is_dir() {
+            discard(out);
+            return Err(Failure::usage(format!(
+                "cannot write {flag} {}: it is a directory; give a file name",
+                path.display()
+            )));
+        }
+        match OpenOptions::new()
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+        {
+            Ok(file) => out.push(Output {
+                flag,
+                path: path.to_path_buf(),
+                file,
+                created: !existed,
+            }),
+            Err(e) => {
+                discard(out);
+                return Err(Failure::usage(format!(
+                    "cannot write {flag} {}: {e}",
+                    path.display()
+                )));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Removes the files that [`open_all`] created (the work did not happen).
+pub fn discard(outputs: Vec<Output>) {
+    for o in outputs {
+        if o.created {
+            drop(o.file);
+            let _ = std::fs::remove_file(&o.path);
+        }
+    }
+}
+
+impl Output {
+    /// The flag it was given with.
+    pub fn flag(&self) -> &'static str {
+        self.flag
+    }
+
+    /// Replaces the file's contents with what `fill` writes.
+    pub fn write(
+        self,
+        fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> Result<(), Failure> {
+        let fail = |e: std::io::Error| {
+            Failure::Runtime(anyhow::anyhow!(
+                "cannot write {} {}: {e}",
+                self.flag,
+                self.path.display()
+            ))
+        };
+        self.file.set_len(0).map_err(fail)?;
+        let mut w = BufWriter::new(&self.file);
+        fill(&mut w).map_err(fail)?;
+        w.flush().map_err(fail)?;
+        Ok(())
+    }
+}

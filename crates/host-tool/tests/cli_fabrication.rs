@@ -1,0 +1,245 @@
+//! `host-tool pattern` and `host-tool model` through the real binary: the files are written
+//! and parse, defaults are printed in --help, and bad input is a usage error (exit 2) that
+//! says what is valid, checked before any file is written.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn host_tool(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_host-tool"))
+        .args(args)
+        .output()
+        .expect("run host-tool")
+}
+
+fn ok(args: &[&str]) -> Output {
+    let out = host_tool(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn usage_error(args: &[&str], expect_in_message: &str) {
+    let out = host_tool(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+    assert!(stderr.contains(expect_in_message), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+}
+
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let p = std::env::temp_dir().join(format!("host-tool-fab-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).unwrap();
+        TempDir(p)
+    }
+
+    fn file(&self, name: &str) -> String {
+        self.0.join(name).to_string_lossy().into_owned()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+#[test]
+fn pattern_help_prints_the_paper_defaults() {
+    let out = ok(&["pattern", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    for want in [
+        "[default: 3]",
+        "[default: 35,31.72]",
+        "[default: 2]",
+        "[default: 75]",
+        "[default: 5]",
+    ] {
+        assert!(help.contains(want), "missing {want} in\n{help}");
+    }
+}
+
+#[test]
+fn pattern_writes_svg_dxf_and_fold_of_the_crane_trunk() {
+    let dir = TempDir::new("pattern");
+    let (svg, dxf, fold) = (dir.file("t.svg"), dir.file("t.dxf"), dir.file("t.fold"));
+    ok(&["pattern", "--svg", &svg, "--dxf", &dxf, "--fold", &fold]);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    // 230 mm wide (3 × 75 + 5 mm seam) plus margins; the page is in millimetres.
+    assert!(text.contains(r#"width="250.000mm""#), "{}", &text[..300]);
+    for colour in ["#ff0000", "#0000ff", "#000000", "#00ff00", "#ff00ff"] {
+        assert!(text.contains(colour), "{colour}");
+    }
+    assert!(text.contains("50 mm"), "scale bar label");
+    let dxf_text = std::fs::read_to_string(&dxf).unwrap();
+    for layer in ["MOUNTAIN", "VALLEY", "CUT", "BOUNDARY", "VIRTUAL"] {
+        assert!(dxf_text.contains(layer), "{layer}");
+    }
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&fold).unwrap()).unwrap();
+    assert_eq!(doc["file_spec"], 1.2);
+    // Default frames: the catalogue states feasible for both the 35° and the 31.72° module.
+    let titles: Vec<&str> = doc["file_frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["frame_title"].as_str().unwrap())
+        .collect();
+    assert_eq!(titles, ["deployed", "folded"]);
+    // 4 layers × 8n faces.
+    assert_eq!(doc["faces_vertices"].as_array().unwrap().len(), 4 * 8 * 3);
+    for f in doc["file_frames"].as_array().unwrap() {
+        assert_eq!(f["yoshimura:feasible"], true);
+        assert!(f["yoshimura:max_strain"].as_f64().unwrap() < 1e-9);
+    }
+}
+
+#[test]
+fn pattern_frames_per_module_and_infeasible_states_are_recorded() {
+    let dir = TempDir::new("frames");
+    let fold = dir.file("t.fold");
+    let out = ok(&[
+        "pattern",
+        "--fold",
+        &fold,
+        "--states",
+        "self-packed/folded,edge-0",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("frame 'edge-0' is not isometric"),
+        "{stderr}"
+    );
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&fold).unwrap()).unwrap();
+    let frames = doc["file_frames"].as_array().unwrap();
+    assert_eq!(
+        frames[0]["yoshimura:layer_states"],
+        serde_json::json!(["self-packed", "self-packed", "folded", "folded"])
+    );
+    assert_eq!(frames[1]["yoshimura:feasible"], false);
+    assert!(frames[1]["yoshimura:max_strain"].as_f64().unwrap() > 0.01);
+}
+
+#[test]
+fn pattern_usage_errors_say_what_is_valid_and_write_nothing() {
+    let dir = TempDir::new("usage");
+    let svg = dir.file("never.svg");
+    let fold = dir.file("never.fold");
+    usage_error(&["pattern"], "give at least one of --svg FILE");
+    usage_error(&["pattern", "--svg", &svg, "--n", "2"], "[3, 64]");
+    usage_error(
+        &[
+            "pattern",
+            "--svg",
+            &svg,
+            "--beta",
+            "35,31.72,30",
+            "--layers",
+            "1,2",
+        ],
+        "--layers has 2 values",
+    );
+    usage_error(&["pattern", "--svg", &svg, "--layers", "0"], "[1, 1000]");
+    usage_error(&["pattern", "--svg", &svg, "--layers", "1001"], "[1, 1000]");
+    usage_error(
+        &["pattern", "--svg", &svg, "--layers", "600,500"],
+        "at most 1000",
+    );
+    usage_error(&["pattern", "--svg", &svg, "--edge-mm", "0"], "(0, 10000]");
+    usage_error(
+        &["pattern", "--svg", &svg, "--edge-mm", "NaN"],
+        "(0, 10000]",
+    );
+    usage_error(
+        &["pattern", "--svg", &svg, "--seam-mm", "38"],
+        "[0, 37.5] mm",
+    );
+    usage_error(
+        &["pattern", "--svg", &svg, "--seam-mm", "-1"],
+        "[0, 37.5] mm",
+    );
+    usage_error(
+        &["pattern", "--svg", &svg, "--states", "folded"],
+        "give --fold FILE too",
+    );
+    usage_error(
+        &["pattern", "--fold", &fold, "--states", "edge-3"],
+        "edge-0 … edge-2",
+    );
+    usage_error(
+        &["pattern", "--fold", &fold, "--states", "a/b/c"],
+        "names 3 modules but the trunk has 2",
+    );
+    usage_error(
+        &[
+            "pattern", "--fold", &fold, "--beta", "20", "--states", "folded",
+        ],
+        "folded needs β ≥ 90°/n",
+    );
+    usage_error(
+        &["pattern", "--fold", &fold, "--states", "deployed,,folded"],
+        "comma-separated",
+    );
+    usage_error(
+        &["pattern", "--svg", "/nonexistent-dir/x.svg"],
+        "cannot write --svg",
+    );
+    usage_error(&["pattern", "--svg", &dir.file("")], "is a directory");
+    assert!(!Path::new(&svg).exists() && !Path::new(&fold).exists());
+}
+
+#[test]
+fn pattern_edges_of_the_ranges_work() {
+    let dir = TempDir::new("edges");
+    let f = dir.file("t.fold");
+    for args in [
+        vec![
+            "--n",
+            "3",
+            "--beta",
+            "0.001",
+            "--layers",
+            "1",
+            "--edge-mm",
+            "0.001",
+            "--seam-mm",
+            "0",
+        ],
+        vec![
+            "--n",
+            "64",
+            "--beta",
+            "89.999",
+            "--layers",
+            "1",
+            "--edge-mm",
+            "10000",
+            "--seam-mm",
+            "5000",
+        ],
+        vec![
+            "--n",
+            "3",
+            "--beta",
+            "30",
+            "--layers",
+            "1000",
+            "--seam-mm",
+            "37.5",
+        ],
+    ] {
+        let mut all = vec!["pattern", "--fold", &f];
+        all.extend(args);
+        ok(&all);
+        let doc: Value = serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
+        assert!(doc["faces_vertices"].as_array().unwrap().len() >= 24);
+    }
+}

@@ -1,0 +1,923 @@
+//! An emulator of the Renesas RA4M1 (the Arduino UNO R4's MCU) that runs the unmodified
+//! `uno-r4` firmware ELF.
+//!
+//! The Cortex-M4F core is [Unicorn](https://www.unicorn-engine.org/) (QEMU's TCG as a
+//! library, chosen because it is the CPU emulator firmware-rehosting tools such as Fuzzware
+//! and HALucinator build on, it installs as a crate that builds its C here, and it exposes
+//! exactly the hooks a peripheral model needs: MMIO callbacks, block hooks and interrupt
+//! hooks). Unicorn has no NVIC, so this crate does what those tools do: exception entry and
+//! return are emulated here (stacking of the basic or FP-extended frame, EXC_RETURN,
+//! priorities, PRIMASK/BASEPRI masking, tail-chaining through re-evaluation on return).
+//!
+//! Everything else of the chip the board uses is modelled register by register
+//! ([`periph`]); an access to any other address stops the run with an error naming it
+//! ([`EmuError::Unmodelled`]). Time is virtual and deterministic: it advances with the
+//! instructions executed ([`cpu`]'s cycle model, flash wait states counted) and jumps ahead
+//! while the CPU sleeps in `WFI`.
+//!
+//! The chip starts as the Arduino bootloader leaves it at the jump to the application at
+//! 0x4000 ([`Emulator::new`]): VTOR = 0x4000, MSP and PC from the application's vector table,
+//! PRIMASK = 1, HOCO at 48 MHz (option bytes OFS0 = 0xFFFF_FFFF: both watchdogs in register-
+//! start mode, OFS1 = 0xFFFF_CFDF: HOCO 48 MHz, voltage monitor 0 off), the clock dividers of
+//! the Arduino core, one flash wait state; on the WiFi board the bootloader's SCI9 interrupt
+//! links IELSR2/3 (TXI/TEI) are left set with their NVIC lines pending.
+
+#![deny(missing_docs)]
+
+pub mod clock;
+pub mod cpu;
+mod error;
+pub mod machine;
+pub mod periph;
+pub mod tm1637;
+
+use unicorn_engine::unicorn_const::{Arch, HookType, MemType, Mode, Prot};
+use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
+
+pub use error::EmuError;
+use machine::{Machine, Wiring, PAGES};
+pub use periph::flash::{FlashFault, Timing as FlashTiming};
+pub use periph::gpt::Line;
+pub use periph::port::PinDrive;
+pub use periph::system::ResetKind;
+use periph::{scs::exc, Why};
+
+/// Code flash size (R7FA4M1AB: 256 KiB).
+pub const CODE_FLASH: u32 = 256 * 1024;
+/// SRAM base and size (32 KiB).
+pub const RAM: (u32, u32) = (0x2000_0000, 32 * 1024);
+/// Where the Arduino bootloader jumps.
+pub const APP_BASE: u32 = 0x4000;
+/// OFS0 and OFS1 as the Arduino UNO R4 bootloader image programs them.
+pub const OFS: (u32, u32) = (0xFFFF_FFFF, 0xFFFF_CFDF);
+const EXC_RETURN_PAGE: u32 = 0xFFFF_F000;
+
+/// Which UNO R4.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Board {
+    /// UNO R4 WiFi: the host link is SCI9 through the ESP32-S3 bridge; the bootloader leaves
+    /// SCI9 running and its TXI/TEI links in IELSR2/3.
+    Wifi,
+    /// UNO R4 Minima: the bootloader used USB; SCI9 starts in module stop.
+    Minima,
+}
+
+/// How to build the emulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Options {
+    /// The board (bootloader leftovers).
+    pub board: Board,
+    /// Data-flash program/erase times.
+    pub flash_timing: FlashTiming,
+    /// Wiring of the TM1637 display, `(clk, dio)` as `(port, pin)`.
+    pub tm1637: Option<((usize, usize), (usize, usize))>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            board: Board::Wifi,
+            flash_timing: FlashTiming::default(),
+            tm1637: Some(((3, 1), (3, 2))),
+        }
+    }
+}
+
+/// Counters of what ran.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Instructions executed.
+    pub instructions: u64,
+    /// ICLK cycles while awake (the cycle model, wait states included).
+    pub awake_cycles: u64,
+    /// Wake-ups from `WFI`.
+    pub wakes: u64,
+    /// The longest stretch between a wake-up and the next `WFI`, cycles (a loop pass with
+    /// every interrupt it took).
+    pub max_awake_cycles: u64,
+    /// Resets after the first start.
+    pub resets: u64,
+}
+
+/// The emulated board.
+pub struct Emulator {
+    uc: Unicorn<'static, Machine>,
+    options: Options,
+    flash_image: Vec<u8>,
+    resets: Vec<ResetKind>,
+}
+
+impl std::fmt::Debug for Emulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Emulator")
+            .field("now_ns", &self.now_ns())
+            .field("resets", &self.resets)
+            .finish_non_exhaustive()
+    }
+}
+
+fn cpu_err(what: impl std::fmt::Debug, pc: u32) -> EmuError {
+    EmuError::Cpu {
+        what: format!("{what:?}"),
+        pc,
+    }
+}
+
+/// Loads the PT_LOAD segments of a 32-bit ARM ELF into a code-flash image.
+fn load_elf(elf: &[u8]) -> Result<Vec<u8>, EmuError> {
+    use object::read::elf::{ElfFile32, ProgramHeader};
+    use object::Endianness;
+    let file = ElfFile32::<Endianness>::parse(elf).map_err(|e| EmuError::Elf(e.to_string()))?;
+    if file.elf_header().e_machine.get(file.endian()) != object::elf::EM_ARM {
+        return Err(EmuError::Elf("not an ARM ELF".into()));
+    }
+    let mut image = vec![0xFF; CODE_FLASH as usize];
+    let mut loaded = 0;
+    for ph in file.elf_program_headers() {
+        let e = file.endian();
+        if ph.p_type(e) != object::elf::PT_LOAD || ph.p_filesz(e) == 0 {
+            continue;
+        }
+        let paddr = ph.p_paddr(e);
+        let data = ph
+            .data(e, elf)
+            .map_err(|_| EmuError::Elf("segment data out of the file".into()))?;
+        if paddr < APP_BASE || paddr as u64 + data.len() as u64 > u64::from(CODE_FLASH) {
+            return Err(EmuError::Elf(format!(
+                "a loadable segment at {paddr:#x} (+{:#x}) lies outside the application flash {APP_BASE:#x}..{CODE_FLASH:#x}",
+                data.len()
+            )));
+        }
+        image[paddr as usize..paddr as usize + data.len()].copy_from_slice(data);
+        loaded += data.len();
+    }
+    if loaded == 0 {
+        return Err(EmuError::Elf("no loadable segment".into()));
+    }
+    image[0x400..0x404].copy_from_slice(&OFS.0.to_le_bytes());
+    image[0x404..0x408].copy_from_slice(&OFS.1.to_le_bytes());
+    Ok(image)
+}
+
+fn hoco_hz(ofs1: u32) -> u32 {
+    match (ofs1 >> 12) & 7 {
+        0b000 => 24_000_000,
+        0b010 => 32_000_000,
+        0b101 => 64_000_000,
+        _ => 48_000_000,
+    }
+}
+
+impl Emulator {
+    /// Loads `elf` (the `uno-r4` image, linked at 0x4000) and starts the chip as the Arduino
+    /// bootloader leaves it (power-on reset).
+    pub fn new(elf: &[u8], options: Options) -> Result<Self, EmuError> {
+        let image = load_elf(elf)?;
+        let hoco = hoco_hz(OFS.1);
+        let sys = periph::system::System::after_bootloader(hoco, ResetKind::PowerOn, 0);
+        let clocks = sys.clocks();
+        let machine = Machine {
+            now: 0,
+            awake_cycles: 0,
+            instructions: 0,
+            deadline: 0,
+            stopped: false,
+            irq_check: false,
+            error: None,
+            block_pc: 0,
+            last_block_end: 0,
+            blocks: Default::default(),
+            code: image.clone(),
+            asleep: false,
+            clocks,
+            wait_states: sys.wait_states(),
+            sys,
+            port: Default::default(),
+            gpt: std::array::from_fn(|_| periph::gpt::Gpt::new()),
+            adc: Default::default(),
+            sci: periph::sci::Sci::new(),
+            icu: Default::default(),
+            scs: periph::scs::Scs::new(APP_BASE),
+            wdt: Default::default(),
+            flash: periph::flash::Flash::new(),
+            tm1637: tm1637::Tm1637::new(),
+            wiring: Wiring {
+                tm1637: options.tm1637,
+            },
+            events: Vec::new(),
+            vcc_mv: 5000,
+            reset_due: None,
+            held_in_reset: false,
+            wakes: 0,
+            wake_start_cycles: 0,
+            max_awake_cycles: 0,
+        };
+        let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, machine)
+            .map_err(|e| cpu_err(e, 0))?;
+        uc.ctl_set_cpu_model(ArmCpuModel::CORTEX_M4 as i32)
+            .map_err(|e| cpu_err(e, 0))?;
+        uc.mem_map(0, CODE_FLASH as u64, Prot::READ | Prot::EXEC)
+            .map_err(|e| cpu_err(e, 0))?;
+        uc.mem_write(0, &image).map_err(|e| cpu_err(e, 0))?;
+        uc.mem_map(RAM.0.into(), RAM.1.into(), Prot::ALL)
+            .map_err(|e| cpu_err(e, 0))?;
+        // The EXC_RETURN range (QEMU turns a branch there into an exception-exit trap).
+        uc.mem_map(EXC_RETURN_PAGE.into(), 0x1000, Prot::READ | Prot::EXEC)
+            .map_err(|e| cpu_err(e, 0))?;
+        let spin: Vec<u8> = std::iter::repeat_n([0xFE, 0xE7], 0x800).flatten().collect();
+        uc.mem_write(EXC_RETURN_PAGE.into(), &spin)
+            .map_err(|e| cpu_err(e, 0))?;
+        for &(base, size, page) in PAGES {
+            uc.mmio_map(
+                base.into(),
+                size.into(),
+                Some(
+                    move |uc: &mut Unicorn<'_, Machine>, off: u64, sz: usize| -> u64 {
+                        let m = uc.get_data_mut();
+                        match m.read(page, base, off as u32, sz as u32) {
+                            Ok(v) => u64::from(v),
+                            Err(why) => {
+                                let pc = m.block_pc;
+                                m.error = Some(to_error(why, "read", base + off as u32, sz, pc));
+                                m.stopped = true;
+                                let _ = uc.emu_stop();
+                                0
+                            }
+                        }
+                    },
+                ),
+                Some(
+                    move |uc: &mut Unicorn<'_, Machine>, off: u64, sz: usize, v: u64| {
+                        let m = uc.get_data_mut();
+                        if let Err(why) = m.write(page, base, off as u32, sz as u32, v as u32) {
+                            let pc = m.block_pc;
+                            m.error = Some(to_error(why, "write", base + off as u32, sz, pc));
+                            m.stopped = true;
+                            let _ = uc.emu_stop();
+                        } else if m.reset_due.is_some() {
+                            m.stopped = true;
+                            let _ = uc.emu_stop();
+                        }
+                    },
+                ),
+            )
+            .map_err(|e| cpu_err(e, base))?;
+        }
+        uc.add_block_hook(1, 0, block_hook)
+            .map_err(|e| cpu_err(e, 0))?;
+        uc.add_intr_hook(intr_hook).map_err(|e| cpu_err(e, 0))?;
+        // An undefined instruction (UDF, a bad encoding): UsageFault UNDEFINSTR, escalated to
+        // HardFault (no separate UsageFault handler is enabled), faulting PC stacked.
+        uc.add_insn_invalid_hook(|uc| {
+            let m = uc.get_data_mut();
+            m.scs.cfsr |= 1 << 16;
+            m.scs.hfsr |= 1 << 30;
+            m.scs.hardfault_pending = true;
+            m.irq_check = true;
+            m.stopped = true;
+            let _ = uc.emu_stop();
+            true
+        })
+        .map_err(|e| cpu_err(e, 0))?;
+        uc.add_mem_hook(
+            HookType::MEM_UNMAPPED | HookType::MEM_PROT,
+            1,
+            0,
+            |uc, kind, addr, size, _v| {
+                let pc = uc.get_data().block_pc;
+                let m = uc.get_data_mut();
+                m.error = Some(match kind {
+                    MemType::WRITE_PROT => EmuError::Refused {
+                        what: "write to code flash".into(),
+                        addr: addr as u32,
+                        pc,
+                    },
+                    MemType::FETCH_UNMAPPED | MemType::FETCH_PROT => EmuError::Refused {
+                        what: "instruction fetch from a non-executable address".into(),
+                        addr: addr as u32,
+                        pc,
+                    },
+                    MemType::WRITE_UNMAPPED => EmuError::Unmodelled {
+                        kind: "write",
+                        addr: addr as u32,
+                        size: size as u8,
+                        pc,
+                    },
+                    _ => EmuError::Unmodelled {
+                        kind: "read",
+                        addr: addr as u32,
+                        size: size as u8,
+                        pc,
+                    },
+                });
+                m.stopped = true;
+                false
+            },
+        )
+        .map_err(|e| cpu_err(e, 0))?;
+        let mut emu = Self {
+            uc,
+            options,
+            flash_image: image,
+            resets: Vec::new(),
+        };
+        emu.m().flash.timing = options.flash_timing;
+        emu.reset(ResetKind::PowerOn)?;
+        emu.resets.clear();
+        Ok(emu)
+    }
+
+    fn m(&mut self) -> &mut Machine {
+        self.uc.get_data_mut()
+    }
+
+    /// The chip's state (read only: registers, counters, parts).
+    pub fn machine(&self) -> &Machine {
+        self.uc.get_data()
+    }
+
+    /// Resets the chip (`kind` sets the reset flags) and jumps to the application as the
+    /// bootloader does. The data flash, the pins' outside drives and the analog inputs stay.
+    pub fn reset(&mut self, kind: ResetKind) -> Result<(), EmuError> {
+        let board = self.options.board;
+        let now = self.machine().now;
+        let running_b = match board {
+            Board::Wifi => 1 << 22,
+            Board::Minima => 1 << 11,
+        };
+        let m = self.m();
+        m.sys = periph::system::System::after_bootloader(hoco_hz(OFS.1), kind, running_b);
+        m.clocks = m.sys.clocks();
+        m.wait_states = m.sys.wait_states();
+        m.port = periph::port::Port::reset_keeping_wiring(&m.port);
+        m.gpt = std::array::from_fn(|_| periph::gpt::Gpt::new());
+        m.adc = periph::adc::Adc::reset_keeping_inputs(&m.adc);
+        let host_baud = m.sci.host_baud;
+        m.sci = periph::sci::Sci::new();
+        m.sci.host_baud = host_baud;
+        m.icu = Default::default();
+        m.scs = periph::scs::Scs::new(APP_BASE);
+        if board == Board::Wifi {
+            use periph::{event, icu::IR};
+            m.icu.ielsr[2] = u32::from(event::SCI9_TXI) | IR;
+            m.icu.ielsr[3] = u32::from(event::SCI9_TEI) | IR;
+            m.scs.pending = 0b1100;
+        }
+        m.wdt = Default::default();
+        m.flash.reset(now);
+        m.asleep = false;
+        m.reset_due = None;
+        m.error = None;
+        m.irq_check = true;
+        if kind == ResetKind::PowerOn {
+            let zeros = vec![0u8; RAM.1 as usize];
+            self.uc
+                .mem_write(RAM.0.into(), &zeros)
+                .map_err(|e| cpu_err(e, 0))?;
+        }
+        let word = |a: u32| {
+            u32::from_le_bytes(
+                self.flash_image[a as usize..a as usize + 4]
+                    .try_into()
+                    .unwrap_or([0; 4]),
+            )
+        };
+        let (msp, entry) = (word(APP_BASE), word(APP_BASE + 4));
+        let uc = &mut self.uc;
+        let w = |uc: &mut Unicorn<'static, Machine>, r: RegisterARM, v: u32| {
+            uc.reg_write(r, v.into()).map_err(|e| cpu_err(e, entry))
+        };
+        w(uc, RegisterARM::CONTROL, 0)?;
+        for r in [
+            RegisterARM::R0,
+            RegisterARM::R1,
+            RegisterARM::R2,
+            RegisterARM::R3,
+            RegisterARM::R12,
+        ] {
+            w(uc, r, 0)?;
+        }
+        w(uc, RegisterARM::SP, msp)?;
+        w(uc, RegisterARM::LR, 0xFFFF_FFFF)?;
+        w(uc, RegisterARM::PRIMASK, 1)?;
+        w(uc, RegisterARM::BASEPRI, 0)?;
+        w(uc, RegisterARM::APSR_NZCVQG, 0)?;
+        w(uc, RegisterARM::EPSR, 1 << 24)?;
+        uc.reg_write(RegisterARM::PC, u64::from(entry | 1))
+            .map_err(|e| cpu_err(e, entry))?;
+        self.resets.push(kind);
+        Ok(())
+    }
+
+    /// Power cut and back: a power-on reset (RAM cleared, data flash kept).
+    pub fn power_cycle(&mut self) -> Result<(), EmuError> {
+        self.reset(ResetKind::PowerOn)
+    }
+
+    /// Virtual time, ns.
+    pub fn now_ns(&self) -> u64 {
+        clock::ticks_to_ns(self.machine().now)
+    }
+
+    /// Resets so far (after the first start), oldest first.
+    pub fn resets(&self) -> &[ResetKind] {
+        &self.resets
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> Stats {
+        let m = self.machine();
+        Stats {
+            instructions: m.instructions,
+            awake_cycles: m.awake_cycles,
+            wakes: m.wakes,
+            max_awake_cycles: m.max_awake_cycles,
+            resets: self.resets.len() as u64,
+        }
+    }
+
+    /// Forgets the longest awake stretch so far (to measure from now on).
+    pub fn clear_max_awake(&mut self) {
+        self.m().max_awake_cycles = 0;
+    }
+
+    /// Sets the supply voltage (mV): below an armed voltage monitor 1 level, the chip resets
+    /// and stays in reset until it rises again.
+    pub fn set_vcc_mv(&mut self, mv: u32) {
+        self.m().vcc_mv = mv;
+    }
+
+    /// Drives `P<port><pin>` from outside (`None`: leaves it open).
+    pub fn drive_pin(&mut self, port: usize, pin: usize, level: Option<bool>) {
+        self.m().port.drive(port, pin, level);
+    }
+
+    /// How the MCU drives `P<port><pin>`.
+    pub fn pin_drive(&self, port: usize, pin: usize) -> PinDrive {
+        self.machine().port.drive_of(port, pin)
+    }
+
+    /// What a device on `P<port><pin>` sees, the pin being GTIOC of GPT16`channel`, output B
+    /// if `b`: the timer's waveform when the pin is in its GPT function, the GPIO level
+    /// otherwise (`Released` when nothing drives it).
+    pub fn timer_pin(&mut self, port: usize, pin: usize, channel: usize, b: bool) -> Line {
+        let now = self.machine().now;
+        let m = self.m();
+        match m.port.drive_of(port, pin) {
+            PinDrive::Peripheral { psel: 0b00011 } => {
+                let pclkd = m.clocks.pclkd;
+                m.gpt[channel].sync(now, pclkd);
+                m.gpt[channel].line(b, pclkd)
+            }
+            PinDrive::High => Line::Level(true),
+            PinDrive::Low => Line::Level(false),
+            _ => Line::Released,
+        }
+    }
+
+    /// Sets analog input AN`channel` (14-bit count of its voltage against AVCC0).
+    pub fn set_analog(&mut self, channel: usize, raw: u16) {
+        if let Some(v) = self.m().adc.input.get_mut(channel) {
+            *v = raw.min(0x3FFF);
+        }
+    }
+
+    /// Bytes from the host to SCI9's RXD9, at the host's line rate after those still queued.
+    pub fn host_send(&mut self, bytes: &[u8]) {
+        let now = self.machine().now;
+        self.m().sci.host_send(bytes, now);
+    }
+
+    /// Host bytes not yet received by SCI9.
+    pub fn host_pending(&self) -> usize {
+        self.machine().sci.host_pending()
+    }
+
+    /// Takes the bytes SCI9 has finished sending.
+    pub fn host_take(&mut self) -> Vec<u8> {
+        std::mem::take(&mut self.m().sci.tx_out)
+    }
+
+    /// The display.
+    pub fn display(&self) -> tm1637::Tm1637 {
+        self.machine().tm1637
+    }
+
+    /// The data flash contents.
+    pub fn data_flash(&self) -> &[u8] {
+        &self.machine().flash.mem
+    }
+
+    /// The data flash contents, to preload a record.
+    pub fn data_flash_mut(&mut self) -> &mut [u8] {
+        &mut self.m().flash.mem
+    }
+
+    /// Injects (or clears) a data-flash fault.
+    pub fn set_flash_fault(&mut self, fault: Option<FlashFault>) {
+        self.m().flash.fault = fault;
+    }
+
+    /// Makes a HardFault pending (as a bus error from outside would).
+    pub fn inject_hard_fault(&mut self) {
+        let m = self.m();
+        m.scs.hardfault_pending = true;
+        m.scs.hfsr |= 1 << 30;
+        m.irq_check = true;
+    }
+
+    fn reg(&self, r: RegisterARM) -> Result<u32, EmuError> {
+        self.uc
+            .reg_read(r)
+            .map(|v| v as u32)
+            .map_err(|e| cpu_err(e, 0))
+    }
+
+    /// The CPU's program counter.
+    pub fn pc(&self) -> u32 {
+        self.uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32
+    }
+
+    /// The main stack pointer.
+    pub fn sp(&self) -> u32 {
+        self.uc.reg_read(RegisterARM::SP).unwrap_or(0) as u32
+    }
+
+    /// Reads memory as the CPU sees it (RAM or flash; `None` elsewhere).
+    pub fn read_u32(&self, addr: u32) -> Option<u32> {
+        let mut b = [0u8; 4];
+        self.uc.mem_read(addr.into(), &mut b).ok()?;
+        Some(u32::from_le_bytes(b))
+    }
+
+    /// The exception to take now, if any.
+    fn deliverable(&self) -> Result<Option<u16>, EmuError> {
+        let m = self.machine();
+        let Some((e, p)) = m.scs.best_pending() else {
+            return Ok(None);
+        };
+        if p >= m.scs.running_priority() {
+            return Ok(None);
+        }
+        let primask = self.reg(RegisterARM::PRIMASK)? & 1;
+        let basepri = (self.reg(RegisterARM::BASEPRI)? & 0xF0) as i16;
+        let masked = (primask != 0 && p >= 0) || (basepri != 0 && p >= basepri);
+        Ok((!masked).then_some(e))
+    }
+
+    /// Runs until virtual time `t_ns` (or the first error).
+    pub fn run_until_ns(&mut self, t_ns: u64) -> Result<(), EmuError> {
+        let end = clock::ns_to_ticks(t_ns);
+        loop {
+            if self.machine().held_in_reset {
+                let m = self.m();
+                let level = m.sys.lvd1_reset_level_mv().unwrap_or(0);
+                if m.vcc_mv < level {
+                    m.now = m.now.max(end);
+                    return Ok(());
+                }
+                m.held_in_reset = false;
+                // Released: the bootloader runs again and jumps to the application.
+                let old = m.sys.clone();
+                self.reset(ResetKind::BrownOut)?;
+                self.m().sys.keep_lvd_from(&old);
+            }
+            self.m().advance();
+            if let Some(kind) = self.m().reset_due.take() {
+                self.hold_in_reset(kind, end)?;
+                continue;
+            }
+            if self.machine().now >= end {
+                return Ok(());
+            }
+            if let Some(e) = self.deliverable()? {
+                self.enter_exception(e)?;
+                self.wake();
+            }
+            if self.machine().asleep {
+                let wake = self
+                    .machine()
+                    .scs
+                    .best_pending()
+                    .is_some_and(|(_, p)| p < self.machine().scs.running_priority());
+                if wake {
+                    self.wake();
+                } else {
+                    let m = self.m();
+                    m.now = m.next_event().min(end).max(m.now);
+                    continue;
+                }
+            }
+            let m = self.m();
+            m.deadline = m.next_event().min(end);
+            m.stopped = false;
+            let pc = self.pc();
+            let r = self.uc.emu_start(u64::from(pc | 1), 0, 0, 0);
+            if let Some(e) = self.m().error.take() {
+                return Err(e);
+            }
+            r.map_err(|e| cpu_err(e, self.pc()))?;
+            if !self.machine().stopped {
+                // Unicorn returns by itself only when the CPU halts in WFI.
+                let m = self.m();
+                m.asleep = true;
+                let stretch = m.awake_cycles - m.wake_start_cycles;
+                m.max_awake_cycles = m.max_awake_cycles.max(stretch);
+            }
+        }
+    }
+
+    fn wake(&mut self) {
+        let m = self.m();
+        if m.asleep {
+            m.asleep = false;
+            m.wakes += 1;
+            m.wake_start_cycles = m.awake_cycles;
+        }
+    }
+
+    /// A reset the hardware decided. A brown-out (voltage monitor 1) holds the chip in reset
+    /// until VCC is back above Vdet1; the monitor's settings survive its own reset.
+    fn hold_in_reset(&mut self, kind: ResetKind, end: u64) -> Result<(), EmuError> {
+        if kind == ResetKind::BrownOut {
+            let old = self.machine().sys.clone();
+            self.reset(kind)?;
+            let m = self.m();
+            m.sys.keep_lvd_from(&old);
+            m.held_in_reset = true;
+            let _ = end;
+            return Ok(());
+        }
+        self.reset(kind)
+    }
+
+    fn enter_exception(&mut self, e: u16) -> Result<(), EmuError> {
+        use RegisterARM::*;
+        let pc = self.pc();
+        let control = self.reg(CONTROL)?;
+        if control & 2 != 0 {
+            return Err(EmuError::Exception {
+                what: "exception entry with CONTROL.SPSEL = 1 (process stack) is not modelled"
+                    .into(),
+                pc,
+            });
+        }
+        if e == exc::HARD_FAULT && self.machine().scs.active.contains(&exc::HARD_FAULT) {
+            return Err(EmuError::Exception {
+                what: "HardFault inside the HardFault handler: lockup".into(),
+                pc,
+            });
+        }
+        let fpca = control & 4 != 0;
+        let sp = self.reg(SP)?;
+        let frame: u32 = if fpca { 0x68 } else { 0x20 };
+        let align = sp & 4 != 0;
+        let new_sp = (sp - frame) & !7;
+        let interrupted = self.machine().scs.active.last().copied().unwrap_or(0);
+        let xpsr = (self.reg(XPSR)? & !0x1FF & !(1 << 9))
+            | u32::from(interrupted)
+            | (u32::from(align) << 9);
+        let mut words = vec![
+            self.reg(R0)?,
+            self.reg(R1)?,
+            self.reg(R2)?,
+            self.reg(R3)?,
+            self.reg(R12)?,
+            self.reg(LR)?,
+            pc & !1,
+            xpsr,
+        ];
+        if fpca {
+            for s in 0..16 {
+                words.push(self.reg(s_reg(s))?);
+            }
+            words.push(self.reg(FPSCR)?);
+            words.push(0);
+        }
+        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        self.uc
+            .mem_write(new_sp.into(), &bytes)
+            .map_err(|_| EmuError::Exception {
+                what: format!("stacking at {new_sp:#010x} failed (stack overflow?)"),
+                pc,
+            })?;
+        let nested = !self.machine().scs.active.is_empty();
+        let mut exc_return: u32 = if nested { 0xFFFF_FFF1 } else { 0xFFFF_FFF9 };
+        if fpca {
+            exc_return &= !0x10;
+        }
+        let vtor = self.machine().scs.vtor;
+        let mut v = [0u8; 4];
+        self.uc
+            .mem_read(u64::from(vtor + 4 * u32::from(e)), &mut v)
+            .map_err(|_| EmuError::Exception {
+                what: format!("vector table at {vtor:#x} unreadable"),
+                pc,
+            })?;
+        let vector = u32::from_le_bytes(v);
+        if vector & 1 == 0 || vector >= CODE_FLASH {
+            return Err(EmuError::Exception {
+                what: format!("vector {e} is {vector:#010x} (not a Thumb address in flash)"),
+                pc,
+            });
+        }
+        let w = |uc: &mut Unicorn<'static, Machine>, r: RegisterARM, v: u32| {
+            uc.reg_write(r, v.into()).map_err(|er| cpu_err(er, pc))
+        };
+        w(&mut self.uc, SP, new_sp)?;
+        w(&mut self.uc, LR, exc_return)?;
+        w(&mut self.uc, CONTROL, control & !4)?;
+        w(&mut self.uc, EPSR, 1 << 24)?;
+        self.uc
+            .reg_write(RegisterARM::PC, u64::from(vector))
+            .map_err(|er| cpu_err(er, pc))?;
+        let m = self.m();
+        match e {
+            exc::HARD_FAULT => m.scs.hardfault_pending = false,
+            exc::SYSTICK => m.scs.systick_pending = false,
+            _ => m.scs.pending &= !(1 << (e - exc::IRQ0)),
+        }
+        m.scs.active.push(e);
+        m.irq_check = true;
+        Ok(())
+    }
+}
+
+fn s_reg(i: u32) -> RegisterARM {
+    use RegisterARM::*;
+    [
+        S0, S1, S2, S3, S4, S5, S6, S7, S8, S9, S10, S11, S12, S13, S14, S15,
+    ][i as usize]
+}
+
+fn to_error(why: Why, kind: &'static str, addr: u32, size: usize, pc: u32) -> EmuError {
+    match why {
+        Why::Unmodelled => EmuError::Unmodelled {
+            kind,
+            addr,
+            size: size as u8,
+            pc,
+        },
+        Why::Refused(what) => EmuError::Refused { what, addr, pc },
+    }
+}
+
+fn block_hook(uc: &mut Unicorn<'_, Machine>, addr: u64, size: u32) {
+    let m = uc.get_data_mut();
+    if m.stopped {
+        return;
+    }
+    if m.now >= m.deadline || m.reset_due.is_some() {
+        m.stopped = true;
+        let _ = uc.emu_stop();
+        return;
+    }
+    if m.irq_check {
+        m.irq_check = false;
+        let candidate = m
+            .scs
+            .best_pending()
+            .filter(|&(_, p)| p < m.scs.running_priority());
+        if let Some((_, p)) = candidate {
+            let primask = uc.reg_read(RegisterARM::PRIMASK).unwrap_or(1) & 1;
+            let basepri = (uc.reg_read(RegisterARM::BASEPRI).unwrap_or(0) & 0xF0) as i16;
+            let masked = (primask != 0 && p >= 0) || (basepri != 0 && p >= basepri);
+            let m = uc.get_data_mut();
+            if masked {
+                m.irq_check = true; // look again once the mask is lifted
+            } else {
+                m.stopped = true;
+                let _ = uc.emu_stop();
+                return;
+            }
+        }
+    }
+    let m = uc.get_data_mut();
+    let addr = addr as u32;
+    let cost = *m
+        .blocks
+        .entry((addr, size))
+        .or_insert_with(|| cpu::block_cost(&m.code, addr, size));
+    let mut cycles = u64::from(cost.cycles);
+    if addr < CODE_FLASH {
+        cycles += u64::from(cost.fetch_words * m.wait_states);
+    }
+    if addr != m.last_block_end {
+        cycles += 2 + u64::from(m.wait_states);
+    }
+    m.last_block_end = addr + size;
+    m.block_pc = addr;
+    m.instructions += u64::from(cost.instructions);
+    m.awake_cycles += cycles;
+    m.now += cycles * clock::ticks_per(m.clocks.iclk);
+}
+
+fn exception_return(uc: &mut Unicorn<'_, Machine>, exc_return: u32) -> Result<(), EmuError> {
+    use RegisterARM::*;
+    let pc = exc_return;
+    let err = |what: String| EmuError::Exception { what, pc };
+    let Some(e) = uc.get_data_mut().scs.active.pop() else {
+        return Err(err(format!(
+            "branch to {exc_return:#010x} with no exception active"
+        )));
+    };
+    let to_thread = match exc_return {
+        0xFFFF_FFF9 | 0xFFFF_FFE9 => true,
+        0xFFFF_FFF1 | 0xFFFF_FFE1 => false,
+        v => {
+            return Err(err(format!(
+                "EXC_RETURN {v:#010x} (process stack or reserved) is not modelled"
+            )))
+        }
+    };
+    if to_thread != uc.get_data().scs.active.is_empty() {
+        return Err(err(format!(
+            "EXC_RETURN {exc_return:#010x} does not match the active exceptions"
+        )));
+    }
+    let extended = exc_return & 0x10 == 0;
+    let sp = uc.reg_read(SP).map_err(|e| cpu_err(e, pc))? as u32;
+    let n = if extended { 26 } else { 8 };
+    let mut buf = vec![0u8; n * 4];
+    uc.mem_read(sp.into(), &mut buf)
+        .map_err(|_| err(format!("unstacking at {sp:#010x} failed")))?;
+    let word =
+        |i: usize| u32::from_le_bytes([buf[4 * i], buf[4 * i + 1], buf[4 * i + 2], buf[4 * i + 3]]);
+    let regs = [R0, R1, R2, R3, R12, LR];
+    for (i, r) in regs.iter().enumerate() {
+        uc.reg_write(*r, word(i).into())
+            .map_err(|e| cpu_err(e, pc))?;
+    }
+    let ret = word(6);
+    let xpsr = word(7);
+    if extended {
+        for s in 0..16 {
+            uc.reg_write(s_reg(s), word(8 + s as usize).into())
+                .map_err(|e| cpu_err(e, pc))?;
+        }
+        uc.reg_write(FPSCR, word(24).into())
+            .map_err(|e| cpu_err(e, pc))?;
+    }
+    let new_sp = sp + 4 * n as u32 + if xpsr & (1 << 9) != 0 { 4 } else { 0 };
+    uc.reg_write(SP, new_sp.into())
+        .map_err(|e| cpu_err(e, pc))?;
+    uc.reg_write(APSR_NZCVQG, (xpsr & 0xF80F_0000).into())
+        .map_err(|e| cpu_err(e, pc))?;
+    uc.reg_write(EPSR, (xpsr & 0x0700_FC00 | 1 << 24).into())
+        .map_err(|e| cpu_err(e, pc))?;
+    let control = uc.reg_read(CONTROL).map_err(|e| cpu_err(e, pc))? as u32;
+    let control = if extended { control | 4 } else { control & !4 };
+    uc.reg_write(CONTROL, control.into())
+        .map_err(|e| cpu_err(e, pc))?;
+    let m = uc.get_data_mut();
+    if e >= exc::IRQ0 && m.icu.requesting(usize::from(e - exc::IRQ0)) {
+        m.scs.pending |= 1 << (e - exc::IRQ0);
+    }
+    m.irq_check = true;
+    m.last_block_end = u32::MAX;
+    uc.reg_write(RegisterARM::PC, u64::from(ret | 1))
+        .map_err(|e| cpu_err(e, pc))?;
+    Ok(())
+}
+
+fn intr_hook(uc: &mut Unicorn<'_, Machine>, intno: u32) {
+    let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
+    if intno == 8 {
+        // EXCP_EXCEPTION_EXIT: QEMU raises it for any M-profile fetch at 0xFFFF_FF00 and up,
+        // i.e. a branch to an EXC_RETURN value (its bit 0 went to the Thumb state).
+        if let Err(e) = exception_return(uc, pc | 1) {
+            let m = uc.get_data_mut();
+            m.error = Some(e);
+            m.stopped = true;
+            let _ = uc.emu_stop();
+        }
+        return;
+    }
+    let m = uc.get_data_mut();
+    // QEMU's ARM exception numbers: 1 UDEF, 7 BKPT, 17 NOCP, 18 INVSTATE, 22 UNALIGNED.
+    let ufsr = match intno {
+        1 => Some(1 << 16),
+        7 => Some(0),
+        17 => Some(1 << 19),
+        18 => Some(1 << 17),
+        22 => Some(1 << 24),
+        _ => None,
+    };
+    match ufsr {
+        Some(bits) => {
+            // No debugger and no separate UsageFault handler: it escalates to HardFault.
+            m.scs.cfsr |= bits;
+            m.scs.hfsr |= 1 << 30;
+            m.scs.hardfault_pending = true;
+            m.irq_check = true;
+        }
+        None => {
+            m.error = Some(EmuError::Exception {
+                what: format!("CPU exception {intno} (SVC, exception exit in handler mode or other) is not modelled"),
+                pc,
+            });
+        }
+    }
+    m.stopped = true;
+    let _ = uc.emu_stop();
+}

@@ -1,0 +1,385 @@
+//! The emulated chip's state outside the CPU core, and the bus that routes every peripheral
+//! access to its model.
+
+use std::collections::HashMap;
+
+use crate::clock::ticks_per;
+use crate::cpu::BlockCost;
+use crate::periph::{self, adc::Adc, flash::Flash, gpt::Gpt, icu::Icu, port::Port, sci::Sci};
+use crate::periph::{scs::Scs, system::ResetKind, system::System, wdt::Wdt, Clocks, Why};
+use crate::tm1637::Tm1637;
+use crate::EmuError;
+
+/// A memory-mapped page and the model behind it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Page {
+    /// ICU.
+    Icu,
+    /// SYSTEM.
+    System,
+    /// PORT/PFS/PMISC.
+    Port,
+    /// WDT and IWDT.
+    Wdt,
+    /// MSTPCRB..D.
+    Mstp,
+    /// ADC140.
+    Adc,
+    /// SCI0..9 (SCI9 modelled).
+    Sci,
+    /// GPT (GPT165 and GPT167 modelled).
+    Gpt,
+    /// Data flash read window (two pages).
+    DataFlash,
+    /// Flash interface registers.
+    Faci,
+    /// FENTRYR page.
+    FaciEntry,
+    /// DWT.
+    Dwt,
+    /// System control space (NVIC, SCB, SysTick, DCB).
+    Scs,
+}
+
+/// Every mapped page: (base, size, model).
+pub const PAGES: &[(u32, u32, Page)] = &[
+    (periph::icu::BASE, 0x1000, Page::Icu),
+    (periph::system::BASE, 0x1000, Page::System),
+    (periph::port::BASE, 0x1000, Page::Port),
+    (0x4004_4000, 0x1000, Page::Wdt),
+    (periph::system::MSTP_BASE, 0x1000, Page::Mstp),
+    (periph::adc::BASE, 0x1000, Page::Adc),
+    (0x4007_0000, 0x1000, Page::Sci),
+    (periph::gpt::BASE, 0x1000, Page::Gpt),
+    (periph::flash::DF_BASE, 0x2000, Page::DataFlash),
+    (periph::flash::BASE, 0x1000, Page::Faci),
+    (periph::flash::FENTRY_PAGE, 0x1000, Page::FaciEntry),
+    (0xE000_1000, 0x1000, Page::Dwt),
+    (0xE000_E000, 0x1000, Page::Scs),
+];
+
+/// How the board around the chip is wired for the emulator's parts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Wiring {
+    /// TM1637 CLK and DIO pins, `(port, pin)`.
+    pub tm1637: Option<((usize, usize), (usize, usize))>,
+}
+
+/// The chip outside the CPU core.
+#[derive(Debug)]
+pub struct Machine {
+    /// Master time, ticks.
+    pub now: u64,
+    /// ICLK cycles executed while awake.
+    pub awake_cycles: u64,
+    /// Instructions executed.
+    pub instructions: u64,
+    /// The CPU stops at this tick (next event or the end of the run).
+    pub deadline: u64,
+    /// The CPU was stopped by us (set before `emu_stop`).
+    pub stopped: bool,
+    /// Something may be deliverable: check PRIMASK at the next block.
+    pub irq_check: bool,
+    /// The error that stopped the CPU.
+    pub error: Option<EmuError>,
+    /// The start address of the block running now (for error messages).
+    pub block_pc: u32,
+    /// End of the last block (for the taken-branch penalty).
+    pub last_block_end: u32,
+    /// Per-block cost cache.
+    pub blocks: HashMap<(u32, u32), BlockCost>,
+    /// The code flash image (for decoding).
+    pub code: Vec<u8>,
+    /// Asleep in WFI.
+    pub asleep: bool,
+    /// Clocks from the system registers.
+    pub clocks: Clocks,
+    /// Flash wait states.
+    pub wait_states: u32,
+    /// SYSTEM + MSTP.
+    pub sys: System,
+    /// I/O ports.
+    pub port: Port,
+    /// GPT162..167 (index 2..=7 used; 5 and 7 on this board).
+    pub gpt: [Gpt; 8],
+    /// ADC140.
+    pub adc: Adc,
+    /// SCI9.
+    pub sci: Sci,
+    /// ICU.
+    pub icu: Icu,
+    /// NVIC/SCB/SysTick/DWT.
+    pub scs: Scs,
+    /// WDT.
+    pub wdt: Wdt,
+    /// Data flash.
+    pub flash: Flash,
+    /// The display part.
+    pub tm1637: Tm1637,
+    /// Its wiring.
+    pub wiring: Wiring,
+    /// Events raised by models, to route through the ICU.
+    pub events: Vec<u16>,
+    /// Supply voltage, mV.
+    pub vcc_mv: u32,
+    /// A reset the hardware decided (WDT underflow, LVD, AIRCR).
+    pub reset_due: Option<ResetKind>,
+    /// Held in reset by the voltage monitor until VCC recovers.
+    pub held_in_reset: bool,
+    /// Count of loop passes (wake-ups) and the longest awake stretch, cycles.
+    pub wakes: u64,
+    /// Awake cycles at the last wake-up.
+    pub wake_start_cycles: u64,
+    /// Longest awake stretch, cycles.
+    pub max_awake_cycles: u64,
+}
+
+fn mstp_check(sys: &System, x: usize, bit: u32, name: &str) -> Result<(), Why> {
+    if sys.stopped(x, bit) {
+        Err(Why::Refused(format!(
+            "{name} accessed in module-stop (MSTPCR{}.MSTP{}{bit} = 1)",
+            ["A", "B", "C", "D"][x],
+            ["A", "B", "C", "D"][x]
+        )))
+    } else {
+        Ok(())
+    }
+}
+
+impl Machine {
+    /// Routes a read.
+    pub fn read(&mut self, page: Page, base: u32, off: u32, size: u32) -> Result<u32, Why> {
+        let now = self.now;
+        let v = match page {
+            Page::Icu => self.icu.read(off, size),
+            Page::System => self.sys.read(off, size),
+            Page::Port => self.port.read(off, size),
+            Page::Wdt => match off {
+                0x200..=0x2FF => self.wdt.read(off - 0x200, size, self.clocks.pclkb),
+                0x400 => Ok(0xFF),
+                0x404 => Ok(0),
+                _ => Err(Why::Unmodelled),
+            },
+            Page::Mstp => self.sys.mstp_read(off, size),
+            Page::Adc => {
+                mstp_check(&self.sys, 3, 16, "ADC140")?;
+                self.adc.read(off, size, now)
+            }
+            Page::Sci => match off {
+                0x120..=0x13F => {
+                    mstp_check(&self.sys, 1, 22, "SCI9")?;
+                    self.sync_sci();
+                    self.sci.read(off - 0x120, size)
+                }
+                _ => Err(Why::Unmodelled),
+            },
+            Page::Gpt => {
+                let ch = (off / 0x100) as usize;
+                if (2..=7).contains(&ch) {
+                    mstp_check(&self.sys, 3, 6, "GPT16x")?;
+                    let pclkd = self.clocks.pclkd;
+                    self.gpt[ch].read(off % 0x100, size, now, pclkd)
+                } else {
+                    Err(Why::Unmodelled)
+                }
+            }
+            Page::DataFlash => {
+                self.flash.readable().map_err(Why::Refused)?;
+                let o = (base - periph::flash::DF_BASE + off) as usize;
+                let mut v = 0u32;
+                for k in 0..size as usize {
+                    v |= u32::from(self.flash.mem[o + k]) << (8 * k);
+                }
+                Ok(v)
+            }
+            Page::Faci => self.flash.read(base, off, size, now),
+            Page::FaciEntry => self.flash.read(base, off, size, now),
+            Page::Dwt => self.scs.dwt_read(off, size, self.awake_cycles),
+            Page::Scs => {
+                let cvr = self.systick_cvr();
+                self.scs.read(off, size, cvr)
+            }
+        }?;
+        Ok(v)
+    }
+
+    /// Routes a write.
+    pub fn write(&mut self, page: Page, base: u32, off: u32, size: u32, v: u32) -> Result<(), Why> {
+        let now = self.now;
+        match page {
+            Page::Icu => {
+                self.icu.write(off, size, v)?;
+                self.irq_check = true;
+            }
+            Page::System => {
+                self.sys.write(off, size, v)?;
+                self.clocks = self.sys.clocks();
+                self.wait_states = self.sys.wait_states();
+            }
+            Page::Port => {
+                self.port.write(off, size, v)?;
+                self.update_parts();
+            }
+            Page::Wdt => match off {
+                0x200..=0x2FF => {
+                    self.wdt.advance(now, true);
+                    self.wdt
+                        .write(off - 0x200, size, v, now, self.clocks.pclkb)?;
+                }
+                0x400 => {} // IWDTRR: the IWDT is stopped, a refresh does nothing
+                _ => return Err(Why::Unmodelled),
+            },
+            Page::Mstp => self.sys.mstp_write(off, size, v)?,
+            Page::Adc => {
+                mstp_check(&self.sys, 3, 16, "ADC140")?;
+                self.adc.write(off, size, v, now, self.clocks.pclkc)?;
+            }
+            Page::Sci => match off {
+                0x120..=0x13F => {
+                    mstp_check(&self.sys, 1, 22, "SCI9")?;
+                    self.sync_sci();
+                    let pclka = self.clocks.pclka;
+                    self.sci
+                        .write(off - 0x120, size, v, now, pclka, &mut self.events)?;
+                    self.route_events();
+                }
+                _ => return Err(Why::Unmodelled),
+            },
+            Page::Gpt => {
+                let ch = (off / 0x100) as usize;
+                if (2..=7).contains(&ch) {
+                    mstp_check(&self.sys, 3, 6, "GPT16x")?;
+                    let pclkd = self.clocks.pclkd;
+                    self.gpt[ch].write(off % 0x100, size, v, now, pclkd)?;
+                } else {
+                    return Err(Why::Unmodelled);
+                }
+            }
+            Page::DataFlash => {
+                return Err(Why::Refused(
+                    "data flash written directly (use the flash sequencer)".into(),
+                ))
+            }
+            Page::Faci | Page::FaciEntry => self.flash.write(base, off, size, v, now)?,
+            Page::Dwt => self.scs.dwt_write(off, size, v, self.awake_cycles)?,
+            Page::Scs => {
+                use periph::scs::SystickChange;
+                let change = self.scs.write(off, size, v)?;
+                let cycle = ticks_per(self.clocks.iclk);
+                match change {
+                    SystickChange::Start | SystickChange::Clear if self.scs.syst_csr & 1 != 0 => {
+                        // Counter cleared (or starting from 0): reloads on the next clock and
+                        // reaches 0 after RVR more.
+                        self.scs.syst_next = Some(now + cycle * (u64::from(self.scs.syst_rvr) + 1));
+                    }
+                    _ => {}
+                }
+                if self.scs.reset_requested {
+                    self.reset_due = Some(ResetKind::Software);
+                }
+                self.irq_check = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// SysTick's current value.
+    fn systick_cvr(&self) -> u32 {
+        match self.scs.syst_next {
+            Some(t) => {
+                let cycle = ticks_per(self.clocks.iclk);
+                (t.saturating_sub(self.now) / cycle).min(u64::from(self.scs.syst_rvr)) as u32
+            }
+            None => 0,
+        }
+    }
+
+    fn sync_sci(&mut self) {
+        let pclka = self.clocks.pclka;
+        self.sci.advance(self.now, pclka, &mut self.events);
+        self.route_events();
+    }
+
+    /// Routes raised events through the ICU into the NVIC.
+    pub fn route_events(&mut self) {
+        for e in std::mem::take(&mut self.events) {
+            let lines = self.icu.raise(e);
+            if lines != 0 {
+                self.scs.pending |= lines;
+                self.irq_check = true;
+            }
+        }
+    }
+
+    /// Re-evaluates the parts wired to pins (the TM1637) after a pin change.
+    pub fn update_parts(&mut self) {
+        if !std::mem::take(&mut self.port.changed) {
+            return;
+        }
+        if let Some(((cp, cn), (dp, dn))) = self.wiring.tm1637 {
+            use periph::port::PinDrive;
+            let clk = self.port.level(cp, cn);
+            let dio = match self.port.drive_of(dp, dn) {
+                PinDrive::Low => false,
+                PinDrive::High => true,
+                // Released: the module's pull-up (and the MCU's) hold it high.
+                _ => true,
+            };
+            self.tm1637.update(clk, dio);
+            self.port.drive(dp, dn, self.tm1637.acking.then_some(false));
+        }
+    }
+
+    /// The next tick at which a model has something to do.
+    pub fn next_event(&self) -> u64 {
+        let mut t = u64::MAX;
+        for e in [
+            self.scs.syst_next.filter(|_| self.scs.syst_csr & 1 != 0),
+            self.sci.next_event(),
+            self.adc.done_at,
+            self.flash.next_event(),
+            if self.asleep && self.wdt.stops_in_sleep() {
+                None
+            } else {
+                self.wdt.deadline()
+            },
+        ]
+        .into_iter()
+        .flatten()
+        {
+            t = t.min(e);
+        }
+        t
+    }
+
+    /// Runs every model's due work up to `now` (the CPU is between blocks).
+    pub fn advance(&mut self) {
+        let now = self.now;
+        let counting = !(self.asleep && self.wdt.stops_in_sleep());
+        if self.wdt.advance(now, counting) {
+            self.reset_due = Some(ResetKind::Watchdog);
+        }
+        if let Some(mut t) = self.scs.syst_next {
+            if self.scs.syst_csr & 1 != 0 {
+                let period = ticks_per(self.clocks.iclk) * (u64::from(self.scs.syst_rvr) + 1);
+                while t <= now {
+                    self.scs.syst_csr |= 1 << 16;
+                    if self.scs.syst_csr & 2 != 0 {
+                        self.scs.systick_pending = true;
+                        self.irq_check = true;
+                    }
+                    t += period.max(1);
+                }
+                self.scs.syst_next = Some(t);
+            }
+        }
+        self.sync_sci();
+        self.adc.advance(now);
+        self.flash.advance(now);
+        if let Some(level) = self.sys.lvd1_reset_level_mv() {
+            if self.vcc_mv < level {
+                self.reset_due = Some(ResetKind::BrownOut);
+            }
+        }
+    }
+}

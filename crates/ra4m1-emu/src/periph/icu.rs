@@ -1,0 +1,69 @@
+//! The interrupt controller unit (UM "Interrupt Controller Unit (ICU)") at 0x4000_6000: the 32
+//! event link registers IELSR0..31 (0x300 + 4n: IELS 8..0 selects the event, IR 16 is the
+//! request flag, DTCE 24). An event sets IR in every slot that selects it, and a slot with IR
+//! set requests NVIC interrupt n (as a level: it is pending again after the handler returns
+//! while IR is still 1). IR clears by writing 0.
+
+use super::{need, refuse, Why, R};
+
+/// Base of the ICU.
+pub const BASE: u32 = 0x4000_6000;
+/// IELSRn.IR.
+pub const IR: u32 = 1 << 16;
+
+/// The ICU.
+#[derive(Debug, Clone, Default)]
+pub struct Icu {
+    /// IELSR0..31.
+    pub ielsr: [u32; 32],
+}
+
+impl Icu {
+    /// Raises `event`: returns the NVIC lines to pend.
+    pub fn raise(&mut self, event: u16) -> u32 {
+        let mut lines = 0;
+        for (n, s) in self.ielsr.iter_mut().enumerate() {
+            if *s & 0x1FF == u32::from(event) && event != 0 {
+                *s |= IR;
+                lines |= 1 << n;
+            }
+        }
+        lines
+    }
+
+    /// Slot `n` still requests its interrupt.
+    pub fn requesting(&self, n: usize) -> bool {
+        self.ielsr[n] & IR != 0 && self.ielsr[n] & 0x1FF != 0
+    }
+
+    /// A read at `off`.
+    pub fn read(&self, off: u32, size: u32) -> R<u32> {
+        match off {
+            0x300..=0x37F if off % 4 == 0 => {
+                need(size, 4, "IELSRn")?;
+                Ok(self.ielsr[(off as usize - 0x300) / 4])
+            }
+            _ => Err(Why::Unmodelled),
+        }
+    }
+
+    /// A write at `off`.
+    pub fn write(&mut self, off: u32, size: u32, v: u32) -> R<()> {
+        match off {
+            0x300..=0x37F if off % 4 == 0 => {
+                need(size, 4, "IELSRn")?;
+                let n = (off as usize - 0x300) / 4;
+                if v & (1 << 24) != 0 {
+                    return refuse("IELSRn.DTCE: the DTC is not modelled");
+                }
+                let old = self.ielsr[n];
+                if v & IR != 0 && old & IR == 0 {
+                    return refuse("IELSRn.IR can only be cleared (write 0), not set");
+                }
+                self.ielsr[n] = v & (0x1FF | IR);
+                Ok(())
+            }
+            _ => Err(Why::Unmodelled),
+        }
+    }
+}

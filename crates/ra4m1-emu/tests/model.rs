@@ -1,0 +1,144 @@
+//! The model's refusals and exception handling on tiny hand-assembled programs (no firmware
+//! build needed): an access to an unmodelled register stops the run naming its address, a
+//! protected register refuses an unlocked write, and an undefined instruction escalates to
+//! the HardFault handler with the faulting PC stacked.
+
+use ra4m1_emu::{EmuError, Emulator, Options};
+
+/// A minimal ELF32 (ARM) with one PT_LOAD segment of `image` at 0x4000.
+fn elf(image: &[u8]) -> Vec<u8> {
+    let mut e = Vec::new();
+    e.extend_from_slice(b"\x7fELF\x01\x01\x01\0\0\0\0\0\0\0\0\0");
+    let h16 = |e: &mut Vec<u8>, v: u16| e.extend_from_slice(&v.to_le_bytes());
+    let h32 = |e: &mut Vec<u8>, v: u32| e.extend_from_slice(&v.to_le_bytes());
+    h16(&mut e, 2); // ET_EXEC
+    h16(&mut e, 40); // EM_ARM
+    h32(&mut e, 1);
+    h32(&mut e, 0x4005); // entry
+    h32(&mut e, 52); // phoff
+    h32(&mut e, 0); // shoff
+    h32(&mut e, 0x0500_0400); // flags: EABI5, hard-float
+    h16(&mut e, 52);
+    h16(&mut e, 32);
+    h16(&mut e, 1);
+    h16(&mut e, 40);
+    h16(&mut e, 0);
+    h16(&mut e, 0);
+    // Program header.
+    h32(&mut e, 1); // PT_LOAD
+    h32(&mut e, 84); // offset
+    h32(&mut e, 0x4000); // vaddr
+    h32(&mut e, 0x4000); // paddr
+    h32(&mut e, image.len() as u32);
+    h32(&mut e, image.len() as u32);
+    h32(&mut e, 5); // R X
+    h32(&mut e, 4);
+    e.extend_from_slice(image);
+    e
+}
+
+/// A vector table (SP, reset, …, HardFault) followed by Thumb code at 0x4040.
+fn program(code: &[u16], literals: &[u32], hard_fault: Option<u32>) -> Vec<u8> {
+    let mut img = vec![0u8; 0x40];
+    img[0..4].copy_from_slice(&0x2000_8000u32.to_le_bytes());
+    img[4..8].copy_from_slice(&0x4041u32.to_le_bytes());
+    if let Some(h) = hard_fault {
+        img[12..16].copy_from_slice(&(h | 1).to_le_bytes());
+    }
+    for h in code {
+        img.extend_from_slice(&h.to_le_bytes());
+    }
+    while img.len() % 4 != 0 {
+        img.push(0);
+    }
+    for l in literals {
+        img.extend_from_slice(&l.to_le_bytes());
+    }
+    img
+}
+
+#[test]
+fn an_unmodelled_register_is_an_error_naming_its_address() {
+    // ldr r0, [pc, #4]; ldr r1, [r0]; b . ; (pad) ; .word 0x4007_0000 (SCI0 SMR: not modelled)
+    let img = program(&[0x4801, 0x6801, 0xE7FE, 0x0000], &[0x4007_0000], None);
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    let err = emu
+        .run_until_ns(1_000_000)
+        .expect_err("the read must stop the run");
+    match err {
+        EmuError::Unmodelled {
+            kind, addr, size, ..
+        } => {
+            assert_eq!((kind, addr, size), ("read", 0x4007_0000, 4));
+        }
+        e => panic!("wrong error: {e}"),
+    }
+}
+
+#[test]
+fn unmapped_memory_is_an_error_too() {
+    // ldr r0, [pc, #4]; str r0, [r0]; b . ; .word 0x5000_0000 (nothing there)
+    let img = program(&[0x4801, 0x6000, 0xE7FE, 0x0000], &[0x5000_0000], None);
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    let err = emu.run_until_ns(1_000_000).expect_err("must stop");
+    assert!(
+        matches!(
+            err,
+            EmuError::Unmodelled {
+                kind: "write",
+                addr: 0x5000_0000,
+                ..
+            }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_protected_clock_register_refuses_a_write_without_prcr() {
+    // ldr r0, =SCKDIVCR; ldr r1, =0x1001_0100; str r1, [r0]; b .
+    let img = program(
+        &[0x4801, 0x4902, 0x6001, 0xE7FE],
+        &[0x4001_E020, 0x1001_0100],
+        None,
+    );
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    let err = emu.run_until_ns(1_000_000).expect_err("must stop");
+    match err {
+        EmuError::Refused { what, addr, .. } => {
+            assert_eq!(addr, 0x4001_E020);
+            assert!(what.contains("PRCR.PRC0"), "{what}");
+        }
+        e => panic!("wrong error: {e}"),
+    }
+}
+
+#[test]
+fn an_undefined_instruction_enters_hardfault_with_the_faulting_pc_stacked() {
+    // 0x4040: movs r0, #7; udf #0; b .   HardFault at 0x4046: b .
+    let img = program(&[0x2007, 0xDE00, 0xE7FE, 0xE7FE], &[], Some(0x4046));
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.run_until_ns(1_000_000).expect("runs");
+    assert_eq!(emu.pc(), 0x4046, "spinning in the HardFault handler");
+    let sp = emu.sp();
+    assert_eq!(
+        sp,
+        0x2000_8000 - 0x20,
+        "a basic frame (no FP used) on the main stack"
+    );
+    assert_eq!(emu.read_u32(sp), Some(7), "stacked r0");
+    assert_eq!(
+        emu.read_u32(sp + 24),
+        Some(0x4042),
+        "stacked return address: the UDF"
+    );
+    assert_eq!(
+        emu.read_u32(sp + 28).map(|x| x >> 24 & 1),
+        Some(1),
+        "stacked xPSR.T"
+    );
+    let m = emu.machine();
+    assert_eq!(m.scs.active, vec![3]);
+    assert_ne!(m.scs.cfsr & (1 << 16), 0, "CFSR.UNDEFINSTR");
+    assert_ne!(m.scs.hfsr & (1 << 30), 0, "HFSR.FORCED");
+}

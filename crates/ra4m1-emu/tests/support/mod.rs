@@ -1,0 +1,64 @@
+//! Shared by the firmware tests: where the `uno-r4` ELF is, and a minimal host.
+
+use std::path::PathBuf;
+
+use protocol::messages::{DeviceMessage, RequestBody};
+use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN};
+use ra4m1_emu::{Emulator, Options};
+
+/// The board ELF: `$UNO_R4_ELF`, else `cargo firmware`'s output in the workspace target dir.
+pub fn elf_path() -> PathBuf {
+    if let Some(p) = std::env::var_os("UNO_R4_ELF") {
+        return PathBuf::from(p);
+    }
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or(root.join("target"), PathBuf::from);
+    target.join("thumbv7em-none-eabihf/firmware/uno-r4")
+}
+
+/// The ELF's bytes; panics with the command that builds it.
+pub fn elf() -> Vec<u8> {
+    let p = elf_path();
+    std::fs::read(&p).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e}: build it first with `cargo firmware` (or set UNO_R4_ELF)",
+            p.display()
+        )
+    })
+}
+
+/// A booted emulator.
+pub fn board(options: Options) -> Emulator {
+    Emulator::new(&elf(), options).expect("the ELF loads")
+}
+
+/// Sends a request.
+pub fn send(emu: &mut Emulator, seq: u16, body: RequestBody) {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(&Request { seq, body }, &mut buf).expect("encodes");
+    emu.host_send(&buf[..n]);
+}
+
+/// Runs in 1 ms steps for at most `max_ms`, decoding what the device sends, until `until`
+/// holds for a message; returns it with the virtual time it arrived (ms).
+pub fn wait_for(
+    emu: &mut Emulator,
+    dec: &mut FrameDecoder,
+    max_ms: u64,
+    mut until: impl FnMut(&DeviceMessage) -> bool,
+) -> Option<(DeviceMessage, u64)> {
+    let end = emu.now_ns() + max_ms * 1_000_000;
+    while emu.now_ns() < end {
+        let t = emu.now_ns() + 1_000_000;
+        emu.run_until_ns(t)
+            .unwrap_or_else(|e| panic!("emulator stopped: {e}"));
+        for b in emu.host_take() {
+            if let Some(Ok(m)) = dec.push::<DeviceMessage>(b) {
+                if until(&m) {
+                    return Some((m, emu.now_ns() / 1_000_000));
+                }
+            }
+        }
+    }
+    None
+}

@@ -1,0 +1,245 @@
+#!/usr/bin/env python3
+"""Independent readers for host-tool's fabrication outputs (run by .ci/fabrication-check.sh).
+
+  check_outputs.py dxf FILE.dxf --fold FILE.fold --edge-mm L --seam-mm S
+  check_outputs.py panel FILE.3mf --stl-dir DIR
+  check_outputs.py mesh FILE [FILE ...]          (STL/OBJ/GLB: watertight, consistent, volume)
+  check_outputs.py kit FILE.json --hinges H --screws S
+  check_outputs.py render FILE OUT.png [--title T] (a matplotlib projection of a 3D file)
+
+Each check prints one line; the exit code is 0 only when all pass.
+"""
+import argparse
+import json
+import math
+import sys
+import xml.etree.ElementTree as ET
+import zipfile
+
+FAILED = 0
+
+
+def check(ok, what):
+    global FAILED
+    print(("ok   " if ok else "FAIL ") + what)
+    if not ok:
+        FAILED += 1
+
+
+def cmd_dxf(a):
+    import ezdxf
+
+    doc = ezdxf.readfile(a.file)
+    fold = json.load(open(a.fold))
+    check(doc.header.get("$INSUNITS") == 4, f"$INSUNITS = 4 (mm), got {doc.header.get('$INSUNITS')}")
+    names = {layer.dxf.name for layer in doc.layers}
+    for want in ["MOUNTAIN", "VALLEY", "CUT", "BOUNDARY", "VIRTUAL"]:
+        check(want in names, f"layer {want} present")
+    msp = doc.modelspace()
+    lines = list(msp)
+    check(all(e.dxftype() == "LINE" for e in lines), f"{len(lines)} entities, all LINE")
+    by = {}
+    for e in lines:
+        by.setdefault(e.dxf.layer, []).append(e)
+    assign = fold["edges_assignment"]
+    count = {k: assign.count(k) for k in "MVBU"}
+    tab = 3 if a.seam_mm > 0 else 0
+    check(len(by.get("MOUNTAIN", [])) == count["M"], f"MOUNTAIN lines = FOLD M edges ({count['M']})")
+    check(len(by.get("VALLEY", [])) == count["V"], f"VALLEY lines = FOLD V edges ({count['V']})")
+    check(len(by.get("CUT", [])) == tab, f"CUT lines = seam tab outline ({tab})")
+    check(len(by.get("BOUNDARY", [])) + len(by.get("VIRTUAL", [])) == count["B"] + count["U"],
+          "BOUNDARY + VIRTUAL lines = FOLD B + U edges")
+    length = lambda e: math.dist((e.dxf.start.x, e.dxf.start.y), (e.dxf.end.x, e.dxf.end.y))
+    half = a.edge_mm / 2
+    check(all(abs(length(e) - half) < 1e-6 for e in by.get("VALLEY", [])),
+          f"every valley line is half a valley fold, l/2 = {half} mm")
+    # Mountain lengths a = l / (2 cos β) for the β of the layers, recovered from the FOLD file.
+    v = fold["vertices_coords"]
+    mountains = sorted({round(math.dist(v[i], v[j]), 6)
+                        for (i, j), s in zip(fold["edges_vertices"], assign) if s == "M"})
+    check(all(any(abs(length(e) - m) < 1e-6 for m in mountains) for e in by.get("MOUNTAIN", [])),
+          f"mountain lines have the FOLD pattern's lengths {mountains} mm")
+    betas = [math.degrees(math.acos(a.edge_mm / (2 * m))) for m in mountains]
+    print("info mountain lengths imply beta =", [round(b, 4) for b in betas], "deg")
+    xs = [p for e in lines for p in (e.dxf.start[0], e.dxf.end[0])]
+    ys = [p for e in lines for p in (e.dxf.start[1], e.dxf.end[1])]
+    width = max(xs) - min(xs)
+    fx = [p[0] for p in v]
+    check(abs(width - (max(fx) - min(fx) + a.seam_mm)) < 1e-6,
+          f"sheet width {width:.3f} mm = pattern + seam allowance")
+    fy = [p[1] for p in v]
+    check(abs((max(ys) - min(ys)) - (max(fy) - min(fy))) < 1e-6, f"sheet height {max(ys) - min(ys):.3f} mm")
+
+
+def mesh_checks(name, m):
+    import trimesh  # noqa: F401
+
+    check(m.is_watertight, f"{name}: watertight ({len(m.faces)} triangles)")
+    check(m.is_winding_consistent, f"{name}: consistent winding (oriented manifold)")
+    check(m.volume > 0, f"{name}: positive volume {m.volume:.3f}")
+    bodies = m.split(only_watertight=False)
+    check(all(b.is_watertight and b.volume > 0 for b in bodies), f"{name}: {len(bodies)} closed bodies, each of positive volume")
+    return bodies
+
+
+def footprints_disjoint(name, bodies):
+    from shapely.geometry import MultiPoint
+
+    polys = [MultiPoint([tuple(p[:2]) for p in b.vertices]).convex_hull for b in bodies]
+    worst = 0.0
+    for i in range(len(polys)):
+        for j in range(i + 1, len(polys)):
+            if polys[i].intersects(polys[j]):
+                worst = max(worst, polys[i].intersection(polys[j]).area)
+    check(worst < 1e-9, f"{name}: no two facets overlap (largest overlap {worst:.2e} mm²)")
+    gaps = []
+    for i in range(len(polys)):
+        gaps.append(min(polys[i].distance(polys[j]) for j in range(len(polys)) if j != i))
+    return min(gaps) if gaps else None
+
+
+def cmd_panel(a):
+    import trimesh
+
+    z = zipfile.ZipFile(a.file)
+    names = z.namelist()
+    check("3D/3dmodel.model" in names and "[Content_Types].xml" in names and "_rels/.rels" in names,
+          f"3MF package parts {sorted(names)}")
+    root = ET.fromstring(z.read("3D/3dmodel.model"))
+    ns = {"c": "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"}
+    check(root.get("unit") == "millimeter", "unit millimeter")
+    meta = {m.get("name"): (m.text or "") for m in root.findall("c:metadata", ns)}
+    for k in ["Title", "Application", "ys:base_material", "ys:facet_material", "ys:base_mm", "ys:facet_mm", "ys:gap_mm", "ys:edge_mm"]:
+        check(k in meta, f"metadata {k} = {meta.get(k)!r}")
+    mats = root.findall("c:resources/c:basematerials/c:base", ns)
+    check(len(mats) == 2, f"two base materials {[m.get('name') for m in mats]}")
+    objs = root.findall("c:resources/c:object", ns)
+    check(len(objs) == 2 and sorted(o.get("pindex") for o in objs) == ["0", "1"],
+          f"two objects, one per material: {[o.get('name') for o in objs]}")
+    scene = trimesh.load(a.file, force="scene")
+    geoms = list(scene.geometry.values())
+    check(len(geoms) == 2, f"trimesh reads {len(geoms)} objects")
+    base_mm, facet_mm, gap_mm = float(meta.get("ys:base_mm", "nan")), float(meta.get("ys:facet_mm", "nan")), meta.get("ys:gap_mm", "")
+    for g in geoms:
+        bodies = mesh_checks(f"3mf {g.metadata.get('name', '?')}", g)
+        zmin, zmax = g.bounds[0][2], g.bounds[1][2]
+        if len(bodies) == 1:
+            check(abs(zmin) < 1e-9 and abs(zmax - base_mm) < 1e-9, f"base sheet z in [0, {base_mm}] mm")
+        else:
+            check(abs(zmin - base_mm) < 1e-9 and abs(zmax - base_mm - facet_mm) < 1e-9,
+                  f"facets z in [{base_mm}, {base_mm + facet_mm}] mm, on the base")
+            gap = footprints_disjoint("3mf facets", bodies)
+            gaps = [float(x) for x in gap_mm.split(",")] if gap_mm else []
+            check(gap is not None and gaps and gap > min(gaps) - 1e-6,
+                  f"smallest distance between neighbouring facets {gap:.4f} mm ≥ gap {min(gaps) if gaps else '?'} mm")
+    if a.stl_dir:
+        import glob
+        import os
+
+        files = sorted(glob.glob(os.path.join(a.stl_dir, "*.stl")))
+        check(len(files) == 2, f"two STL files {[os.path.basename(f) for f in files]}")
+        vol3 = sorted(g.volume for g in geoms)
+        vols = []
+        for f in files:
+            m = trimesh.load(f, force="mesh")
+            mesh_checks(f"stl {os.path.basename(f)}", m)
+            vols.append(m.volume)
+        check(all(abs(x - y) < 1e-6 * max(1, y) for x, y in zip(sorted(vols), vol3)),
+              f"STL volumes {sorted(round(v, 3) for v in vols)} = 3MF volumes")
+
+
+def cmd_mesh(a):
+    import trimesh
+
+    for f in a.files:
+        m = trimesh.load(f, force="mesh")
+        check(len(m.faces) > 0, f"{f}: {len(m.faces)} triangles, bounds {m.bounds.round(3).tolist()}")
+        if a.closed:
+            mesh_checks(f, m)
+
+
+def cmd_kit(a):
+    kit = json.load(open(a.file))
+    check(kit["hinges"] == a.hinges, f"hinges {kit['hinges']} (expected {a.hinges})")
+    check(kit["screws"] == a.screws, f"screws {kit['screws']} (expected {a.screws})")
+    placed = len(kit["hinge_positions"])
+    check(placed == kit["hinges"], f"{placed} hinge positions listed")
+    facets = sum(f["count"] for f in kit["facets"])
+    check(facets == kit["facet_count"], f"{facets} facets in the cut list")
+
+
+def cmd_render(a):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    import trimesh
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    scene = trimesh.load(a.file, force="scene")
+    fig = plt.figure(figsize=(a.size, a.size))
+    ax = fig.add_subplot(projection="3d")
+    allv = []
+    for node in scene.graph.nodes_geometry:
+        tf, gname = scene.graph[node]
+        g = scene.geometry[gname].copy()
+        g.apply_transform(tf)
+        tri = g.vertices[g.faces]
+        colours = None
+        if hasattr(g.visual, "face_colors"):
+            colours = g.visual.face_colors / 255.0
+        pc = Poly3DCollection(tri, facecolors=colours if colours is not None else "0.7",
+                              edgecolors=(0, 0, 0, 0.25), linewidths=0.2)
+        ax.add_collection3d(pc)
+        allv.append(g.vertices)
+    v = np.vstack(allv)
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    c, r = (lo + hi) / 2, (hi - lo).max() / 2
+    ax.set_xlim(c[0] - r, c[0] + r)
+    ax.set_ylim(c[1] - r, c[1] + r)
+    ax.set_zlim(c[2] - r, c[2] + r)
+    ax.view_init(elev=a.elev, azim=a.azim)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_axis_off()
+    if a.title:
+        ax.set_title(a.title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(a.out, dpi=a.dpi)
+    print(f"ok   rendered {a.file} -> {a.out}")
+
+
+def main():
+    p = argparse.ArgumentParser()
+    sub = p.add_subparsers(dest="cmd", required=True)
+    d = sub.add_parser("dxf")
+    d.add_argument("file")
+    d.add_argument("--fold", required=True)
+    d.add_argument("--edge-mm", type=float, required=True)
+    d.add_argument("--seam-mm", type=float, required=True)
+    pn = sub.add_parser("panel")
+    pn.add_argument("file")
+    pn.add_argument("--stl-dir")
+    m = sub.add_parser("mesh")
+    m.add_argument("files", nargs="+")
+    m.add_argument("--closed", action="store_true")
+    k = sub.add_parser("kit")
+    k.add_argument("file")
+    k.add_argument("--hinges", type=int, required=True)
+    k.add_argument("--screws", type=int, required=True)
+    r = sub.add_parser("render")
+    r.add_argument("file")
+    r.add_argument("out")
+    r.add_argument("--title", default="")
+    r.add_argument("--elev", type=float, default=20)
+    r.add_argument("--azim", type=float, default=-60)
+    r.add_argument("--size", type=float, default=5)
+    r.add_argument("--dpi", type=int, default=110)
+    a = p.parse_args()
+    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render}[a.cmd](a)
+    print(f"check_outputs {a.cmd}: " + ("all checks passed" if FAILED == 0 else f"{FAILED} checks FAILED"))
+    sys.exit(1 if FAILED else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -29,3 +29,26 @@ $PY dxf "$OUT/golden.dxf" --fold "$OUT/golden.fold" --edge-mm 609.6 --seam-mm 0
 echo "--- n = 6, two modules of different beta (FOLD)"
 "$H" pattern --n 6 --beta 15.104295,40 --layers 1,2 --edge-mm 20 --fold "$OUT/n6.fold"
 $FOLDCHECK "$OUT/n6.fold"
+
+echo "--- crane trunk printable panel: 3MF and one STL per material (trimesh)"
+"$H" pattern --3mf "$OUT/crane.3mf" --stl-dir "$OUT/stl"
+$PY panel "$OUT/crane.3mf" --stl-dir "$OUT/stl"
+"$H" pattern --n 6 --beta 20,30 --layers 1,2 --edge-mm 40 --gap-mm 1,2 --facet-mm 1 --base-mm 0.4 --3mf "$OUT/n6.3mf"
+$PY panel "$OUT/n6.3mf"
+
+echo "--- the paper's meter-scale build (four 2 ft golden modules): 180 hinges, 720 screws"
+"$H" pattern --beta 31.72 --layers 4 --edge-mm 609.6 --kit "$OUT/kit.json"
+$PY kit "$OUT/kit.json" --hinges 180 --screws 720
+
+echo "--- 3D models: glTF read with numpy alone (the gltf crate validates them in cargo test), OBJ/STL with trimesh"
+"$H" model --states deployed --gltf "$OUT/dd.glb" --obj "$OUT/dd.obj" --stl "$OUT/dd.stl"
+"$H" model --beta 31.717474411461005 --layers 4 --states edge-0,deployed,vertex-1,folded --gltf "$OUT/golden.glb"
+"$H" model --beta 35 --layers 3 --states edge-0 --gltf "$OUT/strained.glb"
+$PY glb "$OUT/dd.glb" "$OUT/golden.glb" --expect-red no
+$PY glb "$OUT/strained.glb" --expect-red yes
+$PY mesh "$OUT/dd.obj" "$OUT/dd.stl"
+"$H" ik --n 3 --beta 31.72 --modules 8 --target helix:radius=1,pitch=4,turns=1 --algo greedy --gltf "$OUT/ik.glb" >/dev/null
+$PY glb "$OUT/ik.glb"
+$PY render "$OUT/dd.glb" "$OUT/dd.png"
+
+echo "fabrication-check: all readers passed"

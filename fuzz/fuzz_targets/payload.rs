@@ -1,5 +1,5 @@
 //! Fuzzes the message deserialisers behind the CRC: arbitrary payload bytes are framed with a
-//! valid CRC-16 and COBS, so (unlike the `decoder` target, whose random frames almost never
+//! valid CRC-32 and COBS, so (unlike the `decoder` target, whose random frames almost never
 //! pass the CRC) every input reaches postcard. A payload that decodes must re-encode to the
 //! same bytes, or to a shorter canonical form of it (postcard also accepts over-long varints).
 #![no_main]
@@ -7,7 +7,7 @@
 use libfuzzer_sys::fuzz_target;
 use protocol::{decode, encode, DeviceMessage, FrameDecoder, Request, MAX_FRAME_LEN, MAX_RAW_LEN};
 
-const CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC);
+const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 fn check<T: serde::Serialize + serde::de::DeserializeOwned>(payload: &[u8], frame: &[u8]) {
     let mut dec = FrameDecoder::new();

@@ -9,10 +9,7 @@ use std::time::{Duration, Instant};
 
 use hil_sim::pty::PtySim;
 use hil_sim::SimOptions;
-use protocol::{
-    DeviceMessage, FrameDecoder, Request, RequestBody, ResponseBody, MAX_FRAME_LEN,
-    PROTOCOL_VERSION, SCHEMA_ID,
-};
+use protocol::{DeviceMessage, FrameDecoder, Request, RequestBody, ResponseBody, MAX_FRAME_LEN};
 
 fn main() -> anyhow::Result<()> {
     let n: usize = std::env::args()
@@ -29,8 +26,16 @@ fn main() -> anyhow::Result<()> {
     let mut round_trip = |body: RequestBody| -> anyhow::Result<(Duration, ResponseBody)> {
         seq = seq.wrapping_add(1);
         let mut frame = [0u8; MAX_FRAME_LEN + 1];
-        let len = protocol::encode(&Request { seq, body }, &mut frame[1..])
-            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        let len = protocol::encode(
+            &Request {
+                seq,
+                // GetStatus is answered for anyone: no session needed.
+                session: 0,
+                body,
+            },
+            &mut frame[1..],
+        )
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         let start = Instant::now();
         port.write_all(&frame[..len + 1])?;
         let mut buf = [0u8; 256];
@@ -54,10 +59,7 @@ fn main() -> anyhow::Result<()> {
             }
         }
     };
-    round_trip(RequestBody::Hello {
-        protocol_version: PROTOCOL_VERSION,
-        schema_id: SCHEMA_ID,
-    })?;
+    round_trip(RequestBody::hello())?;
     let mut rtts = Vec::with_capacity(n);
     for _ in 0..n {
         let (rtt, body) = round_trip(RequestBody::GetStatus)?;

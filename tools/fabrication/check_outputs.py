@@ -5,6 +5,7 @@
   check_outputs.py panel FILE.3mf --stl-dir DIR
   check_outputs.py mesh FILE [FILE ...]          (STL/OBJ/GLB: watertight, consistent, volume)
   check_outputs.py kit FILE.json --hinges H --screws S
+  check_outputs.py glb FILE.glb [...] [--expect-red yes|no] (GLB read with numpy alone)
   check_outputs.py render FILE OUT.png [--title T] (a matplotlib projection of a 3D file)
 
 Each check prints one line; the exit code is 0 only when all pass.
@@ -168,32 +169,69 @@ def cmd_kit(a):
     check(facets == kit["facet_count"], f"{facets} facets in the cut list")
 
 
+def read_glb(path):
+    """Reads a binary glTF written by host-tool (non-indexed triangles, float POSITION and
+    COLOR_0) with numpy alone: returns (triangles (k, 3, 3) in mm with +Z up, sRGB colours (k, 3))."""
+    import struct
+
+    import numpy as np
+
+    data = open(path, "rb").read()
+    magic, version, length = struct.unpack_from("<4sII", data, 0)
+    check(magic == b"glTF" and version == 2 and length == len(data), f"{path}: GLB header, version 2, length {length}")
+    jlen, jtype = struct.unpack_from("<I4s", data, 12)
+    doc = json.loads(data[20:20 + jlen])
+    blen, btype = struct.unpack_from("<I4s", data, 20 + jlen)
+    check(jtype == b"JSON" and btype == b"BIN\0", f"{path}: JSON and BIN chunks")
+    binary = data[28 + jlen:28 + jlen + blen]
+    check(doc["asset"]["version"] == "2.0", f"{path}: asset.version 2.0")
+    prim = doc["meshes"][0]["primitives"][0]
+
+    def accessor(i, width):
+        acc = doc["accessors"][i]
+        view = doc["bufferViews"][acc["bufferView"]]
+        off = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+        arr = np.frombuffer(binary, dtype="<f4", count=acc["count"] * width, offset=off)
+        return arr.reshape(acc["count"], width).astype(float), acc
+
+    pos, pacc = accessor(prim["attributes"]["POSITION"], 3)
+    col, _ = accessor(prim["attributes"]["COLOR_0"], 4)
+    check(np.allclose(pos.min(axis=0), pacc["min"], atol=1e-6) and np.allclose(pos.max(axis=0), pacc["max"], atol=1e-6),
+          f"{path}: POSITION min/max match the data")
+    # glTF metres, +Y up -> mm, +Z up.
+    mm = np.column_stack([pos[:, 0], -pos[:, 2], pos[:, 1]]) * 1000.0
+    lin = np.clip(col[:, :3], 0, 1)
+    srgb = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+    return mm.reshape(-1, 3, 3), srgb.reshape(-1, 3, 3)[:, 0, :]
+
+
 def cmd_render(a):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
-    import trimesh
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    scene = trimesh.load(a.file, force="scene")
+    if a.file.lower().endswith(".glb"):
+        tri, colours = read_glb(a.file)
+    else:
+        import trimesh
+
+        m = trimesh.load(a.file, force="mesh")
+        tri = m.vertices[m.faces]
+        colours = m.visual.face_colors[:, :3] / 255.0 if m.visual.kind else np.full((len(tri), 3), 0.7)
     fig = plt.figure(figsize=(a.size, a.size))
     ax = fig.add_subplot(projection="3d")
-    allv = []
-    for node in scene.graph.nodes_geometry:
-        tf, gname = scene.graph[node]
-        g = scene.geometry[gname].copy()
-        g.apply_transform(tf)
-        tri = g.vertices[g.faces]
-        colours = None
-        if hasattr(g.visual, "face_colors"):
-            colours = g.visual.face_colors / 255.0
-        pc = Poly3DCollection(tri, facecolors=colours if colours is not None else "0.7",
-                              edgecolors=(0, 0, 0, 0.25), linewidths=0.2)
-        ax.add_collection3d(pc)
-        allv.append(g.vertices)
-    v = np.vstack(allv)
+    # Light: shade by the face normal's angle to a fixed direction.
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True) + 1e-300
+    light = np.array([0.3, -0.5, 0.8])
+    light /= np.linalg.norm(light)
+    shade = 0.55 + 0.45 * np.abs(n @ light)
+    ax.add_collection3d(Poly3DCollection(tri, facecolors=np.clip(colours * shade[:, None], 0, 1),
+                                         edgecolors=(0, 0, 0, 0.35), linewidths=0.3))
+    v = tri.reshape(-1, 3)
     lo, hi = v.min(axis=0), v.max(axis=0)
     c, r = (lo + hi) / 2, (hi - lo).max() / 2
     ax.set_xlim(c[0] - r, c[0] + r)
@@ -207,6 +245,18 @@ def cmd_render(a):
     fig.tight_layout()
     fig.savefig(a.out, dpi=a.dpi)
     print(f"ok   rendered {a.file} -> {a.out}")
+
+
+def cmd_glb(a):
+    import numpy as np
+
+    for f in a.files:
+        tri, colours = read_glb(f)
+        check(len(tri) > 0 and np.isfinite(tri).all(), f"{f}: {len(tri)} finite triangles")
+        red = int(np.sum((colours[:, 0] > 0.8) & (colours[:, 1] < 0.2)))
+        print(f"info {f}: {red} faces drawn strain-red")
+        if a.expect_red is not None:
+            check((red > 0) == a.expect_red, f"{f}: strained faces {'present' if a.expect_red else 'absent'}")
 
 
 def main():
@@ -227,6 +277,9 @@ def main():
     k.add_argument("file")
     k.add_argument("--hinges", type=int, required=True)
     k.add_argument("--screws", type=int, required=True)
+    gl = sub.add_parser("glb")
+    gl.add_argument("files", nargs="+")
+    gl.add_argument("--expect-red", type=lambda x: x == "yes", default=None)
     r = sub.add_parser("render")
     r.add_argument("file")
     r.add_argument("out")
@@ -236,7 +289,7 @@ def main():
     r.add_argument("--size", type=float, default=5)
     r.add_argument("--dpi", type=int, default=110)
     a = p.parse_args()
-    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render}[a.cmd](a)
+    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb}[a.cmd](a)
     print(f"check_outputs {a.cmd}: " + ("all checks passed" if FAILED == 0 else f"{FAILED} checks FAILED"))
     sys.exit(1 if FAILED else 0)
 

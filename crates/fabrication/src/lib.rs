@@ -23,6 +23,10 @@
 pub mod dxf_out;
 pub mod fold;
 pub mod folded;
+pub mod kit;
+pub mod mesh;
+pub mod model;
+pub mod panel;
 pub mod pattern;
 pub mod svg;
 mod trunk;

@@ -71,8 +71,8 @@ pub struct WorstCase {
 
 const FF: TrunkState = TrunkState::new(TopState::Folded, BottomState::Folded);
 
-fn encode(seq: u16, body: RequestBody, out: &mut [u8]) -> usize {
-    protocol::encode(&Request { seq, body }, out).unwrap_or(0)
+fn encode(seq: u16, session: u32, body: RequestBody, out: &mut [u8]) -> usize {
+    protocol::encode(&Request { seq, session, body }, out).unwrap_or(0)
 }
 
 /// The largest plan: every step a chain of bends in `F&F`.
@@ -113,15 +113,19 @@ impl WorstCase {
         let mut sink = [0u8; 256];
         let n = encode(
             1,
+            0,
             RequestBody::Hello {
                 protocol_version: PROTOCOL_VERSION,
                 schema_id: SCHEMA_ID,
+                takeover: false,
             },
             &mut buf,
         );
         ctl.handle_rx(&buf[..n], 0);
+        let session = ctl.session();
         let n = encode(
             2,
+            session,
             RequestBody::SetParam {
                 id: ParamId::TelemetryHz,
                 value: 50.0,
@@ -141,14 +145,19 @@ impl WorstCase {
                 primitives,
                 timeout_ms: 3_500_000,
             };
-            let n = encode(3, RequestBody::RunStep(step), &mut buf);
+            let n = encode(3, session, RequestBody::RunStep(step), &mut buf);
             ctl.handle_rx(&buf[..n], 0);
         }
         while ctl.poll_tx(&mut sink) > 0 {}
         let mut frame = [0u8; MAX_FRAME_LEN];
-        let frame_len = encode(10, RequestBody::UploadPlan(largest_plan(10)), &mut frame);
+        let frame_len = encode(
+            10,
+            session,
+            RequestBody::UploadPlan(largest_plan(10)),
+            &mut frame,
+        );
         let mut status_frame = [0u8; 64];
-        let status_len = encode(11, RequestBody::GetStatus, &mut status_frame);
+        let status_len = encode(11, session, RequestBody::GetStatus, &mut status_frame);
         Self {
             ctl,
             frame,
@@ -174,9 +183,16 @@ impl WorstCase {
     pub fn prepare(&mut self) {
         self.seq = self.seq.wrapping_add(2);
         let plan = largest_plan(10);
-        self.frame_len = encode(self.seq, RequestBody::UploadPlan(plan), &mut self.frame);
+        let session = self.ctl.session();
+        self.frame_len = encode(
+            self.seq,
+            session,
+            RequestBody::UploadPlan(plan),
+            &mut self.frame,
+        );
         self.status_len = encode(
             self.seq.wrapping_add(1),
+            session,
             RequestBody::GetStatus,
             &mut self.status_frame,
         );
@@ -188,7 +204,12 @@ impl WorstCase {
             Arrival::Quiet => {
                 // Keeps a running host plan alive (link watch) outside the measured pass.
                 let mut hb = [0u8; 16];
-                let n = encode(self.seq, RequestBody::Heartbeat, &mut hb);
+                let n = encode(
+                    self.seq,
+                    self.ctl.session(),
+                    RequestBody::Heartbeat,
+                    &mut hb,
+                );
                 self.ctl.handle_rx(&hb[..n], self.now_ms);
             }
             Arrival::Whole => {}

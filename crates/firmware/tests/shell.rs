@@ -15,7 +15,7 @@ use firmware::{CraneConfig, StoredState};
 use geometry::TrunkState;
 use protocol::{
     DeviceMessage, Event, FrameDecoder, Mode, Request, RequestBody, ResponseBody, ResultCode,
-    MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID,
+    MAX_FRAME_LEN,
 };
 
 #[derive(Clone, Default)]
@@ -220,9 +220,9 @@ fn bench() -> (Bench, TheShell) {
     (b, shell)
 }
 
-fn send(link: &Link, seq: u16, body: RequestBody) {
+fn send(link: &Link, seq: u16, session: u32, body: RequestBody) {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = protocol::encode(&Request { seq, body }, &mut buf).unwrap();
+    let n = protocol::encode(&Request { seq, session, body }, &mut buf).unwrap();
     link.rx.borrow_mut().extend(&buf[..n]);
 }
 
@@ -243,20 +243,17 @@ fn shell_boots_talks_and_drives_the_pins() {
     for now in 1..=10 {
         shell.step(&mut ctl, now);
     }
-    send(
-        &b.link,
-        1,
-        RequestBody::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            schema_id: SCHEMA_ID,
-        },
-    );
+    send(&b.link, 1, 0, RequestBody::hello());
+    for now in 11..=15 {
+        shell.step(&mut ctl, now);
+    }
     send(
         &b.link,
         2,
+        ctl.session(),
         RequestBody::DeclareState("F&F".parse().unwrap()),
     );
-    for now in 11..=200 {
+    for now in 16..=200 {
         shell.step(&mut ctl, now);
     }
     let msgs = received(&b.link);
@@ -333,20 +330,17 @@ fn shell_boots_unconfirmed_from_a_corrupt_store_and_retries_saves() {
     assert_eq!(ctl.mode(), Mode::Standalone);
     // A failing flash: the save is retried until it succeeds.
     b.store.fail_saves.set(3);
-    send(
-        &b.link,
-        1,
-        RequestBody::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            schema_id: SCHEMA_ID,
-        },
-    );
+    send(&b.link, 1, 0, RequestBody::hello());
+    for now in 41..=45 {
+        shell.step(&mut ctl, now);
+    }
     send(
         &b.link,
         2,
+        ctl.session(),
         RequestBody::DeclareState("D&D".parse().unwrap()),
     );
-    for now in 41..=100 {
+    for now in 46..=100 {
         shell.step(&mut ctl, now);
     }
     assert_eq!(shell.stats.store_errors, 3);

@@ -9,6 +9,7 @@ use core::str::FromStr;
 /// State of the top (β = 31.72°) module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "schema", derive(postcard_schema::Schema))]
 pub enum TopState {
     /// Folded: short and flexible.
     Folded,
@@ -19,6 +20,7 @@ pub enum TopState {
 /// State of the bottom (β = 35°) module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "schema", derive(postcard_schema::Schema))]
 pub enum BottomState {
     /// Self-packed (hyperfolded, §3.1.2): the most compact state.
     Packed,
@@ -31,6 +33,7 @@ pub enum BottomState {
 /// A state of the two-module trunk, `TOP&BOTTOM`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "schema", derive(postcard_schema::Schema))]
 pub struct TrunkState {
     /// The top module.
     pub top: TopState,

@@ -5,7 +5,7 @@
 use protocol::messages::{
     DeviceMessage, Event, Plan, PlanPhase, RequestBody, ResponseBody, ResultCode, Step,
 };
-use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID};
+use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN};
 
 use crate::Sim;
 
@@ -52,6 +52,8 @@ pub enum HostError {
 #[derive(Debug, Default)]
 pub struct SimHost {
     seq: u16,
+    /// The session the last successful handshake opened (0: none yet).
+    pub session: u32,
     decoder: FrameDecoder,
     /// Every message received, in order.
     pub received: Vec<DeviceMessage>,
@@ -69,6 +71,7 @@ impl SimHost {
         self.seq = self.seq.wrapping_add(1);
         let req = Request {
             seq: self.seq,
+            session: self.session,
             body,
         };
         let mut buf = [0u8; MAX_FRAME_LEN];
@@ -104,7 +107,11 @@ impl SimHost {
     ) -> Result<(ResultCode, ResponseBody), HostError> {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
-        let req = Request { seq, body };
+        let req = Request {
+            seq,
+            session: self.session,
+            body,
+        };
         let mut buf = [0u8; MAX_FRAME_LEN];
         let n = encode(&req, &mut buf).map_err(|_| HostError::Encode)?;
         let start = sim.now_ms();
@@ -154,16 +161,13 @@ impl SimHost {
         }
     }
 
-    /// The handshake.
+    /// The handshake; keeps the session it opened for every later request.
     pub fn hello(&mut self, sim: &mut Sim) -> Result<ResponseBody, HostError> {
-        self.request_ok(
-            sim,
-            RequestBody::Hello {
-                protocol_version: PROTOCOL_VERSION,
-                schema_id: SCHEMA_ID,
-            },
-            1_000,
-        )
+        let body = self.request_ok(sim, RequestBody::hello(), 1_000)?;
+        if let ResponseBody::Hello(info) = &body {
+            self.session = info.session;
+        }
+        Ok(body)
     }
 
     /// Uploads and starts a plan, then runs the sim (heartbeating) until `PlanDone` or

@@ -437,10 +437,8 @@ fn the_pty_serves_the_controller_to_a_serial_client() {
         .expect("open the device path");
     let req = protocol::Request {
         seq: 42,
-        body: protocol::RequestBody::Hello {
-            protocol_version: protocol::PROTOCOL_VERSION,
-            schema_id: protocol::SCHEMA_ID,
-        },
+        session: 0,
+        body: protocol::RequestBody::hello(),
     };
     let mut frame = [0u8; protocol::MAX_FRAME_LEN];
     let n = protocol::encode(&req, &mut frame).unwrap();

@@ -69,6 +69,8 @@ enum Command {
     Ik(cmd::ik::Args),
     /// Files to make a trunk: crease pattern (SVG, DXF, FOLD), printable panel (3MF, STL), kit.
     Pattern(cmd::pattern::Args),
+    /// A 3D model of a stack in given states: glTF, OBJ, STL (strain of infeasible states in red).
+    Model(cmd::model::Args),
     /// Take the crane (--port) or the simulator (--sim) to a trunk state, e.g. --target 'D&F'.
     Plan(cmd::plan::Args),
     /// One status snapshot of the crane (or the simulator).
@@ -92,6 +94,7 @@ fn main() -> ExitCode {
         Command::Fk(args) => cmd::fk::run(args),
         Command::Ik(args) => cmd::ik::run(args),
         Command::Pattern(args) => cmd::pattern::run(args),
+        Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),
         Command::Status(args) => cmd::status::run(args),
         Command::Monitor(args) => cmd::monitor::run(args),

@@ -243,3 +243,191 @@ fn pattern_edges_of_the_ranges_work() {
         assert!(doc["faces_vertices"].as_array().unwrap().len() >= 24);
     }
 }
+
+#[test]
+fn pattern_writes_the_panel_and_the_kit() {
+    let dir = TempDir::new("panel");
+    let (mf, stl, kit) = (dir.file("p.3mf"), dir.file("stl"), dir.file("kit.json"));
+    ok(&["pattern", "--3mf", &mf, "--stl-dir", &stl]);
+    let bytes = std::fs::read(&mf).unwrap();
+    assert_eq!(&bytes[..2], b"PK", "a zip package");
+    for f in ["base-tpu.stl", "facets-nylon.stl"] {
+        let len = std::fs::metadata(Path::new(&stl).join(f)).unwrap().len();
+        // Binary STL: 84-byte header + 50 bytes per triangle.
+        assert_eq!((len - 84) % 50, 0, "{f}");
+    }
+    let out = ok(&[
+        "pattern",
+        "--beta",
+        "31.72",
+        "--layers",
+        "4",
+        "--edge-mm",
+        "609.6",
+        "--kit",
+        &kit,
+    ]);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("hinges 180   screws 720"), "{table}");
+    let json: Value = serde_json::from_str(&std::fs::read_to_string(&kit).unwrap()).unwrap();
+    assert_eq!(json["hinges"], 180);
+    assert_eq!(json["screws"], 720);
+}
+
+#[test]
+fn panel_usage_errors_say_what_is_valid() {
+    let dir = TempDir::new("panel-usage");
+    let mf = dir.file("never.3mf");
+    usage_error(
+        &["pattern", "--svg", &dir.file("x.svg"), "--gap-mm", "2"],
+        "give --3mf FILE or --stl-dir DIR too",
+    );
+    usage_error(
+        &["pattern", "--3mf", &mf, "--gap-mm", "0"],
+        "must be in (0, ",
+    );
+    usage_error(
+        &["pattern", "--3mf", &mf, "--gap-mm", "30"],
+        "below twice the smallest facet's inradius",
+    );
+    usage_error(
+        &["pattern", "--3mf", &mf, "--gap-mm", "1,2,3"],
+        "--gap-mm has 3 values but the trunk has 2 modules",
+    );
+    usage_error(
+        &["pattern", "--3mf", &mf, "--gap-mm", "x"],
+        "gap widths in mm",
+    );
+    usage_error(&["pattern", "--3mf", &mf, "--facet-mm", "0"], "(0, 20] mm");
+    usage_error(&["pattern", "--3mf", &mf, "--base-mm", "21"], "(0, 20] mm");
+    std::fs::write(dir.file("file"), b"x").unwrap();
+    usage_error(
+        &["pattern", "--stl-dir", &dir.file("file")],
+        "is not a directory",
+    );
+    assert!(!Path::new(&mf).exists());
+}
+
+#[test]
+fn model_writes_gltf_obj_and_stl() {
+    let dir = TempDir::new("model");
+    let (glb, obj, stl) = (dir.file("m.glb"), dir.file("m.obj"), dir.file("m.stl"));
+    let out = ok(&[
+        "model",
+        "--states",
+        "self-packed,folded",
+        "--gltf",
+        &glb,
+        "--obj",
+        &obj,
+        "--stl",
+        &stl,
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("self-packed,self-packed,folded,folded"),
+        "{text}"
+    );
+    assert!(
+        text.contains("strained faces drawn red"),
+        "packed under folded does not close: {text}"
+    );
+    let bytes = std::fs::read(&glb).unwrap();
+    assert_eq!(&bytes[..4], b"glTF");
+    assert_eq!(fabrication::model::validate_glb(&bytes).unwrap(), 96);
+    assert_eq!(
+        std::fs::read_to_string(&obj)
+            .unwrap()
+            .lines()
+            .filter(|l| l.starts_with("f "))
+            .count(),
+        96
+    );
+    assert_eq!(std::fs::metadata(&stl).unwrap().len(), 84 + 50 * 96);
+    // One state per layer; a feasible stack is not reported as strained.
+    let out = ok(&[
+        "model",
+        "--beta",
+        "31.72",
+        "--layers",
+        "4",
+        "--states",
+        "edge-0,deployed,vertex-1,folded",
+        "--gltf",
+        &glb,
+    ]);
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("strained"));
+}
+
+#[test]
+fn model_usage_errors_say_what_is_valid() {
+    let dir = TempDir::new("model-usage");
+    let glb = dir.file("never.glb");
+    usage_error(&["model"], "give at least one of --gltf FILE");
+    usage_error(
+        &[
+            "model",
+            "--gltf",
+            &glb,
+            "--states",
+            "deployed,folded,deployed",
+        ],
+        "one per module (2) or one per layer (4)",
+    );
+    usage_error(
+        &["model", "--gltf", &glb, "--states", "vertex-9"],
+        "vertex-0 … vertex-2",
+    );
+    usage_error(
+        &["model", "--gltf", &glb, "--states", "deployed,,folded"],
+        "comma-separated",
+    );
+    usage_error(
+        &["model", "--gltf", &glb, "--states", "flat-folded"],
+        "flat-folded does not exist",
+    );
+    usage_error(
+        &["model", "--gltf", "/nonexistent-dir/m.glb"],
+        "cannot write --gltf",
+    );
+    assert!(!Path::new(&glb).exists());
+}
+
+#[test]
+fn ik_writes_the_fitted_boom_as_gltf() {
+    let dir = TempDir::new("ik");
+    let glb = dir.file("fit.glb");
+    ok(&[
+        "ik",
+        "--n",
+        "3",
+        "--beta",
+        "31.72",
+        "--modules",
+        "6",
+        "--target",
+        "helix:radius=1,pitch=4,turns=1",
+        "--algo",
+        "greedy",
+        "--gltf",
+        &glb,
+    ]);
+    let bytes = std::fs::read(&glb).unwrap();
+    assert_eq!(fabrication::model::validate_glb(&bytes).unwrap(), 6 * 24);
+    usage_error(
+        &[
+            "ik",
+            "--n",
+            "3",
+            "--beta",
+            "31.72",
+            "--modules",
+            "6",
+            "--target",
+            "helix",
+            "--gltf",
+            "/nonexistent-dir/x.glb",
+        ],
+        "cannot write --gltf",
+    );
+}

@@ -66,6 +66,7 @@ fn mismatched_device() -> (String, std::thread::JoinHandle<u32>) {
                 if let Some(Ok(Request {
                     seq,
                     body: RequestBody::Hello { .. },
+                    ..
                 })) = decoder.push::<Request>(b)
                 {
                     hellos += 1;
@@ -88,6 +89,8 @@ fn mismatched_device() -> (String, std::thread::JoinHandle<u32>) {
                                 top: module,
                                 pressure_limit_kpa: 40.0,
                             },
+                            session: 0,
+                            reset_cause: protocol::ResetCause::Unknown,
                         }),
                     };
                     let mut frame = [0u8; MAX_FRAME_LEN];

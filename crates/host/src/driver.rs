@@ -51,9 +51,10 @@ pub enum ShellAction {
 /// open, so this only bounds a closed session's wait).
 const IDLE_WAIT_MS: u64 = 50;
 
-/// The engine and its I/O, turned by one blocking loop.
+/// The engine and its I/O, turned by one blocking loop. Dropping it ends the device's session
+/// (a `Close`, not waited for), so the next host can shake hands at once.
 #[derive(Debug)]
-pub struct Driver<I> {
+pub struct Driver<I: Io> {
     /// The engine.
     pub host: Host,
     /// The I/O.
@@ -61,6 +62,17 @@ pub struct Driver<I> {
     /// Device events seen by [`Driver::call`] and not yet taken.
     pub device_events: VecDeque<Event>,
     buf: Vec<u8>,
+}
+
+impl<I: Io> Drop for Driver<I> {
+    fn drop(&mut self) {
+        self.host.close();
+        while let Some(frame) = self.host.poll_transmit() {
+            if self.io.write(&frame).is_err() {
+                break;
+            }
+        }
+    }
 }
 
 impl<I: Io> Driver<I> {

@@ -48,6 +48,11 @@ impl Host {
         self.route(now_ms);
     }
 
+    /// Ends the device's session (see [`Session::close`]); flush [`Host::poll_transmit`].
+    pub fn close(&mut self) {
+        self.session.close();
+    }
+
     /// The session.
     pub fn session(&self) -> &Session {
         &self.session

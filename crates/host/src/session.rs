@@ -232,6 +232,8 @@ pub struct Session {
     last_tx_ms: u64,
     last_rx_ms: u64,
     info: Option<DeviceInfo>,
+    /// The device's session id from the handshake (0 before it), sent in every request.
+    session_id: u32,
     stats: SessionStats,
     keepalive: bool,
 }
@@ -253,9 +255,34 @@ impl Session {
             last_tx_ms: 0,
             last_rx_ms: 0,
             info: None,
+            session_id: 0,
             stats: SessionStats::default(),
             keepalive: true,
         }
+    }
+
+    /// Ends the session on the device at once (a `Close` is queued for
+    /// [`Session::poll_transmit`], not waited for: if it is lost, the device frees the session
+    /// after its link timeout) and closes this side. Nothing happens unless it is open.
+    pub fn close(&mut self) {
+        if self.phase != Phase::Open {
+            return;
+        }
+        let request = Request {
+            seq: self.next_seq,
+            session: self.session_id,
+            body: RequestBody::Close,
+        };
+        self.next_seq = self.next_seq.wrapping_add(1).max(1);
+        let mut frame = vec![0u8; MAX_FRAME_LEN + 1];
+        if let Ok(n) = protocol::encode(&request, &mut frame[1..]) {
+            frame.truncate(n + 1);
+            self.transmit.push_back(frame);
+            self.stats.frames_tx += 1;
+        }
+        self.pending = None;
+        self.queue.clear();
+        self.phase = Phase::Closed;
     }
 
     /// Starts the handshake.
@@ -490,6 +517,7 @@ impl Session {
             return;
         }
         self.phase = Phase::Open;
+        self.session_id = info.session;
         self.info = Some(info.clone());
         self.events.push_back(SessionEvent::Opened(info));
     }
@@ -516,7 +544,11 @@ impl Session {
         let seq = self.next_seq;
         self.next_seq = self.next_seq.wrapping_add(1).max(1);
         let name = text::request_name(&body);
-        let request = Request { seq, body };
+        let request = Request {
+            seq,
+            session: self.session_id,
+            body,
+        };
         // A lone delimiter first closes whatever half frame or noise the device's decoder
         // holds, so a request is never glued to garbage.
         let mut frame = vec![0u8; MAX_FRAME_LEN + 1];

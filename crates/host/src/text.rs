@@ -62,6 +62,15 @@ pub const fn reject(reason: RejectReason) -> &'static str {
         RejectReason::OutOfRange => "a value is out of range",
         RejectReason::NoManualPending => "no manual step is waiting for confirmation",
         RejectReason::NotAllowed => "not allowed now",
+        RejectReason::NotSessionOwner => {
+            "another host's session holds the crane (or it restarted): handshake again"
+        }
+        RejectReason::SessionBusy => {
+            "another host is connected to the crane (it holds the session); take over explicitly"
+        }
+        RejectReason::Unconfirmed => {
+            "the trunk state is unconfirmed: identify or declare it before running steps"
+        }
     }
 }
 
@@ -78,6 +87,9 @@ pub const fn reject_name(reason: RejectReason) -> &'static str {
         RejectReason::OutOfRange => "out-of-range",
         RejectReason::NoManualPending => "no-manual-pending",
         RejectReason::NotAllowed => "not-allowed",
+        RejectReason::NotSessionOwner => "not-session-owner",
+        RejectReason::SessionBusy => "session-busy",
+        RejectReason::Unconfirmed => "unconfirmed",
     }
 }
 
@@ -96,6 +108,8 @@ pub const fn request_name(body: &RequestBody) -> &'static str {
         RequestBody::DeclareState(_) => "DeclareState",
         RequestBody::GetParam(_) => "GetParam",
         RequestBody::SetParam { .. } => "SetParam",
+        RequestBody::Close => "Close",
+        RequestBody::Identify => "Identify",
     }
 }
 

@@ -1,4 +1,4 @@
-//! Framing: `COBS(postcard(message) ‖ CRC-16/IBM-SDLC little-endian) ‖ 0x00`.
+//! Framing: `COBS(postcard(message) ‖ CRC-32/ISO-HDLC little-endian) ‖ 0x00`.
 //!
 //! [`encode`] writes one frame into a caller's buffer. [`FrameDecoder`] takes bytes one at a
 //! time ([`FrameDecoder::push`]) or in chunks of any size ([`FrameDecoder::feed`]), and yields a
@@ -7,8 +7,15 @@
 //!
 //! Why our own decoder loop rather than postcard's `CobsAccumulator`: on an oversized frame the
 //! accumulator restarts in the middle of it, so the frame's tail is parsed as a new frame; ours
-//! discards everything up to the next delimiter. postcard's CRC helpers are also 32-bit only,
-//! and CRC-16 is plenty for frames of at most [`MAX_FRAME_LEN`] bytes.
+//! discards everything up to the next delimiter, and it keeps its CRC register as it goes.
+//!
+//! Why CRC-32 (protocol v2; v1 had CRC-16/IBM-SDLC): with COBS, a wire error of a few bits can
+//! shift the unstuffed payload, which a 16-bit check passed about once in 10^7 mutated frames
+//! (4 of 5·10^7 with 3–4 bit errors). CRC-32/ISO-HDLC has Hamming distance 4 or more up to
+//! 91 607 bits, far beyond [`MAX_FRAME_LEN`]; the mutation campaign
+//! (`cargo run --release -p protocol --example mutation`, BENCHMARKS.md) measures it. A frame
+//! that fails the CRC-32 but carries a valid CRC-16 is reported as [`FrameError::Legacy`], so a
+//! host can say that the peer runs protocol v1 instead of "no answer".
 //!
 //! Nothing here panics on any input or allocates: every index is bounds-checked by construction
 //! (the fuzz target `fuzz/fuzz_targets/decoder.rs` and the property tests hold it to that).
@@ -17,31 +24,34 @@ use serde::{de::DeserializeOwned, Serialize};
 
 /// Largest encoded frame, delimiter included. The decoder drops anything longer.
 pub const MAX_FRAME_LEN: usize = 512;
-/// Largest payload (postcard bytes plus the 2-byte CRC) that fits in [`MAX_FRAME_LEN`]: COBS
+/// Largest payload (postcard bytes plus the 4-byte CRC) that fits in [`MAX_FRAME_LEN`]: COBS
 /// adds at most one byte per 254 and the delimiter one more.
 pub const MAX_RAW_LEN: usize = MAX_FRAME_LEN - 1 - (MAX_FRAME_LEN / 254 + 1);
 /// Bytes of CRC after the postcard payload.
-pub const CRC_LEN: usize = 2;
+pub const CRC_LEN: usize = 4;
 
 /// Largest frame without its delimiter.
 const MAX_STUFFED_LEN: usize = MAX_FRAME_LEN - 1;
 
-const CRC_ALGORITHM: &crc::Algorithm<u16> = &crc::CRC_16_IBM_SDLC;
-const CRC: crc::Crc<u16> = crc::Crc::<u16>::new(CRC_ALGORITHM);
+const CRC_ALGORITHM: &crc::Algorithm<u32> = &crc::CRC_32_ISO_HDLC;
+const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(CRC_ALGORITHM);
+/// Protocol v1's check, only to recognise an old peer's frames (bitwise: bad frames only).
+const LEGACY_CRC: crc::Crc<u16, crc::NoTable> =
+    crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_SDLC);
 
 // The streaming decoder keeps the CRC register itself (one table look-up per byte, no
 // indirection through a `crc::Digest`'s pointer to the algorithm), with the `crc` crate's own
-// table. Its update step below is the one for reflected CRCs, as CRC-16/IBM-SDLC is; the
+// table. Its update step below is the one for reflected CRCs, as CRC-32/ISO-HDLC is; the
 // one-shot path (`encode`, `decode`) uses the crate's `checksum`, and the tests compare the two.
-const _: () = assert!(CRC_ALGORITHM.refin && CRC_ALGORITHM.refout && CRC_ALGORITHM.width == 16);
-/// The reflected CRC's 256-entry table.
-static CRC_TABLE: [u16; 256] = CRC.table()[0];
+const _: () = assert!(CRC_ALGORITHM.refin && CRC_ALGORITHM.refout && CRC_ALGORITHM.width == 32);
+/// The reflected CRC's 256-entry table (1 KiB of flash).
+static CRC_TABLE: [u32; 256] = CRC.table()[0];
 /// The register's initial value (reflected, as the input is).
-const CRC_INIT: u16 = CRC_ALGORITHM.init.reverse_bits();
+const CRC_INIT: u32 = CRC_ALGORITHM.init.reverse_bits();
 
-/// One byte into a reflected CRC-16 register.
+/// One byte into a reflected CRC-32 register.
 #[inline(always)]
-fn crc_step(register: u16, byte: u8) -> u16 {
+fn crc_step(register: u32, byte: u8) -> u32 {
     CRC_TABLE[usize::from(register as u8 ^ byte)] ^ (register >> 8)
 }
 
@@ -54,6 +64,9 @@ pub enum FrameError {
     Cobs,
     /// CRC mismatch.
     Crc,
+    /// CRC-32 mismatch, but the frame checks out under protocol v1's CRC-16: the peer runs an
+    /// older build (dropped like any bad frame).
+    Legacy,
     /// The payload is not a valid message (or has bytes left over after one).
     Payload,
     /// A delimiter with nothing before it (ignored, not counted as a drop). Senders may send a
@@ -113,23 +126,28 @@ fn decode_stuffed<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError
     // panic; the decoded length never exceeds the input length.
     let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
     let raw = frame.get(..n).ok_or(FrameError::Cobs)?;
-    let Some((payload, _)) = raw.split_last_chunk::<CRC_LEN>() else {
-        return Err(FrameError::Payload);
+    let crc = match raw.split_last_chunk::<CRC_LEN>() {
+        Some((payload, _)) => CRC.checksum(payload),
+        None => 0,
     };
-    check_and_deserialize(raw, CRC.checksum(payload))
+    check_and_deserialize(raw, crc)
 }
 
 /// `raw`: one unstuffed frame, more than [`CRC_LEN`] bytes long; `crc`: the CRC of all but its
 /// last [`CRC_LEN`] bytes, which must equal them (little-endian).
-fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u16) -> Result<T, FrameError> {
-    let Some((payload, [lo, hi])) = raw.split_last_chunk::<CRC_LEN>() else {
-        return Err(FrameError::Payload);
+fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T, FrameError> {
+    let Some((payload, check)) = raw
+        .split_last_chunk::<CRC_LEN>()
+        .filter(|(p, _)| !p.is_empty())
+    else {
+        // Too short for a v2 frame: a short v1 one (2-byte CRC), or garbage.
+        return Err(match legacy_or_crc(raw) {
+            FrameError::Legacy => FrameError::Legacy,
+            _ => FrameError::Payload,
+        });
     };
-    if payload.is_empty() {
-        return Err(FrameError::Payload);
-    }
-    if crc.to_le_bytes() != [*lo, *hi] {
-        return Err(FrameError::Crc);
+    if crc.to_le_bytes() != *check {
+        return Err(legacy_or_crc(raw));
     }
     // An empty remainder is required: a frame carries exactly one message, so trailing bytes
     // mean a sender bug and are refused rather than silently ignored. (The deserialiser by
@@ -140,6 +158,19 @@ fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u16) -> Result<T,
     match de.finalize() {
         Ok([]) => Ok(msg),
         _ => Err(FrameError::Payload),
+    }
+}
+
+/// A frame whose CRC-32 failed: [`FrameError::Legacy`] when it is a valid protocol-v1 frame
+/// (payload ‖ CRC-16/IBM-SDLC), else [`FrameError::Crc`].
+fn legacy_or_crc(raw: &[u8]) -> FrameError {
+    match raw.split_last_chunk::<2>() {
+        Some((payload, check))
+            if !payload.is_empty() && LEGACY_CRC.checksum(payload).to_le_bytes() == *check =>
+        {
+            FrameError::Legacy
+        }
+        _ => FrameError::Crc,
     }
 }
 
@@ -179,10 +210,10 @@ pub struct FrameDecoder {
     /// by a zero, written when the next block starts (no zero after the last block).
     code: u8,
     overflow: bool,
-    /// CRC register over `buf[..len - CRC_LEN]`: a decoded byte enters it only once two more
-    /// have arrived, because the last two bytes are the CRC itself and where the frame ends is
+    /// CRC register over `buf[..len - CRC_LEN]`: a decoded byte enters it only once four more
+    /// have arrived, because the last four bytes are the CRC itself and where the frame ends is
     /// known only at the delimiter.
-    crc: u16,
+    crc: u32,
     stats: DecoderStats,
 }
 
@@ -225,10 +256,10 @@ impl FrameDecoder {
         self.crc = CRC_INIT;
     }
 
-    /// Appends one decoded byte; the byte two places before it joins the CRC.
+    /// Appends one decoded byte; the byte [`CRC_LEN`] places before it joins the CRC.
     #[inline(always)]
     fn emit(&mut self, byte: u8) {
-        // `len - 2` wraps for the first two bytes: `get` finds nothing, nothing to add yet.
+        // `len - 4` wraps for the first four bytes: `get` finds nothing, nothing to add yet.
         if let Some(&old) = self.buf.get(self.len.wrapping_sub(CRC_LEN)) {
             self.crc = crc_step(self.crc, old);
         }

@@ -9,12 +9,16 @@
 //! - [`messages`]: every message host and device exchange. The host sends a [`Request`]
 //!   (`seq` + [`RequestBody`]); the device answers each with exactly one
 //!   [`DeviceMessage::Response`] echoing `seq`, and sends [`DeviceMessage::Event`]s unprompted.
-//! - [`frame`]: framing — `COBS(postcard ‖ CRC-16) ‖ 0x00` — with [`encode`], a one-shot
+//!   Every request carries the `session` its handshake opened; state-changing requests from
+//!   another session are refused ([`RejectReason::NotSessionOwner`]).
+//! - [`frame`]: framing — `COBS(postcard ‖ CRC-32) ‖ 0x00` — with [`encode`], a one-shot
 //!   [`decode`] and the streaming [`FrameDecoder`] (byte by byte or chunk by chunk), which
 //!   counts and drops bad frames and resynchronises at the next delimiter.
 //! - Versioning: [`PROTOCOL_VERSION`] and [`SCHEMA_ID`] are exchanged in the handshake
 //!   ([`RequestBody::Hello`] / [`DeviceInfo`]); [`check_hello`] is the one comparison both
-//!   sides use, and a peer with different values is refused.
+//!   sides use, and a peer with different values is refused. [`SCHEMA_ID`] is derived from the
+//!   message types' structure ([`schema_hash`] over their `postcard_schema::Schema`), so a
+//!   comment edit keeps it and a change of any field, variant or type changes it.
 //! - Timing: [`HEARTBEAT_PERIOD_MS`], [`HOST_HEARTBEAT_PERIOD_MS`],
 //!   [`DEFAULT_LINK_TIMEOUT_MS`], [`RESPONSE_TIMEOUT_MS`], [`MAX_RETRIES`].
 //! - [`transitions`]: the nominal trunk transition catalogue (owned by the simulator's
@@ -34,7 +38,7 @@
 //! ```
 //! use protocol::{encode, FrameDecoder, Request, RequestBody, MAX_FRAME_LEN};
 //!
-//! let req = Request { seq: 1, body: RequestBody::GetStatus };
+//! let req = Request { seq: 1, session: 0, body: RequestBody::GetStatus };
 //! let mut frame = [0u8; MAX_FRAME_LEN];
 //! let n = encode(&req, &mut frame).unwrap();
 //! assert_eq!(frame[n - 1], 0x00); // the delimiter
@@ -70,11 +74,32 @@ pub use frame::{
 pub use messages::*;
 
 /// Protocol version: bumped on any incompatible change of framing or semantics.
-pub const PROTOCOL_VERSION: u16 = 1;
+///
+/// - 1: CRC-16 framing, no sessions.
+/// - 2: CRC-32 framing, session-bound requests, the belief (candidates, interrupted step) in
+///   [`Status`], [`RequestBody::Identify`] and [`RequestBody::Close`].
+pub const PROTOCOL_VERSION: u16 = 2;
 
-/// Schema identity: FNV-1a (32 bit) over the source text of the message definitions, so a host
-/// and a device built from different definitions refuse each other at the handshake.
-pub const SCHEMA_ID: u32 = fnv1a32(include_str!("messages.rs").as_bytes());
+/// Schema identity: [`schema_hash`] of the two message roots, [`Request`] (host → device) and
+/// [`DeviceMessage`] (device → host), so a host and a device built from differently shaped
+/// definitions refuse each other at the handshake. Computed at compile time; costs no flash.
+pub const SCHEMA_ID: u32 = {
+    let req = schema_hash::<Request>().to_le_bytes();
+    let dev = schema_hash::<DeviceMessage>().to_le_bytes();
+    fnv1a32(&[
+        req[0], req[1], req[2], req[3], dev[0], dev[1], dev[2], dev[3],
+    ])
+};
+
+/// A 32-bit identity of `T`'s wire shape: postcard-schema's 64-bit FNV-1a key of its
+/// [`postcard_schema::Schema`] (every type, field and variant name and every field's type,
+/// recursively, in declaration order; doc comments and attributes other than serde's play no
+/// part), folded to 32 bits.
+pub const fn schema_hash<T: postcard_schema::Schema + ?Sized>() -> u32 {
+    let key = postcard_schema::key::Key::for_path::<T>("yoshimura-crane").to_bytes();
+    let k = u64::from_le_bytes(key);
+    (k as u32) ^ ((k >> 32) as u32)
+}
 
 /// The device sends [`Event::Heartbeat`] this often.
 pub const HEARTBEAT_PERIOD_MS: u32 = 500;
@@ -144,7 +169,30 @@ impl RequestBody {
         RequestBody::Hello {
             protocol_version: PROTOCOL_VERSION,
             schema_id: SCHEMA_ID,
+            takeover: false,
         }
+    }
+
+    /// The handshake request that takes the crane over from a live session.
+    pub const fn hello_takeover() -> Self {
+        RequestBody::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_id: SCHEMA_ID,
+            takeover: true,
+        }
+    }
+
+    /// Whether the request changes the device's state (and so is refused from anyone but the
+    /// session's owner): everything except `Hello`, `GetStatus`, `GetParam` and `Abort`
+    /// (`Heartbeat` is the owner's too: it keeps the session alive).
+    pub const fn needs_session(&self) -> bool {
+        !matches!(
+            self,
+            RequestBody::Hello { .. }
+                | RequestBody::GetStatus
+                | RequestBody::GetParam(_)
+                | RequestBody::Abort
+        )
     }
 }
 
@@ -169,6 +217,94 @@ const fn fnv1a32(bytes: &[u8]) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    // Three versions of one small message, as `messages.rs` might be edited: `documented`
+    // differs from `original` only in its comments, `reshaped` in one field's type, `renamed`
+    // in one variant's name.
+    #[allow(dead_code)] // only their shapes matter
+    mod original {
+        #[derive(postcard_schema::Schema)]
+        pub struct Probe {
+            pub seq: u16,
+            pub body: Body,
+        }
+        #[derive(postcard_schema::Schema)]
+        pub enum Body {
+            Ping,
+            Set { value: f32 },
+        }
+    }
+    #[allow(dead_code)] // only their shapes matter
+    mod documented {
+        /// A probe, now documented.
+        #[derive(postcard_schema::Schema)]
+        pub struct Probe {
+            /// The sequence number (a comment edit).
+            pub seq: u16,
+            // A plain comment too.
+            pub body: Body,
+        }
+        /// What it asks.
+        #[derive(postcard_schema::Schema)]
+        pub enum Body {
+            /// Nothing.
+            Ping,
+            /// A value.
+            Set {
+                /// In kPa.
+                value: f32,
+            },
+        }
+    }
+    #[allow(dead_code)] // only their shapes matter
+    mod reshaped {
+        #[derive(postcard_schema::Schema)]
+        pub struct Probe {
+            pub seq: u32,
+            pub body: Body,
+        }
+        #[derive(postcard_schema::Schema)]
+        pub enum Body {
+            Ping,
+            Set { value: f32 },
+        }
+    }
+    #[allow(dead_code)] // only their shapes matter
+    mod renamed {
+        #[derive(postcard_schema::Schema)]
+        pub struct Probe {
+            pub seq: u16,
+            pub body: Body,
+        }
+        #[derive(postcard_schema::Schema)]
+        pub enum Body {
+            Ping,
+            Put { value: f32 },
+        }
+    }
+
+    #[test]
+    fn schema_identity_follows_the_shape_not_the_comments() {
+        let id = schema_hash::<original::Probe>();
+        assert_eq!(
+            schema_hash::<documented::Probe>(),
+            id,
+            "a comment changed the id"
+        );
+        assert_ne!(
+            schema_hash::<reshaped::Probe>(),
+            id,
+            "a field type change kept the id"
+        );
+        assert_ne!(
+            schema_hash::<renamed::Probe>(),
+            id,
+            "a variant rename kept the id"
+        );
+        // And the real roots: the two directions differ, and SCHEMA_ID depends on both.
+        assert_ne!(schema_hash::<Request>(), schema_hash::<DeviceMessage>());
+        assert_ne!(SCHEMA_ID, schema_hash::<Request>());
+    }
 
     #[test]
     fn fnv1a32_matches_the_reference_vectors() {

@@ -4,12 +4,15 @@
 //! [`DeviceMessage::Response`] echoing the request's sequence number, and sends
 //! [`DeviceMessage::Event`]s unprompted.
 //!
-//! The schema identity ([`crate::SCHEMA_ID`]) is a hash over this file's source text: any change
-//! here changes it, and a host and device built from different definitions refuse each other at
-//! the handshake. Changes must be deliberate: the golden byte tests pin the wire form.
+//! The schema identity ([`crate::SCHEMA_ID`]) is a hash over these types' *structure* (their
+//! `postcard_schema::Schema`: names, fields, variants and their types, in order), not over this
+//! file's text: a comment edit keeps it, any change of a type's shape changes it, and a host and
+//! device built from different definitions refuse each other at the handshake. Changes must be
+//! deliberate: the golden byte tests pin the wire form.
 
 use geometry::TrunkState;
 use heapless::Vec;
+use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Most steps one uploaded plan may hold (the six-state graph never needs more than five).
@@ -25,25 +28,37 @@ pub const MAX_STEP_PRIMITIVES: usize = 4;
 ///
 /// A request repeated with the same `seq` (a retry after a lost response) is not executed twice:
 /// the device answers it again with the response it gave the first time.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+///
+/// `session` binds the request to the handshake that opened it ([`DeviceInfo::session`]):
+/// state-changing requests from any other session are refused with
+/// [`RejectReason::NotSessionOwner`] (`docs/protocol.md`, "Sessions").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub struct Request {
     /// Sequence number chosen by the host, echoed in the response.
     pub seq: u16,
+    /// The session the device opened at this host's handshake (ignored in a `Hello`; 0 before
+    /// one).
+    pub session: u32,
     /// What the host asks for.
     pub body: RequestBody,
 }
 
 /// What a request asks for.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub enum RequestBody {
-    /// Handshake. The device answers with [`ResponseBody::Hello`] (its versions, board and trunk
-    /// configuration); it rejects with [`RejectReason::VersionMismatch`] when either the protocol
-    /// version or the schema identity differs, and still includes its own identity.
+    /// Handshake. The device answers with [`ResponseBody::Hello`] (its versions, board, trunk
+    /// configuration and the new session's id); it rejects with
+    /// [`RejectReason::VersionMismatch`] when either the protocol version or the schema identity
+    /// differs, and with [`RejectReason::SessionBusy`] while another host's session is live and
+    /// `takeover` is false, and still includes its own identity.
     Hello {
         /// The host's [`crate::PROTOCOL_VERSION`].
         protocol_version: u16,
         /// The host's [`crate::SCHEMA_ID`].
         schema_id: u32,
+        /// Open a new session even while another host's is live (that host's next
+        /// state-changing request is refused with [`RejectReason::NotSessionOwner`]).
+        takeover: bool,
     },
     /// Ask for a [`Status`] snapshot.
     GetStatus,
@@ -59,7 +74,8 @@ pub enum RequestBody {
     },
     /// Run a single step now (as a one-step plan with id 0).
     RunStep(Step),
-    /// Abort whatever runs and go to the safe state (not latched, unlike e-stop).
+    /// Abort whatever runs and go to the safe state (not latched, unlike e-stop). Honoured from
+    /// anyone, with or without a session.
     Abort,
     /// The operator has done the manual step the device asked for.
     ConfirmManual,
@@ -77,10 +93,18 @@ pub enum RequestBody {
         /// New value, in the parameter's unit.
         value: f32,
     },
+    /// End the caller's session: the crane is free for another host's handshake at once.
+    Close,
+    /// Identify an unconfirmed trunk state with the crane's own probes ([`ResultCode::InProgress`];
+    /// the result shows in [`Status`]'s belief and a [`Event::StateReached`]). Where the sensing
+    /// cannot decide, the device narrows the candidates and sends
+    /// [`Event::IdentifyNeedsOperator`]: a [`RequestBody::DeclareState`] or the confirm button
+    /// on the crane resolves it.
+    Identify,
 }
 
 /// A plan: steps executed in order, each a transition between trunk states.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub struct Plan {
     /// Identifier chosen by the host (non-zero; 0 is reserved for [`RequestBody::RunStep`]).
     pub plan_id: u16,
@@ -89,7 +113,7 @@ pub struct Plan {
 }
 
 /// One step of a plan: a transition `from` → `to` made by a short sequence of primitives.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub struct Step {
     /// How the transition is actuated (for people and for reports).
     pub kind: StepKind,
@@ -104,7 +128,7 @@ pub struct Step {
 }
 
 /// How a step is actuated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum StepKind {
     /// Pressurised air lengthens the trunk.
     Pneumatic,
@@ -115,7 +139,7 @@ pub enum StepKind {
 }
 
 /// An actuation primitive the device executes with its own interlocks.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Schema)]
 pub enum Primitive {
     /// Raise the pressure toward `pressure_kpa` (closed loop, inlet valve), hold it there with
     /// hysteresis, and finish after `snaps` snap-throughs have been detected (0: finish when the
@@ -171,7 +195,7 @@ pub enum Primitive {
 }
 
 /// What a manual step asks a person to do.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum ManualTask {
     /// Fold the panels of the bottom module's two lowest units back into self-packing.
     PackBottomModule,
@@ -182,7 +206,7 @@ pub enum ManualTask {
 }
 
 /// A tunable parameter with a unit and a valid range.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum ParamId {
     /// Pressure cap in kPa (configurable up to the hard maximum).
     PressureLimitKpa,
@@ -233,7 +257,7 @@ impl ParamId {
 // ---------------------------------------------------------------------------------------------
 
 /// A message from the device.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub enum DeviceMessage {
     /// The one answer to the request with sequence number `seq`.
     Response {
@@ -249,7 +273,7 @@ pub enum DeviceMessage {
 }
 
 /// Outcome of a request.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum ResultCode {
     /// Done.
     Ok,
@@ -262,7 +286,7 @@ pub enum ResultCode {
 }
 
 /// Why a request was refused.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum RejectReason {
     /// Protocol version or schema identity differ (the response carries the device's).
     VersionMismatch,
@@ -284,10 +308,17 @@ pub enum RejectReason {
     NoManualPending,
     /// The request is not allowed now (e.g. `ResetFaults` with the e-stop still pressed).
     NotAllowed,
+    /// The request's `session` is not the device's current one (another host took over, or the
+    /// device restarted): handshake again.
+    NotSessionOwner,
+    /// Another host's session is live; a `Hello` with `takeover: true` takes the crane over.
+    SessionBusy,
+    /// The trunk state is unconfirmed, so a step's `from` cannot be vouched for: identify first.
+    Unconfirmed,
 }
 
 /// Data carried by a response.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub enum ResponseBody {
     /// No data.
     None,
@@ -305,7 +336,7 @@ pub enum ResponseBody {
 }
 
 /// Who the device is.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub struct DeviceInfo {
     /// The device's [`crate::PROTOCOL_VERSION`].
     pub protocol_version: u16,
@@ -317,10 +348,101 @@ pub struct DeviceInfo {
     pub board: Board,
     /// The trunk it drives.
     pub trunk: TrunkConfig,
+    /// The session this handshake opened (new per boot and per handshake; put it in every
+    /// later [`Request::session`]). On a refused handshake, the session in force (0: none).
+    pub session: u32,
+    /// Why the device last started.
+    pub reset_cause: ResetCause,
+}
+
+/// Why the device last started.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
+pub enum ResetCause {
+    /// Power was applied (or the simulator's power was cycled).
+    PowerOn,
+    /// The watchdog restarted it (the Watchdog fault is raised too).
+    Watchdog,
+    /// The supply dipped below the brown-out threshold.
+    BrownOut,
+    /// A software reset.
+    Software,
+    /// The board could not tell.
+    Unknown,
+}
+
+/// A set of trunk states, one bit per [`TrunkState::index`] (bit 0 = `F&P` … bit 5 = `D&D`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, Schema)]
+pub struct StateSet(pub u8);
+
+impl StateSet {
+    /// No state.
+    pub const EMPTY: StateSet = StateSet(0);
+    /// All six states.
+    pub const ALL: StateSet = StateSet(0b11_1111);
+
+    /// The set holding only `s`.
+    pub const fn single(s: TrunkState) -> StateSet {
+        StateSet(1 << s.index())
+    }
+
+    /// This set with `s` added.
+    pub const fn with(self, s: TrunkState) -> StateSet {
+        StateSet(self.0 | (1 << s.index()))
+    }
+
+    /// Whether `s` is in the set.
+    pub const fn contains(self, s: TrunkState) -> bool {
+        self.0 & (1 << s.index()) != 0
+    }
+
+    /// The states in both sets.
+    pub const fn intersect(self, other: StateSet) -> StateSet {
+        StateSet(self.0 & other.0 & Self::ALL.0)
+    }
+
+    /// The states in either set.
+    pub const fn union(self, other: StateSet) -> StateSet {
+        StateSet((self.0 | other.0) & Self::ALL.0)
+    }
+
+    /// How many states (bits above bit 5 do not count).
+    pub const fn len(self) -> u32 {
+        (self.0 & Self::ALL.0).count_ones()
+    }
+
+    /// No state.
+    pub const fn is_empty(self) -> bool {
+        self.len() == 0
+    }
+
+    /// The one state, when the set holds exactly one.
+    pub fn only(self) -> Option<TrunkState> {
+        if self.len() == 1 {
+            TrunkState::from_index((self.0 & Self::ALL.0).trailing_zeros() as usize)
+        } else {
+            None
+        }
+    }
+
+    /// The states, in [`TrunkState::ALL`] order.
+    pub fn iter(self) -> impl Iterator<Item = TrunkState> {
+        TrunkState::ALL
+            .into_iter()
+            .filter(move |s| self.contains(*s))
+    }
+}
+
+/// A transition between two trunk states (`from` → `to`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
+pub struct Transition {
+    /// Where it started.
+    pub from: TrunkState,
+    /// Where it was going.
+    pub to: TrunkState,
 }
 
 /// Hardware the firmware runs on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum Board {
     /// Arduino UNO R4 WiFi (host link through the ESP32-S3 USB bridge).
     UnoR4Wifi,
@@ -331,7 +453,7 @@ pub enum Board {
 }
 
 /// The trunk configuration the device is built for.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Schema)]
 pub struct TrunkConfig {
     /// The bottom module.
     pub bottom: ModuleConfig,
@@ -342,7 +464,7 @@ pub struct TrunkConfig {
 }
 
 /// One module of the trunk.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Schema)]
 pub struct ModuleConfig {
     /// Polygon sides.
     pub n: u8,
@@ -355,7 +477,7 @@ pub struct ModuleConfig {
 }
 
 /// What the device is doing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum Mode {
     /// Standalone: joystick and buttons drive the crane; no plan.
     Standalone,
@@ -370,12 +492,23 @@ pub enum Mode {
 }
 
 /// Snapshot of the device.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+///
+/// The belief: `state_confirmed` says whether `state` is known (sensors, a confirmed step, the
+/// operator or the host said so). When it is not, `state` is only the last confirmed state,
+/// `candidates` the states the trunk may be in, and `interrupted` the step that was under way
+/// when confidence was lost; plan steps are refused ([`RejectReason::Unconfirmed`]) until the
+/// state is identified or declared (`docs/firmware.md`, "What a state report means").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub struct Status {
-    /// The state the device believes the trunk is in.
+    /// The confirmed state, or (unconfirmed) the last confirmed one.
     pub state: TrunkState,
-    /// Whether that state was confirmed from sensors (or declared) rather than assumed.
+    /// Whether `state` is confirmed (sensors, a confirmed step, the operator or the host).
     pub state_confirmed: bool,
+    /// The states the trunk may be in: exactly `{state}` when confirmed.
+    pub candidates: StateSet,
+    /// The step that was under way when confidence was lost (`None` when confirmed, or when
+    /// nothing was moving).
+    pub interrupted: Option<Transition>,
     /// What the device is doing.
     pub mode: Mode,
     /// Measured gauge pressure.
@@ -403,7 +536,7 @@ pub struct Status {
 }
 
 /// Progress of the active or last plan.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub struct PlanStatus {
     /// Its id.
     pub plan_id: u16,
@@ -416,7 +549,7 @@ pub struct PlanStatus {
 }
 
 /// Phase of a plan.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 pub enum PlanPhase {
     /// Uploaded, not started.
     Ready,
@@ -434,7 +567,7 @@ pub enum PlanPhase {
 
 /// Every fault the device can raise. Each has a code (its discriminant), an event and a
 /// display message (`E-xx`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
 #[repr(u8)]
 pub enum FaultCode {
     /// Pressure above the cap: vented immediately.
@@ -515,7 +648,7 @@ impl FaultCode {
 }
 
 /// A message the device sends unprompted.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
 pub enum Event {
     /// Sent every [`crate::HEARTBEAT_PERIOD_MS`].
     Heartbeat {
@@ -579,10 +712,17 @@ pub enum Event {
     FaultRaised(FaultCode),
     /// A fault was cleared.
     FaultCleared(FaultCode),
+    /// Identification could not tell these states apart with the crane's sensors: a person
+    /// must say which it is (the confirm button on the crane accepts the one shown, or the
+    /// host sends [`RequestBody::DeclareState`]).
+    IdentifyNeedsOperator {
+        /// The states still possible.
+        candidates: StateSet,
+    },
 }
 
 /// Periodic measurements.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Schema)]
 pub struct Telemetry {
     /// Device uptime.
     pub uptime_ms: u32,
@@ -594,6 +734,8 @@ pub struct Telemetry {
     pub inlet_open: bool,
     /// Exhaust valve open.
     pub exhaust_open: bool,
-    /// Current state.
+    /// Current state (the confirmed one, or the last confirmed one).
     pub state: TrunkState,
+    /// Whether `state` is confirmed.
+    pub state_confirmed: bool,
 }

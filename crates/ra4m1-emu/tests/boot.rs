@@ -15,14 +15,7 @@ fn boots_and_answers_hello_and_status() {
     // arrive before SCI9 is set up are lost, as on the board).
     let mut answer = None;
     for _ in 0..100 {
-        send(
-            &mut emu,
-            1,
-            RequestBody::Hello {
-                protocol_version: PROTOCOL_VERSION,
-                schema_id: SCHEMA_ID,
-            },
-        );
+        send(&mut emu, 1, RequestBody::hello());
         answer = wait_for(&mut emu, &mut dec, 20, |m| {
             matches!(m, DeviceMessage::Response { seq: 1, .. })
         });

@@ -27,8 +27,8 @@ mod tests;
 use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
-    DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request, Status,
-    Telemetry,
+    DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request,
+    ResetCause, StateSet, Status, Telemetry,
 };
 
 use crate::config::CraneConfig;
@@ -210,7 +210,15 @@ pub struct Controller {
     // Link.
     decoder: FrameDecoder,
     fingerprint: Fingerprint,
+    /// A host has shaken hands since boot (events are sent from then on).
     handshake: bool,
+    /// The current session (0: none); see `docs/protocol.md`, "Sessions".
+    session: u32,
+    sessions_opened: u32,
+    /// Mixed from sensor noise, frame arrival times and the shell's seed: session ids.
+    entropy: u32,
+    reset_cause: ResetCause,
+    /// When the session owner was last heard.
     last_rx_ms: u64,
     cache: ResponseCache,
     tx: TxQueue,
@@ -294,6 +302,10 @@ impl Controller {
             decoder: FrameDecoder::new(),
             fingerprint: Fingerprint::START,
             handshake: false,
+            session: 0,
+            sessions_opened: 0,
+            entropy: Fingerprint::START.0,
+            reset_cause: ResetCause::Unknown,
             last_rx_ms: now_ms,
             cache: ResponseCache::new(),
             tx: TxQueue::new(),
@@ -310,7 +322,26 @@ impl Controller {
     /// The board restarted through its watchdog: raises the Watchdog fault (safe state until
     /// reset). Call once after [`Controller::new`].
     pub fn report_watchdog_reset(&mut self) {
+        self.reset_cause = ResetCause::Watchdog;
         self.raise(FaultCode::Watchdog);
+    }
+
+    /// Why the board started, as its reset-status register tells (reported in the handshake's
+    /// [`protocol::DeviceInfo::reset_cause`]; `Unknown` until set). A watchdog reset is
+    /// reported with [`Controller::report_watchdog_reset`] instead, which also raises the fault.
+    pub fn set_reset_cause(&mut self, cause: ResetCause) {
+        if self.reset_cause != ResetCause::Watchdog {
+            self.reset_cause = cause;
+        }
+    }
+
+    /// Mixes `seed` into the entropy that session ids are drawn from (a board's unique id or
+    /// a free-running timer, the simulator's seed). Optional: sensor noise and frame arrival
+    /// times are mixed in anyway.
+    pub fn add_entropy(&mut self, seed: u32) {
+        for b in seed.to_le_bytes() {
+            self.entropy = Fingerprint(self.entropy).with(b).0;
+        }
     }
 
     fn advance_clock(&mut self, now_ms: u64) {
@@ -339,6 +370,8 @@ impl Controller {
     /// One sample of every sensor and button.
     pub fn handle_inputs(&mut self, inputs: &Inputs, now_ms: u64) {
         self.advance_clock(now_ms);
+        // The ADC's lowest bits are noise: cheap entropy for session ids.
+        self.entropy = self.entropy.rotate_left(3) ^ u32::from(inputs.pressure_raw);
         self.on_pressure(inputs.pressure_raw);
         self.on_buttons(inputs.buttons);
         self.joystick_raw = inputs.joystick_raw;
@@ -445,6 +478,12 @@ impl Controller {
         Status {
             state: self.state,
             state_confirmed: self.confirmed,
+            candidates: if self.confirmed {
+                StateSet::single(self.state)
+            } else {
+                StateSet::ALL
+            },
+            interrupted: None,
             mode: self.mode(),
             pressure_kpa: self.pressure.filt_kpa,
             servo_deg: self.outputs.servo_deg,
@@ -475,6 +514,11 @@ impl Controller {
         } else {
             Mode::Standalone
         }
+    }
+
+    /// The current session id (0: none), as the last successful handshake opened it.
+    pub fn session(&self) -> u32 {
+        self.session
     }
 
     /// The configuration in force (after validation and parameter changes).
@@ -1025,6 +1069,7 @@ impl Controller {
                 inlet_open: self.outputs.inlet_open,
                 exhaust_open: self.outputs.exhaust_open,
                 state: self.state,
+                state_confirmed: self.confirmed,
             };
             self.emit(Event::Telemetry(t));
             progress_due = true;

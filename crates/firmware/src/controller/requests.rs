@@ -8,6 +8,8 @@ use protocol::{
     PROTOCOL_VERSION, SCHEMA_ID,
 };
 
+use super::link::Fingerprint;
+
 use super::exec::Origin;
 use super::link;
 use super::{max_bend_deg, stiff_bend_limit_rad, Controller};
@@ -27,7 +29,14 @@ fn reject(r: RejectReason) -> Answer {
 
 impl Controller {
     pub(super) fn on_request(&mut self, req: &Request, fingerprint: u32) {
-        self.last_rx_ms = self.now_ms;
+        // Only the session owner's requests keep the link alive (a stranger's status polls
+        // must not hide the owner's silence from the link watch).
+        if self.session != 0 && req.session == self.session {
+            self.last_rx_ms = self.now_ms;
+        }
+        self.entropy = Fingerprint(self.entropy ^ fingerprint)
+            .with(self.now_ms as u8)
+            .0;
         if let Some(frame) = self.cache.lookup(req.seq, fingerprint) {
             // A retry of the request just answered: the same answer, not a second execution.
             let mut copy = [0u8; link::CACHE_LEN];
@@ -37,7 +46,7 @@ impl Controller {
             return;
         }
         self.defer_events = true;
-        let (result, body) = self.dispatch(&req.body);
+        let (result, body) = self.dispatch(req);
         self.defer_events = false;
         let msg = DeviceMessage::Response {
             seq: req.seq,
@@ -64,50 +73,109 @@ impl Controller {
         self.update_outputs();
     }
 
-    fn device_info(&self) -> DeviceInfo {
+    /// The device's identity; `session` is the one just opened (0 on a refused handshake:
+    /// the session in force is never told to a stranger).
+    fn device_info(&self, session: u32) -> DeviceInfo {
         DeviceInfo {
             protocol_version: PROTOCOL_VERSION,
             schema_id: SCHEMA_ID,
             firmware_version: self.cfg.firmware_version,
             board: self.cfg.board,
             trunk: self.cfg.trunk,
+            session,
+            reset_cause: self.reset_cause,
         }
     }
 
+    /// Whether the session's owner was heard within the link timeout.
+    fn owner_live(&self) -> bool {
+        self.session != 0
+            && self.now_ms.saturating_sub(self.last_rx_ms) < self.cfg.link_timeout_ms as u64
+    }
+
+    /// A new session id: never 0, never the one it replaces; unpredictable to another host
+    /// (mixed from the sensor noise and the arrival times of every frame since boot, and
+    /// whatever the shell added with [`Controller::add_entropy`]).
+    fn next_session_id(&mut self) -> u32 {
+        self.sessions_opened = self.sessions_opened.wrapping_add(1);
+        let mut h = Fingerprint(self.entropy);
+        for b in (self.now_ms as u32)
+            .to_le_bytes()
+            .into_iter()
+            .chain(self.sessions_opened.to_le_bytes())
+        {
+            h = h.with(b);
+        }
+        // A final avalanche (lowbias32), so ids of consecutive handshakes share no bits.
+        let mut x = h.0;
+        x ^= x >> 16;
+        x = x.wrapping_mul(0x7feb_352d);
+        x ^= x >> 15;
+        x = x.wrapping_mul(0x846c_a68b);
+        x ^= x >> 16;
+        if x == 0 || x == self.session {
+            x = x.wrapping_add(0x9e37_79b9) | 1;
+        }
+        x
+    }
+
+    fn hello(&mut self, protocol_version: u16, schema_id: u32, takeover: bool) -> Answer {
+        if protocol_version != PROTOCOL_VERSION || schema_id != SCHEMA_ID {
+            let info = ResponseBody::Hello(self.device_info(0));
+            return (ResultCode::Rejected(RejectReason::VersionMismatch), info);
+        }
+        if self.owner_live() && !takeover {
+            let info = ResponseBody::Hello(self.device_info(0));
+            return (ResultCode::Rejected(RejectReason::SessionBusy), info);
+        }
+        let first = !self.handshake;
+        self.handshake = true;
+        self.session = self.next_session_id();
+        self.last_rx_ms = self.now_ms;
+        if first {
+            self.next_heartbeat_ms = self.now_ms;
+            self.next_telemetry_ms = self.now_ms;
+        }
+        (
+            ResultCode::Ok,
+            ResponseBody::Hello(self.device_info(self.session)),
+        )
+    }
+
     // Requests are borrowed, not moved: a plan is ~600 bytes and every move is a memcpy on the M4.
-    fn dispatch(&mut self, body: &RequestBody) -> Answer {
+    fn dispatch(&mut self, req: &Request) -> Answer {
+        let body = &req.body;
         if let RequestBody::Hello {
             protocol_version,
             schema_id,
+            takeover,
         } = *body
         {
-            let info = ResponseBody::Hello(self.device_info());
-            if protocol_version == PROTOCOL_VERSION && schema_id == SCHEMA_ID {
-                let first = !self.handshake;
-                self.handshake = true;
-                if first {
-                    self.next_heartbeat_ms = self.now_ms;
-                    self.next_telemetry_ms = self.now_ms;
-                }
-                return (ResultCode::Ok, info);
-            }
-            self.handshake = false;
-            return (ResultCode::Rejected(RejectReason::VersionMismatch), info);
+            return self.hello(protocol_version, schema_id, takeover);
+        }
+        if let RequestBody::Abort = body {
+            // From anyone, with or without a session: stopping is always allowed.
+            self.enter_safe(PlanPhase::Aborted);
+            return ok();
         }
         if !self.handshake {
             return reject(RejectReason::NoHandshake);
         }
+        if body.needs_session() && (self.session == 0 || req.session != self.session) {
+            return reject(RejectReason::NotSessionOwner);
+        }
         match *body {
-            RequestBody::Hello { .. } => ok(), // handled above
+            RequestBody::Hello { .. } | RequestBody::Abort => ok(), // handled above
+            RequestBody::Close => {
+                self.session = 0;
+                ok()
+            }
+            RequestBody::Identify => self.identify(),
             RequestBody::GetStatus => (ResultCode::Ok, ResponseBody::Status(self.status())),
             RequestBody::Heartbeat => ok(),
             RequestBody::UploadPlan(ref plan) => self.upload(plan),
             RequestBody::StartPlan { plan_id } => self.start_uploaded(plan_id),
             RequestBody::RunStep(ref step) => self.run_step(step),
-            RequestBody::Abort => {
-                self.enter_safe(PlanPhase::Aborted);
-                ok()
-            }
             RequestBody::ConfirmManual => match self.exec.as_mut() {
                 Some(e) if e.waiting_manual => {
                     e.manual_confirmed = true;
@@ -263,6 +331,20 @@ impl Controller {
         }
         let plan = plan.clone();
         self.start_exec(plan, Origin::Host);
+        (ResultCode::InProgress, ResponseBody::None)
+    }
+
+    /// Identification of an unconfirmed state: `Ok` when there is nothing to identify; else
+    /// the device asks the operator ([`protocol::Event::IdentifyNeedsOperator`]).
+    fn identify(&mut self) -> Answer {
+        if let Some(b) = self.start_blocker() {
+            return b;
+        }
+        if self.confirmed {
+            return ok();
+        }
+        let candidates = self.status().candidates;
+        self.emit(protocol::Event::IdentifyNeedsOperator { candidates });
         (ResultCode::InProgress, ResponseBody::None)
     }
 

@@ -213,6 +213,8 @@ struct Rig {
     raw_override: Option<u16>,
     host: FrameDecoder,
     seq: u16,
+    /// The session the last successful handshake opened (0: none).
+    session: u32,
     msgs: StdVec<(u64, DeviceMessage)>,
     stores: StdVec<StoredState>,
     /// Requests sent by `tick` every this many ms (0: none) to keep the link alive.
@@ -242,6 +244,7 @@ impl Rig {
             raw_override: None,
             host: FrameDecoder::new(),
             seq: 0,
+            session: 0,
             msgs: StdVec::new(),
             stores: StdVec::new(),
             heartbeat_every_ms: 0,
@@ -256,12 +259,13 @@ impl Rig {
     }
 
     fn hello_ok(&mut self) {
-        let (res, body) = self.request(RequestBody::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            schema_id: SCHEMA_ID,
-        });
+        let (res, body) = self.request(RequestBody::hello());
         assert_eq!(res, ResultCode::Ok);
-        assert!(matches!(body, ResponseBody::Hello(_)));
+        let ResponseBody::Hello(info) = body else {
+            panic!("no device info")
+        };
+        assert_ne!(info.session, 0);
+        self.session = info.session;
     }
 
     fn drain(&mut self) {
@@ -322,6 +326,7 @@ impl Rig {
         let n = protocol::encode(
             &Request {
                 seq: self.seq,
+                session: self.session,
                 body,
             },
             &mut buf,
@@ -522,6 +527,7 @@ fn handshake_is_required_and_checked() {
         let (res, body) = r.request(RequestBody::Hello {
             protocol_version: v,
             schema_id: id,
+            takeover: false,
         });
         assert_eq!(res, ResultCode::Rejected(RejectReason::VersionMismatch));
         let ResponseBody::Hello(info) = body else {
@@ -572,6 +578,7 @@ fn every_request_gets_one_response_and_retries_are_not_reexecuted() {
     let n = protocol::encode(
         &Request {
             seq,
+            session: r.session,
             body: RequestBody::Heartbeat,
         },
         &mut buf,
@@ -1583,10 +1590,7 @@ fn parameters_have_ranges() {
         id: ParamId::PressureLimitKpa,
         value: 30.0,
     });
-    let (_, body) = r.request(RequestBody::Hello {
-        protocol_version: PROTOCOL_VERSION,
-        schema_id: SCHEMA_ID,
-    });
+    let (_, body) = r.request(RequestBody::hello());
     let ResponseBody::Hello(info) = body else {
         panic!()
     };
@@ -2008,4 +2012,168 @@ fn a_leak_while_the_regulator_holds_is_named_leak() {
     // pressure settles at 2 kPa within ≈ 0.5 s: the window closes 3 s after that.
     assert!((3_000..=4_000).contains(&(r.now - t0)), "{}", r.now - t0);
     assert!((r.ctl.pressure_kpa() - 2.0).abs() < 0.2);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sessions: binding, takeover, replay
+// ---------------------------------------------------------------------------------------------
+
+impl Rig {
+    /// Sends `body` as if from another host holding `session`; returns its one response.
+    fn request_as(&mut self, session: u32, body: RequestBody) -> (ResultCode, ResponseBody) {
+        let mine = core::mem::replace(&mut self.session, session);
+        let r = self.request(body);
+        self.session = mine;
+        r
+    }
+}
+
+#[test]
+fn a_live_session_refuses_a_second_hello_and_a_takeover_is_explicit() {
+    let mut r = Rig::connected(FF);
+    let first = r.session;
+    r.heartbeat_every_ms = 200;
+    r.run(500);
+    // A second host while the first is live: refused, and not told the session in force.
+    let (res, body) = r.request_as(0, RequestBody::hello());
+    assert_eq!(res, ResultCode::Rejected(RejectReason::SessionBusy));
+    let ResponseBody::Hello(info) = body else {
+        panic!("no device info")
+    };
+    assert_eq!(info.session, 0);
+    // The first host goes on working.
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    // An explicit takeover opens a new session ...
+    let (res, body) = r.request_as(0, RequestBody::hello_takeover());
+    assert_eq!(res, ResultCode::Ok);
+    let ResponseBody::Hello(info) = body else {
+        panic!("no device info")
+    };
+    let second = info.session;
+    assert!(second != 0 && second != first);
+    // ... and the first host's next state-changing request is refused.
+    assert_eq!(
+        r.request(RequestBody::DeclareState(FD)).0,
+        ResultCode::Rejected(RejectReason::NotSessionOwner)
+    );
+    assert_eq!(
+        r.request(RequestBody::Heartbeat).0,
+        ResultCode::Rejected(RejectReason::NotSessionOwner)
+    );
+    assert_eq!(r.ctl.status().state, FF, "nothing changed");
+    // Status and parameters are answered for anyone.
+    assert_eq!(r.request(RequestBody::GetStatus).0, ResultCode::Ok);
+    assert_eq!(
+        r.request(RequestBody::GetParam(ParamId::LinkTimeoutMs)).0,
+        ResultCode::Ok
+    );
+    // The new owner is obeyed.
+    assert_eq!(
+        r.request_as(second, RequestBody::DeclareState(FD)).0,
+        ResultCode::Ok
+    );
+    assert_eq!(r.ctl.status().state, FD);
+}
+
+#[test]
+fn a_silent_owner_frees_the_crane_after_the_link_timeout_and_close_frees_it_at_once() {
+    let mut r = Rig::connected(FF);
+    r.run(r.cfg.link_timeout_ms as u64 - 10);
+    assert_eq!(
+        r.request_as(0, RequestBody::hello()).0,
+        ResultCode::Rejected(RejectReason::SessionBusy)
+    );
+    r.run(20);
+    let (res, _) = r.request_as(0, RequestBody::hello());
+    assert_eq!(
+        res,
+        ResultCode::Ok,
+        "the owner was silent for the link timeout"
+    );
+    // A host that closes its session frees the crane at once.
+    let mut r = Rig::connected(FF);
+    assert_eq!(r.request(RequestBody::Close).0, ResultCode::Ok);
+    assert_eq!(r.request_as(0, RequestBody::hello()).0, ResultCode::Ok);
+}
+
+#[test]
+fn a_replayed_upload_and_start_from_a_stranger_is_refused_and_abort_from_anyone_is_honoured() {
+    // Host A runs a plan; its frames are recorded off the wire.
+    let mut r = Rig::connected(FP);
+    let (_, upload) = r.frame(RequestBody::UploadPlan(Rig::plan(5, &[FP, FF])));
+    let (_, start) = r.frame(RequestBody::StartPlan { plan_id: 5 });
+    r.ctl.handle_rx(&upload, r.now);
+    r.ctl.handle_rx(&start, r.now);
+    r.drain();
+    assert_eq!(r.ctl.mode(), Mode::Running);
+    // Abort from a host without any session is honoured at once.
+    assert_eq!(r.request_as(0, RequestBody::Abort).0, ResultCode::Ok);
+    assert_eq!(r.ctl.mode(), Mode::Safe);
+    r.run(100);
+    // Host A closes; host B handshakes and replays A's recorded frames byte for byte.
+    assert_eq!(r.request(RequestBody::Close).0, ResultCode::Ok);
+    r.hello_ok();
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    r.request(RequestBody::DeclareState(FP));
+    let before = r.msgs.len();
+    r.ctl.handle_rx(&upload, r.now);
+    r.ctl.handle_rx(&start, r.now);
+    r.drain();
+    let answers: StdVec<ResultCode> = r.msgs[before..]
+        .iter()
+        .filter_map(|(_, m)| match m {
+            DeviceMessage::Response { result, .. } => Some(*result),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        answers,
+        [
+            ResultCode::Rejected(RejectReason::NotSessionOwner),
+            ResultCode::Rejected(RejectReason::NotSessionOwner)
+        ]
+    );
+    assert_eq!(r.ctl.mode(), Mode::Standalone, "the replay did not run");
+    r.run(2_000);
+    assert_eq!(r.ctl.status().state, FP);
+}
+
+#[test]
+fn before_any_handshake_only_hello_and_abort_are_served() {
+    let mut r = Rig::new(FF);
+    for body in [
+        RequestBody::GetStatus,
+        RequestBody::Heartbeat,
+        RequestBody::Close,
+        RequestBody::Identify,
+        RequestBody::DeclareState(FD),
+    ] {
+        assert_eq!(
+            r.request(body.clone()).0,
+            ResultCode::Rejected(RejectReason::NoHandshake),
+            "{body:?}"
+        );
+    }
+    assert_eq!(r.request(RequestBody::Abort).0, ResultCode::Ok);
+    assert_eq!(r.ctl.mode(), Mode::Safe);
+}
+
+#[test]
+fn session_ids_differ_per_handshake_and_per_boot() {
+    let mut ids = StdVec::new();
+    for boot in 0..4u32 {
+        let mut r = Rig::new(FF);
+        r.ctl.add_entropy(boot);
+        for _ in 0..4 {
+            r.run(7);
+            let _ = r.request(RequestBody::Close);
+            r.hello_ok();
+            ids.push(r.session);
+        }
+    }
+    let mut unique = ids.clone();
+    unique.sort_unstable();
+    unique.dedup();
+    assert_eq!(unique.len(), ids.len(), "{ids:x?}");
+    assert!(!ids.contains(&0));
 }

@@ -92,6 +92,9 @@ pub struct Args {
     /// Write an SVG of the target and the fitted boom (three orthographic views) to this file.
     #[arg(long, value_name = "OUT")]
     pub svg: Option<PathBuf>,
+    /// Write a 3D model of the fitted boom as binary glTF 2.0 (l = 75 mm; strain in red).
+    #[arg(long, value_name = "FILE")]
+    pub gltf: Option<PathBuf>,
 }
 
 /// Where the target came from.
@@ -114,6 +117,7 @@ pub struct Config {
     gap: f64,
     json: bool,
     svg: Option<PathBuf>,
+    gltf: Option<PathBuf>,
 }
 
 fn parse_count(flag: &str, text: &str, min: usize, max: usize) -> Result<usize, Failure> {
@@ -302,6 +306,7 @@ impl Args {
             gap: gap.unwrap_or(0.0),
             json: self.json,
             svg: self.svg,
+            gltf: self.gltf,
         })
     }
 }
@@ -362,6 +367,7 @@ fn spawn_progress(
 /// Runs `host-tool ik`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let cfg = args.validate()?;
+    let gltf = super::model::open_ik_gltf(cfg.gltf.as_deref())?;
     let catalogue = Catalogue::from_designs(&cfg.designs, !cfg.all_states)
         .map_err(|e| Failure::usage(e.to_string()))?;
     let m = catalogue.len();
@@ -406,6 +412,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         ik::Stop::Gap | ik::Stop::Finished => {}
     }
+    super::model::write_ik_gltf(gltf, &cfg.designs, &solution.names)?;
     if let Some(path) = &cfg.svg {
         let caption = caption(&cfg, &solution);
         let text = svg::render(

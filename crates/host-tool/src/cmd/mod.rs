@@ -3,6 +3,7 @@
 pub mod declare;
 pub mod fk;
 pub mod ik;
+pub mod model;
 pub mod monitor;
 pub mod output;
 pub mod param;

@@ -90,6 +90,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         inlet_open: st.inlet_open,
                         exhaust_open: st.exhaust_open,
                         state: st.state,
+                        state_confirmed: st.state_confirmed,
                     },
                     Some(text::mode(st.mode)),
                 ),
@@ -185,6 +186,14 @@ fn print_event(json: bool, ev: &Event) {
         ),
         Event::FaultRaised(f) => format!("FAULT {}", fault_list(f.bit())),
         Event::FaultCleared(f) => format!("fault cleared: {}", fault_list(f.bit())),
+        Event::IdentifyNeedsOperator { candidates } => format!(
+            "identification needs the operator: the trunk is one of {}",
+            candidates
+                .iter()
+                .map(|s| s.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     };
     if json {
         crate::out!("{}", json!({"type": "event", "text": text}));

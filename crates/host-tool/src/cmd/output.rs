@@ -88,3 +88,15 @@ impl Output {
         Ok(())
     }
 }
+
+/// Creates (if needed) the directory of a `--stl-dir`-style flag and checks it is one.
+pub fn ensure_dir(flag: &str, dir: &Path) -> Result<(), Failure> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Failure::usage(format!(
+            "{flag} {} exists and is not a directory",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Failure::usage(format!("cannot create {flag} {}: {e}", dir.display())))
+}

@@ -5,6 +5,8 @@
 use std::path::PathBuf;
 
 use fabrication::folded::{fold, LayerState};
+use fabrication::kit::Kit;
+use fabrication::panel::{Panel, PanelParams};
 use fabrication::pattern::Pattern;
 use fabrication::{Defaults, Module, Trunk};
 
@@ -117,6 +119,58 @@ pub struct Args {
     /// (e.g. self-packed/folded). Default: every catalogue state feasible for every module.
     #[arg(long, allow_hyphen_values = true)]
     pub states: Option<String>,
+    /// Write the printable dual-material panel as 3MF: a TPU 95A base object and a nylon
+    /// facets object, print parameters in the metadata (§5.3).
+    #[arg(long = "3mf", value_name = "FILE")]
+    pub three_mf: Option<PathBuf>,
+    /// Write the panel as one binary STL per material into DIR (base-tpu.stl,
+    /// facets-nylon.stl); DIR is created if missing.
+    #[arg(long, value_name = "DIR")]
+    pub stl_dir: Option<PathBuf>,
+    /// Gap between neighbouring facets in mm, one for all modules or one per module
+    /// (positive, below twice the smallest facet's inradius). Default: 3,1.5 for the default
+    /// crane trunk (Table 2's d4 = 2·d1 under the 35° module, d1 under the golden one), else
+    /// 1.5 (d1) for every module.
+    #[arg(long, allow_hyphen_values = true)]
+    pub gap_mm: Option<String>,
+    /// Nylon facet thickness in mm, (0, 20] (Table 2's t1).
+    #[arg(long, default_value_t = Defaults::FACET_MM, allow_hyphen_values = true)]
+    pub facet_mm: f64,
+    /// TPU 95A base sheet thickness in mm, (0, 20] (Table 2's t2).
+    #[arg(long, default_value_t = Defaults::BASE_MM, allow_hyphen_values = true)]
+    pub base_mm: f64,
+    /// Write the meter-scale kit (§7) as JSON: facet cut list, hinge positions, hinge and
+    /// screw counts; the table is printed. The paper's build: --beta 31.72 --layers 4
+    /// --edge-mm 609.6 (four 2 ft modules: 180 hinges, 720 screws).
+    #[arg(long, value_name = "FILE")]
+    pub kit: Option<PathBuf>,
+}
+
+fn parse_gaps(args: &Args, m: usize) -> Result<Vec<f64>, Failure> {
+    let text = match &args.gap_mm {
+        Some(t) => t.clone(),
+        None if args.trunk.beta.trim() == Defaults::BETA && m == 2 => {
+            Defaults::GAP_MM_TRUNK.to_string()
+        }
+        None => Defaults::GAP_MM.to_string(),
+    };
+    let gaps = text
+        .split(',')
+        .map(|t| {
+            t.trim().parse::<f64>().map_err(|_| {
+                Failure::usage(format!(
+                    "--gap-mm must be gap widths in mm, one for all modules or one per module, got '{text}'"
+                ))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    match gaps.len() {
+        1 => Ok(vec![gaps[0]; m]),
+        k if k == m => Ok(gaps),
+        k => Err(Failure::usage(format!(
+            "--gap-mm has {k} values but the trunk has {m} modules; give one gap for all or one per module"
+        ))),
+    }
 }
 
 /// Parses one frame: a state for every module, or one per module joined by '/'.
@@ -169,11 +223,36 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let trunk = args.trunk.trunk()?;
     let pattern = Pattern::new(&trunk, args.seam_mm)
         .map_err(|e| Failure::usage(format!("--seam-mm: {e}")))?;
-    if args.svg.is_none() && args.dxf.is_none() && args.fold.is_none() {
+    if args.svg.is_none()
+        && args.dxf.is_none()
+        && args.fold.is_none()
+        && args.three_mf.is_none()
+        && args.stl_dir.is_none()
+        && args.kit.is_none()
+    {
         return Err(Failure::usage(
-            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE",
+            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE",
         ));
     }
+    let wants_panel = args.three_mf.is_some() || args.stl_dir.is_some();
+    let panel_given = args.gap_mm.is_some()
+        || args.facet_mm != Defaults::FACET_MM
+        || args.base_mm != Defaults::BASE_MM;
+    if panel_given && !wants_panel {
+        return Err(Failure::usage(
+            "--gap-mm, --facet-mm and --base-mm shape the printed panel; give --3mf FILE or --stl-dir DIR too",
+        ));
+    }
+    let panel = if wants_panel {
+        let params = PanelParams {
+            gap_mm: parse_gaps(&args, trunk.modules().len())?,
+            facet_mm: args.facet_mm,
+            base_mm: args.base_mm,
+        };
+        Some(Panel::new(&pattern, params).map_err(|e| Failure::usage(e.to_string()))?)
+    } else {
+        None
+    };
     if args.states.is_some() && args.fold.is_none() {
         return Err(Failure::usage(
             "--states selects the frames of --fold; give --fold FILE too",
@@ -203,6 +282,21 @@ pub fn run(args: Args) -> Result<(), Failure> {
     if let Some(p) = &args.fold {
         paths.push(("--fold", p));
     }
+    if let Some(p) = &args.three_mf {
+        paths.push(("--3mf", p));
+    }
+    if let Some(p) = &args.kit {
+        paths.push(("--kit", p));
+    }
+    let stl_paths = args
+        .stl_dir
+        .as_ref()
+        .map(|d| (d.join("base-tpu.stl"), d.join("facets-nylon.stl")));
+    if let (Some(dir), Some((base, facets))) = (&args.stl_dir, &stl_paths) {
+        output::ensure_dir("--stl-dir", dir)?;
+        paths.push(("--stl-dir", base));
+        paths.push(("--stl-dir", facets));
+    }
     let outputs = output::open_all(&paths)?;
     let title = format!("host-tool pattern: {}", trunk.describe());
     let mut folded = Vec::new();
@@ -216,8 +310,33 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         folded.push((name.clone(), f));
     }
+    let kit = args.kit.as_ref().map(|_| Kit::new(&trunk));
+    let mut stl_meshes = panel.iter().flat_map(|p| [&p.base, &p.facets]);
     for out in outputs {
         match out.flag() {
+            "--3mf" => {
+                if let Some(panel) = &panel {
+                    let app = format!("host-tool {}", env!("CARGO_PKG_VERSION"));
+                    let mut buf = std::io::Cursor::new(Vec::new());
+                    panel
+                        .write_3mf(&pattern, &app, &mut buf)
+                        .map_err(|e| Failure::Runtime(anyhow::anyhow!("3MF: {e}")))?;
+                    out.write(|w| w.write_all(buf.get_ref()))?
+                }
+            }
+            "--stl-dir" => {
+                if let Some(mesh) = stl_meshes.next() {
+                    out.write(|w| mesh.write_stl(w))?
+                }
+            }
+            "--kit" => {
+                if let Some(kit) = &kit {
+                    let text = serde_json::to_string_pretty(&kit.to_json())
+                        .map_err(|e| Failure::Runtime(anyhow::anyhow!("kit JSON: {e}")))?;
+                    out.write(|w| w.write_all(text.as_bytes()))?;
+                    print!("{}", kit.table());
+                }
+            }
             "--svg" => {
                 let text = fabrication::svg::render(&pattern, &title);
                 out.write(|w| w.write_all(text.as_bytes()))?

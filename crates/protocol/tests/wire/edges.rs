@@ -142,15 +142,57 @@ fn a_frame_of_the_other_direction_is_a_payload_error() {
 #[test]
 fn trailing_bytes_after_a_message_are_refused() {
     // A valid CRC over "GetStatus request + one extra byte": refused, not silently truncated.
-    let payload = [0x01u8, 0x01, 0x00];
-    let crc = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&payload);
+    let payload = [0x01u8, 0x01, 0x01, 0x00];
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&payload);
+    let mut stuffed = stuff(&payload, &crc.to_le_bytes());
+    assert_eq!(decode::<Request>(&mut stuffed), Err(FrameError::Payload));
+}
+
+/// `payload ‖ check`, COBS-stuffed, with its delimiter.
+fn stuff(payload: &[u8], check: &[u8]) -> Vec<u8> {
     let mut raw = payload.to_vec();
-    raw.extend(crc.to_le_bytes());
+    raw.extend(check);
     let mut stuffed = vec![0u8; raw.len() + 2];
     let n = cobs::try_encode(&raw, &mut stuffed).unwrap();
     stuffed.truncate(n);
     stuffed.push(0);
-    assert_eq!(decode::<Request>(&mut stuffed), Err(FrameError::Payload));
+    stuffed
+}
+
+#[test]
+fn a_protocol_v1_frame_is_told_apart_and_dropped() {
+    // A v1 GetStatus (seq 1, no session) with v1's CRC-16/IBM-SDLC: not accepted, but named.
+    let payload = [0x01u8, 0x01];
+    let crc16 = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&payload);
+    let mut frame = stuff(&payload, &crc16.to_le_bytes());
+    assert_eq!(hex(&frame), "050101160700");
+    assert_eq!(
+        decode::<Request>(&mut frame.clone()),
+        Err(FrameError::Legacy)
+    );
+    let mut dec = FrameDecoder::new();
+    assert_eq!(
+        push_all::<Request>(&mut dec, &frame),
+        vec![Err(FrameError::Legacy)]
+    );
+    assert_eq!(dec.stats().frames_dropped, 1);
+    // With one bit flipped in its CRC it is neither: too short for a v2 frame.
+    frame[3] ^= 0x10;
+    assert_eq!(decode::<Request>(&mut frame), Err(FrameError::Payload));
+    // A longer v1 frame (a v1 Hello: seq 1, variant 0, version 1, schema 0x221ee9a8).
+    let payload = [0x01u8, 0x00, 0x01, 0xa8, 0xd3, 0xfb, 0x90, 0x02];
+    let crc16 = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&payload);
+    let mut frame = stuff(&payload, &crc16.to_le_bytes());
+    assert_eq!(
+        decode::<Request>(&mut frame.clone()),
+        Err(FrameError::Legacy)
+    );
+    frame[4] ^= 0x01;
+    assert_eq!(decode::<Request>(&mut frame), Err(FrameError::Crc));
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 #[test]

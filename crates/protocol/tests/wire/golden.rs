@@ -14,11 +14,11 @@ use serde::{de::DeserializeOwned, Serialize};
 
 use crate::samples::{largest_request, st, status_response};
 
-/// The current schema identity. It changes with ANY edit of `src/messages.rs` (comments
-/// included): update this one constant deliberately, together with the golden bytes if the
-/// wire form changed, and tell the firmware/host/simulator engineers (old builds will refuse
-/// the new ones at the handshake).
-const EXPECTED_SCHEMA_ID: u32 = 0x221e_e9a8;
+/// The current schema identity. It changes with any change of a message type's shape (a name,
+/// field, variant or type; not a comment): update this one constant deliberately, together with
+/// the golden bytes if the wire form changed (old builds will refuse the new ones at the
+/// handshake).
+const EXPECTED_SCHEMA_ID: u32 = 0xc40e_e04f;
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
@@ -118,7 +118,7 @@ fn module(n: u8, beta_deg: f32) -> ModuleConfig {
 
 fn device_info() -> DeviceInfo {
     DeviceInfo {
-        protocol_version: 1,
+        protocol_version: 2,
         schema_id: 0xdead_beef,
         firmware_version: [0, 1, 2],
         board: Board::UnoR4Wifi,
@@ -127,6 +127,8 @@ fn device_info() -> DeviceInfo {
             top: module(6, 31.72),
             pressure_limit_kpa: 40.0,
         },
+        session: 0x0102_0304,
+        reset_cause: ResetCause::Watchdog,
     }
 }
 
@@ -134,14 +136,14 @@ fn device_info() -> DeviceInfo {
 fn schema_id_is_the_pinned_value() {
     assert_eq!(
         SCHEMA_ID, EXPECTED_SCHEMA_ID,
-        "messages.rs changed: SCHEMA_ID is now {SCHEMA_ID:#010x}; update EXPECTED_SCHEMA_ID on \
+        "a message type's shape changed: SCHEMA_ID is now {SCHEMA_ID:#010x}; update EXPECTED_SCHEMA_ID on \
          purpose (and the golden bytes if the wire form changed)"
     );
 }
 
 #[test]
 fn protocol_version_is_the_pinned_value() {
-    assert_eq!(PROTOCOL_VERSION, 1);
+    assert_eq!(PROTOCOL_VERSION, 2);
 }
 
 #[test]
@@ -166,56 +168,65 @@ fn request_index(b: &RequestBody) -> usize {
         RequestBody::DeclareState(_) => 9,
         RequestBody::GetParam(_) => 10,
         RequestBody::SetParam { .. } => 11,
+        RequestBody::Close => 12,
+        RequestBody::Identify => 13,
     }
 }
 
 #[test]
 fn requests() {
-    // seq 258 pins the varint form of `seq` (0x82 0x02).
-    let req = |body| Request { seq: 258, body };
+    // seq 258 pins the varint form of `seq` (0x82 0x02); session 1 is one byte.
+    let req = |body| Request {
+        seq: 258,
+        session: 1,
+        body,
+    };
     let cases = [
         (
             req(RequestBody::Hello {
                 protocol_version: 1,
                 schema_id: 0xdead_beef,
+                takeover: true,
             }),
-            "82020001effdb6f50d",
+            "8202010001effdb6f50d01",
         ),
-        (req(RequestBody::GetStatus), "820201"),
-        (req(RequestBody::Heartbeat), "820202"),
+        (req(RequestBody::GetStatus), "82020101"),
+        (req(RequestBody::Heartbeat), "82020102"),
         (
             req(RequestBody::UploadPlan(Plan {
                 plan_id: 3,
                 steps: heapless::Vec::from_slice(&[step_pneumatic(), step_tendon()]).unwrap(),
             })),
-            "8202030302000000000102000000cc41010100000000a09c010101020002020200004841020300000000ac02",
+            "820201030302000000000102000000cc41010100000000a09c010101020002020200004841020300000000ac02",
         ),
-        (req(RequestBody::StartPlan { plan_id: 3 }), "82020403"),
-        (req(RequestBody::RunStep(step_pneumatic())), "820205000000000102000000cc41010100000000a09c01"),
-        (req(RequestBody::Abort), "820206"),
-        (req(RequestBody::ConfirmManual), "820207"),
-        (req(RequestBody::ResetFaults), "820208"),
-        (req(RequestBody::DeclareState(st("D&F"))), "8202090101"),
-        (req(RequestBody::GetParam(ParamId::PressureLimitKpa)), "82020a00"),
+        (req(RequestBody::StartPlan { plan_id: 3 }), "8202010403"),
+        (req(RequestBody::RunStep(step_pneumatic())), "82020105000000000102000000cc41010100000000a09c01"),
+        (req(RequestBody::Abort), "82020106"),
+        (req(RequestBody::ConfirmManual), "82020107"),
+        (req(RequestBody::ResetFaults), "82020108"),
+        (req(RequestBody::DeclareState(st("D&F"))), "820201090101"),
+        (req(RequestBody::GetParam(ParamId::PressureLimitKpa)), "8202010a00"),
         (
             req(RequestBody::SetParam {
                 id: ParamId::TelemetryHz,
                 value: 10.0,
             }),
-            "82020b0400002041",
+            "8202010b0400002041",
         ),
+        (req(RequestBody::Close), "8202010c"),
+        (req(RequestBody::Identify), "8202010d"),
     ];
     check("Request", &cases);
     covers(
         "RequestBody",
         cases.iter().map(|c| request_index(&c.0.body)),
-        12,
+        14,
     );
-    // The first byte after the seq varint is the variant index.
+    // The first byte after the seq and session varints is the variant index.
     for (r, _) in &cases {
         let mut buf = [0u8; MAX_RAW_LEN];
         let bytes = postcard::to_slice(r, &mut buf).unwrap();
-        assert_eq!(bytes[2] as usize, request_index(&r.body));
+        assert_eq!(bytes[3] as usize, request_index(&r.body));
     }
 }
 
@@ -405,6 +416,9 @@ fn reject_reasons_and_result_codes() {
         RejectReason::OutOfRange => 7,
         RejectReason::NoManualPending => 8,
         RejectReason::NotAllowed => 9,
+        RejectReason::NotSessionOwner => 10,
+        RejectReason::SessionBusy => 11,
+        RejectReason::Unconfirmed => 12,
     };
     let reasons = [
         RejectReason::VersionMismatch,
@@ -417,15 +431,55 @@ fn reject_reasons_and_result_codes() {
         RejectReason::OutOfRange,
         RejectReason::NoManualPending,
         RejectReason::NotAllowed,
+        RejectReason::NotSessionOwner,
+        RejectReason::SessionBusy,
+        RejectReason::Unconfirmed,
     ];
-    let hexes: Vec<String> = (0..10).map(|i| format!("01{i:02x}")).collect();
+    let hexes: Vec<String> = (0..13).map(|i| format!("01{i:02x}")).collect();
     let cases: Vec<(ResultCode, &str)> = reasons
         .iter()
         .zip(&hexes)
         .map(|(&r, h)| (ResultCode::Rejected(r), h.as_str()))
         .collect();
     check("ResultCode::Rejected", &cases);
-    covers("RejectReason", reasons.iter().map(|&r| reason(r)), 10);
+    covers("RejectReason", reasons.iter().map(|&r| reason(r)), 13);
+
+    let cause = |c: ResetCause| match c {
+        ResetCause::PowerOn => 0,
+        ResetCause::Watchdog => 1,
+        ResetCause::BrownOut => 2,
+        ResetCause::Software => 3,
+        ResetCause::Unknown => 4,
+    };
+    let causes = [
+        (ResetCause::PowerOn, "00"),
+        (ResetCause::Watchdog, "01"),
+        (ResetCause::BrownOut, "02"),
+        (ResetCause::Software, "03"),
+        (ResetCause::Unknown, "04"),
+    ];
+    check("ResetCause", &causes);
+    covers("ResetCause", causes.iter().map(|c| cause(c.0)), 5);
+
+    // A state set is its bitmask byte; a transition its two states.
+    check(
+        "StateSet",
+        &[
+            (StateSet::EMPTY, "00"),
+            (StateSet::single(st("D&D")), "20"),
+            (StateSet::ALL, "3f"),
+        ],
+    );
+    check(
+        "Transition",
+        &[(
+            Transition {
+                from: st("D&D"),
+                to: st("F&D"),
+            },
+            "01020002",
+        )],
+    );
 
     let result = |r: ResultCode| match r {
         ResultCode::Ok => 0,
@@ -475,7 +529,7 @@ fn responses() {
     let cases = [
         (resp(ResultCode::Ok, ResponseBody::None), "0082020000"),
         (resp(ResultCode::InProgress, ResponseBody::None), "0082020300"),
-        (resp(ResultCode::Ok, ResponseBody::Hello(device_info())), "008202000101effdb6f50d000102000600000c420000c84103068fc2fd410000c8410300002042"),
+        (resp(ResultCode::Ok, ResponseBody::Hello(device_info())), "008202000102effdb6f50d000102000600000c420000c84103068fc2fd410000c84103000020428486880801"),
         (
             resp(
                 ResultCode::Rejected(RejectReason::VersionMismatch),
@@ -484,10 +538,10 @@ fn responses() {
                     ..device_info()
                 }),
             ),
-            "00820201000101effdb6f50d000102020600000c420000c84103068fc2fd410000c8410300002042",
+            "00820201000102effdb6f50d000102020600000c420000c84103068fc2fd410000c84103000020428486880801",
         ),
-        (resp(ResultCode::Ok, ResponseBody::Status(idle)), "0082020002010101000000be410000b4420000b7420080b0420100010000c002e80702808004"),
-        (status_response(), "00ffff030002010101010000be410000b4420000b7420080b0420100010001ffff0307080409ffff03ffffffff0fffffffff0fffffffff0f"),
+        (resp(ResultCode::Ok, ResponseBody::Status(idle)), "00820200020101003f0101020101000000be410000b4420000b7420080b0420100010000c002e80702808004"),
+        (status_response(), "00ffff0300020101003f0101020101010000be410000b4420000b7420080b0420100010001ffff0307080409ffff03ffffffff0fffffffff0fffffffff0f"),
         (
             resp(
                 ResultCode::Ok,
@@ -521,6 +575,7 @@ fn event_index(e: &Event) -> usize {
         Event::ManualRequired { .. } => 6,
         Event::FaultRaised(_) => 7,
         Event::FaultCleared(_) => 8,
+        Event::IdentifyNeedsOperator { .. } => 9,
     }
 }
 
@@ -543,8 +598,9 @@ fn events() {
                 inlet_open: true,
                 exhaust_open: false,
                 state: st("F&F"),
+                state_confirmed: false,
             })),
-            "0101d20900004441000000000000b4420000344301000001",
+            "0101d20900004441000000000000b442000034430100000100",
         ),
         (
             ev(Event::StepProgress {
@@ -590,6 +646,12 @@ fn events() {
         ),
         (ev(Event::FaultRaised(FaultCode::OverPressure)), "010700"),
         (ev(Event::FaultCleared(FaultCode::StateStorage)), "010809"),
+        (
+            ev(Event::IdentifyNeedsOperator {
+                candidates: StateSet::single(st("F&D")).with(st("F&F")),
+            }),
+            "010906",
+        ),
     ];
     check("DeviceMessage::Event", &cases);
     covers(
@@ -598,21 +660,22 @@ fn events() {
             DeviceMessage::Event(e) => event_index(e),
             DeviceMessage::Response { .. } => unreachable!(),
         }),
-        9,
+        10,
     );
 }
 
-/// Whole frames: pins the CRC (CRC-16/IBM-SDLC, little-endian) and the COBS stuffing. The CRCs
-/// here (0x0716, 0xe065) were cross-checked with an independent bitwise X-25 implementation.
+/// Whole frames: pins the CRC (CRC-32/ISO-HDLC, little-endian) and the COBS stuffing. The CRCs
+/// here were cross-checked with Python's `zlib.crc32` (the same CRC-32).
 #[test]
 fn whole_frames() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let get_status = Request {
         seq: 1,
+        session: 1,
         body: RequestBody::GetStatus,
     };
     let n = encode(&get_status, &mut buf).unwrap();
-    assert_eq!(hex(&buf[..n]), "050101160700");
+    assert_eq!(hex(&buf[..n]), "08010101f2b29f9000");
 
     // A payload with zeros in it exercises the stuffing.
     let heartbeat = DeviceMessage::Event(Event::Heartbeat {
@@ -620,7 +683,7 @@ fn whole_frames() {
         mode: Mode::Standalone,
     });
     let n = encode(&heartbeat, &mut buf).unwrap();
-    assert_eq!(hex(&buf[..n]), "020101010365e000");
+    assert_eq!(hex(&buf[..n]), "020101010579b8f89900");
 }
 
 /// The largest message must fit a frame; its size is pinned so growth is noticed (and
@@ -630,15 +693,15 @@ fn largest_message_fits_max_frame_len() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let n = encode(&largest_request(), &mut buf).unwrap();
     assert!(n <= MAX_FRAME_LEN);
-    // By construction: seq 3 + tag 1 + plan_id 3 + len 1 + 8 × (kind 1 + states 4 + len 1 +
-    // 4 × Bend 9 + timeout 5) = 384 postcard bytes, + CRC 2 = 386, + COBS 2 (no zero in a
-    // 386-byte run: one code byte per 254) + delimiter 1 = 389.
-    assert_eq!(n, 389, "largest frame size changed");
+    // By construction: seq 3 + session 5 + tag 1 + plan_id 3 + len 1 + 8 × (kind 1 + states 4
+    // + len 1 + 4 × Bend 9 + timeout 5) = 389 postcard bytes, + CRC 4 = 393, + COBS 2 (no zero
+    // in a 393-byte run: one code byte per 254) + delimiter 1 = 396.
+    assert_eq!(n, 396, "largest frame size changed");
     // The sample really is zero-free, so no message can make a longer frame.
     let mut raw = [0u8; MAX_RAW_LEN];
     let payload = postcard::to_slice(&largest_request(), &mut raw).unwrap();
-    assert_eq!(payload.len(), 384);
+    assert_eq!(payload.len(), 389);
     assert!(payload.iter().all(|&b| b != 0));
     let n = encode(&status_response(), &mut buf).unwrap();
-    assert_eq!(n, 60, "largest status frame size changed");
+    assert_eq!(n, 68, "largest status frame size changed");
 }

@@ -9,6 +9,7 @@ fn equal_versions_pass() {
         RequestBody::Hello {
             protocol_version,
             schema_id,
+            takeover: false,
         } => assert_eq!(check_hello(protocol_version, schema_id), Ok(())),
         other => panic!("hello() built {other:?}"),
     }
@@ -60,6 +61,8 @@ fn the_host_checks_device_info() {
             },
             pressure_limit_kpa: 40.0,
         },
+        session: 0x1234_5678,
+        reset_cause: ResetCause::PowerOn,
     };
     assert_eq!(info.check(), Ok(()));
     info.schema_id = 7;

@@ -75,9 +75,10 @@ fn param_id() -> impl Strategy<Value = ParamId> {
 
 fn request_body() -> impl Strategy<Value = RequestBody> {
     prop_oneof![
-        (any::<u16>(), any::<u32>()).prop_map(|(p, s)| RequestBody::Hello {
+        (any::<u16>(), any::<u32>(), any::<bool>()).prop_map(|(p, s, t)| RequestBody::Hello {
             protocol_version: p,
-            schema_id: s
+            schema_id: s,
+            takeover: t,
         }),
         Just(RequestBody::GetStatus),
         Just(RequestBody::Heartbeat),
@@ -95,11 +96,17 @@ fn request_body() -> impl Strategy<Value = RequestBody> {
         trunk_state().prop_map(RequestBody::DeclareState),
         param_id().prop_map(RequestBody::GetParam),
         (param_id(), f()).prop_map(|(id, value)| RequestBody::SetParam { id, value }),
+        Just(RequestBody::Close),
+        Just(RequestBody::Identify),
     ]
 }
 
 pub fn request() -> impl Strategy<Value = Request> {
-    (any::<u16>(), request_body()).prop_map(|(seq, body)| Request { seq, body })
+    (any::<u16>(), any::<u32>(), request_body()).prop_map(|(seq, session, body)| Request {
+        seq,
+        session,
+        body,
+    })
 }
 
 fn fault() -> impl Strategy<Value = FaultCode> {
@@ -160,9 +167,17 @@ fn device_info() -> impl Strategy<Value = DeviceInfo> {
             Just(Board::Simulator)
         ],
         (module(), module(), f()),
+        (any::<u32>(), reset_cause()),
     )
         .prop_map(
-            |(protocol_version, schema_id, firmware_version, board, (bottom, top, p))| DeviceInfo {
+            |(
+                protocol_version,
+                schema_id,
+                firmware_version,
+                board,
+                (bottom, top, p),
+                (session, reset_cause),
+            )| DeviceInfo {
                 protocol_version,
                 schema_id,
                 firmware_version,
@@ -172,8 +187,24 @@ fn device_info() -> impl Strategy<Value = DeviceInfo> {
                     top,
                     pressure_limit_kpa: p,
                 },
+                session,
+                reset_cause,
             },
         )
+}
+
+fn reset_cause() -> impl Strategy<Value = ResetCause> {
+    prop_oneof![
+        Just(ResetCause::PowerOn),
+        Just(ResetCause::Watchdog),
+        Just(ResetCause::BrownOut),
+        Just(ResetCause::Software),
+        Just(ResetCause::Unknown),
+    ]
+}
+
+fn transition() -> impl Strategy<Value = Transition> {
+    (trunk_state(), trunk_state()).prop_map(|(from, to)| Transition { from, to })
 }
 
 fn plan_phase() -> impl Strategy<Value = PlanPhase> {
@@ -202,6 +233,7 @@ fn status() -> impl Strategy<Value = Status> {
             ),
         ),
         (any::<u16>(), any::<u32>(), any::<u32>(), any::<u32>()),
+        (any::<u8>(), proptest::option::of(transition())),
     )
         .prop_map(
             |(
@@ -209,9 +241,12 @@ fn status() -> impl Strategy<Value = Status> {
                 [inlet_open, exhaust_open, gripper_closed, estop],
                 plan,
                 (faults, frames_rx, frames_dropped, uptime_ms),
+                (candidates, interrupted),
             )| Status {
                 state,
                 state_confirmed,
+                candidates: StateSet(candidates),
+                interrupted,
                 mode,
                 pressure_kpa,
                 servo_deg,
@@ -244,10 +279,10 @@ fn event() -> impl Strategy<Value = Event> {
             any::<u32>(),
             f(),
             [f(), f(), f()],
-            any::<[bool; 2]>(),
+            any::<[bool; 3]>(),
             trunk_state()
         )
-            .prop_map(|(uptime_ms, pressure_kpa, servo_deg, [i, e], state)| {
+            .prop_map(|(uptime_ms, pressure_kpa, servo_deg, [i, e, c], state)| {
                 Event::Telemetry(Telemetry {
                     uptime_ms,
                     pressure_kpa,
@@ -255,6 +290,7 @@ fn event() -> impl Strategy<Value = Event> {
                     inlet_open: i,
                     exhaust_open: e,
                     state,
+                    state_confirmed: c,
                 })
             }),
         (any::<u16>(), any::<u8>(), any::<u8>(), any::<u32>()).prop_map(
@@ -292,6 +328,9 @@ fn event() -> impl Strategy<Value = Event> {
         }),
         fault().prop_map(Event::FaultRaised),
         fault().prop_map(Event::FaultCleared),
+        any::<u8>().prop_map(|c| Event::IdentifyNeedsOperator {
+            candidates: StateSet(c)
+        }),
     ]
 }
 

@@ -28,6 +28,7 @@ pub fn largest_request() -> Request {
         core::iter::repeat_n(step, MAX_PLAN_STEPS).collect();
     Request {
         seq: u16::MAX,
+        session: u32::MAX,
         body: RequestBody::UploadPlan(Plan {
             plan_id: u16::MAX,
             steps,
@@ -42,7 +43,12 @@ pub fn status_response() -> DeviceMessage {
         result: ResultCode::Ok,
         body: ResponseBody::Status(Status {
             state: st("D&F"),
-            state_confirmed: true,
+            state_confirmed: false,
+            candidates: StateSet::ALL,
+            interrupted: Some(Transition {
+                from: st("D&D"),
+                to: st("D&F"),
+            }),
             mode: Mode::Running,
             pressure_kpa: 23.75,
             servo_deg: [90.0, 91.5, 88.25],
@@ -68,6 +74,7 @@ pub fn status_response() -> DeviceMessage {
 pub fn get_status() -> Request {
     Request {
         seq: 1,
+        session: 1,
         body: RequestBody::GetStatus,
     }
 }

@@ -23,6 +23,7 @@ fn a_plan_upload_round_trips_through_a_frame() {
         .unwrap();
     let req = Request {
         seq: 7,
+        session: 0x5eed,
         body: RequestBody::UploadPlan(Plan { plan_id: 3, steps }),
     };
     let mut buf = [0u8; MAX_FRAME_LEN];

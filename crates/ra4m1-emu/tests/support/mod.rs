@@ -35,7 +35,13 @@ pub fn board(options: Options) -> Emulator {
 /// Sends a request.
 pub fn send(emu: &mut Emulator, seq: u16, body: RequestBody) {
     let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(&Request { seq, body }, &mut buf).expect("encodes");
+    // Session 0: the tests only shake hands and ask for the status (answered for anyone).
+    let request = Request {
+        seq,
+        session: 0,
+        body,
+    };
+    let n = encode(&request, &mut buf).expect("encodes");
     emu.host_send(&buf[..n]);
 }
 

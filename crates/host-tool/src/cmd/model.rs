@@ -1,0 +1,167 @@
+//! `host-tool model`: a 3D model of a stack in given states (glTF, OBJ, STL), and the model
+//! of an IK fit for `host-tool ik --gltf`. The work is in `fabrication::model`.
+
+use std::path::{Path, PathBuf};
+
+use fabrication::folded::{fold, LayerState};
+use fabrication::model::Model;
+use fabrication::pattern::Pattern;
+use fabrication::{Defaults, Module, Trunk};
+use geometry::ModuleDesign;
+
+use super::output::{self, Output};
+use super::pattern::{parse_frame, TrunkArgs};
+use crate::failure::Failure;
+
+/// Arguments of `host-tool model`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub trunk: TrunkArgs,
+    /// State of every layer: one name for all (deployed, folded, edge-<i>, vertex-<i>,
+    /// self-packed, flat-folded), one per module or one per layer, comma-separated, bottom first.
+    #[arg(long, default_value = "deployed", allow_hyphen_values = true)]
+    pub states: String,
+    /// Write binary glTF 2.0 (metres, +Y up; vertex colours: module, red = strain).
+    #[arg(long, value_name = "FILE")]
+    pub gltf: Option<PathBuf>,
+    /// Write OBJ with vertex colours (mm, +Z up along the trunk).
+    #[arg(long, value_name = "FILE")]
+    pub obj: Option<PathBuf>,
+    /// Write binary STL (mm, +Z up; an open sheet, for viewing, not printing).
+    #[arg(long, value_name = "FILE")]
+    pub stl: Option<PathBuf>,
+}
+
+fn parse_states(trunk: &Trunk, text: &str) -> Result<Vec<LayerState>, Failure> {
+    let names: Vec<&str> = text.split(',').collect();
+    if names.iter().any(|s| s.trim().is_empty()) {
+        return Err(Failure::usage(
+            "--states must be a comma-separated list of state names (e.g. self-packed,folded)",
+        ));
+    }
+    let m = trunk.modules().len();
+    let layers = trunk.layer_count();
+    if names.len() == 1 || names.len() == m {
+        return parse_frame(trunk, &names.join("/"));
+    }
+    if names.len() != layers {
+        return Err(Failure::usage(format!(
+            "--states has {} names; give one for all layers, one per module ({m}) or one per layer ({layers})",
+            names.len()
+        )));
+    }
+    trunk
+        .layers()
+        .iter()
+        .zip(&names)
+        .enumerate()
+        .map(|(k, ((_, d), name))| {
+            LayerState::parse(d, name).map_err(|e| {
+                Failure::usage(format!(
+                    "--states, layer {} (β = {}°): {e}",
+                    k + 1,
+                    d.beta_deg()
+                ))
+            })
+        })
+        .collect()
+}
+
+fn generator() -> String {
+    format!("host-tool {}", env!("CARGO_PKG_VERSION"))
+}
+
+fn write_model(out: Output, model: &Model) -> Result<(), Failure> {
+    match out.flag() {
+        "--gltf" => {
+            let bytes = model
+                .glb(&generator())
+                .map_err(|e| Failure::Runtime(anyhow::anyhow!("glTF: {e}")))?;
+            out.write(|w| w.write_all(&bytes))
+        }
+        "--obj" => {
+            let text = model.obj();
+            out.write(|w| w.write_all(text.as_bytes()))
+        }
+        _ => out.write(|w| model.mesh.write_stl(w)),
+    }
+}
+
+/// Runs `host-tool model`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    let trunk = args.trunk.trunk()?;
+    let states = parse_states(&trunk, &args.states)?;
+    let mut paths: Vec<(&'static str, &Path)> = Vec::new();
+    if let Some(p) = &args.gltf {
+        paths.push(("--gltf", p));
+    }
+    if let Some(p) = &args.obj {
+        paths.push(("--obj", p));
+    }
+    if let Some(p) = &args.stl {
+        paths.push(("--stl", p));
+    }
+    if paths.is_empty() {
+        return Err(Failure::usage(
+            "nothing to write: give at least one of --gltf FILE, --obj FILE, --stl FILE",
+        ));
+    }
+    let pattern = Pattern::new(&trunk, 0.0).map_err(|e| Failure::usage(e.to_string()))?;
+    let outputs = output::open_all(&paths)?;
+    let folded = fold(&pattern, &states).map_err(|e| Failure::usage(e.to_string()))?;
+    let model = Model::new(&pattern, &folded);
+    for out in outputs {
+        write_model(out, &model)?;
+    }
+    let names: Vec<String> = states.iter().map(|s| s.to_string()).collect();
+    println!(
+        "model of {} in states {} (bottom first): {} triangles, largest strain {:.3e}{}",
+        trunk.describe(),
+        names.join(","),
+        model.mesh.triangles.len(),
+        model.max_strain,
+        if model.feasible && model.max_strain <= geometry::STRAIN_TOLERANCE {
+            ""
+        } else {
+            " — not isometric to the flat pattern: strained faces drawn red"
+        }
+    );
+    Ok(())
+}
+
+/// Opens `ik --gltf FILE` before the solve.
+pub fn open_ik_gltf(path: Option<&Path>) -> Result<Option<Output>, Failure> {
+    match path {
+        None => Ok(None),
+        Some(p) => Ok(output::open_all(&[("--gltf", p)])?.pop()),
+    }
+}
+
+/// Writes the glTF model of an IK fit: one layer per boom module in the solved states, at the
+/// crane's edge length (l = 75 mm).
+pub fn write_ik_gltf(
+    out: Option<Output>,
+    designs: &[ModuleDesign],
+    names: &[String],
+) -> Result<(), Failure> {
+    let Some(out) = out else {
+        return Ok(());
+    };
+    let modules = designs
+        .iter()
+        .map(|&design| Module { design, layers: 1 })
+        .collect();
+    let trunk = Trunk::new(modules, Defaults::EDGE_MM)
+        .map_err(|e| Failure::Runtime(anyhow::anyhow!("ik --gltf: {e}")))?;
+    let states = designs
+        .iter()
+        .zip(names)
+        .map(|(d, n)| LayerState::parse(d, n))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| Failure::Runtime(anyhow::anyhow!("ik --gltf: {e}")))?;
+    let pattern =
+        Pattern::new(&trunk, 0.0).map_err(|e| Failure::Runtime(anyhow::anyhow!("{e}")))?;
+    let folded = fold(&pattern, &states).map_err(|e| Failure::Runtime(anyhow::anyhow!("{e}")))?;
+    write_model(out, &Model::new(&pattern, &folded))
+}

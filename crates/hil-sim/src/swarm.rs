@@ -416,9 +416,13 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
     for &target in &scenario.targets {
         for _attempt in 0..ATTEMPTS_PER_TARGET {
             first_seq = first_seq.wrapping_add(0x1111).max(1);
-            let mut driver = Driver::new(Host::new(Timing::standard(), first_seq), io);
+            let mut driver = Driver::new(Host::new(Timing::standard(), first_seq), &mut io);
             let result = play_target(&mut driver, target, &crash, &checker);
-            io = driver.io;
+            if matches!(result, Played::Crashed) {
+                driver.vanish();
+            } else {
+                drop(driver);
+            }
             match result {
                 Played::Reached => {
                     reached += 1;
@@ -453,7 +457,7 @@ enum Played {
 
 /// One host session toward `target`: connect, run the plan, judge the host's final claim.
 fn play_target(
-    d: &mut Driver<SimIo>,
+    d: &mut Driver<&mut SimIo>,
     target: TrunkState,
     crash: &RefCell<bool>,
     checker: &RefCell<Checker>,
@@ -499,9 +503,13 @@ fn play_target(
                 HostEvent::Run(RunEvent::IdentifyPrompt { .. }) => {
                     // The person at the crane looks at the trunk.
                     let truth = d.io.sim.ground_truth().true_state;
-                    checker
-                        .borrow_mut()
-                        .note(now, &format!("operator identifies {truth:?}"));
+                    checker.borrow_mut().note(
+                        now,
+                        &format!(
+                            "operator identifies {}",
+                            truth.map_or("nothing (between states)", |s| s.name())
+                        ),
+                    );
                     d.host.declare(truth, now);
                 }
                 HostEvent::Run(RunEvent::Plan { plan, .. }) => {
@@ -543,10 +551,11 @@ fn play_target(
                     checker.borrow_mut().note(
                         t,
                         &format!(
-                            "run ends: ok {}, host says {:?} (confirmed {}), truth {truth:?}; {}",
+                            "run ends: ok {}, host says {} (confirmed {}), truth {}; {}",
                             out.ok(),
-                            out.final_state,
+                            out.final_state.map_or("nothing", |s| s.name()),
                             out.state_confirmed,
+                            truth.map_or("between states", |s| s.name()),
                             out.error().unwrap_or("")
                         ),
                     );
@@ -556,8 +565,8 @@ fn play_target(
                             t,
                             "host-confirmed-truth",
                             format!(
-                                "the host reports {:?} confirmed at the end; the trunk is {}",
-                                out.final_state,
+                                "the host reports {} confirmed at the end; the trunk is {}",
+                                out.final_state.map_or("nothing", |s| s.name()),
                                 truth.map_or("between states", |s| s.name())
                             ),
                         );

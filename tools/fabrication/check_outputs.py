@@ -213,14 +213,42 @@ def cmd_render(a):
     import numpy as np
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    if a.file.lower().endswith(".glb"):
-        tri, colours = read_glb(a.file)
-    else:
-        import trimesh
+    tris, cols = [], []
+    for spec in a.file.split(","):
+        path, _, colour = spec.partition("=")
+        if path.lower().endswith(".glb"):
+            t, c = read_glb(path)
+        else:
+            import trimesh
 
-        m = trimesh.load(a.file, force="mesh")
-        tri = m.vertices[m.faces]
-        colours = m.visual.face_colors[:, :3] / 255.0 if m.visual.kind else np.full((len(tri), 3), 0.7)
+            m = trimesh.load(path, force="mesh")
+            t = m.vertices[m.faces]
+            if colour:
+                c = np.tile(np.array(matplotlib.colors.to_rgb(colour)), (len(t), 1))
+            elif m.visual.kind:
+                c = m.visual.face_colors[:, :3] / 255.0
+            else:
+                c = np.full((len(t), 3), 0.7)
+        tris.append(t)
+        cols.append(c)
+    tri, colours = np.concatenate(tris), np.concatenate(cols)
+    if a.top:
+        # Orthographic top view, painted bottom-up by height (exact for flat layered parts).
+        from matplotlib.collections import PolyCollection
+
+        order = np.argsort(tri[:, :, 2].max(axis=1), kind="stable")
+        fig, ax = plt.subplots(figsize=(a.size, a.size))
+        ax.add_collection(PolyCollection(tri[order][:, :, :2], facecolors=colours[order], edgecolors="none"))
+        ax.autoscale()
+        ax.set_aspect("equal")
+        ax.set_xlabel("mm")
+        ax.set_ylabel("mm")
+        if a.title:
+            ax.set_title(a.title.replace("\\n", "\n"), fontsize=9)
+        fig.tight_layout()
+        fig.savefig(a.out, dpi=a.dpi)
+        print(f"ok   rendered {a.file} -> {a.out}")
+        return
     fig = plt.figure(figsize=(a.size, a.size))
     ax = fig.add_subplot(projection="3d")
     # Light: shade by the face normal's angle to a fixed direction.
@@ -241,7 +269,7 @@ def cmd_render(a):
     ax.set_box_aspect((1, 1, 1))
     ax.set_axis_off()
     if a.title:
-        ax.set_title(a.title, fontsize=9)
+        ax.set_title(a.title.replace("\\n", "\n"), fontsize=9)
     fig.tight_layout()
     fig.savefig(a.out, dpi=a.dpi)
     print(f"ok   rendered {a.file} -> {a.out}")
@@ -281,9 +309,10 @@ def main():
     gl.add_argument("files", nargs="+")
     gl.add_argument("--expect-red", type=lambda x: x == "yes", default=None)
     r = sub.add_parser("render")
-    r.add_argument("file")
+    r.add_argument("file", help="FILE[=colour][,FILE[=colour]...]")
     r.add_argument("out")
     r.add_argument("--title", default="")
+    r.add_argument("--top", action="store_true", help="orthographic top view")
     r.add_argument("--elev", type=float, default=20)
     r.add_argument("--azim", type=float, default=-60)
     r.add_argument("--size", type=float, default=5)

@@ -101,14 +101,7 @@ impl WorstCase {
     /// Sets up the controller (handshake done, telemetry at 50 Hz, state `F&F`).
     pub fn new(scenario: Scenario, arrival: Arrival) -> Self {
         let cfg = CraneConfig::default();
-        let mut ctl = Controller::new(
-            cfg,
-            BootRecord::Stored(StoredState {
-                state: FF,
-                confirmed: true,
-            }),
-            0,
-        );
+        let mut ctl = Controller::new(cfg, BootRecord::Stored(StoredState::confirmed(FF)), 0);
         let mut buf = [0u8; MAX_FRAME_LEN];
         let mut sink = [0u8; 256];
         let n = encode(

@@ -123,7 +123,7 @@ impl ServoPulse {
 }
 
 /// One servo on a 50 Hz PWM channel: degrees in, duty cycle out.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct ServoOutput<P> {
     pwm: P,
     pulse: ServoPulse,
@@ -173,7 +173,7 @@ pub trait OutputSink {
 
 /// An [`InputSource`] built from embedded-hal pins and [`AnalogInput`]s, with the electrical
 /// conventions of the [module docs](self).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct PinInputs<P, X, Y, BUp, BDown, BGrip, BStop, BConfirm, BShow> {
     /// Pressure sensor.
     pub pressure: P,
@@ -242,7 +242,7 @@ where
 }
 
 /// An [`OutputSink`] built from three [`ServoOutput`]s and three embedded-hal output pins.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct PinOutputs<S0, S1, S2, Inlet, Exhaust, Grip> {
     /// The three tendon servos, tendon 0, 1, 2 (120° apart).
     pub servos: (ServoOutput<S0>, ServoOutput<S1>, ServoOutput<S2>),
@@ -320,7 +320,7 @@ pub const SHELL_IO_CHUNK: usize = 64;
 ///
 /// It never blocks: it reads only while the link is `read_ready`, and writes only while it is
 /// `write_ready`, at most [`SHELL_IO_CHUNK`] bytes each way per step.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Shell<I, O, D, S, L> {
     /// Sensors and buttons.
     pub inputs: I,
@@ -405,13 +405,17 @@ where
                 Err(_) => self.stats.display_errors = self.stats.display_errors.wrapping_add(1),
             }
         }
-        // 5. Persisted state (kept and retried until a save succeeds).
+        // 5. Persisted state (kept and retried until a save succeeds, then acknowledged).
         if let Some(s) = ctl.poll_store() {
             self.pending_store = Some(s);
         }
         if let Some(s) = self.pending_store {
             match self.store.save(&s) {
-                Ok(()) => self.pending_store = None,
+                Ok(()) => {
+                    self.pending_store = None;
+                    // A step's journal is on flash: its actuation may begin.
+                    ctl.handle_stored();
+                }
                 Err(_) => self.stats.store_errors = self.stats.store_errors.wrapping_add(1),
             }
         }

@@ -1,33 +1,59 @@
-//! The persisted record: the last trunk state the controller confirmed (or was told).
+//! The persisted record: the controller's belief about the trunk, journaled around each step.
 //!
-//! Byte layout of [`StoredState::to_bytes`] ([`STORED_LEN`] bytes, little-endian):
+//! Before a step's first actuation the controller writes the step as *pending* (`from → to`,
+//! with the states it may end in); when the step is confirmed it writes the confirmed state.
+//! A reset at any instant therefore boots into the truth, or into "unconfirmed: was going
+//! `from → to`, one of these candidates" (`docs/firmware.md`, "Crash consistency"); the flash
+//! log keeps the old or the new record across a power loss during a write.
 //!
-//! | offset | content                                         |
-//! |--------|-------------------------------------------------|
-//! | 0–1    | magic `b"YC"`                                   |
-//! | 2      | layout version ([`STORED_VERSION`])             |
-//! | 3      | trunk state index ([`geometry::TrunkState::index`]) |
-//! | 4      | flags: bit 0 = confirmed                        |
-//! | 5      | reserved, 0                                     |
-//! | 6–7    | CRC-16/CCITT-FALSE over bytes 0–5               |
+//! Byte layout of [`StoredState::to_bytes`] ([`STORED_LEN`] bytes, little-endian), version 2:
+//!
+//! | offset | content                                                          |
+//! |--------|------------------------------------------------------------------|
+//! | 0–1    | magic `b"YC"`                                                    |
+//! | 2      | layout version ([`STORED_VERSION`])                              |
+//! | 3      | bits 0–2: state index ([`geometry::TrunkState::index`]); bit 3: confirmed; bit 4: a step is pending; bits 5–7: 0 |
+//! | 4      | candidates, one bit per state index (bits 6–7: 0)               |
+//! | 5      | the pending step: bits 0–2 `from`, bits 3–5 `to` (0 when none; bits 6–7: 0) |
+//! | 6–7    | CRC-16/CCITT-FALSE over bytes 0–5                                |
+//!
+//! Version 1 records (`[Y, C, 1, state, confirmed, 0, crc]`, written before the journal
+//! existed) still decode: confirmed, or unconfirmed with every state a candidate.
 //!
 //! Erased flash (all `0xFF`) or all zeros decode as "nothing stored"; anything else that does not
 //! check out is corrupt.
 
 use geometry::TrunkState;
+use protocol::{StateSet, Transition};
 
 /// Length of the stored record.
 pub const STORED_LEN: usize = 8;
 /// Layout version of the stored record.
-pub const STORED_VERSION: u8 = 1;
+pub const STORED_VERSION: u8 = 2;
 
-/// The state to persist across resets.
+/// The belief to persist across resets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StoredState {
-    /// The trunk state.
+    /// The trunk state: confirmed, or the last confirmed one.
     pub state: TrunkState,
     /// Whether it was confirmed from sensors, by a person, or declared by the host.
     pub confirmed: bool,
+    /// The states the trunk may be in (`{state}` when confirmed).
+    pub candidates: StateSet,
+    /// The step that was under way (journaled before its first actuation), if any.
+    pub pending: Option<Transition>,
+}
+
+impl StoredState {
+    /// A confirmed state, nothing pending.
+    pub const fn confirmed(state: TrunkState) -> Self {
+        Self {
+            state,
+            confirmed: true,
+            candidates: StateSet::single(state),
+            pending: None,
+        }
+    }
 }
 
 /// Why a stored record could not be decoded.
@@ -35,11 +61,11 @@ pub struct StoredState {
 pub enum StoreError {
     /// Shorter than [`STORED_LEN`].
     Truncated,
-    /// Wrong magic, version or reserved byte.
+    /// Wrong magic, version or reserved bits.
     Format,
     /// Checksum mismatch.
     Checksum,
-    /// The state index is not one of the six states.
+    /// A state index is not one of the six states.
     State,
 }
 
@@ -50,8 +76,8 @@ pub enum BootRecord {
     Empty,
     /// A valid record.
     Stored(StoredState),
-    /// The store could not be read or its content is corrupt: the controller assumes `F&P`,
-    /// unconfirmed, and raises the StateStorage fault.
+    /// The store could not be read or its content is corrupt: the controller assumes nothing
+    /// (every state a candidate) and raises the StateStorage fault.
     Corrupt,
 }
 
@@ -67,16 +93,26 @@ pub fn crc16(bytes: &[u8]) -> u16 {
     CCITT_FALSE.checksum(bytes)
 }
 
+fn state_at(index: u8) -> Result<TrunkState, StoreError> {
+    TrunkState::from_index(index as usize).ok_or(StoreError::State)
+}
+
 impl StoredState {
     /// The record's bytes.
     pub fn to_bytes(&self) -> [u8; STORED_LEN] {
+        let flags = self.state.index() as u8
+            | (self.confirmed as u8) << 3
+            | (self.pending.is_some() as u8) << 4;
+        let step = self
+            .pending
+            .map_or(0, |t| t.from.index() as u8 | (t.to.index() as u8) << 3);
         let mut b = [
             b'Y',
             b'C',
             STORED_VERSION,
-            self.state.index() as u8,
-            self.confirmed as u8,
-            0,
+            flags,
+            self.candidates.0 & StateSet::ALL.0,
+            step,
             0,
             0,
         ];
@@ -86,7 +122,8 @@ impl StoredState {
         b
     }
 
-    /// Decodes a record: `Ok(None)` for erased storage (all `0xFF` or all `0x00`).
+    /// Decodes a record (version 2, or a version-1 record): `Ok(None)` for erased storage (all
+    /// `0xFF` or all `0x00`).
     pub fn from_bytes(bytes: &[u8]) -> Result<Option<Self>, StoreError> {
         let b = bytes.get(..STORED_LEN).ok_or(StoreError::Truncated)?;
         if b.iter().all(|&x| x == 0xFF) || b.iter().all(|&x| x == 0) {
@@ -95,14 +132,56 @@ impl StoredState {
         if crc16(&b[..6]).to_le_bytes() != [b[6], b[7]] {
             return Err(StoreError::Checksum);
         }
-        if b[0] != b'Y' || b[1] != b'C' || b[2] != STORED_VERSION || b[5] != 0 || b[4] > 1 {
+        if b[0] != b'Y' || b[1] != b'C' {
             return Err(StoreError::Format);
         }
-        let state = TrunkState::from_index(b[3] as usize).ok_or(StoreError::State)?;
-        Ok(Some(StoredState {
-            state,
-            confirmed: b[4] == 1,
-        }))
+        match b[2] {
+            1 => {
+                if b[5] != 0 || b[4] > 1 {
+                    return Err(StoreError::Format);
+                }
+                let state = state_at(b[3])?;
+                let confirmed = b[4] == 1;
+                Ok(Some(StoredState {
+                    state,
+                    confirmed,
+                    candidates: if confirmed {
+                        StateSet::single(state)
+                    } else {
+                        StateSet::ALL
+                    },
+                    pending: None,
+                }))
+            }
+            STORED_VERSION => {
+                if b[3] & 0xE0 != 0 || b[4] & 0xC0 != 0 || b[5] & 0xC0 != 0 {
+                    return Err(StoreError::Format);
+                }
+                let state = state_at(b[3] & 7)?;
+                let confirmed = b[3] & 0x08 != 0;
+                let pending = if b[3] & 0x10 != 0 {
+                    Some(Transition {
+                        from: state_at(b[5] & 7)?,
+                        to: state_at((b[5] >> 3) & 7)?,
+                    })
+                } else if b[5] != 0 {
+                    return Err(StoreError::Format);
+                } else {
+                    None
+                };
+                let candidates = StateSet(b[4]);
+                if confirmed && (candidates != StateSet::single(state) || pending.is_some()) {
+                    return Err(StoreError::Format);
+                }
+                Ok(Some(StoredState {
+                    state,
+                    confirmed,
+                    candidates: candidates.with(state),
+                    pending,
+                }))
+            }
+            _ => Err(StoreError::Format),
+        }
     }
 }
 
@@ -117,22 +196,53 @@ mod tests {
     }
 
     #[test]
-    fn record_bytes_are_pinned() {
+    fn version_1_records_still_decode() {
         // Bytes written by the hand-rolled bitwise CRC this crate used before the `crc` crate:
         // records already in a board's flash must still decode.
         let golden = [b'Y', b'C', 1, 4, 1, 0, 0x99, 0x50];
         let s = StoredState::from_bytes(&golden).unwrap().unwrap();
-        assert_eq!(s.state.index(), 4);
-        assert!(s.confirmed);
-        assert_eq!(s.to_bytes(), golden);
+        assert_eq!(s, StoredState::confirmed(TrunkState::ALL[4]));
+        // An unconfirmed v1 record: nothing is known but the guess.
+        let mut v1 = [b'Y', b'C', 1, 2, 0, 0, 0, 0];
+        let crc = crc16(&v1[..6]).to_le_bytes();
+        v1[6..].copy_from_slice(&crc);
+        let s = StoredState::from_bytes(&v1).unwrap().unwrap();
+        assert!(!s.confirmed);
+        assert_eq!(s.candidates, StateSet::ALL);
+        assert_eq!(s.pending, None);
     }
 
     #[test]
-    fn every_state_round_trips() {
+    fn version_2_bytes_are_pinned() {
+        let pending = StoredState {
+            state: TrunkState::ALL[5],
+            confirmed: false,
+            candidates: StateSet(0b10_0110),
+            pending: Some(Transition {
+                from: TrunkState::ALL[5],
+                to: TrunkState::ALL[2],
+            }),
+        };
+        let b = pending.to_bytes();
+        assert_eq!(&b[..6], &[b'Y', b'C', 2, 0x15, 0x26, 0x15]);
+        assert_eq!(StoredState::from_bytes(&b), Ok(Some(pending)));
+    }
+
+    #[test]
+    fn every_record_round_trips() {
         for state in TrunkState::ALL {
-            for confirmed in [false, true] {
-                let s = StoredState { state, confirmed };
-                assert_eq!(StoredState::from_bytes(&s.to_bytes()), Ok(Some(s)));
+            let s = StoredState::confirmed(state);
+            assert_eq!(StoredState::from_bytes(&s.to_bytes()), Ok(Some(s)));
+            for to in TrunkState::ALL {
+                for cand in [0u8, 0b1, 0b11_1111, 0b10_1010] {
+                    let s = StoredState {
+                        state,
+                        confirmed: false,
+                        candidates: StateSet(cand).with(state),
+                        pending: (to != state).then_some(Transition { from: state, to }),
+                    };
+                    assert_eq!(StoredState::from_bytes(&s.to_bytes()), Ok(Some(s)));
+                }
             }
         }
     }
@@ -144,7 +254,12 @@ mod tests {
         assert_eq!(StoredState::from_bytes(&[0; 3]), Err(StoreError::Truncated));
         let good = StoredState {
             state: TrunkState::ALL[4],
-            confirmed: true,
+            confirmed: false,
+            candidates: StateSet(0b11_0000),
+            pending: Some(Transition {
+                from: TrunkState::ALL[4],
+                to: TrunkState::ALL[5],
+            }),
         }
         .to_bytes();
         // Every single-bit flip is caught.

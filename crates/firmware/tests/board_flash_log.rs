@@ -77,9 +77,18 @@ impl NorFlash for &mut EmuFlash {
 }
 
 fn st(i: usize, confirmed: bool) -> StoredState {
-    StoredState {
-        state: TrunkState::ALL[i % TrunkState::ALL.len()],
-        confirmed,
+    let state = TrunkState::ALL[i % TrunkState::ALL.len()];
+    if confirmed {
+        StoredState::confirmed(state)
+    } else {
+        // A journaled step: pending toward the next state, both candidates.
+        let to = TrunkState::ALL[(i + 1) % TrunkState::ALL.len()];
+        StoredState {
+            state,
+            confirmed: false,
+            candidates: protocol::StateSet::single(state).with(to),
+            pending: Some(protocol::Transition { from: state, to }),
+        }
     }
 }
 
@@ -204,4 +213,89 @@ fn a_slot_written_by_the_older_firmware_still_loads() {
     let loaded = FlashLog::new(&mut f, 0).load().unwrap().unwrap();
     assert_eq!(loaded.state, TrunkState::from_index(4).unwrap());
     assert!(loaded.confirmed);
+}
+
+mod backoff {
+    use super::*;
+    use flash_log::Backoff;
+    use std::sync::atomic::{AtomicU32, Ordering};
+
+    static NOW: AtomicU32 = AtomicU32::new(0);
+    fn now() -> u32 {
+        NOW.load(Ordering::Relaxed)
+    }
+
+    /// A store whose saves fail (or report a background erase) as told, counting attempts.
+    struct Flaky {
+        result: Result<(), FlashError>,
+        attempts: u32,
+    }
+
+    impl StateStore for Flaky {
+        type Error = FlashError;
+        fn load(&mut self) -> Result<Option<StoredState>, FlashError> {
+            Ok(None)
+        }
+        fn save(&mut self, _: &StoredState) -> Result<(), FlashError> {
+            self.attempts += 1;
+            self.result
+        }
+    }
+
+    #[test]
+    fn a_failing_save_is_retried_with_doubling_waits_and_busy_is_not_a_failure() {
+        let s = StoredState {
+            state: TrunkState::AS_MANUFACTURED,
+            confirmed: true,
+        };
+        NOW.store(1_000, Ordering::Relaxed);
+        let mut b = Backoff::new(
+            Flaky {
+                result: Err(FlashError::Program),
+                attempts: 0,
+            },
+            now,
+        );
+        assert_eq!(b.save(&s), Err(FlashError::Program));
+        // Every pass for the next 50 ms: refused at once, the flash untouched.
+        for t in [1_001, 1_025, 1_049] {
+            NOW.store(t, Ordering::Relaxed);
+            assert_eq!(b.save(&s), Err(FlashError::BackingOff));
+        }
+        NOW.store(1_050, Ordering::Relaxed);
+        assert_eq!(b.save(&s), Err(FlashError::Program)); // second attempt
+        NOW.store(1_149, Ordering::Relaxed);
+        assert_eq!(b.save(&s), Err(FlashError::BackingOff)); // now 100 ms
+        NOW.store(1_150, Ordering::Relaxed);
+        assert_eq!(b.save(&s), Err(FlashError::Program));
+        // The wait doubles up to 5 s.
+        let mut t = 1_150;
+        for _ in 0..10 {
+            NOW.store(t + 5_000, Ordering::Relaxed);
+            let _ = b.save(&s);
+            t += 5_000;
+        }
+        NOW.store(t + 4_999, Ordering::Relaxed);
+        assert_eq!(b.save(&s), Err(FlashError::BackingOff));
+        // A background erase is retried at the next call, without a wait.
+        let mut busy = Backoff::new(
+            Flaky {
+                result: Err(FlashError::Busy),
+                attempts: 0,
+            },
+            now,
+        );
+        assert_eq!(busy.save(&s), Err(FlashError::Busy));
+        assert_eq!(busy.save(&s), Err(FlashError::Busy));
+        // Success clears the back-off.
+        let mut ok = Backoff::new(
+            Flaky {
+                result: Ok(()),
+                attempts: 0,
+            },
+            now,
+        );
+        assert_eq!(ok.save(&s), Ok(()));
+        assert_eq!(ok.save(&s), Ok(()));
+    }
 }

@@ -345,13 +345,7 @@ fn shell_boots_unconfirmed_from_a_corrupt_store_and_retries_saves() {
     }
     assert_eq!(shell.stats.store_errors, 3);
     let stored = StoredState::from_bytes(&b.store.bytes.borrow().unwrap()).unwrap();
-    assert_eq!(
-        stored,
-        Some(StoredState {
-            state: "D&D".parse().unwrap(),
-            confirmed: true
-        })
-    );
+    assert_eq!(stored, Some(StoredState::confirmed("D&D".parse().unwrap())));
 }
 
 #[test]

@@ -297,10 +297,7 @@ mod tests {
     fn flash_starts_erased_and_keeps_what_is_saved() {
         let mut f = SimFlash::default();
         assert_eq!(f.load(), Ok(None));
-        let s = StoredState {
-            state: "D&F".parse().unwrap(),
-            confirmed: true,
-        };
+        let s = StoredState::confirmed("D&F".parse().unwrap());
         f.save(&s).unwrap();
         assert_eq!(f.load(), Ok(Some(s)));
         f.bytes[3] ^= 0x55;

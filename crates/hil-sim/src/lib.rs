@@ -35,6 +35,7 @@
 
 pub mod devices;
 pub mod discovery;
+pub mod elf_board;
 pub mod fault;
 pub mod host;
 pub mod operator;
@@ -46,4 +47,4 @@ pub mod sim;
 pub mod swarm;
 
 pub use fault::{Fault, ParseFaultError};
-pub use sim::{GroundTruth, Sim, SimOptions};
+pub use sim::{GroundTruth, Sim, SimOptions, TruthLog};

@@ -2,10 +2,12 @@
 //!
 //! ```text
 //! hil-sim --pty [--initial STATE] [--seed N] [--fault NAME]... [--speed X] [--no-operator]
+//!         [--firmware-elf PATH] [--truth-log FILE]
 //! hil-sim discover [--json | --dot]
 //! ```
 //! With `--pty` the first line of stdout ends with the device path; the simulator then runs until
-//! killed. Usage errors exit with 2, runtime failures with 1.
+//! SIGINT, SIGTERM or SIGHUP (exit 0, the truth log's last line written). Usage errors exit with
+//! 2, runtime failures with 1.
 
 use std::io::Write as _;
 use std::process::ExitCode;
@@ -44,6 +46,15 @@ struct Cli {
     /// No simulated operator: manual steps wait for the host or a real person.
     #[arg(long)]
     no_operator: bool,
+    /// Append the ground truth to FILE (with --pty): one JSON object per line whenever the
+    /// trunk's true state, the actuators' safety or the fault set changes, and once at exit:
+    /// {"t_ms", "true_state" (a state or "between"), "pressure_kpa", "actuators_safe", ...}.
+    #[arg(long, value_name = "FILE", requires = "pty")]
+    truth_log: Option<std::path::PathBuf>,
+    /// Run this board ELF (`cargo firmware`: target/thumbv7em-none-eabihf/firmware/uno-r4) in
+    /// the RA4M1 emulator instead of the host-built controller (processor in the loop).
+    #[arg(long, value_name = "PATH")]
+    firmware_elf: Option<std::path::PathBuf>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -140,8 +151,30 @@ fn main() -> ExitCode {
                 faults: cli.faults,
                 speed: cli.speed,
                 operator: !cli.no_operator,
+                firmware_elf: cli.firmware_elf.clone(),
             };
-            let sim = match PtySim::spawn(opts) {
+            let log = match cli.truth_log.as_deref().map(|p| {
+                std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(p)
+                    .map_err(|e| format!("cannot open the truth log {}: {e}", p.display()))
+            }) {
+                None => None,
+                Some(Ok(f)) => Some(f),
+                Some(Err(e)) => {
+                    eprintln!("hil-sim: {e}");
+                    return ExitCode::from(1);
+                }
+            };
+            let (tx, rx) = std::sync::mpsc::channel();
+            if let Err(e) = ctrlc::set_handler(move || {
+                let _ = tx.send(());
+            }) {
+                eprintln!("hil-sim: cannot handle signals: {e}");
+                return ExitCode::from(1);
+            }
+            let sim = match PtySim::spawn_with_truth_log(opts, log) {
                 Ok(s) => s,
                 Err(e) => {
                     eprintln!("hil-sim: {e:#}");
@@ -151,16 +184,20 @@ fn main() -> ExitCode {
             let mut out = std::io::stdout();
             let _ = writeln!(
                 out,
-                "hil-sim: simulated crane (initial {}, seed {}, speed {}) on {}",
+                "hil-sim: simulated crane (initial {}, seed {}, speed {}{}) on {}",
                 cli.initial,
                 cli.seed,
                 cli.speed,
+                cli.firmware_elf
+                    .as_ref()
+                    .map_or(String::new(), |p| format!(", board ELF {}", p.display())),
                 sim.path().display()
             );
             let _ = out.flush();
-            loop {
-                std::thread::park();
-            }
+            // Until SIGINT, SIGTERM or SIGHUP; then stop cleanly (the truth log's final line).
+            let _ = rx.recv();
+            sim.stop();
+            ExitCode::SUCCESS
         }
         None => {
             eprintln!("hil-sim: nothing to do; use --pty or `hil-sim discover` (see --help)");

@@ -22,7 +22,7 @@ use nix::errno::Errno;
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
-use crate::{GroundTruth, Sim, SimOptions};
+use crate::{GroundTruth, Sim, SimOptions, TruthLog};
 
 /// Bytes the device may have queued for a client that is not reading before the oldest are
 /// dropped (a serial line with nobody listening loses its bytes too).
@@ -61,14 +61,26 @@ pub fn check_pty_speed(speed: f64) -> Result<(), String> {
 pub struct PtySim {
     path: PathBuf,
     stop: Arc<AtomicBool>,
-    truth: Arc<Mutex<GroundTruth>>,
+    truth: Arc<Mutex<Option<GroundTruth>>>,
     thread: Option<JoinHandle<()>>,
 }
 
 impl PtySim {
     /// Opens a pseudo-terminal and starts the simulator behind it.
     pub fn spawn(opts: SimOptions) -> anyhow::Result<PtySim> {
+        Self::spawn_with_truth_log(opts, None)
+    }
+
+    /// [`PtySim::spawn`], appending the ground truth to `log` ([`TruthLog`]: a JSON line at
+    /// start, at every change of the true state, the actuators' safety or the fault set, and
+    /// at [`PtySim::stop`]).
+    pub fn spawn_with_truth_log(
+        opts: SimOptions,
+        log: Option<std::fs::File>,
+    ) -> anyhow::Result<PtySim> {
         check_pty_speed(opts.speed).map_err(|e| anyhow::anyhow!(e))?;
+        let link_timeout_ms =
+            (f64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) * opts.speed.max(1.0)).round() as u32;
         let pty = nix::pty::openpty(None, None).context("opening a pseudo-terminal")?;
         let mut t = tcgetattr(pty.slave.as_fd()).context("reading the pty's terminal settings")?;
         cfmakeraw(&mut t);
@@ -80,18 +92,37 @@ impl PtySim {
         )
         .context("making the pty non-blocking")?;
         let path = nix::unistd::ttyname(pty.slave.as_fd()).context("naming the pty")?;
-        let link_timeout_ms =
-            (f64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) * opts.speed.max(1.0)).round() as u32;
-        let sim = Sim::new(opts).with_link_timeout_ms(link_timeout_ms);
-        let truth = Arc::new(Mutex::new(sim.ground_truth()));
+        // The simulator is built on its own thread (an emulated board is not `Send`); the
+        // first ground truth, or why it could not start, comes back over a channel.
+        let truth = Arc::new(Mutex::new(None::<GroundTruth>));
         let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(), String>>(1);
         let thread = {
             let (truth, stop) = (Arc::clone(&truth), Arc::clone(&stop));
             std::thread::Builder::new()
                 .name("hil-sim".into())
-                .spawn(move || serve(sim, pty.master, pty.slave, &stop, &truth))
+                .spawn(move || {
+                    match Sim::try_new(opts).map(|s| s.with_link_timeout_ms(link_timeout_ms)) {
+                        Ok(sim) => {
+                            *lock(&truth) = Some(sim.ground_truth());
+                            let _ = tx.send(Ok(()));
+                            serve(sim, pty.master, pty.slave, &stop, &truth, log);
+                        }
+                        Err(e) => {
+                            let _ = tx.send(Err(e.to_string()));
+                        }
+                    }
+                })
                 .context("starting the simulator thread")?
         };
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                let _ = thread.join();
+                anyhow::bail!("{e}");
+            }
+            Err(_) => anyhow::bail!("the simulator thread died while starting"),
+        }
         Ok(PtySim {
             path,
             stop,
@@ -107,13 +138,15 @@ impl PtySim {
 
     /// The ground truth now (updated every few wall milliseconds).
     pub fn ground_truth(&self) -> GroundTruth {
-        lock(&self.truth).clone()
+        lock(&self.truth)
+            .clone()
+            .unwrap_or_else(|| unreachable!("set before spawn returns"))
     }
 
     /// Stops the simulator and returns its final ground truth.
     pub fn stop(mut self) -> GroundTruth {
         self.halt();
-        lock(&self.truth).clone()
+        self.ground_truth()
     }
 
     fn halt(&mut self) {
@@ -130,7 +163,7 @@ impl Drop for PtySim {
     }
 }
 
-fn lock(m: &Mutex<GroundTruth>) -> std::sync::MutexGuard<'_, GroundTruth> {
+fn lock(m: &Mutex<Option<GroundTruth>>) -> std::sync::MutexGuard<'_, Option<GroundTruth>> {
     // A poisoned lock only means the simulator thread panicked mid-update: the value is still
     // a complete GroundTruth.
     m.lock().unwrap_or_else(|e| e.into_inner())
@@ -143,8 +176,20 @@ fn serve(
     // Held open so the pty stays usable while no client has it open.
     _slave: OwnedFd,
     stop: &AtomicBool,
-    truth: &Mutex<GroundTruth>,
+    truth: &Mutex<Option<GroundTruth>>,
+    log: Option<std::fs::File>,
 ) {
+    use std::io::Write as _;
+    let mut log = log.map(|f| (f, TruthLog::new()));
+    let append = |line: String, file: &mut std::fs::File| {
+        // A full disk or a closed file must not stop the crane's simulation.
+        let _ = writeln!(file, "{line}");
+    };
+    if let Some((f, l)) = log.as_mut() {
+        if let Some(line) = l.observe(&sim) {
+            append(line, f);
+        }
+    }
     let speed = sim.options().speed;
     let start = Instant::now();
     let v0 = sim.now_ms();
@@ -170,6 +215,11 @@ fn serve(
         let target = target.min(sim.now_ms() + MAX_CATCH_UP_MS);
         while sim.now_ms() < target {
             sim.step();
+            if let Some((f, l)) = log.as_mut() {
+                if let Some(line) = l.observe(&sim) {
+                    append(line, f);
+                }
+            }
         }
         // Device → host.
         pending.extend(sim.read_device_bytes());
@@ -187,12 +237,16 @@ fn serve(
             }
         }
         if last_truth.elapsed() >= Duration::from_millis(5) {
-            *lock(truth) = sim.ground_truth();
+            *lock(truth) = Some(sim.ground_truth());
             last_truth = Instant::now();
         }
         if speed.is_finite() {
             std::thread::sleep(WALL_TICK);
         }
     }
-    *lock(truth) = sim.ground_truth();
+    *lock(truth) = Some(sim.ground_truth());
+    if let Some((f, l)) = log.as_mut() {
+        append(l.finish(&sim), f);
+        let _ = f.flush();
+    }
 }

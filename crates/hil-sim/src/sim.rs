@@ -14,6 +14,7 @@ use rand_chacha::ChaCha8Rng;
 use crate::devices::{
     segments_text, SimAnalog, SimDisplay, SimFlash, SimInputPin, SimOutputPin, SimPwm, SimSerial,
 };
+use crate::elf_board::{ElfBoard, ElfBoardError};
 use crate::fault::Fault;
 use crate::operator::{Operator, OperatorAction};
 use crate::physics::params::{
@@ -55,6 +56,9 @@ pub struct SimOptions {
     pub speed: f64,
     /// A simulated person does manual steps.
     pub operator: bool,
+    /// Run this `uno-r4` ELF in the RA4M1 emulator instead of the host-built controller
+    /// (processor in the loop, [`crate::elf_board`]).
+    pub firmware_elf: Option<std::path::PathBuf>,
 }
 
 impl Default for SimOptions {
@@ -65,8 +69,26 @@ impl Default for SimOptions {
             faults: Vec::new(),
             speed: 20.0,
             operator: true,
+            firmware_elf: None,
         }
     }
+}
+
+/// The truth that judges safety ([`Sim::safety`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Safety {
+    /// The trunk's true state (`None` between states).
+    pub true_state: Option<TrunkState>,
+    /// True gauge pressure, kPa.
+    pub pressure_kpa: f32,
+    /// The controller's pressure cap, kPa.
+    pub pressure_limit_kpa: f32,
+    /// The inlet passes air.
+    pub inlet_open: bool,
+    /// The exhaust passes air.
+    pub exhaust_open: bool,
+    /// As [`GroundTruth::actuators_safe`].
+    pub actuators_safe: bool,
 }
 
 /// What really happened, for judging the controller.
@@ -115,23 +137,6 @@ pub struct GroundTruth {
     pub faults: Vec<Fault>,
 }
 
-/// The truth that judges safety ([`Sim::safety`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Safety {
-    /// The trunk's true state (`None` between states).
-    pub true_state: Option<TrunkState>,
-    /// True gauge pressure, kPa.
-    pub pressure_kpa: f32,
-    /// The controller's pressure cap, kPa.
-    pub pressure_limit_kpa: f32,
-    /// The inlet passes air.
-    pub inlet_open: bool,
-    /// The exhaust passes air.
-    pub exhaust_open: bool,
-    /// As [`GroundTruth::actuators_safe`].
-    pub actuators_safe: bool,
-}
-
 type SimInputs = PinInputs<
     SimAnalog,
     SimAnalog,
@@ -144,7 +149,8 @@ type SimInputs = PinInputs<
     SimInputPin,
 >;
 type SimOutputs = PinOutputs<SimPwm, SimPwm, SimPwm, SimOutputPin, SimOutputPin, SimOutputPin>;
-type SimShell = Shell<SimInputs, SimOutputs, SimDisplay, SimFlash, SimSerial>;
+/// The shell over the simulated parts (in ELF mode: only the parts, the emulator is the loop).
+pub type SimShell = Shell<SimInputs, SimOutputs, SimDisplay, SimFlash, SimSerial>;
 
 /// The crane's configuration as the simulator builds it: the firmware's defaults (the same
 /// trunk: a test checks it), with the board of this simulator; the trunk is still set from
@@ -201,6 +207,9 @@ pub struct Sim {
     /// Byte corruption probability set at run time (`None`: [`LINE_NOISE_RATE`] under the
     /// `line-noise` fault, else none).
     line_noise_rate: Option<f64>,
+    /// The board ELF in the emulator (processor in the loop), when it runs instead of `ctl`.
+    board: Option<Box<ElfBoard>>,
+    board_error: Option<String>,
 }
 
 impl std::fmt::Debug for Sim {
@@ -221,7 +230,26 @@ struct Trace {
 
 impl Sim {
     /// A simulator at virtual time 0 with the trunk at rest in `opts.initial`.
+    ///
+    /// With [`SimOptions::firmware_elf`] use [`Sim::try_new`] (loading the ELF can fail);
+    /// here a failure to load it is reported on stderr and the host-built controller runs.
     pub fn new(opts: SimOptions) -> Self {
+        match Self::try_new(opts.clone()) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("hil-sim: {e}; running the host-built controller instead");
+                Self::try_new(SimOptions {
+                    firmware_elf: None,
+                    ..opts
+                })
+                .unwrap_or_else(|_| unreachable!("without an ELF nothing can fail"))
+            }
+        }
+    }
+
+    /// A simulator at virtual time 0 with the trunk at rest in `opts.initial`; fails when the
+    /// firmware ELF cannot be loaded.
+    pub fn try_new(opts: SimOptions) -> Result<Self, ElfBoardError> {
         let cfg = sim_crane_config();
         let mut params =
             TrunkParams::pdf().unwrap_or_else(|e| unreachable!("calibrated parameters: {e}"));
@@ -258,10 +286,7 @@ impl Sim {
             exhaust: SimOutputPin::default(),
             gripper: SimOutputPin::default(),
         };
-        let flash = SimFlash::holding(StoredState {
-            state: opts.initial,
-            confirmed: true,
-        });
+        let flash = SimFlash::holding(StoredState::confirmed(opts.initial));
         let mut shell = Shell::new(
             inputs,
             outputs,
@@ -271,7 +296,14 @@ impl Sim {
         );
         let ctl = shell.boot(cfg, 0);
         let operator = Operator::new(opts.operator);
-        Self {
+        let board = match &opts.firmware_elf {
+            Some(path) => Some(Box::new(ElfBoard::new(
+                path,
+                StoredState::confirmed(opts.initial),
+            )?)),
+            None => None,
+        };
+        Ok(Self {
             rng: ChaCha8Rng::seed_from_u64(opts.seed),
             opts,
             now_ms: 0,
@@ -296,12 +328,70 @@ impl Sim {
             payload_n: 0.0,
             spare_gauss: None,
             line_noise_rate: None,
+            board,
+            board_error: None,
+        })
+    }
+
+    /// A copy of this run from now on (same state, same random stream), for the power-cut
+    /// campaign to cut every 10 ms of one step without re-running its start. `None` with the
+    /// firmware ELF (an emulated chip is not copied).
+    pub fn fork(&self) -> Option<Sim> {
+        if self.board.is_some() {
+            return None;
+        }
+        Some(Sim {
+            opts: self.opts.clone(),
+            rng: self.rng.clone(),
+            now_ms: self.now_ms,
+            cfg: self.cfg,
+            trunk: self.trunk.clone(),
+            servos: self.servos,
+            shell: self.shell.clone(),
+            ctl: self.ctl.clone(),
+            operator: self.operator.clone(),
+            held: self.held,
+            joystick: self.joystick,
+            to_host: self.to_host.clone(),
+            sniffer: self.sniffer.clone(),
+            max_pressure_kpa: self.max_pressure_kpa,
+            snaps: self.snaps,
+            inlet_stuck_open: self.inlet_stuck_open,
+            tendon_broken: self.tendon_broken,
+            first_running_ms: self.first_running_ms,
+            link_dropped: self.link_dropped,
+            sensor_lost: self.sensor_lost,
+            trace: self.trace.clone(),
+            payload_n: self.payload_n,
+            spare_gauss: self.spare_gauss,
+            line_noise_rate: self.line_noise_rate,
+            board: None,
+            board_error: self.board_error.clone(),
+        })
+    }
+
+    /// The emulated board, when the simulator runs the firmware ELF.
+    pub fn elf_board(&self) -> Option<&ElfBoard> {
+        self.board.as_deref()
+    }
+
+    /// The emulated board, mutably (to inject chip-level faults).
+    pub fn elf_board_mut(&mut self) -> Option<&mut ElfBoard> {
+        self.board.as_deref_mut()
+    }
+
+    /// The controller's mode: the host-built controller's, or the one the ELF last reported.
+    pub fn mode(&self) -> Mode {
+        match &self.board {
+            Some(b) => b.mode,
+            None => self.ctl.mode(),
         }
     }
 
     /// The same simulator with the controller's link timeout set to `ms` (clamped to the
     /// parameter's range), booted again; for a wall-clock client of a sped-up simulator, whose
-    /// heartbeats arrive `speed` times further apart in virtual time. Call before running.
+    /// heartbeats arrive `speed` times further apart in virtual time. Call before running (with
+    /// the firmware ELF the board keeps its own default).
     pub fn with_link_timeout_ms(mut self, ms: u32) -> Self {
         self.cfg.link_timeout_ms = ms;
         self.cfg = self.cfg.validated();
@@ -420,8 +510,10 @@ impl Sim {
     }
 
     fn corrupt(&mut self, b: u8) -> u8 {
-        let rate = self.line_noise_rate.unwrap_or(LINE_NOISE_RATE);
-        if self.rng.gen_bool(rate) {
+        if self
+            .rng
+            .gen_bool(self.line_noise_rate.unwrap_or(LINE_NOISE_RATE))
+        {
             b ^ self.rng.gen_range(1..=255u8)
         } else {
             b
@@ -448,7 +540,7 @@ impl Sim {
         let faults = &self.opts.faults;
 
         // Mid-plan faults start a while after the first plan runs.
-        if self.first_running_ms.is_none() && self.ctl.mode() == Mode::Running {
+        if self.first_running_ms.is_none() && self.mode() == Mode::Running {
             self.first_running_ms = Some(now);
         }
         if let Some(t0) = self.first_running_ms {
@@ -500,8 +592,20 @@ impl Sim {
         inputs.show_pressure.high = !held.show_pressure;
         inputs.estop.high = held.estop;
 
-        // The controller, through the board's own loop body.
-        self.shell.step(&mut self.ctl, now);
+        // The controller, through the board's own loop body (or the board ELF in the emulator).
+        match self.board.as_mut() {
+            None => self.shell.step(&mut self.ctl, now),
+            Some(b) => {
+                if let Err(e) = b.step(&mut self.shell, now) {
+                    // The emulated chip stopped (a model refused an access): the board is dead,
+                    // its outputs as they were; say so once.
+                    if self.board_error.is_none() {
+                        eprintln!("hil-sim: the emulated board stopped at {now} ms: {e}");
+                        self.board_error = Some(e.to_string());
+                    }
+                }
+            }
+        }
 
         // Its bytes to the host go through the line.
         if !self.shell.link.tx.is_empty() {
@@ -645,15 +749,31 @@ impl Sim {
     pub fn power_cycle(&mut self) {
         self.shell.link.rx.clear();
         self.shell.link.tx.clear();
-        self.ctl = self.shell.boot(self.cfg, self.now_ms);
+        match self.board.as_mut() {
+            None => self.ctl = self.shell.boot(self.cfg, self.now_ms),
+            Some(b) => {
+                if let Err(e) = b.power_cycle() {
+                    self.board_error = Some(e.to_string());
+                }
+            }
+        }
         if let Some(tr) = self.trace.as_mut() {
             let _ = writeln!(tr.text, "{:>8} power cycle", self.now_ms);
         }
     }
 
-    /// Successful writes to the emulated data flash so far.
+    /// Successful writes to the emulated data flash so far (with the ELF: records, counted
+    /// as programmed bytes per 14-byte slot).
     pub fn flash_writes(&self) -> u32 {
-        self.shell.store.writes
+        match &self.board {
+            None => self.shell.store.writes,
+            Some(b) => (b.emu.machine().flash.programs / 14) as u32,
+        }
+    }
+
+    /// Why the emulated board stopped, if it did.
+    pub fn board_error(&self) -> Option<&str> {
+        self.board_error.as_deref()
     }
 
     /// Runs for `ms` of virtual time.
@@ -676,42 +796,24 @@ impl Sim {
         pred(self)
     }
 
-    /// The part of the truth that judges safety, cheap enough to ask every step.
-    pub fn safety(&self) -> Safety {
-        let limit = self.ctl.config().pressure_limit_kpa;
-        let p = self.trunk.pressure_kpa() as f32;
-        let inlet_open = (self.shell.outputs.inlet.high || self.inlet_stuck_open)
-            && !self.opts.faults.contains(&Fault::ValveStuckClosed);
-        let servos_still = self
-            .servos
-            .iter()
-            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
-        Safety {
-            true_state: self.trunk.state(),
-            pressure_kpa: p,
-            pressure_limit_kpa: limit,
-            inlet_open,
-            exhaust_open: self.shell.outputs.exhaust.high,
-            actuators_safe: !inlet_open && servos_still && p <= limit,
-        }
-    }
-
     /// What really happened.
     pub fn ground_truth(&self) -> GroundTruth {
-        let Safety {
-            pressure_limit_kpa: limit,
-            pressure_kpa: p,
-            inlet_open,
-            actuators_safe,
-            ..
-        } = self.safety();
-        let status = self.ctl.status();
+        let limit = self.cfg.pressure_limit_kpa;
+        let p = self.trunk.pressure_kpa() as f32;
+        let inlet_open = self.inlet_passes();
+        let (believed_state, mode) = match &self.board {
+            Some(b) => (b.state, b.mode),
+            None => {
+                let st = self.ctl.status();
+                (st.state, st.mode)
+            }
+        };
         let h = self.trunk.heights_mm();
         GroundTruth {
             true_state: self.trunk.state(),
             max_pressure_kpa: self.max_pressure_kpa as f32,
             pressure_limit_kpa: limit,
-            actuators_safe,
+            actuators_safe: self.actuators_safe(),
             pressure_kpa: p,
             time_ms: self.now_ms,
             module_heights_mm: [h[0] as f32, h[1] as f32],
@@ -723,8 +825,8 @@ impl Sim {
             exhaust_open: self.shell.outputs.exhaust.high,
             gripper_closed: self.shell.outputs.gripper.high,
             display: segments_text(self.shell.display.segments),
-            believed_state: status.state,
-            mode: status.mode,
+            believed_state,
+            mode,
             snaps: self.snaps,
             manual_tasks: self.operator.tasks_done,
             faults: self.opts.faults.clone(),
@@ -732,9 +834,185 @@ impl Sim {
     }
 }
 
+/// The ground-truth log for outside clients (`hil-sim --pty --truth-log FILE`): one JSON object
+/// per line whenever the trunk's true state, the actuators' safety or the set of faults (the
+/// controller's active ones and the injected ones in effect) changes, and once more at the end.
+#[derive(Debug, Clone, Default)]
+pub struct TruthLog {
+    last: Option<(Option<TrunkState>, bool, u16, Vec<Fault>)>,
+}
+
+impl TruthLog {
+    /// A log that has written nothing.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The line to append after a simulation step, if anything it watches changed (the first
+    /// call always gives one).
+    pub fn observe(&mut self, sim: &Sim) -> Option<String> {
+        let key = sim.truth_key();
+        if self.last.as_ref() == Some(&key) {
+            return None;
+        }
+        self.last = Some(key);
+        Some(sim.truth_line())
+    }
+
+    /// The final line (at exit), whatever changed.
+    pub fn finish(&mut self, sim: &Sim) -> String {
+        self.last = Some(sim.truth_key());
+        sim.truth_line()
+    }
+}
+
+impl Sim {
+    /// The part of the truth that judges safety, cheap enough to ask every step.
+    pub fn safety(&self) -> Safety {
+        Safety {
+            true_state: self.trunk.state(),
+            pressure_kpa: self.trunk.pressure_kpa() as f32,
+            pressure_limit_kpa: self.cfg.pressure_limit_kpa,
+            inlet_open: self.inlet_passes(),
+            exhaust_open: self.shell.outputs.exhaust.high,
+            actuators_safe: self.actuators_safe(),
+        }
+    }
+
+    fn inlet_passes(&self) -> bool {
+        (self.shell.outputs.inlet.high || self.inlet_stuck_open)
+            && !self.opts.faults.contains(&Fault::ValveStuckClosed)
+    }
+
+    fn actuators_safe(&self) -> bool {
+        let limit = self.ctl.config().pressure_limit_kpa as f64;
+        let servos_still = self
+            .servos
+            .iter()
+            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
+        !self.inlet_passes() && servos_still && self.trunk.pressure_kpa() <= limit
+    }
+
+    /// The injected faults in effect now (the mid-plan ones once they struck).
+    pub fn faults_in_effect(&self) -> Vec<Fault> {
+        self.opts
+            .faults
+            .iter()
+            .copied()
+            .filter(|f| match f {
+                Fault::LinkDrop => self.link_dropped,
+                Fault::SensorDropout => self.sensor_lost,
+                Fault::ValveStuckOpen => self.inlet_stuck_open,
+                Fault::TendonBreak => self.tendon_broken,
+                _ => true,
+            })
+            .collect()
+    }
+
+    /// The controller's active faults (none known from an emulated board).
+    fn device_faults(&self) -> u16 {
+        match &self.board {
+            Some(_) => 0,
+            None => self.ctl.status().faults,
+        }
+    }
+
+    fn truth_key(&self) -> (Option<TrunkState>, bool, u16, Vec<Fault>) {
+        (
+            self.trunk.state(),
+            self.actuators_safe(),
+            self.device_faults(),
+            self.faults_in_effect(),
+        )
+    }
+
+    /// One truth-log line: `{"t_ms", "true_state", "pressure_kpa", "actuators_safe", …}` with
+    /// `true_state` a state name or `"between"`, and what the controller believes beside it.
+    pub fn truth_line(&self) -> String {
+        let bits = self.device_faults();
+        let faults: Vec<String> = protocol::FaultCode::ALL
+            .iter()
+            .filter(|f| bits & f.bit() != 0)
+            .map(|f| format!("E-{:02}", f.code()))
+            .collect();
+        let injected: Vec<String> = self
+            .faults_in_effect()
+            .iter()
+            .map(|f| f.to_string())
+            .collect();
+        let mut v = serde_json::json!({
+            "t_ms": self.now_ms,
+            "true_state": self.trunk.state().map_or("between", |s| s.name()),
+            "pressure_kpa": (self.trunk.pressure_kpa() * 100.0).round() / 100.0,
+            "actuators_safe": self.actuators_safe(),
+            "faults": faults,
+            "injected_faults": injected,
+        });
+        // What the device believes: the controller's belief, or (an emulated board) the last
+        // state it reported.
+        match &self.board {
+            Some(b) => v["believed_state"] = b.state.name().into(),
+            None => {
+                let status = self.ctl.status();
+                v["believed_state"] = status.state.name().into();
+                v["state_confirmed"] = status.state_confirmed.into();
+                v["candidates"] = status
+                    .candidates
+                    .iter()
+                    .map(|s| s.name())
+                    .collect::<Vec<_>>()
+                    .into();
+            }
+        }
+        v.to_string()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_truth_log_writes_a_line_per_change_and_one_at_the_end() {
+        let mut sim = Sim::new(SimOptions {
+            initial: "F&P".parse().unwrap(),
+            ..SimOptions::default()
+        });
+        let mut log = TruthLog::new();
+        let first = log.observe(&sim).expect("the first observation is logged");
+        let v: serde_json::Value = serde_json::from_str(&first).unwrap();
+        assert_eq!(v["true_state"], "F&P");
+        assert_eq!(v["t_ms"], 0);
+        assert_eq!(v["actuators_safe"], true);
+        assert!(v["pressure_kpa"].as_f64().unwrap().abs() < 0.01);
+        // Nothing changes at rest: no line.
+        for _ in 0..100 {
+            sim.step();
+            assert_eq!(log.observe(&sim), None);
+        }
+        // The step-up button unpacks the trunk: the state goes F&P → between → F&F.
+        sim.set_buttons(Buttons {
+            up: true,
+            ..Buttons::default()
+        });
+        sim.run_for(50);
+        sim.set_buttons(Buttons::default());
+        let mut states = Vec::new();
+        for _ in 0..10_000 {
+            sim.step();
+            if let Some(line) = log.observe(&sim) {
+                let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+                states.push(v["true_state"].as_str().unwrap().to_string());
+            }
+        }
+        // (F&P lines while the valves change, then the snap.)
+        states.dedup();
+        assert_eq!(states, ["F&P", "between", "F&F"]);
+        let end: serde_json::Value = serde_json::from_str(&log.finish(&sim)).unwrap();
+        assert_eq!(end["true_state"], "F&F");
+        assert_eq!(end["believed_state"], "F&F");
+        assert_eq!(end["state_confirmed"], true);
+    }
 
     #[test]
     fn hand_is_what_the_firmware_draws() {

@@ -368,6 +368,7 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
         faults: Vec::new(),
         speed: f64::INFINITY,
         operator: true,
+        firmware_elf: None,
     });
     sim.set_line_noise_rate(scenario.line_noise);
     sim.operator_mut().mistake = scenario.mistake;

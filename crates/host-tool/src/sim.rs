@@ -72,6 +72,7 @@ pub fn start(cfg: &SimConfig) -> SimIo {
         faults: cfg.faults.clone(),
         speed: cfg.speed.unwrap_or(f64::INFINITY),
         operator: true,
+        firmware_elf: None,
     }));
     io.pace(cfg.speed);
     io

@@ -1,7 +1,7 @@
 //! Inverse-kinematics benchmarks: a plain bench binary printing medians (no criterion: the
 //! interesting figures are solver-level wall times, node counts and solution quality).
 //!
-//! `cargo bench -p planner --bench ik -- [SUITE…]` with suites `exact`, `scaling`,
+//! `cargo bench -p planner --bench ik -- [SUITE…]` with suites `targets`, `exact`, `scaling`,
 //! `exhaustive`, `beam`, `heuristics` (default: all). Figures are wall-clock on whatever
 //! machine runs them; see BENCHMARKS.md (## ik) for recorded numbers and conditions.
 
@@ -80,6 +80,31 @@ fn timed(p: &Problem, algo: Algorithm, reps: usize, limit: Duration) -> (Solutio
     }
     times.sort();
     (last.expect("reps ≥ 1"), times[times.len() / 2])
+}
+
+/// Runs `exact` `reps` times with a deadline and a target gap; returns the last solution, the
+/// median wall time and the median certified gap.
+fn timed_exact(p: &Problem, reps: usize, limit: Duration, gap: f64) -> (Solution, Duration, f64) {
+    let mut times = Vec::with_capacity(reps);
+    let mut gaps = Vec::with_capacity(reps);
+    let mut last = None;
+    for _ in 0..reps {
+        let mut control = Control::new();
+        control.deadline = Some(Instant::now() + limit);
+        control.target_gap = gap;
+        let t0 = Instant::now();
+        let s = ik::solve(p, Algorithm::Exact, &control).expect("solve");
+        times.push(t0.elapsed());
+        gaps.push(s.gap.expect("exact reports a gap"));
+        last = Some(s);
+    }
+    times.sort();
+    gaps.sort_by(f64::total_cmp);
+    (
+        last.expect("reps ≥ 1"),
+        times[times.len() / 2],
+        gaps[gaps.len() / 2],
+    )
 }
 
 fn ms(d: Duration) -> f64 {
@@ -235,6 +260,70 @@ fn suite_beam() {
     }
 }
 
+/// The issue-16 targets in one run (full catalogue of 2(n+1) states, β = 35°).
+fn suite_targets() {
+    println!(
+        "## targets: exact certified optimal in ≤ 1 s (median of 5 runs, each stopped at 5 s)"
+    );
+    println!("| n | m | curve | metric | RMS | optimal (runs) | lower bound | gap % (median) | nodes | median ms |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for (n, m, spec) in [
+        (4u32, 30usize, "helix:radius=1,pitch=4,turns=1"),
+        (6, 20, "sine:amplitude=1,wavelength=4,length=5"),
+        (8, 12, "sine:amplitude=1,wavelength=4,length=5"),
+    ] {
+        for metric in [Metric::Eq36, Metric::Ordered] {
+            let p = smooth(n, m, spec, metric);
+            let mut proven = 0;
+            let mut times = Vec::new();
+            let mut gaps = Vec::new();
+            let mut last = None;
+            for _ in 0..5 {
+                let (s, t, g) = timed_exact(&p, 1, Duration::from_secs(5), 0.0);
+                proven += usize::from(s.optimal);
+                times.push(t);
+                gaps.push(g);
+                last = Some(s);
+            }
+            times.sort();
+            gaps.sort_by(f64::total_cmp);
+            let s = last.expect("5 runs");
+            println!(
+                "| {n} | {m} | {spec} | {} | {:.6} | {proven}/5 | {:.6} | {:.3} | {} | {:.1} |",
+                metric.name(),
+                s.rms,
+                s.lower_bound_rms.unwrap_or(0.0),
+                100.0 * gaps[2],
+                s.evaluated,
+                ms(times[2])
+            );
+        }
+    }
+    println!();
+    println!("## targets: n = 6, m = 100, certified gap ≤ 1 % within 1 s (--gap 0.01 --time-limit 1; median of 5)");
+    println!("| curve | metric | RMS | lower bound | gap % (median) | stop | median ms |");
+    println!("|---|---|---|---|---|---|---|");
+    for spec in [
+        "helix:radius=2,pitch=10,turns=3",
+        "sine:amplitude=2,wavelength=10,length=40",
+        "arc:radius=15,angle=120",
+    ] {
+        for metric in [Metric::Eq36, Metric::Ordered] {
+            let p = smooth(6, 100, spec, metric);
+            let (s, t, g) = timed_exact(&p, 5, Duration::from_secs(1), 0.01);
+            println!(
+                "| {spec} | {} | {:.6} | {:.6} | {:.3} | {} | {:.1} |",
+                metric.name(),
+                s.rms,
+                s.lower_bound_rms.unwrap_or(0.0),
+                100.0 * g,
+                s.stop.name(),
+                ms(t)
+            );
+        }
+    }
+}
+
 fn suite_heuristics() {
     println!("## heuristics vs exact, n = 4, m = 10, eq36 (gap % to the optimum, median ms of 3)");
     println!("| curve | exact RMS | greedy | beam k=8 | window w=2 | window w=3 | dp (0.1 l, 5°, 5000) |");
@@ -275,6 +364,9 @@ fn main() {
             .unwrap_or_default()
             .trim()
     );
+    if want("targets") {
+        suite_targets();
+    }
     if want("exact") {
         suite_exact();
     }

@@ -195,7 +195,7 @@ pub struct DecoderStats {
 /// while its loop runs at 1 kHz: this spreads the unstuffing and the CRC over the byte
 /// arrivals instead of doing them all in the pass that sees the delimiter. Results, errors and
 /// counters are those of [`decode`] on the same bytes (the property tests hold it to that).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct FrameDecoder {
     /// The frame decoded so far (COBS removed, CRC still at the end).
     buf: [u8; MAX_FRAME_LEN],

@@ -29,23 +29,46 @@ const DISPLAY_BRIGHTNESS: u8 = 4;
 /// How often the loop statistics are logged.
 const STATS_PERIOD_MS: u64 = 10_000;
 
-/// Drives both valve gates low without any driver state: used on panic and hard fault, when
-/// nothing else can be trusted. Closed valves seal the trunk, which holds its shape.
-fn valves_off() {
+/// The safe state without any driver state, for panic, HardFault and unexpected interrupts,
+/// when nothing else can be trusted: both valve gates low (closed valves seal the trunk, which
+/// holds its shape) and the three servo lines switched from their timer to GPIO outputs driven
+/// low (no pulses: the servos go limp, driving nothing). The gripper keeps its level (it holds
+/// whatever it holds).
+fn safe_outputs() {
     for p in [pins::INLET, pins::EXHAUST] {
         let port = 0x4004_0000 + 0x20 * p.port as usize;
         // SAFETY: PCNTR3 (PORR half) of the valve ports: write-only, resets exactly this pin.
         unsafe { core::ptr::write_volatile((port + 8) as *mut u32, 1u32 << (p.pin + 16)) };
     }
+    for p in [pins::SERVO0, pins::SERVO1, pins::SERVO2] {
+        let pfs = 0x4004_0800 + 0x40 * p.port as usize + 4 * p.pin as usize;
+        // SAFETY: PWPR (0x4004_0D03) opened (B0WI = 0, then PFSWE = 1), the servo pin's PFS set
+        // to GPIO output low (PDR = 1, PODR = 0, PMR = 0), PWPR closed again.
+        unsafe {
+            core::ptr::write_volatile(0x4004_0D03 as *mut u8, 0x00);
+            core::ptr::write_volatile(0x4004_0D03 as *mut u8, 0x40);
+            core::ptr::write_volatile(pfs as *mut u32, board::gpio::pfs::PDR);
+            core::ptr::write_volatile(0x4004_0D03 as *mut u8, 0x00);
+            core::ptr::write_volatile(0x4004_0D03 as *mut u8, 0x80);
+        }
+    }
 }
 
-/// Nothing left to do but wait for the watchdog (it resets the board within 350 ms).
+/// Nothing left to do but wait for the watchdog (it resets the board within 350 ms, counting
+/// in sleep too).
 fn halt() -> ! {
-    valves_off();
+    safe_outputs();
     loop {
         cortex_m::asm::nop();
     }
 }
+
+/// The board this binary is built for (feature `board-minima`; the WiFi otherwise).
+const BOARD: protocol::messages::Board = if cfg!(feature = "board-minima") {
+    protocol::messages::Board::UnoR4Minima
+} else {
+    protocol::messages::Board::UnoR4Wifi
+};
 
 #[entry]
 fn main() -> ! {
@@ -55,6 +78,9 @@ fn main() -> ! {
     let Some(mut cp) = cortex_m::Peripherals::take() else {
         halt()
     };
+    // The bootloader's interrupt links (IELSR2/3 select SCI9 on the WiFi) and NVIC state go
+    // before anything is configured.
+    board::irq::clear_bootloader_state(&mut cp.NVIC);
     if !board::gpio::self_check() {
         error!("PFS/PORT address formulas disagree with the PAC");
         halt();
@@ -66,7 +92,13 @@ fn main() -> ! {
         board::time::Clock::start(&mut cp.SYST, &mut cp.DCB, &mut cp.DWT, clocks.iclk_hz);
     let reset = board::wdt::take_reset_cause();
     let wdt_ms = board::wdt::start(clocks.pclkb_hz);
-    info!("uno-r4: {} reset {} wdt {} ms", clocks, reset, wdt_ms);
+    board::lvd::enable_brownout_reset();
+    info!(
+        "uno-r4: {} reset {=str} wdt {} ms",
+        clocks,
+        board::wdt::cause_name(reset),
+        wdt_ms
+    );
 
     // Actuators first, in their safe state: valves closed, gripper as is (low), servos silent.
     let inlet = Output::new(pins::INLET);
@@ -107,17 +139,27 @@ fn main() -> ! {
         DISPLAY_BRIGHTNESS,
     );
     let flash = board::dataflash::DataFlash::new(clocks.fclk_hz, clocks.iclk_hz);
-    let store = board::flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK);
+    // A failing save is retried with back-off; an erase runs in the background (DataFlash).
+    let store = board::flash_log::Backoff::new(
+        board::flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK),
+        board::time::ticks_ms,
+    );
     let link = board::uart::HostUart::new(clocks.pclka_hz, pins::HOST_TX, pins::HOST_RX);
 
     let mut shell = Shell::new(inputs, outputs, display, store, link);
-    let mut ctl = shell.boot(CraneConfig::default(), clock.now_ms());
-    if reset.watchdog {
+    let config = CraneConfig {
+        board: BOARD,
+        ..CraneConfig::default()
+    };
+    let mut ctl = shell.boot(config, clock.now_ms());
+    if reset == protocol::messages::ResetCause::Watchdog {
         warn!("restarted by the watchdog");
         ctl.report_watchdog_reset();
+    } else {
+        ctl.set_reset_cause(reset);
     }
-    // SAFETY: every interrupt source is configured (SysTick, SCI9 RXI/ERI); nothing else is
-    // unmasked in the NVIC.
+    // SAFETY: every interrupt source is configured (SysTick, SCI9 RXI/ERI/TXI/TEI); nothing
+    // else is unmasked in the NVIC.
     unsafe { cortex_m::interrupt::enable() };
 
     let mut worst_cycles: u32 = 0;
@@ -151,7 +193,7 @@ fn main() -> ! {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
-    valves_off();
+    safe_outputs();
     match info.location() {
         Some(l) => error!("panic at {=str}:{=u32}", l.file(), l.line()),
         None => error!("panic"),
@@ -161,8 +203,17 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
 
 #[exception]
 unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-    valves_off();
+    safe_outputs();
     error!("hard fault at pc {=u32:#010x}", ef.pc());
+    halt()
+}
+
+/// An exception or interrupt nobody configured (every unused vector): the safe state, then
+/// the watchdog.
+#[exception]
+unsafe fn DefaultHandler(irqn: i16) -> ! {
+    safe_outputs();
+    error!("unexpected exception {=i16}", irqn);
     halt()
 }
 

@@ -10,8 +10,10 @@
 //! `docs/hardware.md` lists what to check first.
 //!
 //! Data-flash programming runs while the CPU keeps executing from code flash, so nothing here
-//! has to run from RAM. Waits refresh the watchdog (a block erase may take up to ~0.5 s worst
-//! case, longer than the WDT timeout).
+//! has to run from RAM. A byte program (≈ 52 µs typical) is waited for, bounded by 1 ms; a
+//! block erase (≈ 9 ms typical, up to ~0.5 s) runs in the background: `erase` starts it and
+//! returns [`FlashError::Busy`], and every call after that (erase, read or write) checks
+//! FSTATR1.FRDY once and returns `Busy` until it is done — the loop never waits for it.
 //!
 //! Safety limits of this module: it only ever addresses 0x4010_0000..0x4010_2000 (data flash)
 //! through FSAR/FEAR, never code flash, never the option-setting memory, and never the extra
@@ -63,9 +65,9 @@ const FSTATR2_ERASE_ERR: u32 = 0x11; // ERERR | ILGLERR
 /// tDSTOP (data flash stop recovery) and tMS (mode setup), rounded up.
 const T_DSTOP_US: u32 = 6;
 const T_MS_US: u32 = 6;
-/// Completion bounds, well above the manual's maxima (byte write 886 µs, 1 KiB erase 504 ms,
-/// both at FCLK 4 MHz; FCLK is 24 MHz here).
-const WRITE_TIMEOUT_US: u32 = 2_000;
+/// Completion bounds, above the manual's maxima (byte write 886 µs, 1 KiB erase 504 ms, both at
+/// FCLK 4 MHz; FCLK is 24 MHz here).
+const WRITE_TIMEOUT_US: u32 = 1_000;
 const ERASE_TIMEOUT_US: u32 = 800_000;
 
 fn w8(a: usize, v: u8) {
@@ -97,6 +99,8 @@ fn r32(a: usize) -> u32 {
 #[derive(Debug)]
 pub struct DataFlash {
     core_hz: u32,
+    /// A background erase: its block and the cycle count when it started.
+    erasing: Option<(usize, u32)>,
 }
 
 impl DataFlash {
@@ -106,7 +110,10 @@ impl DataFlash {
             w8(DFLCTL, 1);
             delay_us(T_DSTOP_US);
         }
-        let df = Self { core_hz };
+        let df = Self {
+            core_hz,
+            erasing: None,
+        };
         // FISR is writable only in P/E mode.
         df.enter_pe();
         let mhz = fclk_hz.div_ceil(1_000_000);
@@ -179,6 +186,26 @@ impl DataFlash {
         res.and(exit)
     }
 
+    /// Checks a background erase once: `Busy` while it runs, its result when it has ended.
+    fn poll_erase(&mut self) -> Result<(), FlashError> {
+        let Some((_, started)) = self.erasing else {
+            return Ok(());
+        };
+        if r32(FSTATR1) & FSTATR1_FRDY == 0 {
+            let elapsed_us = cycles().wrapping_sub(started) / (self.core_hz / 1_000_000).max(1);
+            if elapsed_us <= ERASE_TIMEOUT_US {
+                return Err(FlashError::Busy);
+            }
+            self.erasing = None;
+            w32(FRESETR, 1);
+            w32(FRESETR, 0);
+            let _ = self.exit_pe();
+            return Err(FlashError::Timeout);
+        }
+        self.erasing = None;
+        self.finish(1_000, FSTATR2_ERASE_ERR, FlashError::Erase)
+    }
+
     fn set_range(start: u32, end_inclusive: u32) {
         w8(FASR, 0); // user area, never the extra area
         w16(FSARH, (start >> 16) as u16);
@@ -195,6 +222,7 @@ impl NorFlash for DataFlash {
         if offset + buf.len() > DF_SIZE {
             return Err(FlashError::OutOfRange);
         }
+        self.poll_erase()?;
         for (i, b) in buf.iter_mut().enumerate() {
             // SAFETY: inside the data flash's read window, readable since DFLCTL.DFLEN = 1.
             *b = unsafe { read_volatile((DF_READ_BASE + offset + i) as *const u8) };
@@ -206,6 +234,7 @@ impl NorFlash for DataFlash {
         if offset + data.len() > DF_SIZE {
             return Err(FlashError::OutOfRange);
         }
+        self.poll_erase()?;
         for (i, &b) in data.iter().enumerate() {
             let a = DF_PE_BASE + (offset + i) as u32;
             self.enter_pe();
@@ -223,10 +252,19 @@ impl NorFlash for DataFlash {
         if block >= DF_SIZE / DF_BLOCK {
             return Err(FlashError::OutOfRange);
         }
+        match self.erasing {
+            // This block's erase is running: has it ended?
+            Some((b, _)) if b == block => return self.poll_erase(),
+            Some(_) => {
+                self.poll_erase()?;
+            }
+            None => {}
+        }
         let start = DF_PE_BASE + (block * DF_BLOCK) as u32;
         self.enter_pe();
         Self::set_range(start, start + DF_BLOCK as u32 - 1);
         w8(FCR, FCR_ERASE);
-        self.finish(ERASE_TIMEOUT_US, FSTATR2_ERASE_ERR, FlashError::Erase)
+        self.erasing = Some((block, cycles()));
+        Err(FlashError::Busy)
     }
 }

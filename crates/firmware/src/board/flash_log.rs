@@ -52,6 +52,10 @@ pub enum FlashError {
     Corrupt,
     /// Read-back after programming differs from what was written.
     Verify,
+    /// An operation runs in the background (a block erase): try again later.
+    Busy,
+    /// A previous save failed; the next attempt waits out its back-off ([`Backoff`]).
+    BackingOff,
 }
 
 /// Slots in one block of `F`.
@@ -219,19 +223,38 @@ impl<F: NorFlash> FlashLog<F> {
         b[12] = crc[0];
         b[13] = crc[1];
         let off = self.slot_offset(block, slot);
-        // Invalidate the cache first: whatever happens below, the next access rescans.
-        self.cursor = None;
-        self.flash.write(off, &b[..SLOT_USED])?;
-        let mut back = [0u8; SLOT_LEN];
-        self.flash.read(off, &mut back)?;
-        if back != b {
-            return Err(FlashError::Verify);
-        }
         let next = if slot + 1 < self.slots() {
             (block, slot + 1)
         } else {
             (1 - block, self.slots())
         };
+        // A failed or unverified program may have left this slot torn: the next append goes
+        // to the slot after it, with the newest record unchanged. (A rescan would find the
+        // same, but it reads every slot: milliseconds the loop cannot spare on each retry.)
+        let skip = Cursor {
+            any_data: true,
+            next_block: next.0,
+            next_slot: next.1,
+            ..c
+        };
+        match self.flash.write(off, &b[..SLOT_USED]) {
+            Ok(()) => {}
+            // Nothing was programmed (a background erase still runs): retry the same slot.
+            Err(FlashError::Busy) => return Err(FlashError::Busy),
+            Err(e) => {
+                self.cursor = Some(skip);
+                return Err(e);
+            }
+        }
+        let mut back = [0u8; SLOT_LEN];
+        if let Err(e) = self.flash.read(off, &mut back) {
+            self.cursor = Some(skip);
+            return Err(e);
+        }
+        if back != b {
+            self.cursor = Some(skip);
+            return Err(FlashError::Verify);
+        }
         self.cursor = Some(Cursor {
             newest: Some((seq, state.to_bytes())),
             any_data: true,
@@ -262,5 +285,63 @@ impl<F: NorFlash> StateStore for FlashLog<F> {
             }
         }
         self.append(state)
+    }
+}
+
+/// Retries a failing store with exponential back-off: after a failed save the next attempt
+/// waits [`Backoff::FIRST_MS`], doubling up to [`Backoff::MAX_MS`]; meanwhile `save` returns
+/// [`FlashError::BackingOff`] at once without touching the flash, so a broken flash costs the
+/// loop one failed attempt per back-off period, not one per pass. [`FlashError::Busy`] (a
+/// background erase) is not a failure: it is retried at the next call. `now_ms` is the board's
+/// millisecond clock.
+#[derive(Debug)]
+pub struct Backoff<S> {
+    inner: S,
+    now_ms: fn() -> u32,
+    wait_ms: u32,
+    next_ms: u32,
+}
+
+impl<S> Backoff<S> {
+    /// First wait after a failure.
+    pub const FIRST_MS: u32 = 50;
+    /// Longest wait.
+    pub const MAX_MS: u32 = 5_000;
+
+    /// Wraps `inner`.
+    pub fn new(inner: S, now_ms: fn() -> u32) -> Self {
+        Self {
+            inner,
+            now_ms,
+            wait_ms: 0,
+            next_ms: 0,
+        }
+    }
+}
+
+impl<S: StateStore<Error = FlashError>> StateStore for Backoff<S> {
+    type Error = FlashError;
+
+    fn load(&mut self) -> Result<Option<StoredState>, FlashError> {
+        self.inner.load()
+    }
+
+    fn save(&mut self, state: &StoredState) -> Result<(), FlashError> {
+        let now = (self.now_ms)();
+        if self.wait_ms > 0 && (now.wrapping_sub(self.next_ms) as i32) < 0 {
+            return Err(FlashError::BackingOff);
+        }
+        match self.inner.save(state) {
+            Ok(()) => {
+                self.wait_ms = 0;
+                Ok(())
+            }
+            Err(FlashError::Busy) => Err(FlashError::Busy),
+            Err(e) => {
+                self.wait_ms = (self.wait_ms * 2).clamp(Self::FIRST_MS, Self::MAX_MS);
+                self.next_ms = now.wrapping_add(self.wait_ms);
+                Err(e)
+            }
+        }
     }
 }

@@ -13,6 +13,8 @@
 //! - [`clocks`]: HOCO 48 MHz and the bus dividers; reports the real frequencies.
 //! - [`time`]: 1 ms SysTick time base (`now_ms`) and cycle-counter delays.
 //! - [`gpio`]: push-pull outputs and pulled-up inputs (embedded-hal `OutputPin`/`InputPin`).
+//! - [`irq`]: clears the interrupt links and NVIC state the bootloader leaves.
+//! - [`lvd`]: the brown-out reset (voltage monitor 1).
 //! - [`pwm`]: GPT 16-bit timers at 50 Hz for the servos (embedded-hal `SetDutyCycle`).
 //! - [`adc`]: the 14-bit ADC (`hw::AnalogInput`).
 //! - [`uart`]: SCI9 host link with an interrupt-fed receive ring (embedded-io).
@@ -27,7 +29,9 @@ pub mod clocks;
 pub mod dataflash;
 pub mod flash_log;
 pub mod gpio;
+pub mod irq;
 pub mod log;
+pub mod lvd;
 pub mod pins;
 pub mod pwm;
 pub mod regs;

@@ -4,8 +4,11 @@
 //! Saw-wave PWM, counting up from 0 to GTPR; the pin goes high at the cycle end and low at the
 //! compare match, so duty = compare value. Duty writes go to the buffer registers (GTCCRC for A,
 //! GTCCRE for B) and reach the compare registers at the next cycle end: no glitched pulse when
-//! the duty changes mid-period. A duty of 0 disables the pin's output (driven low), so a servo
-//! gets no pulse at all until the controller first commands it.
+//! the duty changes mid-period. A duty of 0 forces the output to 0 % duty (GTUDDTYC.OADTY/OBDTY
+//! = 0b10, applied at once) with the output still enabled: the line is *driven low*, so a limp
+//! servo sees a defined 0 V, not a floating input (GTIOR.OAE = 0 would release the pin: Hi-Z).
+//! From reset until `start` the pins are inputs — `docs/hardware.md` asks for a pull-down on
+//! each servo signal for that window.
 
 use core::convert::Infallible;
 
@@ -19,6 +22,15 @@ const OAE: u32 = 1 << 8;
 const OBE: u32 = 1 << 24;
 /// GTIOA/GTIOB = 0b01001: initial low, high at cycle end, low at compare match.
 const GTIO_PWM: u32 = 0b01001;
+/// GTUDDTYC.UD: count up.
+const UD: u32 = 1;
+/// GTUDDTYC: output A at 0 % duty (OADTY = 0b10), forced at once (OADTYF).
+const A_ZERO: u32 = (0b10 << 16) | (1 << 18);
+/// GTUDDTYC: output B at 0 % duty (OBDTY = 0b10), forced at once (OBDTYF).
+const B_ZERO: u32 = (0b10 << 24) | (1 << 26);
+/// GTUDDTYC.OADTY / OBDTY fields.
+const A_DTY: u32 = 0b11 << 16;
+const B_DTY: u32 = 0b11 << 24;
 
 /// Which output of a channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,8 +72,10 @@ impl Timer {
         wr!(regs.gtccre(), 0);
         // Single buffer GTCCRC → GTCCRA and GTCCRE → GTCCRB at each cycle end.
         wr!(regs.gtber(), (0b01 << 16) | (0b01 << 18));
-        // Pin functions set, outputs disabled (OADFLT/OBDFLT = 0: low while disabled).
-        wr!(regs.gtior(), GTIO_PWM | (GTIO_PWM << 16));
+        // Both outputs enabled and held at 0 % duty: driven low until a servo is commanded
+        // (OADFLT/OBDFLT = 0: low while the counter is stopped, too).
+        wr!(regs.gtuddtyc(), UD | A_ZERO | B_ZERO);
+        wr!(regs.gtior(), GTIO_PWM | OAE | ((GTIO_PWM << 16) | OBE));
         wr!(regs.gtcr(), (tpcs << 24) | 1); // CST: count
         Self {
             regs,
@@ -107,24 +121,25 @@ impl embedded_hal::pwm::SetDutyCycle for ServoPwm {
     fn set_duty_cycle(&mut self, duty: u16) -> Result<(), Infallible> {
         let r = self.timer.regs;
         let duty = (duty as u32).min(self.timer.period_counts);
-        let enable = match self.output {
+        let (field, zero) = match self.output {
             Output::A => {
                 wr!(r.gtccrc(), duty);
-                OAE
+                (A_DTY, A_ZERO)
             }
             Output::B => {
                 wr!(r.gtccre(), duty);
-                OBE
+                (B_DTY, B_ZERO)
             }
         };
-        let gtior = rd!(r.gtior());
+        // The forced-setting bits read as 0, so this read-modify-write keeps the other output.
+        let dty = rd!(r.gtuddtyc());
         let want = if duty == 0 {
-            gtior & !enable
+            (dty & !field) | zero
         } else {
-            gtior | enable
+            dty & !field
         };
-        if want != gtior {
-            wr!(r.gtior(), want);
+        if want & !(1 << 18 | 1 << 26) != dty {
+            wr!(r.gtuddtyc(), want | UD);
         }
         Ok(())
     }

@@ -54,6 +54,11 @@ impl Clock {
     }
 }
 
+/// Milliseconds since the clock started, 32-bit (wraps after 49.7 days; for intervals).
+pub fn ticks_ms() -> u32 {
+    TICKS_MS.load(Ordering::Relaxed)
+}
+
 /// The DWT cycle counter (wraps every 89 s at 48 MHz; differences are wrap-safe).
 pub fn cycles() -> u32 {
     DWT::cycle_count()

@@ -4,11 +4,17 @@
 //! receive-full interrupt (ICU slot IEL0 ← event SCI9_RXI 0xA8) into a lock-free ring that the
 //! main loop drains; receive errors (IEL1 ← SCI9_ERI 0xAB) are cleared and counted. A full ring
 //! drops the new byte (the protocol's CRC then drops the frame and the host retries).
-//! Transmission polls SSR.TDRE: `write_ready`/`write` never block longer than one byte.
+//!
+//! Transmission runs from interrupts too, at the full line rate: `write` copies into a
+//! transmit ring and, when the transmitter is idle, starts it (SCR.TIE, then the first byte to
+//! TDR); each transmit-data-empty interrupt (IEL2 ← SCI9_TXI 0xA9) moves the next byte to TDR;
+//! when the ring runs dry the handler switches to the transmit-end interrupt (IEL3 ← SCI9_TEI
+//! 0xAA), which marks the line idle (or restarts it if bytes came in meanwhile). `write` never
+//! waits for the line.
 
 use core::cell::UnsafeCell;
 use core::convert::Infallible;
-use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU32, Ordering};
 
 use cortex_m::peripheral::NVIC;
 
@@ -21,17 +27,22 @@ pub const BAUD: u32 = 115_200;
 
 /// ICU event numbers (RA4M1 event table).
 const EVENT_SCI9_RXI: u32 = 0xA8;
+const EVENT_SCI9_TXI: u32 = 0xA9;
+const EVENT_SCI9_TEI: u32 = 0xAA;
 const EVENT_SCI9_ERI: u32 = 0xAB;
 /// ICU slots used.
 const SLOT_RXI: usize = 0;
 const SLOT_ERI: usize = 1;
+const SLOT_TXI: usize = 2;
+const SLOT_TEI: usize = 3;
 /// IELSRn.IR: the slot's request flag, cleared by the handler.
 const IELSR_IR: u32 = 1 << 16;
 
 /// SSR bits.
-const SSR_TDRE: u8 = 1 << 7;
 const SSR_ERRORS: u8 = (1 << 5) | (1 << 4) | (1 << 3); // ORER, FER, PER
 /// SCR bits.
+const SCR_TIE: u8 = 1 << 7;
+const SCR_TEIE: u8 = 1 << 2;
 const SCR_RIE: u8 = 1 << 6;
 const SCR_TE: u8 = 1 << 5;
 const SCR_RE: u8 = 1 << 4;
@@ -57,6 +68,15 @@ static RX: Ring = Ring {
 };
 /// Bytes lost: ring full, or overrun/framing/parity errors.
 static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
+/// Bytes to send: produced by `write` (main loop), consumed by the TXI/TEI handlers.
+static TX: Ring = Ring {
+    buf: UnsafeCell::new([0; RING]),
+    head: AtomicU16::new(0),
+    tail: AtomicU16::new(0),
+};
+/// The transmitter is running (set by `write` when it starts it, cleared by TEI when the ring
+/// is empty). While it is set only the handlers touch TDR and SCR.TIE/TEIE.
+static TX_ACTIVE: AtomicBool = AtomicBool::new(false);
 
 impl Ring {
     fn push(&self, b: u8) -> bool {
@@ -86,6 +106,11 @@ impl Ring {
     fn is_empty(&self) -> bool {
         self.tail.load(Ordering::Relaxed) == self.head.load(Ordering::Acquire)
     }
+
+    fn is_full(&self) -> bool {
+        let head = self.head.load(Ordering::Relaxed);
+        (head + 1) % RING as u16 == self.tail.load(Ordering::Acquire)
+    }
 }
 
 fn clear_ir(slot: usize) {
@@ -102,6 +127,36 @@ fn IEL0() {
         RX_DROPPED.fetch_add(1, Ordering::Relaxed);
     }
     clear_ir(SLOT_RXI);
+}
+
+#[interrupt]
+fn IEL2() {
+    // TDR is empty: the next byte, or (ring empty) wait for the end of the last one.
+    match TX.pop() {
+        Some(b) => wr!(pac::SCI9.tdr(), b),
+        None => {
+            let scr = rd!(pac::SCI9.scr());
+            wr!(pac::SCI9.scr(), (scr & !SCR_TIE) | SCR_TEIE);
+        }
+    }
+    clear_ir(SLOT_TXI);
+}
+
+#[interrupt]
+fn IEL3() {
+    // The last byte has left: idle, unless `write` queued more since the ring ran dry.
+    let scr = rd!(pac::SCI9.scr()) & !SCR_TEIE;
+    match TX.pop() {
+        Some(b) => {
+            wr!(pac::SCI9.scr(), scr | SCR_TIE);
+            wr!(pac::SCI9.tdr(), b);
+        }
+        None => {
+            wr!(pac::SCI9.scr(), scr);
+            TX_ACTIVE.store(false, Ordering::Release);
+        }
+    }
+    clear_ir(SLOT_TEI);
 }
 
 #[interrupt]
@@ -138,10 +193,14 @@ impl HostUart {
         rx.configure(sel | pfs::PCR); // idle high even with the bridge unpowered
         wr!(pac::ICU.ielsr()[SLOT_RXI], EVENT_SCI9_RXI);
         wr!(pac::ICU.ielsr()[SLOT_ERI], EVENT_SCI9_ERI);
-        // SAFETY: the handlers above touch only SCI9, the ring and their own ICU slot.
+        wr!(pac::ICU.ielsr()[SLOT_TXI], EVENT_SCI9_TXI);
+        wr!(pac::ICU.ielsr()[SLOT_TEI], EVENT_SCI9_TEI);
+        // SAFETY: the handlers above touch only SCI9, the rings and their own ICU slot.
         unsafe {
             NVIC::unmask(pac::Interrupt::IEL0);
             NVIC::unmask(pac::Interrupt::IEL1);
+            NVIC::unmask(pac::Interrupt::IEL2);
+            NVIC::unmask(pac::Interrupt::IEL3);
         }
         wr!(pac::SCI9.scr(), SCR_TE | SCR_RE | SCR_RIE);
         Self(())
@@ -188,31 +247,43 @@ impl embedded_io::Read for HostUart {
 
 impl embedded_io::WriteReady for HostUart {
     fn write_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(rd!(pac::SCI9.ssr()) & SSR_TDRE != 0)
+        Ok(!TX.is_full())
     }
 }
 
 impl embedded_io::Write for HostUart {
-    /// Writes as many bytes as the transmitter takes without waiting (at least one: it waits
-    /// for TDRE if needed, ≤ 87 µs).
+    /// Queues as many bytes as the transmit ring takes (at least one: with the ring full it
+    /// waits for the handler to free a slot, ≤ 87 µs) and starts the transmitter if idle.
     fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
         let mut n = 0;
         for &b in buf {
-            if rd!(pac::SCI9.ssr()) & SSR_TDRE == 0 {
+            if !TX.push(b) {
                 if n > 0 {
                     break;
                 }
-                while rd!(pac::SCI9.ssr()) & SSR_TDRE == 0 {}
+                while !TX.push(b) {}
             }
-            wr!(pac::SCI9.tdr(), b);
             n += 1;
+        }
+        if n > 0 && !TX_ACTIVE.load(Ordering::Acquire) {
+            // Idle: neither TIE nor TEIE is set, so no handler runs; start the line. TIE goes
+            // on before the first byte so its move to the shift register raises TXI.
+            cortex_m::interrupt::free(|_| {
+                if let Some(b) = TX.pop() {
+                    TX_ACTIVE.store(true, Ordering::Release);
+                    let scr = rd!(pac::SCI9.scr());
+                    wr!(pac::SCI9.scr(), scr | SCR_TIE);
+                    wr!(pac::SCI9.tdr(), b);
+                }
+            });
         }
         Ok(n)
     }
 
     fn flush(&mut self) -> Result<(), Infallible> {
-        // SSR.TEND (bit 2): the last bit has left the shift register.
-        while rd!(pac::SCI9.ssr()) & (1 << 2) == 0 {}
+        while TX_ACTIVE.load(Ordering::Acquire) {
+            core::hint::spin_loop();
+        }
         Ok(())
     }
 }

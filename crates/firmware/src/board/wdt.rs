@@ -1,13 +1,15 @@
 //! The watchdog. The WDT is started in register-start mode (its configuration is written once
 //! after reset, then the first refresh starts it): PCLKB/2048, 4096 cycles, no refresh window,
-//! reset on underflow — 350 ms at PCLKB = 24 MHz. The main loop refreshes it every pass; the
-//! data-flash waits refresh it too.
+//! reset on underflow — 350 ms at PCLKB = 24 MHz, counting in sleep mode too (WDTCSTPR). The
+//! main loop refreshes it every pass; the data-flash waits refresh it too.
 //!
 //! The IWDT can only be started by the option bytes (OFS0.IWDTSTRT = 0, auto-start), which this
 //! project never writes. If whoever programmed them did start it, it is refreshed as well —
 //! otherwise it would reset the board on its own schedule.
 
 use core::ptr::read_volatile;
+
+use protocol::messages::ResetCause;
 
 use super::regs::{pac, rd, wr};
 
@@ -23,6 +25,9 @@ const OFS0_WDTSTRT: u32 = 1 << 17;
 const WDTCR: u16 = 0b01 | (0b0111 << 4) | (0b11 << 8) | (0b11 << 12);
 /// WDTRCR.RSTIRQS: underflow or refresh error → reset (not NMI).
 const WDTRCR_RESET: u8 = 1 << 7;
+/// WDTCSTPR.SLCSTP = 0: keep counting in sleep mode (the reset value 1 stops the count while
+/// the CPU sleeps in WFI, so a loop stuck asleep — SysTick stopped — would never be reset).
+const WDTCSTPR_COUNT_IN_SLEEP: u8 = 0;
 /// Timeout in PCLKB cycles (2048 · 4096).
 const TIMEOUT_PCLKB_CYCLES: u64 = 2048 * 4096;
 
@@ -46,21 +51,42 @@ pub fn feed() {
     }
 }
 
-/// Why the board last reset, as far as the watchdogs tell.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub struct ResetCause {
-    /// RSTSR1.WDTRF or RSTSR1.IWDTRF was set: a watchdog reset.
-    pub watchdog: bool,
+/// Why the board last reset, from the reset status registers (RA4M1 UM, "Resets": RSTSR1
+/// IWDTRF 0, WDTRF 1, SWRF 2; RSTSR0 PORF 0, LVD0RF 1, LVD1RF 2, LVD2RF 3), most telling first:
+/// a watchdog, a brown-out, a software reset, power-on; none of them set (the RES pin, or a
+/// bootloader that cleared them) is `Unknown`. Reads and clears the flags (write 0 after
+/// reading 1) so the next reset starts clean.
+pub fn take_reset_cause() -> ResetCause {
+    let r1 = rd!(pac::SYSTEM.rstsr1());
+    let r0 = rd!(pac::SYSTEM.rstsr0());
+    if r1 & 0b111 != 0 {
+        wr!(pac::SYSTEM.rstsr1(), r1 & !0b111);
+    }
+    if r0 & 0b1111 != 0 {
+        wr!(pac::SYSTEM.rstsr0(), r0 & !0b1111);
+    }
+    if r1 & 0b11 != 0 {
+        ResetCause::Watchdog
+    } else if r0 & 0b1110 != 0 {
+        ResetCause::BrownOut
+    } else if r1 & 0b100 != 0 {
+        ResetCause::Software
+    } else if r0 & 1 != 0 {
+        ResetCause::PowerOn
+    } else {
+        ResetCause::Unknown
+    }
 }
 
-/// Reads and clears the watchdog reset flags (RSTSR1 bits 1 and 0; write 0 after reading 1).
-pub fn take_reset_cause() -> ResetCause {
-    let r = rd!(pac::SYSTEM.rstsr1());
-    let wd = r & 0b11 != 0;
-    if wd {
-        wr!(pac::SYSTEM.rstsr1(), r & !0b11);
+/// A name for the log.
+pub fn cause_name(c: ResetCause) -> &'static str {
+    match c {
+        ResetCause::PowerOn => "power-on",
+        ResetCause::Watchdog => "watchdog",
+        ResetCause::BrownOut => "brown-out",
+        ResetCause::Software => "software",
+        ResetCause::Unknown => "unknown",
     }
-    ResetCause { watchdog: wd }
 }
 
 /// Starts the WDT; returns its timeout in ms for the log.
@@ -69,6 +95,7 @@ pub fn start(pclkb_hz: u32) -> u32 {
         // Register-start mode: these writes are accepted once, before the first refresh.
         wr!(pac::WDT.wdtcr(), WDTCR);
         wr!(pac::WDT.wdtrcr(), WDTRCR_RESET);
+        wr!(pac::WDT.wdtcstpr(), WDTCSTPR_COUNT_IN_SLEEP);
     }
     feed();
     (TIMEOUT_PCLKB_CYCLES * 1_000 / pclkb_hz.max(1) as u64) as u32

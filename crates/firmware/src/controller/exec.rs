@@ -5,8 +5,10 @@ use protocol::{
     Event, FaultCode, PlanPhase, PlanStatus, Primitive, Step, StepKind, MAX_STEP_PRIMITIVES,
 };
 
+use super::belief::{self, Belief};
 use super::snap::SnapSign;
 use super::Controller;
+use crate::store::StoredState;
 
 /// Who started the running plan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -206,6 +208,15 @@ pub(super) struct Exec {
     pre_release: bool,
     pub(super) waiting_manual: bool,
     pub(super) manual_confirmed: bool,
+    /// The step's journal record (`None`: a step within one state needs none) and whether it
+    /// is persisted; nothing actuates before.
+    journal: Option<u32>,
+    journaled: bool,
+    /// Highest filtered pressure and longest commanded pull since the step's first actuation,
+    /// and whether the pressure readings were valid throughout (what `belief::untouched` needs).
+    peak_kpa: f32,
+    peak_pull_mm: f32,
+    readings_valid: bool,
 }
 
 /// What a primitive's progress check decided.
@@ -258,6 +269,7 @@ impl Controller {
         self.joystick_armed = false;
         self.joystick_used_raw = None;
         let pre_release = self.pre_release_needed(plan.steps.first());
+        let journal = self.journal_step(plan.steps.first());
         self.exec = Some(Exec {
             plan,
             origin,
@@ -277,6 +289,11 @@ impl Controller {
             pre_release,
             waiting_manual: false,
             manual_confirmed: false,
+            journal,
+            journaled: journal.is_none(),
+            peak_kpa: 0.0,
+            peak_pull_mm: 0.0,
+            readings_valid: true,
         });
         self.advance_exec();
         self.update_outputs();
@@ -297,6 +314,48 @@ impl Controller {
             && (0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
     }
 
+    /// Journals `step` (pending `from → to` with the states it may end in) ahead of its first
+    /// actuation; returns the record's number, or `None` for a step within one state.
+    fn journal_step(&mut self, step: Option<&Step>) -> Option<u32> {
+        let step = step.filter(|s| s.from != s.to)?;
+        Some(self.store(StoredState {
+            state: step.from,
+            confirmed: false,
+            candidates: belief::reach(step),
+            pending: Some(protocol::Transition {
+                from: step.from,
+                to: step.to,
+            }),
+        }))
+    }
+
+    /// What is known after `e`'s current step stopped short of its end.
+    fn interrupted_belief(&self, e: &Exec) -> Option<Belief> {
+        let step = e.plan.steps.get(e.step as usize)?;
+        if step.from == step.to {
+            return None;
+        }
+        if e.evidence {
+            // Already confirmed (its snaps, the sealed release or a person) before a later
+            // primitive of it failed: the trunk is there.
+            return Some(Belief::confirmed(step.to));
+        }
+        if !e.journaled
+            || (e.readings_valid && belief::untouched(step.from, e.peak_kpa, e.peak_pull_mm))
+        {
+            // Nothing moved, or nothing came near a snap: still where it started.
+            return Some(Belief::confirmed(step.from));
+        }
+        Some(Belief::unconfirmed(
+            step.from,
+            belief::reach(step),
+            Some(protocol::Transition {
+                from: step.from,
+                to: step.to,
+            }),
+        ))
+    }
+
     /// Ends the running plan (if any) with `phase`, reporting the step and the plan.
     pub(super) fn end_plan(&mut self, phase: PlanPhase) {
         let Some(e) = self.exec.take() else {
@@ -306,13 +365,16 @@ impl Controller {
         self.want_inlet = false;
         self.want_exhaust = false;
         let ok = phase == PlanPhase::Done;
-        if !ok && e.evidence {
-            // The step's transition was already confirmed (its snaps, the sealed release or a
-            // person) before a later primitive of it failed: the trunk is there.
-            if let Some(step) = e.plan.steps.get(e.step as usize) {
-                if step.from != step.to {
-                    self.set_state(step.to, true);
+        if !ok {
+            if let Some(b) = self.interrupted_belief(&e) {
+                if b == self.belief && e.journal.is_some() {
+                    // Unchanged (confirmed `from`), but the record says "pending": rewrite it.
+                    self.store(StoredState::confirmed(b.state()));
                 }
+                if !b.is_confirmed() {
+                    self.leak_quiet_until_ms = now + super::LEAK_SETTLE_MS;
+                }
+                self.set_belief(b);
             }
         }
         if !ok {
@@ -320,14 +382,14 @@ impl Controller {
                 plan_id: e.plan.plan_id,
                 step: e.step,
                 ok: false,
-                state: self.state,
+                state: self.state(),
                 duration_ms: now.saturating_sub(e.step_start_ms) as u32,
             });
         }
         self.emit(Event::PlanDone {
             plan_id: e.plan.plan_id,
             ok,
-            state: self.state,
+            state: self.state(),
         });
         self.plan_status = Some(PlanStatus {
             plan_id: e.plan.plan_id,
@@ -363,6 +425,32 @@ impl Controller {
             self.raise(FaultCode::StepTimeout);
             return false;
         }
+        if !e.journaled {
+            // Write-ahead: the step's record must be persisted before anything moves.
+            let persisted = e.journal.is_some_and(|n| self.journal_persisted(n));
+            if persisted {
+                if let Some(e) = self.exec.as_mut() {
+                    e.journaled = true;
+                }
+                return true;
+            }
+            if now.saturating_sub(e.step_start_ms) >= super::JOURNAL_TIMEOUT_MS {
+                self.raise(FaultCode::StateStorage);
+            }
+            return false;
+        }
+        let (p, valid) = (self.pressure.filt_kpa, self.pressure_valid());
+        let pull_mm = (0..3).fold(0.0f32, |m, i| {
+            m.max(self.cfg.servo.length_for_angle(i, self.servo_deg[i]))
+        });
+        if let Some(e) = self.exec.as_mut() {
+            e.peak_kpa = e.peak_kpa.max(p);
+            e.peak_pull_mm = e.peak_pull_mm.max(pull_mm);
+            e.readings_valid &= valid;
+        }
+        let Some(e) = self.exec.as_ref() else {
+            return false;
+        };
         if e.pre_release {
             return self.pre_release();
         }
@@ -726,19 +814,28 @@ impl Controller {
             return;
         };
         let (from, to) = (step.from, step.to);
+        let reach = belief::reach(step);
         let (plan_id, idx, evidence) = (e.plan.plan_id, e.step, e.evidence);
         let duration_ms = now.saturating_sub(e.step_start_ms) as u32;
         let n_steps = e.plan.steps.len();
         if from != to {
             // Confirmed when a primitive completed on its snaps or a person's confirmation;
-            // a step with neither is assumed, not confirmed.
-            self.set_state(to, evidence);
+            // a step with neither is assumed, not confirmed: its target is the guess.
+            if evidence {
+                self.confirm_state(to);
+            } else {
+                self.set_belief(Belief::unconfirmed(
+                    to,
+                    reach,
+                    Some(protocol::Transition { from, to }),
+                ));
+            }
         }
         self.emit(Event::StepDone {
             plan_id,
             step: idx,
             ok: true,
-            state: self.state,
+            state: self.state(),
             duration_ms,
         });
         let next = idx as usize + 1;
@@ -751,7 +848,7 @@ impl Controller {
             .as_ref()
             .and_then(|e| e.plan.steps.get(next))
             .map(|s| s.from);
-        if next_from != Some(self.state) || !self.confirmed {
+        if next_from != Some(self.state()) || !self.confirmed() {
             // The failure report names the step that cannot start.
             if let Some(e) = self.exec.as_mut() {
                 e.step = next as u8;
@@ -777,8 +874,19 @@ impl Controller {
         }
         let pre_release =
             self.pre_release_needed(self.exec.as_ref().and_then(|e| e.plan.steps.get(next)));
+        let next_step = self
+            .exec
+            .as_ref()
+            .and_then(|e| e.plan.steps.get(next))
+            .cloned();
+        let journal = self.journal_step(next_step.as_ref());
         if let Some(e) = self.exec.as_mut() {
             e.pre_release = pre_release;
+            e.journal = journal;
+            e.journaled = journal.is_none();
+            e.peak_kpa = 0.0;
+            e.peak_pull_mm = 0.0;
+            e.readings_valid = true;
         }
         if let Some(ps) = self.plan_status.as_mut() {
             ps.step = next as u8;

@@ -11,7 +11,7 @@ pub const RESPONSE_RESERVE: usize = 192;
 pub const CACHE_LEN: usize = 192;
 
 /// A byte ring of encoded frames waiting for [`crate::Controller::poll_tx`].
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct TxQueue {
     buf: [u8; TX_QUEUE_LEN],
     head: usize,
@@ -86,7 +86,7 @@ pub fn encode(msg: &DeviceMessage, scratch: &mut [u8; MAX_FRAME_LEN]) -> usize {
 }
 
 /// The last response, kept to answer a retried request without executing it twice.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct ResponseCache {
     /// Sequence number of the request it answered.
     pub seq: u16,

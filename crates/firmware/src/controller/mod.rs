@@ -16,6 +16,7 @@
 //!
 //! The full behaviour, with every number, is in `docs/firmware.md`.
 
+pub mod belief;
 mod exec;
 pub mod link;
 mod requests;
@@ -28,11 +29,12 @@ use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
     DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request,
-    ResetCause, StateSet, Status, Telemetry,
+    ResetCause, Status, Telemetry,
 };
 
 use crate::config::CraneConfig;
 use crate::store::{BootRecord, StoredState};
+use belief::Belief;
 use exec::Exec;
 use link::{Fingerprint, ResponseCache, TxQueue, RESPONSE_RESERVE};
 use snap::{SnapDetector, SnapSign};
@@ -45,6 +47,15 @@ pub const OVERPRESSURE_SAMPLES: u8 = 3;
 const EVENT_SCRATCH_LEN: usize = 128;
 /// Step progress events are sent at most this often.
 pub const PROGRESS_PERIOD_MS: u64 = 100;
+/// The leak watch waits this long after a boot into an unconfirmed state, after the servos went
+/// limp and after a step was interrupted: limp servos pulled back by the tendons let a compressed trunk lengthen, and
+/// a snap may complete after the valves closed; both drop a sealed trunk's pressure without
+/// any leak.
+pub const LEAK_SETTLE_MS: u64 = 5_000;
+/// A step waits at most this long for its journal record to be persisted before its first
+/// actuation; then the StateStorage fault is raised (the crane does not move the trunk without a
+/// record a reset could boot from).
+pub const JOURNAL_TIMEOUT_MS: u64 = 200;
 
 /// The state of every button (`true` = pressed). The controller debounces (a change must be
 /// stable for [`DEBOUNCE_MS`]) and acts on presses; the e-stop acts at once, on the level.
@@ -152,7 +163,7 @@ struct InletWatch {
 }
 
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Controller {
     cfg: CraneConfig,
     now_ms: u64,
@@ -160,9 +171,19 @@ pub struct Controller {
     last_tick_ms: u64,
 
     // Trunk state.
-    state: TrunkState,
-    confirmed: bool,
+    belief: Belief,
     pending_store: Option<StoredState>,
+    /// Records made, handed to the shell ([`Controller::poll_store`]) and persisted
+    /// ([`Controller::handle_stored`]), counted: a step actuates only once its journal is
+    /// persisted.
+    store_made: u32,
+    store_polled: u32,
+    store_persisted: u32,
+    /// The leak watch is quiet until then ([`LEAK_SETTLE_MS`]).
+    leak_quiet_until_ms: u64,
+    /// The operator is asked to tell the state: the candidate shown and selectable with the
+    /// up/down buttons, accepted with confirm.
+    asking_operator: Option<TrunkState>,
 
     // Modes and faults.
     faults: u16,
@@ -231,22 +252,29 @@ pub struct Controller {
 
 impl Controller {
     /// A controller booting at `now_ms` with what the state store held: `Empty` boots in the
-    /// manufactured state `F&P`, confirmed; `Stored` in the stored state; `Corrupt` in `F&P`,
-    /// unconfirmed, with the StateStorage fault (cleared by DeclareState or ResetFaults).
+    /// manufactured state `F&P`, confirmed; `Stored` in the stored belief (a step that was
+    /// pending boots unconfirmed, "was going from → to", with its candidates); `Corrupt`
+    /// unconfirmed with every state a candidate and the StateStorage fault (cleared by
+    /// DeclareState or ResetFaults).
     ///
     /// The configuration is [validated](CraneConfig::validated) first.
     pub fn new(config: CraneConfig, boot: BootRecord, now_ms: u64) -> Self {
         let cfg = config.validated();
-        let (state, confirmed, faults, last_fault) = match boot {
-            BootRecord::Empty => (TrunkState::AS_MANUFACTURED, true, 0, None),
-            BootRecord::Stored(s) => (s.state, s.confirmed, 0, None),
+        let (belief, faults, last_fault) = match boot {
+            BootRecord::Empty => (Belief::confirmed(TrunkState::AS_MANUFACTURED), 0, None),
+            BootRecord::Stored(s) if s.confirmed => (Belief::confirmed(s.state), 0, None),
+            BootRecord::Stored(s) => (
+                Belief::unconfirmed(s.state, s.candidates, s.pending),
+                0,
+                None,
+            ),
             BootRecord::Corrupt => (
-                TrunkState::AS_MANUFACTURED,
-                false,
+                Belief::unknown(TrunkState::AS_MANUFACTURED),
                 FaultCode::StateStorage.bit(),
                 Some(FaultCode::StateStorage),
             ),
         };
+        let state = belief.state();
         let servo_deg = slack_angles(&cfg);
         let take_up_mm = TrunkState::ALL.map(|s| take_up_mm(&cfg, s));
         let max_bend_deg = max_bend_deg(&cfg, state);
@@ -255,9 +283,19 @@ impl Controller {
             now_ms,
             boot_ms: now_ms,
             last_tick_ms: now_ms,
-            state,
-            confirmed,
+            belief,
             pending_store: None,
+            store_made: 0,
+            store_polled: 0,
+            store_persisted: 0,
+            // After a reset mid-step the servos, now slack, may let a compressed trunk
+            // lengthen, and a snap may still complete: not a leak.
+            leak_quiet_until_ms: if belief.is_confirmed() {
+                now_ms
+            } else {
+                now_ms + LEAK_SETTLE_MS
+            },
+            asking_operator: None,
             faults,
             last_fault,
             estop_latched: false,
@@ -432,19 +470,43 @@ impl Controller {
         if self.exec.as_ref().is_some_and(|e| e.waiting_manual) {
             return display::text("HAnd");
         }
-        let mut seg = display::text(self.state.display_text());
+        if let Some(s) = self.asking_operator {
+            // "Is it this one?": the candidate with every decimal point lit.
+            let mut seg = display::text(s.display_text());
+            for d in &mut seg {
+                *d |= display::DP;
+            }
+            return seg;
+        }
+        let mut seg = display::text(self.belief.state().display_text());
         if self.exec.is_some() {
             seg[3] |= display::DP;
         }
-        if !self.confirmed {
+        if !self.belief.is_confirmed() {
             seg[0] |= display::DP;
         }
         seg
     }
 
-    /// The state to persist, once per change.
+    /// The record to persist, once per change (the shell saves it, then calls
+    /// [`Controller::handle_stored`]).
     pub fn poll_store(&mut self) -> Option<StoredState> {
-        self.pending_store.take()
+        let s = self.pending_store.take();
+        if s.is_some() {
+            self.store_polled = self.store_made;
+        }
+        s
+    }
+
+    /// The record last taken with [`Controller::poll_store`] is persisted. A step's first
+    /// actuation waits for this (the journal is written ahead of the motion).
+    pub fn handle_stored(&mut self) {
+        self.store_persisted = self.store_polled;
+    }
+
+    /// What the controller believes about the trunk.
+    pub fn belief(&self) -> &Belief {
+        &self.belief
     }
 
     /// The next `now_ms` at which [`Controller::handle_time`] must run: one control period
@@ -476,14 +538,10 @@ impl Controller {
     pub fn status(&self) -> Status {
         let stats = self.decoder.stats();
         Status {
-            state: self.state,
-            state_confirmed: self.confirmed,
-            candidates: if self.confirmed {
-                StateSet::single(self.state)
-            } else {
-                StateSet::ALL
-            },
-            interrupted: None,
+            state: self.belief.state(),
+            state_confirmed: self.belief.is_confirmed(),
+            candidates: self.belief.candidates(),
+            interrupted: self.belief.interrupted(),
             mode: self.mode(),
             pressure_kpa: self.pressure.filt_kpa,
             servo_deg: self.outputs.servo_deg,
@@ -555,17 +613,86 @@ impl Controller {
     // State tracking
     // -----------------------------------------------------------------------------------------
 
-    fn set_state(&mut self, state: TrunkState, confirmed: bool) {
-        let changed = state != self.state || confirmed != self.confirmed;
-        if state != self.state {
-            self.max_bend_deg = max_bend_deg(&self.cfg, state);
+    /// The trunk state now (confirmed, or the best guess).
+    fn state(&self) -> TrunkState {
+        self.belief.state()
+    }
+
+    /// Whether the trunk state is confirmed.
+    fn confirmed(&self) -> bool {
+        self.belief.is_confirmed()
+    }
+
+    /// Takes `belief` as what is known; persists and reports it when it changed.
+    fn set_belief(&mut self, belief: Belief) {
+        if belief == self.belief {
+            return;
         }
-        self.state = state;
-        self.confirmed = confirmed;
-        if changed {
-            self.pending_store = Some(StoredState { state, confirmed });
+        if belief.state() != self.belief.state() {
+            self.max_bend_deg = max_bend_deg(&self.cfg, belief.state());
         }
-        self.emit(Event::StateReached { state, confirmed });
+        self.belief = belief;
+        if belief.is_confirmed() {
+            self.asking_operator = None;
+        }
+        self.store(StoredState {
+            state: belief.state(),
+            confirmed: belief.is_confirmed(),
+            candidates: belief.candidates(),
+            pending: if belief.is_confirmed() {
+                None
+            } else {
+                belief.interrupted()
+            },
+        });
+        self.emit(Event::StateReached {
+            state: belief.state(),
+            confirmed: belief.is_confirmed(),
+        });
+    }
+
+    /// Hands `record` to the shell to persist; returns its number (see
+    /// [`Controller::journal_persisted`]).
+    fn store(&mut self, record: StoredState) -> u32 {
+        self.store_made = self.store_made.wrapping_add(1);
+        self.pending_store = Some(record);
+        self.store_made
+    }
+
+    /// Whether record number `n` (or a later one) is persisted.
+    fn journal_persisted(&self, n: u32) -> bool {
+        self.store_persisted.wrapping_sub(n) < u32::MAX / 2
+    }
+
+    /// A person or the host says the trunk is in `state`: confirmed and persisted; a
+    /// StateStorage fault (nothing was known) is cleared with it.
+    fn declare(&mut self, state: TrunkState) {
+        self.confirm_state(state);
+        if self.fault_active(FaultCode::StateStorage) {
+            self.faults &= !FaultCode::StateStorage.bit();
+            self.emit(Event::FaultCleared(FaultCode::StateStorage));
+            if self.faults == 0 && !self.estop_latched {
+                self.safe = false;
+            }
+        }
+    }
+
+    /// Asks the operator which candidate the trunk is in (display, up/down, confirm; or the
+    /// host's DeclareState).
+    fn ask_operator(&mut self) {
+        let c = self.belief.candidates();
+        let shown = if c.contains(self.state()) {
+            Some(self.state())
+        } else {
+            c.iter().next()
+        };
+        self.asking_operator = shown;
+        self.emit(Event::IdentifyNeedsOperator { candidates: c });
+    }
+
+    /// Confirms `state` (sensors, a person, the host).
+    fn confirm_state(&mut self, state: TrunkState) {
+        self.set_belief(Belief::confirmed(state));
     }
 
     // -----------------------------------------------------------------------------------------
@@ -590,6 +717,10 @@ impl Controller {
         self.freeze_servos();
         // No position feedback: a servo may have stalled short of its command, still pushing.
         // Limp servos push nothing; the origami holds its state without them.
+        if self.servos_enabled {
+            // The tendons may pull them back and let a compressed trunk lengthen: not a leak.
+            self.leak_quiet_until_ms = self.now_ms + LEAK_SETTLE_MS;
+        }
         self.servos_enabled = false;
         self.joystick_armed = false;
         self.want_inlet = false;
@@ -803,7 +934,8 @@ impl Controller {
         let lc = self.cfg.leak;
         let still = self.servo_deg == self.servo_target_deg;
         let sealed = !self.outputs.inlet_open && !self.outputs.exhaust_open;
-        if !(sealed && still && p >= lc.min_pressure_kpa) {
+        let settled = now >= self.leak_quiet_until_ms;
+        if !(sealed && still && settled && p >= lc.min_pressure_kpa) {
             self.leak = LeakWatch::default();
             return;
         }
@@ -860,6 +992,9 @@ impl Controller {
             if let Some(e) = self.exec.as_mut().filter(|e| e.waiting_manual) {
                 e.manual_confirmed = true;
                 self.advance_exec();
+            } else if let (Some(shown), None) = (self.asking_operator, &self.exec) {
+                // The operator says the trunk is in the state shown.
+                self.declare(shown);
             } else if self.safe || self.estop_latched {
                 self.reset_faults();
             }
@@ -868,11 +1003,23 @@ impl Controller {
         if idle && grip {
             self.gripper_closed = !self.gripper_closed;
         }
-        if idle && (up || down) && self.confirmed {
+        if let (Some(shown), true) = (self.asking_operator, idle || self.safe) {
+            // Identification by the operator: up/down pick a candidate, confirm takes it.
+            if up || down {
+                let c: Vec<TrunkState, 6> = self.belief.candidates().iter().collect();
+                if let Some(i) = c.iter().position(|s| *s == shown) {
+                    let n = c.len();
+                    let j = if up { (i + 1) % n } else { (i + n - 1) % n };
+                    self.asking_operator = Some(c[j]);
+                }
+            }
+            return;
+        }
+        if idle && (up || down) && self.confirmed() {
             let t = if up {
-                protocol::transitions::step_up(self.state)
+                protocol::transitions::step_up(self.state())
             } else {
-                protocol::transitions::step_down(self.state)
+                protocol::transitions::step_down(self.state())
             };
             if let Some(t) = t {
                 self.start_local_step(t);
@@ -905,7 +1052,7 @@ impl Controller {
     /// state's taken-up slack: the tendon on the inside of the bend is reeled in by
     /// r_t·θ·cos(φ − φ_i) more, the others pay out (a tendon cannot push: never below 0).
     fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> Option<[f32; 3]> {
-        let take_up_mm = self.take_up_for(self.state);
+        let take_up_mm = self.take_up_for(self.state());
         if stiff_bend_limit_rad(&self.cfg, take_up_mm, self.max_bend_deg)
             .is_some_and(|limit_rad| libm::fabs(angle_rad) > limit_rad)
         {
@@ -925,7 +1072,7 @@ impl Controller {
     }
 
     fn standalone_joystick(&mut self) {
-        if self.mode() != Mode::Standalone || !self.state.is_flexible() || !self.confirmed {
+        if self.mode() != Mode::Standalone || !self.state().is_flexible() || !self.confirmed() {
             self.joystick_armed = false;
             self.joystick_used_raw = None;
             return;
@@ -952,7 +1099,7 @@ impl Controller {
             ..jc
         };
         let dl = joystick_lengths_f32(x, y, &jc, self.cfg.tendon_radius_mm);
-        let take_up_mm = self.take_up_for(self.state);
+        let take_up_mm = self.take_up_for(self.state());
         for (i, d) in dl.iter().enumerate() {
             // Around the state's taken-up slack: the inside tendon shortens, the others pay
             // out. Human input is clamped silently to the limits (a plan's would fault).
@@ -1068,8 +1215,8 @@ impl Controller {
                 servo_deg: self.outputs.servo_deg,
                 inlet_open: self.outputs.inlet_open,
                 exhaust_open: self.outputs.exhaust_open,
-                state: self.state,
-                state_confirmed: self.confirmed,
+                state: self.state(),
+                state_confirmed: self.confirmed(),
             };
             self.emit(Event::Telemetry(t));
             progress_due = true;

@@ -3,9 +3,9 @@
 use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
-    DeviceInfo, DeviceMessage, FaultCode, ParamId, Plan, PlanPhase, PlanStatus, Primitive,
-    RejectReason, Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN,
-    PROTOCOL_VERSION, SCHEMA_ID,
+    DeviceInfo, DeviceMessage, ParamId, Plan, PlanPhase, PlanStatus, Primitive, RejectReason,
+    Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN, PROTOCOL_VERSION,
+    SCHEMA_ID,
 };
 
 use super::link::Fingerprint;
@@ -198,14 +198,7 @@ impl Controller {
                 if self.exec.is_some() {
                     return (ResultCode::Busy, ResponseBody::None);
                 }
-                self.set_state(state, true);
-                if self.fault_active(FaultCode::StateStorage) {
-                    self.faults &= !FaultCode::StateStorage.bit();
-                    self.emit(protocol::Event::FaultCleared(FaultCode::StateStorage));
-                    if self.faults == 0 && !self.estop_latched {
-                        self.safe = false;
-                    }
-                }
+                self.declare(state);
                 ok()
             }
             RequestBody::GetParam(id) => (
@@ -256,7 +249,10 @@ impl Controller {
                 }
             }
         }
-        if steps[0].from != self.state || !self.confirmed {
+        if !self.confirmed() {
+            return Err(RejectReason::Unconfirmed);
+        }
+        if steps[0].from != self.state() {
             return Err(RejectReason::WrongState);
         }
         Ok(())
@@ -337,14 +333,13 @@ impl Controller {
     /// Identification of an unconfirmed state: `Ok` when there is nothing to identify; else
     /// the device asks the operator ([`protocol::Event::IdentifyNeedsOperator`]).
     fn identify(&mut self) -> Answer {
-        if let Some(b) = self.start_blocker() {
-            return b;
+        if self.exec.is_some() {
+            return (ResultCode::Busy, ResponseBody::None);
         }
-        if self.confirmed {
+        if self.confirmed() {
             return ok();
         }
-        let candidates = self.status().candidates;
-        self.emit(protocol::Event::IdentifyNeedsOperator { candidates });
+        self.ask_operator();
         (ResultCode::InProgress, ResponseBody::None)
     }
 

@@ -225,10 +225,7 @@ impl Rig {
     fn new(state: TrunkState) -> Self {
         Self::with(
             CraneConfig::default(),
-            BootRecord::Stored(StoredState {
-                state,
-                confirmed: true,
-            }),
+            BootRecord::Stored(StoredState::confirmed(state)),
             state,
         )
     }
@@ -303,6 +300,7 @@ impl Rig {
             self.ctl.handle_time(self.now);
             if let Some(s) = self.ctl.poll_store() {
                 self.stores.push(s);
+                self.ctl.handle_stored();
             }
             self.drain();
         }
@@ -471,13 +469,7 @@ fn boot_corrupt_store_is_unconfirmed_with_storage_fault() {
     // Declaring the state clears the fault and is persisted.
     assert_eq!(r.request(RequestBody::DeclareState(DF)).0, ResultCode::Ok);
     r.run(1);
-    assert_eq!(
-        r.stores,
-        [StoredState {
-            state: DF,
-            confirmed: true
-        }]
-    );
+    assert_eq!(r.stores, [StoredState::confirmed(DF)]);
     let s = r.ctl.status();
     assert_eq!(
         (s.state, s.state_confirmed, s.mode, s.faults),
@@ -493,10 +485,7 @@ fn boot_corrupt_store_is_unconfirmed_with_storage_fault() {
 fn boot_from_stored_state_and_watchdog_report() {
     let mut c = Controller::new(
         CraneConfig::default(),
-        BootRecord::Stored(StoredState {
-            state: FD,
-            confirmed: true,
-        }),
+        BootRecord::Stored(StoredState::confirmed(FD)),
         0,
     );
     assert_eq!(c.status().state, FD);
@@ -671,18 +660,18 @@ fn pneumatic_plan_f_and_p_to_d_and_f_is_confirmed_by_snaps() {
     assert!(r.plant.p_kpa < 0.6, "{}", r.plant.p_kpa);
     // 10 kPa at 10 kPa/s, snap, vent; then 18 kPa: a few seconds.
     assert!(took > 2_000 && took < 8_000, "{took}");
+    // Each step is journaled ahead of its first actuation; its confirmation is the next
+    // step's journal (written in the same pass, so the shell keeps only the newer) or, at the
+    // end, the confirmed state.
+    let pending = |from: TrunkState, to: TrunkState| StoredState {
+        state: from,
+        confirmed: false,
+        candidates: protocol::StateSet::single(from).with(to),
+        pending: Some(protocol::Transition { from, to }),
+    };
     assert_eq!(
         r.stores,
-        [
-            StoredState {
-                state: FF,
-                confirmed: true
-            },
-            StoredState {
-                state: DF,
-                confirmed: true
-            }
-        ]
+        [pending(FP, FF), pending(FF, DF), StoredState::confirmed(DF)]
     );
     let reached: StdVec<_> = r
         .events()
@@ -774,8 +763,12 @@ fn a_pull_without_a_snap_is_refused_after_the_sealed_release() {
             .expect("fails in time");
         assert_eq!(r.plan_done(), Some((false, from)));
         assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+        // The pull went past the first snap's length: the sealed check says "no rise", but a
+        // leak would say the same, so the state is not vouched for.
         let s = r.ctl.status();
-        assert_eq!((s.state, s.state_confirmed), (from, true));
+        assert_eq!((s.state, s.state_confirmed), (from, false));
+        assert!(s.candidates.contains(from) && s.candidates.contains(to));
+        assert_eq!(s.interrupted, Some(protocol::Transition { from, to }));
         // The release went back to slack before the comparison.
         assert!(r.plant.pulled_mm < 1e-3, "{}", r.plant.pulled_mm);
     }
@@ -876,8 +869,14 @@ fn a_step_without_its_snap_is_not_confirmed() {
         .expect("fails in time");
     assert_eq!(r.plan_done(), Some((false, FP)));
     assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+    // Held sealed at 16 kPa, past the 13.1 kPa unpacking threshold, no snap seen: it may still
+    // come. Unconfirmed, F&P or F&F.
     let s = r.ctl.status();
-    assert_eq!((s.state, s.state_confirmed, s.mode), (FP, true, Mode::Safe));
+    assert_eq!(
+        (s.state, s.state_confirmed, s.mode),
+        (FP, false, Mode::Safe)
+    );
+    assert_eq!(s.candidates, protocol::StateSet::single(FP).with(FF));
     assert_eq!(
         s.plan.unwrap().phase,
         PlanPhase::Failed(FaultCode::TransitionNotConfirmed)
@@ -891,11 +890,23 @@ fn a_step_without_its_snap_is_not_confirmed() {
         r.plant.p_kpa
     );
     assert_eq!(r.ctl.poll_display(), display::fault(4));
-    assert!(r.stores.is_empty());
-    // Reset, then the state is still the last confirmed one.
+    // Journaled, then persisted as unconfirmed (a reset boots into the same belief).
+    assert_eq!(r.stores.len(), 2);
+    assert_eq!(
+        r.stores[1],
+        StoredState {
+            state: FP,
+            confirmed: false,
+            candidates: s.candidates,
+            pending: Some(protocol::Transition { from: FP, to: FF }),
+        }
+    );
+    // Reset: the last confirmed state is shown, marked unconfirmed (first decimal point).
     assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
     assert_eq!(r.ctl.mode(), Mode::Standalone);
-    assert_eq!(r.ctl.poll_display(), display::text("F-P "));
+    let mut shown = display::text("F-P ");
+    shown[0] |= display::DP;
+    assert_eq!(r.ctl.poll_display(), shown);
 }
 
 #[test]
@@ -1028,12 +1039,28 @@ fn abort_goes_to_the_safe_state_and_is_not_latched() {
     assert_eq!(r.ctl.status().plan.unwrap().phase, PlanPhase::Aborted);
     assert_eq!(r.plan_done(), Some((false, DD)));
     assert_eq!(r.ctl.poll_display(), display::text("SAFE"));
-    // Not latched: a new step may start at once, the servos on again from slack (where a limp
-    // servo really is is unknown; paying out pushes nothing).
+    // Aborted past the first snap's length: unconfirmed, the truth among the candidates; no
+    // step starts from a state nobody vouches for.
+    let s = r.ctl.status();
+    assert!(!s.state_confirmed);
+    assert!(s.candidates.contains(r.plant.state), "{s:?}");
     assert_eq!(
         r.request(RequestBody::RunStep(Rig::nominal(DD, FD))).0,
+        ResultCode::Rejected(RejectReason::Unconfirmed)
+    );
+    // Not latched: once the state is declared, a new step may start at once, the servos on
+    // again from slack (where a limp servo really is is unknown; paying out pushes nothing).
+    let truth = r.plant.state;
+    assert_eq!(
+        r.request(RequestBody::DeclareState(truth)).0,
+        ResultCode::Ok
+    );
+    let next = transitions::step_down(truth).unwrap().to;
+    assert_eq!(
+        r.request(RequestBody::RunStep(Rig::nominal(truth, next))).0,
         ResultCode::InProgress
     );
+    r.run(1);
     let o = r.ctl.poll_outputs();
     assert!(o.servos_enabled);
     assert!(o.servo_deg.iter().all(|d| *d < 1.0), "{o:?}");
@@ -1109,7 +1136,7 @@ fn a_step_without_evidence_is_assumed_unconfirmed() {
     // The next step needs a confirmed state.
     assert_eq!(
         r.request(RequestBody::RunStep(Rig::nominal(FF, DF))).0,
-        ResultCode::Rejected(RejectReason::WrongState)
+        ResultCode::Rejected(RejectReason::Unconfirmed)
     );
 }
 
@@ -1695,9 +1722,15 @@ fn step_buttons_follow_the_nominal_transitions() {
         .unwrap();
     assert_eq!((r.ctl.status().state, r.plant.state), (FF, FF));
     assert_eq!(
-        r.stores.iter().map(|s| s.state).collect::<StdVec<_>>(),
+        r.stores
+            .iter()
+            .filter(|s| s.confirmed)
+            .map(|s| s.state)
+            .collect::<StdVec<_>>(),
         [FF, DF, FF]
     );
+    // Each step was journaled ahead of its motion.
+    assert_eq!(r.stores.iter().filter(|s| s.pending.is_some()).count(), 3);
     // No step down from F&P's neighbour's end: F&P has no tendon transition.
     let mut r = Rig::new(FP);
     r.press(|b, v| b.down = v);

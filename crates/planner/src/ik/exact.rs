@@ -20,6 +20,9 @@
 //! - **Order, parallelism**: tasks of a pass run lowest `lb` first as rayon tasks sharing U
 //!   through an atomic (non-negative `f64` bits order like the floats); within a task a node's
 //!   children are visited in increasing bound.
+//! - **Mirror symmetry** ([`symmetry`]): when a vertical plane through the axis maps the
+//!   target and every candidate set onto themselves, only canonical sequences (of each mirror
+//!   pair, the one whose first non-self-mirror state is the smaller index) are searched.
 //! - **Stopping**: the caller's stop flag or deadline ([`Control`]) abandons the running tasks
 //!   (their `lb` stays at its last certified value); a target gap stops the search as soon as
 //!   `1 − sqrt(L/U) ≤ gap`. Either way the incumbent is returned with the certified `L`.
@@ -32,6 +35,7 @@ use rayon::prelude::*;
 
 use super::exhaustive::{prefixes, split_depth};
 use super::reach::Reach;
+use super::symmetry::{self, Mirror};
 use super::{relative_gap, Control, Frame, Problem, Raw, Stop};
 
 /// Beam width of the seeding incumbent.
@@ -51,6 +55,8 @@ const BINS: usize = 64;
 
 struct Shared<'a> {
     problem: &'a Problem,
+    /// A mirror symmetry of the problem: only canonical sequences are searched.
+    mirror: Option<Mirror>,
     /// `shave(m)`.
     shave: f64,
     reach: &'a Reach,
@@ -87,6 +93,8 @@ struct Task {
     prefix: Vec<usize>,
     frame: Frame,
     g: f64,
+    /// Whether every state of `prefix` is its own mirror (always false without a mirror).
+    fixed: bool,
     /// Certified lower bound on the cost of every completion of `prefix`, as `f64` bits.
     lb: AtomicU64,
 }
@@ -131,7 +139,7 @@ impl Worker<'_, '_> {
     /// Searches below the prefix `path[..j]` (frame `frame`, cost `g`); returns a lower bound on
     /// the cost of every completion of it (the least pruned bound or evaluated leaf cost), valid
     /// only if `self.aborted` is still false.
-    fn dfs(&mut self, j: usize, frame: &Frame, g: f64) -> f64 {
+    fn dfs(&mut self, j: usize, frame: &Frame, g: f64, fixed: bool) -> f64 {
         let sh = self.shared;
         let problem = sh.problem;
         let m = problem.m();
@@ -141,7 +149,12 @@ impl Worker<'_, '_> {
         let mut kids = std::mem::take(&mut self.bufs[j]);
         kids.clear();
         let mut level = self.prune_level();
+        let sigma = sh.mirror.as_ref().map(|mi| &mi.sigma[j]);
         for (a, c) in problem.catalogue.candidates(j).iter().enumerate() {
+            if fixed && sigma.is_some_and(|s| s[a] < a) {
+                // Its mirror image, with the same completions' costs, is searched instead.
+                continue;
+            }
             let f = frame.compose(&c.frame);
             let gc = g + obj.cost(j, &f.origin());
             self.nodes += 1;
@@ -158,7 +171,7 @@ impl Worker<'_, '_> {
                 continue;
             }
             let ub = sh.ub();
-            let lb = sh.reach.suffix_lower_bound(obj, &f, j + 1, ub - gc);
+            let lb = sh.reach.suffix_lower_bound_grouped(obj, &f, j + 1, ub - gc);
             let bound = (gc + lb) * shave;
             if bound < level {
                 kids.push((bound, gc, a, f));
@@ -190,7 +203,8 @@ impl Worker<'_, '_> {
                 break;
             }
             self.path[j] = a;
-            let sub = self.dfs(j + 1, &f, gc);
+            let child_fixed = fixed && sigma.is_some_and(|s| s[a] == a);
+            let sub = self.dfs(j + 1, &f, gc, child_fixed);
             least = least.min(sub);
             if self.aborted {
                 break;
@@ -199,6 +213,58 @@ impl Worker<'_, '_> {
         self.bufs[j] = kids;
         least
     }
+}
+
+/// Fewer open tasks than this are split into their children before a pass.
+const MIN_OPEN_TASKS: usize = 512;
+
+/// Replaces every open task (lb < `ub`) whose children are not leaves by its children (closed
+/// tasks are dropped: their lb ≥ U cannot lower the global bound). A child's completions are
+/// among its parent's, so it inherits the parent's certified bound (or its own, if larger).
+fn split(shared: &Shared<'_>, tasks: Vec<Task>, ub: f64) -> Vec<Task> {
+    let problem = shared.problem;
+    let m = problem.m();
+    let obj = &problem.objective;
+    let mut out = Vec::with_capacity(tasks.len() * 4);
+    for task in tasks {
+        let lb = task.lb();
+        if lb >= ub {
+            continue;
+        }
+        let j = task.prefix.len();
+        if j + 1 >= m {
+            out.push(task);
+            continue;
+        }
+        let sigma = shared.mirror.as_ref().map(|mi| &mi.sigma[j]);
+        for (a, c) in problem.catalogue.candidates(j).iter().enumerate() {
+            if task.fixed && sigma.is_some_and(|s| s[a] < a) {
+                continue;
+            }
+            let frame = task.frame.compose(&c.frame);
+            let g = task.g + obj.cost(j, &frame.origin());
+            let own =
+                (g + shared
+                    .reach
+                    .suffix_lower_bound_grouped(obj, &frame, j + 1, f64::INFINITY))
+                    * shared.shave;
+            let mut prefix = task.prefix.clone();
+            prefix.push(a);
+            out.push(Task {
+                fixed: task.fixed && sigma.is_some_and(|s| s[a] == a),
+                prefix,
+                frame,
+                g,
+                lb: AtomicU64::new(own.max(lb).to_bits()),
+            });
+        }
+    }
+    out.sort_by(|a, b| {
+        a.lb()
+            .total_cmp(&b.lb())
+            .then_with(|| a.prefix.cmp(&b.prefix))
+    });
+    out
 }
 
 /// The certified lower bound `min(U, min over tasks of lb)`.
@@ -232,8 +298,10 @@ pub(crate) fn solve_with(
     let (seed, polish_evals) = super::window::polish(problem, seed, 2, control);
     let seed_cost = problem.cost_sum(&seed);
     control.offer_best(seed_cost);
+    let mirror = symmetry::find(problem);
     let shared = Shared {
         problem,
+        mirror: mirror.clone(),
         shave: shave(m),
         reach: &reach,
         control,
@@ -245,9 +313,12 @@ pub(crate) fn solve_with(
     let depth = split_depth(problem, min_tasks).min(m.saturating_sub(1));
     let mut tasks: Vec<Task> = prefixes(problem, depth)
         .into_iter()
+        .filter(|(prefix, _, _)| mirror.as_ref().is_none_or(|mi| mi.canonical(prefix)))
         .map(|(prefix, frame, g)| {
-            let lb = reach.suffix_lower_bound(&problem.objective, &frame, depth, f64::INFINITY);
+            let lb =
+                reach.suffix_lower_bound_grouped(&problem.objective, &frame, depth, f64::INFINITY);
             Task {
+                fixed: mirror.as_ref().is_some_and(|mi| mi.fixed(&prefix)),
                 prefix,
                 frame,
                 g,
@@ -270,14 +341,25 @@ pub(crate) fn solve_with(
     let mut stop = None;
     let mut optimal = false;
     // The first threshold: the bound below which about an eighth of the open tasks lie.
+    // (and at most 1/32 of the initial gap above the bound).
     let mut threshold = {
         let ub = shared.ub();
         let open: Vec<f64> = tasks.iter().map(Task::lb).filter(|&b| b < ub).collect();
-        open.get(open.len() / 8).copied().unwrap_or(ub)
+        let lb = global_lower_bound(&tasks, ub);
+        open.get(open.len() / 8)
+            .copied()
+            .unwrap_or(ub)
+            .min(lb + (ub - lb) / 32.0)
     };
+    // Largest threshold step (bound units), adapted to how fast the passes grow.
+    let mut step = f64::INFINITY;
+    let mut last_nodes = 0u64;
     loop {
         let ub = shared.ub();
         let lb = global_lower_bound(&tasks, ub);
+        if !step.is_finite() {
+            step = (ub - lb) / 32.0;
+        }
         control.offer_lower_bound(lb);
         record(lb);
         if lb >= ub {
@@ -290,6 +372,13 @@ pub(crate) fn solve_with(
         }
         if control.stopped() || shared.abort.load(Ordering::Relaxed) {
             break;
+        }
+        // Few open tasks: split each into its children, for a finer bound and balanced cores.
+        let open = tasks.iter().filter(|x| x.lb() < ub).count();
+        if open < MIN_OPEN_TASKS && tasks.len() < 1 << 20 {
+            let before = tasks.len();
+            tasks = split(&shared, tasks, ub);
+            evaluated += tasks.len().saturating_sub(before) as u64;
         }
         let t = threshold.min(ub).max(lb);
         let hist_lo = t;
@@ -313,12 +402,13 @@ pub(crate) fn solve_with(
                     unflushed: 0,
                     aborted: false,
                 };
+                let depth = task.prefix.len();
                 w.path[..depth].copy_from_slice(&task.prefix);
                 let least = if depth == m {
                     shared.offer(task.g, &task.prefix);
                     task.g
                 } else {
-                    w.dfs(depth, &task.frame, task.g)
+                    w.dfs(depth, &task.frame, task.g, task.fixed)
                 };
                 control.add_evaluated(w.unflushed);
                 if !w.aborted {
@@ -360,8 +450,10 @@ pub(crate) fn solve_with(
             // A complete pass at t = U closes every task; the loop head confirms it.
             continue;
         }
-        // Next threshold: enough pruned nodes below it to roughly double the work.
-        let want = (nodes / 2).max(256);
+        // Next threshold: enough frontier nodes below it to roughly double the work, but a
+        // step no larger than `step`, which doubles while passes grow slowly and halves when
+        // they explode (frontier counts cannot see how large the subtrees below them are).
+        let want = (nodes / 2).max(64);
         let mut cum = 0;
         let mut next = ub;
         for (i, c) in hist.iter().enumerate() {
@@ -371,7 +463,15 @@ pub(crate) fn solve_with(
                 break;
             }
         }
-        threshold = next;
+        if last_nodes > 0 {
+            if nodes < 3 * last_nodes {
+                step *= 2.0;
+            } else if nodes > 12 * last_nodes {
+                step *= 0.5;
+            }
+        }
+        last_nodes = nodes.max(1);
+        threshold = next.min(t + step);
     }
     let interrupted = !optimal && stop.is_none();
     let ub = shared.ub();

@@ -44,6 +44,7 @@ pub mod exhaustive;
 mod frame;
 mod problem;
 pub mod reach;
+pub mod symmetry;
 pub mod target;
 pub mod window;
 

@@ -233,6 +233,11 @@ impl Objective {
         &self.target
     }
 
+    /// The ordered metric's stations (tip i matched to `stations()[i]`); empty for eq 36.
+    pub fn stations(&self) -> &[Point3<f64>] {
+        &self.stations
+    }
+
     /// The metric.
     pub fn metric(&self) -> Metric {
         self.metric

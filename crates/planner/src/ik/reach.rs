@@ -31,14 +31,38 @@ pub struct Ball {
 /// One cover of a reachable set.
 #[derive(Debug, Clone)]
 struct Cover {
+    /// The balls, grouped: group g is `balls[groups[g].1..groups[g].2]`.
     balls: Vec<Ball>,
+    /// (enclosing ball, start, end) of each group; empty for small covers.
+    groups: Vec<(Ball, usize, usize)>,
 }
+
+/// Groups per cover for the two-level minimum of [`Reach::suffix_lower_bound_grouped`].
+const GROUPS: usize = 8;
 
 impl Cover {
     /// The cover used for bounds of the k-th next tip. (Coarser covers for larger k were tried:
-    /// 64/64/32/16 balls made beam search markedly worse on the smooth-curve suite.)
+    /// 64/64/32/16 balls made beam search markedly worse on the smooth-curve suite.) Covers of
+    /// more than 2·[`GROUPS`] balls are also clustered into [`GROUPS`] groups, each with a ball
+    /// enclosing its members.
     fn new(balls: Vec<Ball>, _k: usize) -> Self {
-        Cover { balls }
+        if balls.len() <= 2 * GROUPS {
+            return Cover {
+                balls,
+                groups: Vec::new(),
+            };
+        }
+        let mut ordered = Vec::with_capacity(balls.len());
+        let mut groups = Vec::new();
+        for g in cluster(&balls, GROUPS) {
+            let start = ordered.len();
+            ordered.extend_from_slice(&g);
+            groups.push((enclose(&g), start, ordered.len()));
+        }
+        Cover {
+            balls: ordered,
+            groups,
+        }
     }
 }
 
@@ -133,6 +157,69 @@ impl Reach {
                     best = v;
                     if best == 0.0 {
                         break;
+                    }
+                }
+            }
+            sum += best;
+            if sum > budget {
+                return sum;
+            }
+        }
+        sum
+    }
+
+    /// Like [`suffix_lower_bound`](Self::suffix_lower_bound), but each tip's minimum over the
+    /// balls is taken group by group, most promising group first, skipping every group whose
+    /// enclosing ball's bound is already no better than the best so far. The result is still a
+    /// lower bound (every skipped ball lies in a ball whose bound is at least the result), though
+    /// it may exceed the plain minimum where the grid bound is not monotone in the radius.
+    #[inline]
+    pub fn suffix_lower_bound_grouped(
+        &self,
+        obj: &Objective,
+        frame: &Frame,
+        j: usize,
+        budget: f64,
+    ) -> f64 {
+        let kmax = self.horizon.min(self.m - j);
+        let mut sum = 0.0;
+        for k in 1..=kmax {
+            let tip = j + k - 1;
+            let cover = self.cover_of(j, k);
+            let mut best = f64::INFINITY;
+            if cover.groups.is_empty() {
+                for b in &cover.balls {
+                    let v = ball_lb(obj, tip, frame, b);
+                    if v < best {
+                        best = v;
+                        if best == 0.0 {
+                            break;
+                        }
+                    }
+                }
+            } else {
+                let mut order = [(0.0f64, 0usize); GROUPS];
+                let ng = cover.groups.len().min(GROUPS);
+                for (g, slot) in cover.groups.iter().zip(order.iter_mut()) {
+                    *slot = (ball_lb(obj, tip, frame, &g.0), slot.1);
+                }
+                for (i, slot) in order.iter_mut().enumerate().take(ng) {
+                    slot.1 = i;
+                }
+                order[..ng].sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+                'groups: for &(v, g) in &order[..ng] {
+                    if v >= best {
+                        break;
+                    }
+                    let (_, lo, hi) = cover.groups[g];
+                    for b in &cover.balls[lo..hi] {
+                        let v = ball_lb(obj, tip, frame, b);
+                        if v < best {
+                            best = v;
+                            if best == 0.0 {
+                                break 'groups;
+                            }
+                        }
                     }
                 }
             }

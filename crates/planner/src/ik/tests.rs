@@ -257,3 +257,68 @@ fn lower_bound_rises_and_a_target_gap_stops_the_search() {
     let opt_rms = (ub / 10.0).sqrt();
     assert!(s.rms >= opt_rms - 1e-12 && s.rms * (1.0 - gap) <= opt_rms + 1e-12);
 }
+
+fn arb_planar_points() -> impl Strategy<Value = Vec<Point3<f64>>> {
+    prop::collection::vec((-3.0..3.0f64, 0.0..6.0f64), 1..6)
+        .prop_map(|v| v.into_iter().map(|(x, z)| Point3::new(x, 0.0, z)).collect())
+}
+
+#[test]
+fn mirror_symmetry_is_found_only_when_the_target_has_it() {
+    let planar = problem(
+        4,
+        3,
+        vec![Point3::origin(), Point3::new(1.0, 0.0, 2.0)],
+        Metric::Eq36,
+    );
+    let mirror = symmetry::find(&planar).expect("planar target, symmetric catalogue");
+    // Mirroring y → −y maps deployed and folded to themselves and pairs the pop-outs.
+    assert_eq!(mirror.sigma[0][0], 0);
+    assert_eq!(mirror.sigma[0][1], 1);
+    for (a, &b) in mirror.sigma[0].iter().enumerate() {
+        assert_eq!(mirror.sigma[0][b], a, "an involution");
+    }
+    assert!(mirror.sigma[0].iter().enumerate().any(|(a, &b)| a != b));
+    let skew = problem(
+        4,
+        3,
+        vec![
+            Point3::origin(),
+            Point3::new(1.0, 0.5, 2.0),
+            Point3::new(0.0, 1.0, 3.0),
+        ],
+        Metric::Eq36,
+    );
+    assert!(symmetry::find(&skew).is_none());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Searching only canonical sequences of a mirror-symmetric problem loses nothing:
+    /// exact = exhaustive, and every certified bound stays below the optimum.
+    #[test]
+    fn mirror_pruned_exact_equals_exhaustive(
+        n in 3usize..6,
+        m in 1usize..5,
+        pts in arb_planar_points(),
+        ordered in any::<bool>(),
+        min_tasks in prop::sample::select(vec![1u128, 2048]),
+    ) {
+        let metric = if ordered { Metric::Ordered } else { Metric::Eq36 };
+        let p = problem(n, m, pts, metric);
+        // The x–z plane is a symmetry plane of the synthetic n-gon's pop-out phases for even n
+        // (mirroring maps phase ψ to π − ψ); for odd n it maps edges onto vertices: none.
+        prop_assert_eq!(symmetry::find(&p).is_some(), n % 2 == 0);
+        let ex = solve(&p, Algorithm::Exhaustive, &Control::new()).unwrap();
+        let trace = std::sync::Mutex::new(Vec::new());
+        let raw = exact::solve_with(&p, &Control::new(), min_tasks, Some(&trace));
+        prop_assert!(raw.optimal);
+        let rms = p.rms(&raw.states);
+        prop_assert!((rms - ex.rms).abs() <= 1e-9, "exact {rms} exhaustive {}", ex.rms);
+        let opt_sum = ex.rms * ex.rms * m as f64;
+        for lb in trace.into_inner().unwrap() {
+            prop_assert!(lb <= opt_sum * (1.0 + 1e-9) + 1e-15);
+        }
+    }
+}

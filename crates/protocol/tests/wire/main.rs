@@ -5,6 +5,7 @@ mod edges;
 mod golden;
 mod handshake;
 mod incremental;
+mod mutation;
 mod props;
 mod samples;
 mod smoke;

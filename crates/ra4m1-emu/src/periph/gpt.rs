@@ -3,7 +3,7 @@
 //! saw-wave, TPCS prescaler), GTUDDTYC (UD/UDF, OADTY/OBDTY forced 0 %/100 % duty), GTIOR
 //! (GTIOA/GTIOB = 0b01001: low at start, high at cycle end, low at compare match; OAE/OBE output
 //! enable; OADFLT/OBDFLT level while stopped), GTBER (single buffer GTCCRC → GTCCRA and GTCCRE →
-//! GTCCRB at each cycle end), GTCNT, GTCCRA..F, GTPR, GTPBR, and the source-select registers
+//! GTCCRB at each cycle end), GTCNT, GTCCRA/B/C/E/D/F (in that address order), GTPR, GTPBR, and the source-select registers
 //! (stored, no effect: nothing here uses hardware start/stop sources).
 //!
 //! What a servo sees is [`Line`]: a pulse train (high time and period), a steady level, or a
@@ -42,6 +42,7 @@ pub struct Gpt {
     gtintad: u32,
     gtst: u32,
     gtber: u32,
+    /// GTCCRA, B, C, E, D, F: in address order from 0x4C (UM: GTCCRE sits before GTCCRD).
     gtccr: [u32; 6],
     gtpr: u32,
     gtpbr: u32,
@@ -106,7 +107,7 @@ impl Gpt {
                 self.gtccr[0] = self.gtccr[2];
             }
             if (self.gtber >> 18) & 3 == 1 {
-                self.gtccr[1] = self.gtccr[4];
+                self.gtccr[1] = self.gtccr[3]; // GTCCRE (at 0x58: the order is A B C E D F)
             }
         }
     }

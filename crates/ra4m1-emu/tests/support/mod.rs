@@ -1,4 +1,5 @@
 //! Shared by the firmware tests: where the `uno-r4` ELF is, and a minimal host.
+#![allow(dead_code)] // each test binary uses a part of it
 
 use std::path::PathBuf;
 
@@ -67,4 +68,18 @@ pub fn wait_for(
         }
     }
     None
+}
+
+/// Sends Hello every 20 ms until answered (bytes before SCI9 is up are lost); returns the
+/// virtual time of the answer, ms.
+pub fn handshake(emu: &mut Emulator, dec: &mut FrameDecoder) -> u64 {
+    for _ in 0..100 {
+        send(emu, 1, RequestBody::hello());
+        if let Some((_, t)) = wait_for(emu, dec, 20, |m| {
+            matches!(m, DeviceMessage::Response { seq: 1, .. })
+        }) {
+            return t;
+        }
+    }
+    panic!("no answer to Hello within 2 s");
 }

@@ -1,0 +1,128 @@
+//! The board ELF in the RA4M1 emulator: boot to first answer, emulator speed, and the loop's
+//! longest pass in the cycle model (Cortex-M4 timings + one flash wait state).
+//!
+//! ```text
+//! cargo firmware && cargo bench -p hil-sim --bench elf_board
+//! ```
+//! Needs `cargo firmware`'s ELF (or `UNO_R4_ELF`). Prints one line per figure.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use hil_sim::host::SimHost;
+use hil_sim::{Sim, SimOptions};
+use protocol::messages::{DeviceMessage, RequestBody, Step};
+
+fn elf() -> PathBuf {
+    std::env::var_os("UNO_R4_ELF")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+            std::env::var_os("CARGO_TARGET_DIR")
+                .map_or(root.join("target"), PathBuf::from)
+                .join("thumbv7em-none-eabihf/firmware/uno-r4")
+        })
+}
+
+fn sim(initial: &str) -> Sim {
+    Sim::try_new(SimOptions {
+        initial: initial.parse().unwrap(),
+        firmware_elf: Some(elf()),
+        ..SimOptions::default()
+    })
+    .unwrap_or_else(|e| panic!("{e} (build it with `cargo firmware`)"))
+}
+
+fn max_pass(sim: &Sim) -> u64 {
+    sim.elf_board()
+        .map_or(0, |b| b.emu.stats().max_awake_cycles)
+}
+
+fn clear(sim: &mut Sim) {
+    if let Some(b) = sim.elf_board_mut() {
+        b.emu.clear_max_awake();
+    }
+}
+
+fn main() {
+    // 1. Boot to first answer: the host sends Hello from power-on, every 5 ms.
+    let wall = Instant::now();
+    let mut s = sim("F&P");
+    let mut host = SimHost::new();
+    let mut answered = None;
+    while s.now_ms() < 2_000 && answered.is_none() {
+        if s.now_ms() % 5 == 0 {
+            let _ = host.send(&mut s, RequestBody::hello());
+        }
+        s.step();
+        if host
+            .poll(&mut s)
+            .iter()
+            .any(|m| matches!(m, DeviceMessage::Response { .. }))
+        {
+            answered = Some(s.now_ms());
+        }
+    }
+    let boot_wall = wall.elapsed();
+    println!(
+        "boot to first answer: {} ms virtual (Hello every 5 ms from power-on), {:.1} ms wall incl. loading the ELF",
+        answered.expect("answered within 2 s"),
+        boot_wall.as_secs_f64() * 1e3
+    );
+
+    // 2. Idle speed (the simulator's physics included), and the idle pass.
+    let mut s = sim("F&P");
+    let mut host = SimHost::new();
+    s.run_for(50);
+    host.hello(&mut s).unwrap();
+    clear(&mut s);
+    let wall = Instant::now();
+    let v0 = s.now_ms();
+    for _ in 0..40 {
+        s.run_for(250);
+        let _ = host.send(&mut s, RequestBody::Heartbeat);
+    }
+    let w = wall.elapsed().as_secs_f64() * 1e3;
+    println!(
+        "idle: {:.1} virtual ms per wall ms ({} ms in {:.0} ms); longest pass {} cycles",
+        (s.now_ms() - v0) as f64 / w,
+        s.now_ms() - v0,
+        w,
+        max_pass(&s)
+    );
+
+    // 3. The largest plan's upload pass (refused or stored), then a real plan running.
+    clear(&mut s);
+    let _ = host.request(
+        &mut s,
+        RequestBody::UploadPlan(firmware::bench::largest_plan(9)),
+        2_000,
+    );
+    s.run_for(100);
+    println!(
+        "upload of the largest plan ({} steps of bends): longest pass {} cycles",
+        protocol::MAX_PLAN_STEPS,
+        max_pass(&s)
+    );
+    let plan = planner::graph::Graph::nominal()
+        .plan("F&P".parse().unwrap(), "D&D".parse().unwrap())
+        .unwrap();
+    let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
+    let wall = Instant::now();
+    let v0 = s.now_ms();
+    clear(&mut s);
+    let (ok, state) = host.run_plan(&mut s, 3, &steps, 120_000).unwrap();
+    let w = wall.elapsed().as_secs_f64() * 1e3;
+    println!(
+        "plan F&P → D&D (ok {ok}, {state}): {:.1} virtual ms per wall ms ({} ms in {:.0} ms); longest pass {} cycles (upload, start and run)",
+        (s.now_ms() - v0) as f64 / w,
+        s.now_ms() - v0,
+        w,
+        max_pass(&s)
+    );
+    let st = s.elf_board().unwrap().emu.stats();
+    println!(
+        "totals: {} instructions, {} cycles awake, {} wake-ups",
+        st.instructions, st.awake_cycles, st.wakes
+    );
+}

@@ -1,0 +1,234 @@
+//! Processor in the loop: the board's own `uno-r4` ELF running in the RA4M1 emulator
+//! ([`ra4m1_emu`]) instead of the host-built controller, wired to the same simulated parts.
+//!
+//! Each millisecond the simulator's part states (the [`crate::devices`] holders of the shell)
+//! are moved across the chip's pins: the pressure sensor and the joystick into ADC channels
+//! AN009/AN000/AN001 as 14-bit counts; the buttons as switches to ground on their port pins
+//! (open when released, so the MCU's pull-up reads high; the normally-closed e-stop grounds its
+//! pin until pressed); host bytes into SCI9's RXD9 at 115 200 Bd. Out come the servo pulses
+//! from the GPT pins (a pin the timer does not drive — output disabled, 0 % duty — gives no
+//! pulse: the servo is limp), the valve and gripper gates from their port pins (a released
+//! gate is held low by the driver's gate pull-down), the four digits the firmware clocked into
+//! the emulated TM1637, and SCI9's transmitted bytes.
+
+use std::path::Path;
+
+use firmware::hw::{StateStore, SERVO_PWM_HZ};
+use firmware::StoredState;
+use protocol::messages::{DeviceMessage, Event, Mode, ResponseBody};
+use protocol::FrameDecoder;
+use ra4m1_emu::{Emulator, Line, Options, PinDrive};
+
+use crate::devices::PWM_MAX_DUTY;
+
+#[path = "../../firmware/src/board/flash_log.rs"]
+#[allow(dead_code, missing_docs)]
+mod flash_log;
+
+/// The board's pins (`crates/firmware/src/board/pins.rs`), as `(port, pin)`.
+mod pin {
+    pub const INLET: (usize, usize) = (1, 4);
+    pub const EXHAUST: (usize, usize) = (1, 11);
+    pub const GRIPPER: (usize, usize) = (1, 0);
+    pub const BTN_UP: (usize, usize) = (1, 5);
+    pub const BTN_DOWN: (usize, usize) = (1, 6);
+    pub const BTN_GRIPPER: (usize, usize) = (1, 7);
+    pub const BTN_CONFIRM: (usize, usize) = (1, 3);
+    pub const BTN_SHOW: (usize, usize) = (0, 2);
+    pub const BTN_ESTOP: (usize, usize) = (1, 12);
+    /// Servo pins with their GPT channel and output (B = true).
+    pub const SERVOS: [((usize, usize), usize, bool); 3] =
+        [((3, 4), 7, false), ((3, 3), 7, true), ((1, 1), 5, false)];
+    pub const AN_PRESSURE: usize = 9;
+    pub const AN_JOY_X: usize = 0;
+    pub const AN_JOY_Y: usize = 1;
+}
+
+/// Why the ELF board could not start or stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum ElfBoardError {
+    /// The file could not be read.
+    #[error("{path}: {err}")]
+    Read {
+        /// The path.
+        path: String,
+        /// The error.
+        err: std::io::Error,
+    },
+    /// The emulator refused the ELF or stopped.
+    #[error("{0}")]
+    Emulator(#[from] ra4m1_emu::EmuError),
+}
+
+/// A NOR flash view of the emulator's data flash, to write the initial record with the
+/// firmware's own log format.
+struct DataFlashImage<'a>(&'a mut [u8]);
+
+impl flash_log::NorFlash for DataFlashImage<'_> {
+    const BLOCK_SIZE: usize = 1024;
+    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), flash_log::FlashError> {
+        let src = self
+            .0
+            .get(offset..offset + buf.len())
+            .ok_or(flash_log::FlashError::OutOfRange)?;
+        buf.copy_from_slice(src);
+        Ok(())
+    }
+    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), flash_log::FlashError> {
+        let dst = self
+            .0
+            .get_mut(offset..offset + data.len())
+            .ok_or(flash_log::FlashError::OutOfRange)?;
+        for (d, s) in dst.iter_mut().zip(data) {
+            *d &= *s;
+        }
+        Ok(())
+    }
+    fn erase(&mut self, block: usize) -> Result<(), flash_log::FlashError> {
+        let b = self
+            .0
+            .get_mut(block * 1024..(block + 1) * 1024)
+            .ok_or(flash_log::FlashError::OutOfRange)?;
+        b.fill(0xFF);
+        Ok(())
+    }
+}
+
+/// The emulated board and what the simulator tracks of it from its messages.
+pub struct ElfBoard {
+    /// The emulator.
+    pub emu: Emulator,
+    sniffer: FrameDecoder,
+    /// Mode last reported (heartbeat, status).
+    pub mode: Mode,
+    /// State last reported (telemetry, status, state events).
+    pub state: geometry::TrunkState,
+}
+
+impl std::fmt::Debug for ElfBoard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ElfBoard")
+            .field("emu", &self.emu)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ElfBoard {
+    /// Loads the ELF; its data flash holds `initial` as a confirmed record.
+    pub fn new(path: &Path, initial: StoredState) -> Result<Self, ElfBoardError> {
+        let elf = std::fs::read(path).map_err(|err| ElfBoardError::Read {
+            path: path.display().to_string(),
+            err,
+        })?;
+        let mut emu = Emulator::new(&elf, Options::default())?;
+        let mut log = flash_log::FlashLog::new(DataFlashImage(emu.data_flash_mut()), 0);
+        // Writing into erased memory cannot fail.
+        let _ = log.save(&initial);
+        Ok(Self {
+            emu,
+            sniffer: FrameDecoder::default(),
+            mode: Mode::Standalone,
+            state: initial.state,
+        })
+    }
+
+    /// Appends `states` to the data flash's record log (before the board first runs: to wear
+    /// the log to a given point, e.g. both blocks full so the next save must erase).
+    pub fn save_records(&mut self, states: &[StoredState]) {
+        let mut log = flash_log::FlashLog::new(DataFlashImage(self.emu.data_flash_mut()), 0);
+        for s in states {
+            let _ = log.save(s);
+        }
+    }
+
+    /// Moves the parts' states in, runs the chip to `now_ms`, moves its outputs out.
+    pub fn step(
+        &mut self,
+        shell: &mut crate::sim::SimShell,
+        now_ms: u64,
+    ) -> Result<(), ElfBoardError> {
+        let emu = &mut self.emu;
+        let i = &shell.inputs;
+        emu.set_analog(
+            pin::AN_PRESSURE,
+            if i.pressure.failed { 0 } else { i.pressure.raw },
+        );
+        emu.set_analog(pin::AN_JOY_X, i.joystick_x.raw);
+        emu.set_analog(pin::AN_JOY_Y, i.joystick_y.raw);
+        // A switch to ground: closed → low, open → the pull-up decides.
+        let switch = |high: bool| if high { None } else { Some(false) };
+        for (p, level) in [
+            (pin::BTN_UP, i.up.high),
+            (pin::BTN_DOWN, i.down.high),
+            (pin::BTN_GRIPPER, i.gripper.high),
+            (pin::BTN_CONFIRM, i.confirm.high),
+            (pin::BTN_SHOW, i.show_pressure.high),
+            (pin::BTN_ESTOP, i.estop.high),
+        ] {
+            emu.drive_pin(p.0, p.1, switch(level));
+        }
+        if !shell.link.rx.is_empty() {
+            let bytes: Vec<u8> = shell.link.rx.drain(..).collect();
+            emu.host_send(&bytes);
+        }
+        emu.run_until_ns(now_ms * 1_000_000)?;
+        let high = |emu: &Emulator, p: (usize, usize)| emu.pin_drive(p.0, p.1) == PinDrive::High;
+        shell.outputs.inlet.high = high(emu, pin::INLET);
+        shell.outputs.exhaust.high = high(emu, pin::EXHAUST);
+        shell.outputs.gripper.high = high(emu, pin::GRIPPER);
+        let period_us = 1e6 / f64::from(SERVO_PWM_HZ);
+        let duty = |line: Line| -> u16 {
+            match line {
+                Line::Pulses { high_ns, .. } => {
+                    (high_ns as f64 / 1e3 / period_us * f64::from(PWM_MAX_DUTY)).round() as u16
+                }
+                // A steady high is no servo pulse either; low or released: limp.
+                Line::Level(_) | Line::Released => 0,
+            }
+        };
+        let d: Vec<u16> = pin::SERVOS
+            .iter()
+            .map(|&(p, ch, b)| duty(emu.timer_pin(p.0, p.1, ch, b)))
+            .collect();
+        let s = &mut shell.outputs.servos;
+        use embedded_hal::pwm::SetDutyCycle as _;
+        let _ = s.0.inner_mut().set_duty_cycle(d[0]);
+        let _ = s.1.inner_mut().set_duty_cycle(d[1]);
+        let _ = s.2.inner_mut().set_duty_cycle(d[2]);
+        let tm = emu.display();
+        shell.display.segments.copy_from_slice(&tm.digits[..4]);
+        let out = emu.host_take();
+        for &b in &out {
+            self.track(b);
+        }
+        shell.link.tx.extend(out);
+        Ok(())
+    }
+
+    fn track(&mut self, b: u8) {
+        match self.sniffer.push::<DeviceMessage>(b) {
+            Some(Ok(DeviceMessage::Event(ev))) => match ev {
+                Event::Heartbeat { mode, .. } => self.mode = mode,
+                Event::Telemetry(t) => self.state = t.state,
+                Event::StateReached { state, .. } => self.state = state,
+                Event::PlanDone { state, .. } => self.state = state,
+                _ => {}
+            },
+            Some(Ok(DeviceMessage::Response {
+                body: ResponseBody::Status(s),
+                ..
+            })) => {
+                self.mode = s.mode;
+                self.state = s.state;
+            }
+            _ => {}
+        }
+    }
+
+    /// Cuts the power and restores it: a power-on reset, data flash kept.
+    pub fn power_cycle(&mut self) -> Result<(), ElfBoardError> {
+        self.emu.power_cycle()?;
+        self.sniffer = FrameDecoder::default();
+        Ok(())
+    }
+}

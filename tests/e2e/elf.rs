@@ -1,0 +1,172 @@
+//! Processor in the loop, end to end: the board's own `uno-r4` ELF in the RA4M1 emulator
+//! behind a pty (hil-sim's `PtySim` with `firmware_elf`, what `hil-sim --pty --firmware-elf`
+//! serves), driven by the real `host-tool` binary over `--port`. The handshake and status,
+//! all 36 (initial, target) plans, and a fault that must end with the actuators safe.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use e2e::{host_tool, parallel, STATES};
+use hil_sim::pty::PtySim;
+use hil_sim::{Fault, SimOptions};
+
+/// Plans at a time: each emulator takes a core while it runs.
+const THREADS: usize = 2;
+const LIMIT: Duration = Duration::from_secs(120);
+/// Virtual seconds per wall second.
+const SPEED: f64 = 5.0;
+
+/// `cargo firmware`'s ELF (or `$UNO_R4_ELF`); panics with the command that builds it.
+pub fn elf() -> PathBuf {
+    let p = std::env::var_os("UNO_R4_ELF")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+            std::env::var_os("CARGO_TARGET_DIR")
+                .map_or(root.join("target"), PathBuf::from)
+                .join("thumbv7em-none-eabihf/firmware/uno-r4")
+        });
+    assert!(
+        p.is_file(),
+        "{} is missing: build it with `cargo firmware`",
+        p.display()
+    );
+    p
+}
+
+fn board(initial: &str, faults: Vec<Fault>) -> PtySim {
+    PtySim::spawn(SimOptions {
+        initial: initial.parse().expect("a state"),
+        faults,
+        // Over `--port` the host keeps real time (a heartbeat every 250 ms of wall time), so
+        // virtual time may run at most ~12× before the device's 3 s link watch fires; 5×
+        // keeps 1.25 s of virtual time between heartbeats (the emulator may run slower: safe).
+        speed: SPEED,
+        firmware_elf: Some(elf()),
+        ..SimOptions::default()
+    })
+    .expect("the emulated board starts")
+}
+
+#[test]
+fn hil_sim_firmware_elf_serves_the_elf_and_answers_status() {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+    let elf = elf();
+    let mut sim = Command::new(e2e::binary("hil-sim"))
+        .args([
+            "--pty",
+            "--initial",
+            "D&F",
+            "--speed",
+            "5",
+            "--firmware-elf",
+        ])
+        .arg(&elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("hil-sim starts");
+    let mut first = String::new();
+    let mut stdout = BufReader::new(sim.stdout.take().expect("stdout is piped"));
+    stdout
+        .read_line(&mut first)
+        .expect("hil-sim prints its device path");
+    let path = first.split_whitespace().last().expect("a path").to_string();
+    let out = host_tool(
+        &["status", "--port", &path, "--json"],
+        Duration::from_secs(30),
+    );
+    let _ = sim.kill();
+    let _ = sim.wait();
+    assert!(first.contains("board ELF"), "{first}");
+    assert_eq!(out.code(), 0, "{}", out.stderr);
+    let v = out.json();
+    assert_eq!(v["state"], "D&F", "{v}");
+    assert_eq!(v["device"]["board"], host_board_name(), "{v}");
+    assert_eq!(v["inlet_open"], false, "{v}");
+}
+
+#[test]
+fn hil_sim_refuses_a_missing_firmware_elf_with_exit_1() {
+    let out = e2e::run(
+        &e2e::binary("hil-sim"),
+        &["--pty", "--firmware-elf", "/nonexistent/uno-r4"],
+        Duration::from_secs(10),
+    );
+    assert_eq!(out.code(), 1, "{}", out.stderr);
+    assert!(out.stderr.contains("/nonexistent/uno-r4"), "{}", out.stderr);
+}
+
+fn host_board_name() -> &'static str {
+    "Arduino UNO R4 WiFi"
+}
+
+#[test]
+fn all_36_plans_reach_their_target_on_the_elf() {
+    let pairs: Vec<(&str, &str)> = STATES
+        .iter()
+        .flat_map(|a| STATES.iter().map(move |b| (*a, *b)))
+        .collect();
+    let start = Instant::now();
+    let results = parallel(pairs, THREADS, |(from, to)| {
+        let sim = board(from, vec![]);
+        let path = sim.path().display().to_string();
+        let out = host_tool(&["plan", "--target", to, "--port", &path, "--json"], LIMIT);
+        let truth = sim.stop();
+        (from, to, out, truth)
+    });
+    eprintln!(
+        "36 plans on the emulated ELF ({THREADS} at a time): {:.1?}",
+        start.elapsed()
+    );
+    let mut failures = Vec::new();
+    for (from, to, out, truth) in &results {
+        let v = out.json();
+        let ok = out.code() == 0
+            && v["ok"] == true
+            && v["final_state"] == *to
+            && truth.true_state == Some(to.parse().unwrap())
+            && truth.actuators_safe
+            && truth.max_pressure_kpa <= truth.pressure_limit_kpa + 0.5;
+        if !ok {
+            failures.push(format!(
+                "{from} → {to}: exit {} {v} truth {truth:?}",
+                out.code()
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of 36 failed:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn a_stalled_servo_on_the_elf_fails_cleanly_with_the_actuators_safe() {
+    // D&D → F&D is a tendon step: the weak servos stall, the firmware's step watch fails
+    // the step and the safe state stops the pulses (limp servos, inlet closed).
+    let sim = board("D&D", vec![Fault::ServoStall]);
+    let path = sim.path().display().to_string();
+    let out = host_tool(
+        &["plan", "--target", "F&D", "--port", &path, "--json"],
+        LIMIT,
+    );
+    let truth = sim.stop();
+    let v = out.json();
+    assert_eq!(out.code(), 1, "{v}");
+    assert_eq!(v["ok"], false, "{v}");
+    assert!(
+        v["error"].as_str().is_some_and(|e| e.contains("failed")),
+        "{v}"
+    );
+    assert!(truth.actuators_safe, "{truth:?}");
+    assert!(!truth.inlet_open, "{truth:?}");
+    assert!(
+        truth.servos_energised.iter().all(|e| !e),
+        "servos limp: {truth:?}"
+    );
+}

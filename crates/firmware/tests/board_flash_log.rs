@@ -244,10 +244,7 @@ mod backoff {
 
     #[test]
     fn a_failing_save_is_retried_with_doubling_waits_and_busy_is_not_a_failure() {
-        let s = StoredState {
-            state: TrunkState::AS_MANUFACTURED,
-            confirmed: true,
-        };
+        let s = StoredState::confirmed(TrunkState::AS_MANUFACTURED);
         NOW.store(1_000, Ordering::Relaxed);
         let mut b = Backoff::new(
             Flaky {

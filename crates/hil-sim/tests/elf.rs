@@ -93,18 +93,14 @@ fn storage_never_delays_a_loop_pass_beyond_2_ms_even_with_a_broken_flash() {
         let f_f: TrunkState = "F&F".parse().unwrap();
         let wear: Vec<StoredState> = (0..127)
             .map(|i| match i {
-                126 => StoredState {
-                    state: d_f,
-                    confirmed: true,
-                },
+                126 => StoredState::confirmed(d_f),
                 125 => StoredState {
                     state: d_f,
                     confirmed: false,
+                    candidates: protocol::StateSet::ALL,
+                    pending: None,
                 },
-                _ => StoredState {
-                    state: if i % 2 == 0 { f_f } else { d_f },
-                    confirmed: true,
-                },
+                _ => StoredState::confirmed(if i % 2 == 0 { f_f } else { d_f }),
             })
             .collect();
         let board = sim.elf_board_mut().expect("ELF mode");

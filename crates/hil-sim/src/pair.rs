@@ -126,15 +126,31 @@ pub struct SimShell {
     answer: Option<host::ShellAction>,
 }
 
-impl host::RunShell<SimIo> for SimShell {
-    fn event(&mut self, event: &host::RunEvent, io: &mut SimIo) {
+impl SimShell {
+    fn on_event(&mut self, event: &host::RunEvent, io: &SimIo) {
         if let host::RunEvent::IdentifyPrompt { .. } = event {
-            self.answer = Some(host::ShellAction::Declare(io.sim.ground_truth().true_state));
+            self.answer = Some(host::ShellAction::Declare(io.sim.safety().true_state));
         }
         self.events.push(event.clone());
     }
+}
+
+impl host::RunShell<SimIo> for SimShell {
+    fn event(&mut self, event: &host::RunEvent, io: &mut SimIo) {
+        self.on_event(event, io);
+    }
 
     fn poll(&mut self, _io: &mut SimIo) -> Option<host::ShellAction> {
+        self.answer.take()
+    }
+}
+
+impl host::RunShell<&mut SimIo> for SimShell {
+    fn event(&mut self, event: &host::RunEvent, io: &mut &mut SimIo) {
+        self.on_event(event, io);
+    }
+
+    fn poll(&mut self, _io: &mut &mut SimIo) -> Option<host::ShellAction> {
         self.answer.take()
     }
 }

@@ -21,6 +21,10 @@ use protocol::{
 use crate::session::{RequestId, Session, SessionError, SessionEvent};
 use crate::text;
 
+/// While the operator is asked to identify the state, the status is read this often (the
+/// crane's confirm button may settle it first).
+const OPERATOR_POLL_MS: u64 = 500;
+
 /// What happened to one step that was started on the device.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepReport {
@@ -302,8 +306,15 @@ enum Wait {
     TakeoverAbort,
     /// A stray plan was aborted; the status after it.
     StatusAfterTakeover,
-    /// The operator's answer to an identify prompt.
+    /// `Identify` is out.
+    Identify,
+    /// The status after `Identify` answered.
+    StatusAfterIdentify,
+    /// The operator's answer to an identify prompt (the status is polled meanwhile: the crane's
+    /// own confirm button may settle it).
     Operator,
+    /// A status poll while the operator is asked.
+    OperatorPoll,
     /// A declared state; then the status.
     Declared,
     Upload,
@@ -410,7 +421,7 @@ impl PlanRunner {
 
     /// When [`PlanRunner::handle_timeout`] should be called next.
     pub fn poll_timeout(&self) -> Option<u64> {
-        if self.waiting_on.is_none() && self.wait == Wait::Poll {
+        if self.waiting_on.is_none() && matches!(self.wait, Wait::Poll | Wait::Operator) {
             self.next_poll_ms
         } else {
             None
@@ -452,9 +463,10 @@ impl PlanRunner {
     /// The operator's answer to [`RunEvent::IdentifyPrompt`]: the trunk is in `state`
     /// (`None`: the operator cannot tell, and the run fails unidentified).
     pub fn declare(&mut self, session: &mut Session, state: Option<TrunkState>, now_ms: u64) {
-        if self.wait != Wait::Operator {
+        if !matches!(self.wait, Wait::Operator | Wait::OperatorPoll) {
             return;
         }
+        self.next_poll_ms = None;
         match state {
             Some(state) => {
                 self.out.identified = true;
@@ -478,6 +490,13 @@ impl PlanRunner {
 
     /// Time has passed: poll the status when due.
     pub fn handle_timeout(&mut self, session: &mut Session, now_ms: u64) {
+        if self.wait == Wait::Operator && self.waiting_on.is_none() {
+            if self.next_poll_ms.is_some_and(|at| now_ms >= at) {
+                self.next_poll_ms = None;
+                self.ask(session, Wait::OperatorPoll, RequestBody::GetStatus, now_ms);
+            }
+            return;
+        }
         if self.wait == Wait::Poll && self.waiting_on.is_none() {
             if let Some(at) = self.next_poll_ms {
                 if now_ms >= at {
@@ -629,13 +648,24 @@ impl PlanRunner {
     ) {
         let reply = crate::session::Reply { result, body };
         match self.wait {
-            Wait::Status | Wait::StatusAfterReset | Wait::StatusAfterTakeover => {
+            Wait::Status
+            | Wait::StatusAfterReset
+            | Wait::StatusAfterTakeover
+            | Wait::StatusAfterIdentify
+            | Wait::OperatorPoll => {
                 let after = self.wait;
                 match reply.status() {
                     Ok(st) => self.on_first_status(session, st, after, now_ms),
                     Err(e) => self.finish(Some(RunFailure::from_session("before planning", &e))),
                 }
             }
+            Wait::Identify => match reply.accepted("Identify") {
+                Ok(_) => self.ask(session, Wait::StatusAfterIdentify, RequestBody::GetStatus, now_ms),
+                Err(e) => self.finish(Some(RunFailure {
+                    kind: FailureKind::Unidentified,
+                    ..RunFailure::from_session("identifying the unconfirmed state", &e)
+                })),
+            },
             Wait::ResetFaults | Wait::TakeoverAbort => {
                 let (name, next) = if self.wait == Wait::ResetFaults {
                     ("ResetFaults", Wait::StatusAfterReset)
@@ -799,12 +829,30 @@ impl PlanRunner {
             return self.ask(session, Wait::ResetFaults, RequestBody::ResetFaults, now_ms);
         }
         if !st.state_confirmed {
-            self.wait = Wait::Operator;
-            self.events.push_back(RunEvent::IdentifyPrompt {
-                believed: st.state,
-                candidates: TrunkState::ALL.to_vec(),
-            });
-            return;
+            if after == Wait::StatusAfterIdentify || after == Wait::OperatorPoll {
+                // The crane's probes could not decide: the operator names the state, among the
+                // candidates the device still holds possible.
+                if after == Wait::StatusAfterIdentify {
+                    let mut candidates: Vec<TrunkState> = st.candidates.iter().collect();
+                    if candidates.is_empty() {
+                        candidates = TrunkState::ALL.to_vec();
+                    }
+                    self.events.push_back(RunEvent::IdentifyPrompt {
+                        believed: st.state,
+                        candidates,
+                    });
+                }
+                self.wait = Wait::Operator;
+                self.next_poll_ms = Some(now_ms + OPERATOR_POLL_MS);
+                return;
+            }
+            self.events.push_back(RunEvent::Note(format!(
+                "the device has not confirmed its state ({}{}): identifying it first",
+                st.state,
+                st.interrupted
+                    .map_or(String::new(), |t| format!(", was going {} → {}", t.from, t.to))
+            )));
+            return self.ask(session, Wait::Identify, RequestBody::Identify, now_ms);
         }
         self.next_plan_id = st.plan.map_or(0, |p| p.plan_id).wrapping_add(1).max(1);
         if st.state == self.target {

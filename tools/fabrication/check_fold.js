@@ -53,7 +53,7 @@ for (const fr of frames) {
     const folded = Math.hypot(P[0] - Q[0], P[1] - Q[1], P[2] - Q[2]);
     worst = Math.max(worst, Math.abs(folded - flat) / flat);
   });
-  if (fr["yoshimura:feasible"] && fr["yoshimura:max_strain"] < 1e-9) {
+  if (fr["yoshimura:states_feasible"] && fr["yoshimura:max_strain"] < 1e-9) {
     check(worst < 1e-9, `frame '${fr.frame_title}': isometric, largest edge error ${worst.toExponential(2)}`);
   } else {
     console.log(`info frame '${fr.frame_title}': strained (recorded ${fr["yoshimura:max_strain"]}), largest edge error ${worst.toExponential(2)}`);

@@ -118,11 +118,11 @@ def cmd_panel(a):
     check(len(objs) == 2 and sorted(o.get("pindex") for o in objs) == ["0", "1"],
           f"two objects, one per material: {[o.get('name') for o in objs]}")
     scene = trimesh.load(a.file, force="scene")
-    geoms = list(scene.geometry.values())
+    geoms = list(scene.geometry.items())
     check(len(geoms) == 2, f"trimesh reads {len(geoms)} objects")
     base_mm, facet_mm, gap_mm = float(meta.get("ys:base_mm", "nan")), float(meta.get("ys:facet_mm", "nan")), meta.get("ys:gap_mm", "")
-    for g in geoms:
-        bodies = mesh_checks(f"3mf {g.metadata.get('name', '?')}", g)
+    for gname, g in geoms:
+        bodies = mesh_checks(f"3mf {gname}", g)
         zmin, zmax = g.bounds[0][2], g.bounds[1][2]
         if len(bodies) == 1:
             check(abs(zmin) < 1e-9 and abs(zmax - base_mm) < 1e-9, f"base sheet z in [0, {base_mm}] mm")
@@ -139,7 +139,7 @@ def cmd_panel(a):
 
         files = sorted(glob.glob(os.path.join(a.stl_dir, "*.stl")))
         check(len(files) == 2, f"two STL files {[os.path.basename(f) for f in files]}")
-        vol3 = sorted(g.volume for g in geoms)
+        vol3 = sorted(g.volume for _, g in geoms)
         vols = []
         for f in files:
             m = trimesh.load(f, force="mesh")

@@ -86,7 +86,7 @@ pub fn document(pattern: &Pattern, frames: &[(String, Folded)], creator: &str) -
                 "edges_foldAngle": a,
                 "edges_assignment": assign,
                 "yoshimura:layer_states": states,
-                "yoshimura:feasible": f.feasible,
+                "yoshimura:states_feasible": f.feasible,
                 "yoshimura:max_strain": f.max_strain,
             })
         })

@@ -181,6 +181,9 @@ pub struct Folded {
     pub max_strain: f64,
     /// Relative edge-length error of each face (same order as `Pattern::faces`).
     pub face_strain: Vec<f64>,
+    /// Largest absolute edge-length error of any face, units of l (the isometry
+    /// measure; the relative `max_strain` is the stricter one on long edges).
+    pub max_length_error: f64,
 }
 
 /// Folds `pattern` with one state per layer (bottom first).
@@ -236,7 +239,17 @@ pub fn fold(pattern: &Pattern, states: &[LayerState]) -> Result<Folded, FabError
         })
         .collect();
     let max_strain = face_strain.iter().copied().fold(0.0, f64::max);
+    let max_length_error = pattern
+        .faces
+        .iter()
+        .flat_map(|f| (0..3).map(move |k| (f.v[k], f.v[(k + 1) % 3])))
+        .map(|(a, b)| {
+            let flat = crate::pattern::dist2(pattern.vertices[a], pattern.vertices[b]);
+            ((coords[a] - coords[b]).norm() - flat).abs()
+        })
+        .fold(0.0, f64::max);
     Ok(Folded {
+        max_length_error,
         coords,
         states: states.to_vec(),
         feasible,

@@ -225,7 +225,7 @@ fn feasible_folded_frames_are_isometric_on_every_face() {
             let f = fold(&p, &states).unwrap();
             assert!(f.feasible);
             assert!(
-                f.max_strain <= 1e-9,
+                f.max_strain <= 1e-9 && f.max_length_error <= 1e-9,
                 "{} {:?}: strain {}",
                 t.describe(),
                 states[0],
@@ -378,4 +378,121 @@ fn seam_allowance_range_is_enforced() {
         .collect();
     assert_eq!(cuts.len(), 3);
     assert!(Pattern::new(&t, 0.0).unwrap().tab().is_empty());
+}
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Deployed and folded (where it exists) are exact for every (n, β): the folded frames
+        /// are isometric to 1e-9 l whatever the design, layer count or module mix.
+        #[test]
+        fn deployed_and_folded_are_isometric_for_any_design(
+            n in 3u32..=16,
+            b1 in 0.5f64..89.5,
+            b2 in 0.5f64..89.5,
+            layers in 1usize..=3,
+        ) {
+            let t = trunk(n, &[(b1, layers), (b2, 1)], 10.0);
+            let p = Pattern::new(&t, 0.0).unwrap();
+            let f = fold(&p, &all_layers(&p, LayerState::Shape(ShapeState::Deployed))).unwrap();
+            prop_assert!(f.max_strain <= 1e-9, "deployed {}", f.max_strain);
+            let ff = 90.0 / n as f64;
+            if b1 >= ff && b2 >= ff {
+                let f = fold(&p, &all_layers(&p, LayerState::Shape(ShapeState::Folded))).unwrap();
+                prop_assert!(f.max_strain <= 1e-9, "folded {}", f.max_strain);
+            }
+        }
+
+        /// Self-packed layers of one β close exactly over the whole range (90°/n, 45°].
+        #[test]
+        fn self_packed_is_isometric_over_its_range(n in 3u32..=12, s in 0.001f64..=1.0, layers in 1usize..=3) {
+            let ff = 90.0 / n as f64;
+            let beta = ff + s * (45.0 - ff);
+            let t = trunk(n, &[(beta, layers)], 10.0);
+            let p = Pattern::new(&t, 0.0).unwrap();
+            let f = fold(&p, &all_layers(&p, LayerState::SelfPacked)).unwrap();
+            prop_assert!(f.max_strain <= 1e-9, "β = {beta}: {}", f.max_strain);
+        }
+    }
+
+    #[test]
+    fn extreme_designs_build_and_fold() {
+        for (n, b) in [
+            (3u32, 0.001),
+            (3, 89.999),
+            (64, 0.001),
+            (64, 89.999),
+            (64, 45.0),
+        ] {
+            let t = trunk(n, &[(b, 1)], 1.0);
+            let p = Pattern::new(&t, 0.5).unwrap();
+            assert_eq!(p.faces.len(), 8 * n as usize);
+            let f = fold(&p, &all_layers(&p, LayerState::Shape(ShapeState::Deployed))).unwrap();
+            // Slivers of height w/2 ≈ 9e-6 l at 0.001°: the absolute 1e-9 l bound.
+            assert!(
+                f.max_length_error <= 1e-9,
+                "n {n} β {b}: {}",
+                f.max_length_error
+            );
+            assert!(f.coords.iter().all(|c| c.iter().all(|x| x.is_finite())));
+        }
+    }
+}
+
+#[test]
+fn kawasaki_holds_except_where_two_modules_of_different_beta_meet() {
+    // Alternating sum of the sector angles between consecutive M/V creases around a vertex:
+    // π at every interior vertex of one β; π + 2(β_above − β_below) on a module interface.
+    for t in designs() {
+        let p = Pattern::new(&t, 0.0).unwrap();
+        for v in p.interior_vertices() {
+            let o = p.vertices[v];
+            let mut dirs: Vec<f64> = p
+                .edges
+                .iter()
+                .filter(|e| {
+                    e.v.contains(&v) && matches!(e.kind, LineKind::Mountain | LineKind::Valley)
+                })
+                .map(|e| {
+                    let w = p.vertices[if e.v[0] == v { e.v[1] } else { e.v[0] }];
+                    (w[1] - o[1]).atan2(w[0] - o[0])
+                })
+                .collect();
+            dirs.sort_by(f64::total_cmp);
+            let k = dirs.len();
+            let sectors: Vec<f64> = (0..k)
+                .map(|i| {
+                    let d = dirs[(i + 1) % k] - dirs[i];
+                    if i + 1 == k {
+                        d + std::f64::consts::TAU
+                    } else {
+                        d
+                    }
+                })
+                .collect();
+            let even: f64 = sectors.iter().step_by(2).sum();
+            let expected = match p.roles[v] {
+                VertexRole::B { row, .. } if p.layers()[row].1 != p.layers()[row - 1].1 => {
+                    let (below, above) = (p.layers()[row - 1].1.beta(), p.layers()[row].1.beta());
+                    // Either alternating sum, depending on where the sort starts.
+                    let d = std::f64::consts::PI + 2.0 * (above - below);
+                    if (even - d).abs() < 1e-9 {
+                        d
+                    } else {
+                        std::f64::consts::TAU - d
+                    }
+                }
+                _ => std::f64::consts::PI,
+            };
+            assert!(
+                (even - expected).abs() < 1e-9,
+                "{:?}: {even} vs {expected}",
+                p.roles[v]
+            );
+        }
+    }
 }

@@ -97,7 +97,7 @@ fn storage_never_delays_a_loop_pass_beyond_2_ms_even_with_a_broken_flash() {
                 125 => StoredState {
                     state: d_f,
                     confirmed: false,
-                    candidates: protocol::StateSet::ALL,
+                    candidates: protocol::StateSet::single(d_f).with(f_f),
                     pending: None,
                 },
                 _ => StoredState::confirmed(if i % 2 == 0 { f_f } else { d_f }),

@@ -97,7 +97,7 @@ fn pattern_writes_svg_dxf_and_fold_of_the_crane_trunk() {
     // 4 layers × 8n faces.
     assert_eq!(doc["faces_vertices"].as_array().unwrap().len(), 4 * 8 * 3);
     for f in doc["file_frames"].as_array().unwrap() {
-        assert_eq!(f["yoshimura:feasible"], true);
+        assert_eq!(f["yoshimura:states_feasible"], true);
         assert!(f["yoshimura:max_strain"].as_f64().unwrap() < 1e-9);
     }
 }
@@ -124,7 +124,7 @@ fn pattern_frames_per_module_and_infeasible_states_are_recorded() {
         frames[0]["yoshimura:layer_states"],
         serde_json::json!(["self-packed", "self-packed", "folded", "folded"])
     );
-    assert_eq!(frames[1]["yoshimura:feasible"], false);
+    assert_eq!(frames[1]["yoshimura:states_feasible"], false);
     assert!(frames[1]["yoshimura:max_strain"].as_f64().unwrap() > 0.01);
 }
 

@@ -19,6 +19,14 @@ pub struct Output {
 /// Opens every `(flag, path)` for writing; on the first failure removes the files this call
 /// created and returns a usage error naming the flag and the reason.
 pub fn open_all(list: &[(&'static str, &Path)]) -> Result<Vec<Output>, Failure> {
+    for (i, (flag, path)) in list.iter().enumerate() {
+        if let Some((other, _)) = list[..i].iter().find(|(_, p)| p == path) {
+            return Err(Failure::usage(format!(
+                "{other} and {flag} name the same file {}; give each output its own path",
+                path.display()
+            )));
+        }
+    }
     let mut out: Vec<Output> = Vec::new();
     for (flag, path) in list {
         let existed = path.exists();

@@ -414,12 +414,15 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
     }
     let mut reached = 0;
     let mut first_seq: u16 = 1;
+    // A host restarted after a crash takes the crane over from its dead predecessor.
+    let mut takeover = false;
     for &target in &scenario.targets {
         for _attempt in 0..ATTEMPTS_PER_TARGET {
             first_seq = first_seq.wrapping_add(0x1111).max(1);
             let mut driver = Driver::new(Host::new(Timing::standard(), first_seq), &mut io);
-            let result = play_target(&mut driver, target, &crash, &checker);
-            if matches!(result, Played::Crashed) {
+            let result = play_target(&mut driver, target, &crash, &checker, takeover);
+            takeover = matches!(result, Played::Crashed);
+            if takeover {
                 driver.vanish();
             } else {
                 drop(driver);
@@ -462,13 +465,22 @@ fn play_target(
     target: TrunkState,
     crash: &RefCell<bool>,
     checker: &RefCell<Checker>,
+    takeover: bool,
 ) -> Played {
     let start = d.io.sim.now_ms();
     let mut bound_ms = RUN_BASE_BOUND_MS;
-    checker
-        .borrow_mut()
-        .note(start, &format!("host connects, target {target}"));
-    d.host.connect(start);
+    checker.borrow_mut().note(
+        start,
+        &format!(
+            "host connects{}, target {target}",
+            if takeover { " (taking over)" } else { "" }
+        ),
+    );
+    if takeover {
+        d.host.connect_takeover(start);
+    } else {
+        d.host.connect(start);
+    }
     let mut opened = false;
     loop {
         if *crash.borrow() {

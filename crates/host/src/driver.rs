@@ -137,8 +137,17 @@ impl<I: Io> Driver<I> {
 
     /// Connects: the handshake, to its end.
     pub fn connect(&mut self) -> Result<DeviceInfo, SessionError> {
+        self.connect_with(false)
+    }
+
+    /// Connects, taking the crane over from the host that holds it when `takeover`.
+    pub fn connect_with(&mut self, takeover: bool) -> Result<DeviceInfo, SessionError> {
         let now = self.io.now_ms();
-        self.host.connect(now);
+        if takeover {
+            self.host.connect_takeover(now);
+        } else {
+            self.host.connect(now);
+        }
         loop {
             while let Some(ev) = self.host.poll_event() {
                 match ev {

@@ -194,7 +194,8 @@ pub struct Outcome {
     pub failure: Option<RunFailure>,
     /// Times the plan was remade after a surprise.
     pub replans: u32,
-    /// Whether the state was identified (by the operator) before planning.
+    /// Whether the state had to be identified before planning (by the crane's probes, or by the
+    /// operator when the probes could not decide).
     pub identified: bool,
 }
 
@@ -366,6 +367,9 @@ pub struct PlanRunner {
     cancelled: bool,
     manual_confirm_pending: bool,
     status_fresh: bool,
+    probing_noted: bool,
+    prompted_identify: bool,
+    identify_requests: u32,
 }
 
 impl PlanRunner {
@@ -391,6 +395,9 @@ impl PlanRunner {
             cancelled: false,
             manual_confirm_pending: false,
             status_fresh: false,
+            probing_noted: false,
+            prompted_identify: false,
+            identify_requests: 0,
         }
     }
 
@@ -501,6 +508,7 @@ impl PlanRunner {
             if let Some(at) = self.next_poll_ms {
                 if now_ms >= at {
                     self.next_poll_ms = Some(at.max(now_ms) + self.options.poll_ms);
+                    self.status_fresh = false;
                     self.waiting_on = Some(session.request(RequestBody::GetStatus, now_ms));
                 }
             }
@@ -534,6 +542,8 @@ impl PlanRunner {
 
     fn ask(&mut self, session: &mut Session, wait: Wait, body: RequestBody, now_ms: u64) {
         self.wait = wait;
+        // Whatever comes next, the last status predates it.
+        self.status_fresh = false;
         let id = if matches!(body, RequestBody::Abort) {
             session.request_first(body, now_ms)
         } else {
@@ -578,6 +588,17 @@ impl PlanRunner {
                     self.target
                 ),
             ));
+        }
+        // A run that ended on a failed request has no fresh status: what it last heard is
+        // stale, and is not reported as confirmed.
+        if failure.as_ref().is_some_and(|f| {
+            matches!(
+                f.kind,
+                FailureKind::LinkLost | FailureKind::Refused | FailureKind::Protocol
+            )
+        }) && !self.status_fresh
+        {
+            self.out.state_confirmed = false;
         }
         self.out.failure = failure;
         self.events.push_back(RunEvent::Finished);
@@ -660,7 +681,12 @@ impl PlanRunner {
                 }
             }
             Wait::Identify => match reply.accepted("Identify") {
-                Ok(_) => self.ask(session, Wait::StatusAfterIdentify, RequestBody::GetStatus, now_ms),
+                Ok(_) => self.ask(
+                    session,
+                    Wait::StatusAfterIdentify,
+                    RequestBody::GetStatus,
+                    now_ms,
+                ),
                 Err(e) => self.finish(Some(RunFailure {
                     kind: FailureKind::Unidentified,
                     ..RunFailure::from_session("identifying the unconfirmed state", &e)
@@ -799,7 +825,40 @@ impl PlanRunner {
                 "the e-stop is latched: release it and reset faults first",
             )));
         }
-        if matches!(st.mode, Mode::Running | Mode::WaitingManual) {
+        // Identification under way: the crane runs its probes (a short plan of its own) or asks
+        // its operator; that is what this run asked for, not another host's plan.
+        let identifying =
+            matches!(after, Wait::StatusAfterIdentify | Wait::OperatorPoll) && !st.state_confirmed;
+        if identifying && !st.estop {
+            if st.mode == Mode::Running {
+                if !self.probing_noted {
+                    self.probing_noted = true;
+                    self.events.push_back(RunEvent::Note(
+                        "the crane probes its state (identification)".into(),
+                    ));
+                }
+                self.wait = Wait::Operator;
+                self.next_poll_ms = Some(now_ms + self.options.poll_ms);
+                return;
+            }
+            if st.faults == 0 || self.prompted_identify {
+                if !self.prompted_identify {
+                    self.prompted_identify = true;
+                    let mut candidates: Vec<TrunkState> = st.candidates.iter().collect();
+                    if candidates.is_empty() {
+                        candidates = TrunkState::ALL.to_vec();
+                    }
+                    self.events.push_back(RunEvent::IdentifyPrompt {
+                        believed: st.state,
+                        candidates,
+                    });
+                }
+                self.wait = Wait::Operator;
+                self.next_poll_ms = Some(now_ms + OPERATOR_POLL_MS);
+                return;
+            }
+        }
+        if matches!(st.mode, Mode::Running | Mode::WaitingManual) && !identifying {
             if self.options.take_over_running && after != Wait::StatusAfterTakeover {
                 self.events.push_back(RunEvent::Note(
                     "a plan left by another host is running: aborting it first".into(),
@@ -829,30 +888,37 @@ impl PlanRunner {
             return self.ask(session, Wait::ResetFaults, RequestBody::ResetFaults, now_ms);
         }
         if !st.state_confirmed {
-            if after == Wait::StatusAfterIdentify || after == Wait::OperatorPoll {
-                // The crane's probes could not decide: the operator names the state, among the
-                // candidates the device still holds possible.
-                if after == Wait::StatusAfterIdentify {
-                    let mut candidates: Vec<TrunkState> = st.candidates.iter().collect();
-                    if candidates.is_empty() {
-                        candidates = TrunkState::ALL.to_vec();
-                    }
-                    self.events.push_back(RunEvent::IdentifyPrompt {
-                        believed: st.state,
-                        candidates,
-                    });
-                }
-                self.wait = Wait::Operator;
-                self.next_poll_ms = Some(now_ms + OPERATOR_POLL_MS);
-                return;
+            if self.identify_requests >= 2 {
+                return self.finish(Some(RunFailure::new(
+                    FailureKind::Unidentified,
+                    format!(
+                        "the device's state is still unconfirmed after identification (it may \
+                         be {}); look at the trunk and run `host-tool declare STATE`",
+                        st.candidates
+                            .iter()
+                            .map(|s| s.name())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )));
             }
+            self.identify_requests += 1;
             self.events.push_back(RunEvent::Note(format!(
                 "the device has not confirmed its state ({}{}): identifying it first",
                 st.state,
-                st.interrupted
-                    .map_or(String::new(), |t| format!(", was going {} → {}", t.from, t.to))
+                st.interrupted.map_or(String::new(), |t| format!(
+                    ", was going {} → {}",
+                    t.from, t.to
+                ))
             )));
             return self.ask(session, Wait::Identify, RequestBody::Identify, now_ms);
+        }
+        if matches!(after, Wait::StatusAfterIdentify | Wait::OperatorPoll) && !self.out.identified {
+            self.out.identified = true;
+            self.events.push_back(RunEvent::Note(format!(
+                "identified: the crane's probes confirm {}",
+                st.state
+            )));
         }
         self.next_plan_id = st.plan.map_or(0, |p| p.plan_id).wrapping_add(1).max(1);
         if st.state == self.target {

@@ -97,6 +97,8 @@ pub struct Stats {
     pub max_awake_cycles: u64,
     /// Resets after the first start.
     pub resets: u64,
+    /// When the longest stretch ended, ns of virtual time.
+    pub max_awake_at_ns: u64,
 }
 
 /// The emulated board.
@@ -211,6 +213,7 @@ impl Emulator {
             wakes: 0,
             wake_start_cycles: 0,
             max_awake_cycles: 0,
+            max_awake_at: 0,
         };
         let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, machine)
             .map_err(|e| cpu_err(e, 0))?;
@@ -433,6 +436,7 @@ impl Emulator {
             wakes: m.wakes,
             max_awake_cycles: m.max_awake_cycles,
             resets: self.resets.len() as u64,
+            max_awake_at_ns: clock::ticks_to_ns(m.max_awake_at),
         }
     }
 
@@ -622,7 +626,10 @@ impl Emulator {
                 let m = self.m();
                 m.asleep = true;
                 let stretch = m.awake_cycles - m.wake_start_cycles;
-                m.max_awake_cycles = m.max_awake_cycles.max(stretch);
+                if stretch > m.max_awake_cycles {
+                    m.max_awake_cycles = stretch;
+                    m.max_awake_at = m.now;
+                }
             }
         }
     }

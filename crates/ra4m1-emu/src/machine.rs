@@ -132,6 +132,8 @@ pub struct Machine {
     pub wake_start_cycles: u64,
     /// Longest awake stretch, cycles.
     pub max_awake_cycles: u64,
+    /// When the longest awake stretch ended, ticks.
+    pub max_awake_at: u64,
 }
 
 fn mstp_check(sys: &System, x: usize, bit: u32, name: &str) -> Result<(), Why> {

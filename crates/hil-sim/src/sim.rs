@@ -83,10 +83,14 @@ pub struct Safety {
     pub pressure_kpa: f32,
     /// The controller's pressure cap, kPa.
     pub pressure_limit_kpa: f32,
-    /// The inlet passes air.
+    /// The inlet passes air (a stuck valve included).
     pub inlet_open: bool,
+    /// The controller commands the inlet open.
+    pub inlet_commanded_open: bool,
     /// The exhaust passes air.
     pub exhaust_open: bool,
+    /// Every servo limp or at its command.
+    pub servos_still: bool,
     /// As [`GroundTruth::actuators_safe`].
     pub actuators_safe: bool,
 }
@@ -881,7 +885,9 @@ impl Sim {
             pressure_kpa: self.trunk.pressure_kpa() as f32,
             pressure_limit_kpa: self.cfg.pressure_limit_kpa,
             inlet_open: self.inlet_passes(),
+            inlet_commanded_open: self.shell.outputs.inlet.high,
             exhaust_open: self.shell.outputs.exhaust.high,
+            servos_still: self.servos_still(),
             actuators_safe: self.actuators_safe(),
         }
     }
@@ -891,13 +897,15 @@ impl Sim {
             && !self.opts.faults.contains(&Fault::ValveStuckClosed)
     }
 
+    fn servos_still(&self) -> bool {
+        self.servos
+            .iter()
+            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5)
+    }
+
     fn actuators_safe(&self) -> bool {
         let limit = self.ctl.config().pressure_limit_kpa as f64;
-        let servos_still = self
-            .servos
-            .iter()
-            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
-        !self.inlet_passes() && servos_still && self.trunk.pressure_kpa() <= limit
+        !self.inlet_passes() && self.servos_still() && self.trunk.pressure_kpa() <= limit
     }
 
     /// The injected faults in effect now (the mid-plan ones once they struck).

@@ -284,23 +284,26 @@ impl Checker {
         // After any fault the actuators are safe within the bound.
         if status.faults != 0 {
             let since = *self.fault_since.get_or_insert(t);
-            // A stuck-open inlet cannot be closed: safe is then the exhaust open and the
-            // pressure held under the cap.
-            let stuck = status.faults & protocol::FaultCode::InletStuck.bit() != 0;
-            let safe = if stuck {
-                truth.exhaust_open
-                    && truth.pressure_kpa <= truth.pressure_limit_kpa + PRESSURE_TOLERANCE_KPA
-            } else {
-                truth.actuators_safe
-            };
+            // What the controller commands, and the pressure: a valve stuck open cannot be
+            // closed by any firmware (the pressure then must stay under the cap all the same).
+            let safe = !truth.inlet_commanded_open
+                && truth.servos_still
+                && truth.pressure_kpa <= truth.pressure_limit_kpa + PRESSURE_TOLERANCE_KPA;
             if !safe && t - since > SAFE_WITHIN_MS {
                 self.violate(
                     t,
                     "safe-after-fault",
                     format!(
                         "faults {:#06x} active since {since} ms and the actuators are not safe \
-                         (inlet {}, pressure {:.1} kPa)",
-                        status.faults, truth.inlet_open, truth.pressure_kpa
+                         (inlet commanded {}, servos still {}, pressure {:.1} kPa)",
+                        status.faults,
+                        if truth.inlet_commanded_open {
+                            "open"
+                        } else {
+                            "closed"
+                        },
+                        truth.servos_still,
+                        truth.pressure_kpa
                     ),
                 );
             }

@@ -365,3 +365,48 @@ fn an_aborted_fold_is_identified_by_the_probe() {
         }
     }
 }
+
+/// No false E-08: a step cut off by a lost link (limp servos pulled back by the tendons
+/// let the compressed trunk lengthen) or by a power cut (the servos, slack again at boot, do
+/// the same; a snap may still complete) drops the sealed pressure without any leak. Every
+/// 250 ms of the first 6 s of every edge; without the leak watch's quiet period
+/// (`LEAK_SETTLE_MS` = 0) a reboot 1.75 s into F&D → F&F raised E-08.
+#[test]
+fn no_false_leak_fault_after_a_link_loss_or_a_reboot_mid_step() {
+    let faults_raised = |sim: &Sim| sim.controller().status().faults;
+    for t in &TRANSITIONS {
+        for cut_ms in (1..=24).map(|k| k * 250u64) {
+            // The link drops (the host falls silent): LinkLoss, never Leak.
+            let (mut sim, mut host) = step_started(t.from, t.to, 5, &[]);
+            let _ = host.request(
+                &mut sim,
+                RequestBody::SetParam {
+                    id: ParamId::LinkTimeoutMs,
+                    value: 200.0,
+                },
+                500,
+            );
+            sim.run_for(cut_ms);
+            sim.run_for(8_000);
+            let f = faults_raised(&sim);
+            assert_eq!(
+                f & protocol::FaultCode::Leak.bit(),
+                0,
+                "{} -> {} link lost at {cut_ms} ms: faults {f:#x}",
+                t.from,
+                t.to
+            );
+            // The power is cut mid-pull.
+            let (mut sim, _host) = step_started(t.from, t.to, 5, &[]);
+            sim.run_for(cut_ms);
+            sim.power_cycle();
+            sim.run_for(10_000);
+            let f = faults_raised(&sim);
+            assert_eq!(
+                f, 0,
+                "{} -> {} rebooted at {cut_ms} ms: faults {f:#x}",
+                t.from, t.to
+            );
+        }
+    }
+}

@@ -404,8 +404,10 @@ impl Controller {
             if b == 0 {
                 let fp = core::mem::replace(&mut self.fingerprint, Fingerprint::START);
                 // Borrowed where it lies: a `Request` is ~530 bytes, a move is a memcpy on the M4.
-                if let Some(Ok(req)) = &decoded {
-                    self.on_request(req, fp.0);
+                match &decoded {
+                    Some(Ok(req)) => self.on_request(req, fp.0),
+                    Some(Err(protocol::FrameError::Legacy)) => self.on_v1_frame(),
+                    _ => {}
                 }
             }
         }

@@ -73,6 +73,19 @@ impl Controller {
         self.update_outputs();
     }
 
+    /// A protocol-v1 frame: a v1 host's Hello gets v1's refusal with this device's versions
+    /// (`protocol::legacy`), so the old host says which versions differ instead of "no
+    /// answer"; anything else of v1 is dropped.
+    pub(super) fn on_v1_frame(&mut self) {
+        let info = self.device_info(0);
+        let mut out = [0u8; link::CACHE_LEN];
+        if let Some(n) =
+            protocol::legacy::refuse_v1_hello(self.decoder.last_frame(), &info, &mut out)
+        {
+            self.tx.push_frame(&out[..n], 0);
+        }
+    }
+
     /// The device's identity; `session` is the one just opened (0 on a refused handshake:
     /// the session in force is never told to a stranger).
     fn device_info(&self, session: u32) -> DeviceInfo {

@@ -2292,3 +2292,41 @@ fn the_operator_picks_a_candidate_with_up_down_and_confirms_it() {
     assert_eq!(r.stores.last(), Some(&StoredState::confirmed(FD)));
     assert_eq!(r.ctl.poll_display(), display::text("F-d "));
 }
+
+#[test]
+fn a_v1_host_is_refused_in_v1_words() {
+    let mut r = Rig::new(FF);
+    // A v1 Hello (seq 9, version 1, schema 0x221ee9a8) framed with v1's CRC-16.
+    let payload = [0x09u8, 0x00, 0x01, 0xa8, 0xd3, 0xfb, 0x90, 0x02];
+    let crc = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&payload);
+    let mut raw = payload.to_vec();
+    raw.extend(crc.to_le_bytes());
+    let mut frame = [0u8; 32];
+    let n = cobs::try_encode(&raw, &mut frame).unwrap();
+    r.ctl.handle_rx(&frame[..n], r.now);
+    r.ctl.handle_rx(&[0], r.now);
+    let mut out = [0u8; 128];
+    let len = r.ctl.poll_tx(&mut out);
+    assert!(len > 0, "answered");
+    assert_eq!(out[len - 1], 0);
+    // v1 framing: COBS, then payload ‖ CRC-16; the payload is v1's
+    // Response { seq 9, Rejected(VersionMismatch), Hello(DeviceInfo { version 2, .. }) }.
+    let m = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+    let (p, check) = out[..m].split_last_chunk::<2>().unwrap();
+    assert_eq!(
+        crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC)
+            .checksum(p)
+            .to_le_bytes(),
+        *check
+    );
+    assert_eq!(
+        &p[..6],
+        &[0x00, 0x09, 0x01, 0x00, 0x01, PROTOCOL_VERSION as u8]
+    );
+    // Nothing else changed: no handshake, no session.
+    assert_eq!(r.ctl.session(), 0);
+    assert_eq!(
+        r.request(RequestBody::GetStatus).0,
+        ResultCode::Rejected(RejectReason::NoHandshake)
+    );
+}

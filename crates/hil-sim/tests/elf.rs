@@ -159,16 +159,17 @@ fn storage_never_stretches_a_loop_pass_beyond_1_ms_even_with_a_broken_flash() {
 }
 
 /// A power cut mid-step on the board ELF: after the reboot the device reports exactly what the
-/// host-built controller reports for the same cut (the same record survives in the emulated
-/// data flash and the same boot logic reads it). Whether that report is truthful is the
-/// controller's journal (crash-consistent state); this test makes the board inherit it.
+/// host-built controller reports for the same cut (the journal record survives in the
+/// emulated data flash and the same boot logic reads it), and the report is truthful: a
+/// confirmed state is the true one, an unconfirmed one names the interrupted step and
+/// candidates that include the truth.
 #[test]
-fn a_power_cut_mid_step_boots_the_elf_into_the_controllers_own_report() {
+fn a_power_cut_mid_step_boots_the_elf_into_a_truthful_report() {
     let from: TrunkState = "F&P".parse().unwrap();
     let to: TrunkState = "D&F".parse().unwrap();
     let plan = planner::graph::Graph::nominal().plan(from, to).unwrap();
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
-    for cut_ms in [300u64, 1_200, 2_500] {
+    for cut_ms in (200u64..=6_000).step_by(400) {
         let mut reports = Vec::new();
         for elf_mode in [false, true] {
             let mut sim = Sim::try_new(SimOptions {
@@ -210,6 +211,24 @@ fn a_power_cut_mid_step_boots_the_elf_into_the_controllers_own_report() {
             else {
                 panic!("no status after the cut")
             };
+            // Truthful: a confirmed state is the true one; an unconfirmed report names the
+            // step that was cut and its candidates hold the truth.
+            let truth = sim
+                .ground_truth()
+                .true_state
+                .expect("at rest in a named state");
+            if st.state_confirmed {
+                assert_eq!(st.state, truth, "elf {elf_mode}, cut at {cut_ms} ms");
+            } else {
+                assert!(
+                    st.interrupted.is_some(),
+                    "elf {elf_mode}, cut at {cut_ms} ms: {st:?}"
+                );
+                assert!(
+                    st.candidates.contains(truth),
+                    "elf {elf_mode}, cut at {cut_ms} ms: {st:?}"
+                );
+            }
             reports.push((st.state, st.state_confirmed, st.candidates, st.interrupted));
         }
         assert_eq!(

@@ -100,10 +100,12 @@ fn main() -> ! {
         wdt_ms
     );
 
-    // Actuators first, in their safe state: valves closed, gripper as is (low), servos silent.
+    // Actuators first, in their safe state: valves closed, servos driven low (limp), and the
+    // gripper high = closed, as the fail-closed wiring (docs/hardware.md) held it through the
+    // reset: the init never opens it; only the controller's first output decides.
     let inlet = Output::new(pins::INLET);
     let exhaust = Output::new(pins::EXHAUST);
-    let gripper = Output::new(pins::GRIPPER);
+    let gripper = Output::new_high(pins::GRIPPER);
     let gpt7 = pwm::Timer::start(board::regs::pac::GPT167, clocks.pclkd_hz);
     let gpt5 = pwm::Timer::start(board::regs::pac::GPT165, clocks.pclkd_hz);
     let pulse = ServoPulse::default();

@@ -107,6 +107,7 @@ pub struct Emulator {
     options: Options,
     flash_image: Vec<u8>,
     resets: Vec<ResetKind>,
+    symbols: std::collections::HashMap<String, u32>,
 }
 
 impl std::fmt::Debug for Emulator {
@@ -123,6 +124,17 @@ fn cpu_err(what: impl std::fmt::Debug, pc: u32) -> EmuError {
         what: format!("{what:?}"),
         pc,
     }
+}
+
+/// The ELF's symbols with their addresses.
+fn elf_symbols(elf: &[u8]) -> std::collections::HashMap<String, u32> {
+    use object::{Object, ObjectSymbol};
+    let Ok(file) = object::read::elf::ElfFile32::<object::Endianness>::parse(elf) else {
+        return Default::default();
+    };
+    file.symbols()
+        .filter_map(|s| Some((s.name().ok()?.to_string(), s.address() as u32)))
+        .collect()
 }
 
 /// Loads the PT_LOAD segments of a 32-bit ARM ELF into a code-flash image.
@@ -325,6 +337,7 @@ impl Emulator {
             options,
             flash_image: image,
             resets: Vec::new(),
+            symbols: elf_symbols(elf),
         };
         emu.m().flash.timing = options.flash_timing;
         emu.reset(ResetKind::PowerOn)?;
@@ -565,6 +578,17 @@ impl Emulator {
         let mut b = [0u8; 4];
         self.uc.mem_read(addr.into(), &mut b).ok()?;
         Some(u32::from_le_bytes(b))
+    }
+
+    /// Writes RAM as a debug probe would (`false` outside RAM).
+    pub fn write_u32(&mut self, addr: u32, v: u32) -> bool {
+        (RAM.0..RAM.0 + RAM.1 - 3).contains(&addr)
+            && self.uc.mem_write(addr.into(), &v.to_le_bytes()).is_ok()
+    }
+
+    /// The address of the ELF symbol `name`.
+    pub fn symbol(&self, name: &str) -> Option<u32> {
+        self.symbols.get(name).copied()
     }
 
     /// The exception to take now, if any.

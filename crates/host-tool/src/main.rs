@@ -48,6 +48,7 @@ mod cmd;
 mod device;
 mod failure;
 mod progress;
+mod record;
 mod sim;
 mod transport;
 

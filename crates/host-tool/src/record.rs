@@ -113,7 +113,8 @@ impl Topic {
         let boolean = json!({"type": "boolean"});
         let string = json!({"type": "string"});
         let any = json!({});
-        let deg3 = json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
+        let deg3 =
+            json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
         let states = json!({"type": "array", "items": {"type": "string"}});
         let (title, props, required): (&str, Value, Vec<&str>) = match self {
             Topic::Telemetry => (
@@ -121,8 +122,16 @@ impl Topic {
                 json!({"device_ms": int, "host_ms": int, "pressure_kpa": num, "servo_deg": deg3,
                        "inlet_open": boolean, "exhaust_open": boolean, "state": string,
                        "state_confirmed": boolean}),
-                vec!["device_ms", "host_ms", "pressure_kpa", "servo_deg", "inlet_open",
-                     "exhaust_open", "state", "state_confirmed"],
+                vec![
+                    "device_ms",
+                    "host_ms",
+                    "pressure_kpa",
+                    "servo_deg",
+                    "inlet_open",
+                    "exhaust_open",
+                    "state",
+                    "state_confirmed",
+                ],
             ),
             Topic::Events => (
                 "A device event (decoded)",
@@ -138,7 +147,13 @@ impl Topic {
                 "The device's state and its confidence",
                 json!({"host_ms": int, "state": string, "state_confirmed": boolean,
                        "candidates": states, "source": string}),
-                vec!["host_ms", "state", "state_confirmed", "candidates", "source"],
+                vec![
+                    "host_ms",
+                    "state",
+                    "state_confirmed",
+                    "candidates",
+                    "source",
+                ],
             ),
             Topic::Log => return foxglove_log_schema(),
             Topic::Requests => (
@@ -279,16 +294,6 @@ impl Recording {
         })
     }
 
-    /// Where it is written.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    /// Messages written so far on `topic`.
-    pub fn count(&self, topic: Topic) -> u64 {
-        self.counts[topic as usize]
-    }
-
     /// Writes one message. `device_ms`: the device's time if the message carries it.
     pub fn write(&mut self, topic: Topic, host_ms: u64, device_ms: Option<u64>, msg: &Value) {
         let Some(w) = self.writer.as_mut() else {
@@ -297,9 +302,8 @@ impl Recording {
         if let Some(d) = device_ms {
             self.offset_ms = Some(d as i64 - host_ms as i64);
         }
-        let log_ms = device_ms.unwrap_or_else(|| {
-            (host_ms as i64 + self.offset_ms.unwrap_or(0)).max(0) as u64
-        });
+        let log_ms = device_ms
+            .unwrap_or_else(|| (host_ms as i64 + self.offset_ms.unwrap_or(0)).max(0) as u64);
         let log_ns = (log_ms * 1_000_000).max(self.last_log_ns);
         self.last_log_ns = log_ns;
         self.sequence = self.sequence.wrapping_add(1);
@@ -354,7 +358,7 @@ impl Recording {
     pub fn tx_frame(&mut self, host_ms: u64, frame: &[u8]) {
         let mut copy = frame.to_vec();
         let decoded = protocol::decode::<Request>(&mut copy);
-        self.raw(host_ms, "tx", frame, decoded.is_ok());
+        self.raw(host_ms, "tx", frame, decoded.is_ok(), None);
         if let Ok(req) = decoded {
             let v = json!({
                 "host_ms": host_ms,
@@ -371,13 +375,21 @@ impl Recording {
     pub fn rx_frame(&mut self, host_ms: u64, frame: &[u8]) {
         let mut copy = frame.to_vec();
         let decoded = protocol::decode::<DeviceMessage>(&mut copy);
-        self.raw(host_ms, "rx", frame, decoded.is_ok());
+        // The device's time, where the message carries it: the raw frame gets it too.
+        let device_ms = match &decoded {
+            Ok(DeviceMessage::Response {
+                body: ResponseBody::Status(s),
+                ..
+            }) => Some(u64::from(s.uptime_ms)),
+            Ok(DeviceMessage::Event(Event::Telemetry(t))) => Some(u64::from(t.uptime_ms)),
+            Ok(DeviceMessage::Event(Event::Heartbeat { uptime_ms, .. })) => {
+                Some(u64::from(*uptime_ms))
+            }
+            _ => None,
+        };
+        self.raw(host_ms, "rx", frame, decoded.is_ok(), device_ms);
         match decoded {
             Ok(DeviceMessage::Response { seq, result, body }) => {
-                let device_ms = match &body {
-                    ResponseBody::Status(s) => Some(u64::from(s.uptime_ms)),
-                    _ => None,
-                };
                 let v = json!({
                     "host_ms": host_ms,
                     "seq": seq,
@@ -401,7 +413,14 @@ impl Recording {
         }
     }
 
-    fn raw(&mut self, host_ms: u64, dir: &str, frame: &[u8], decoded: bool) {
+    fn raw(
+        &mut self,
+        host_ms: u64,
+        dir: &str,
+        frame: &[u8],
+        decoded: bool,
+        device_ms: Option<u64>,
+    ) {
         let mut hex = String::with_capacity(frame.len() * 2);
         for b in frame {
             use std::fmt::Write as _;
@@ -409,7 +428,7 @@ impl Recording {
         }
         let v = json!({"host_ms": host_ms, "dir": dir, "len": frame.len(), "hex": hex,
                        "decoded": decoded});
-        self.write(Topic::Frames, host_ms, None, &v);
+        self.write(Topic::Frames, host_ms, device_ms, &v);
     }
 
     fn event(&mut self, host_ms: u64, ev: &Event) {
@@ -560,7 +579,9 @@ impl Recording {
         } else {
             format!(
                 "outcome: FAILED: {}",
-                outcome["error"].as_str().unwrap_or("the target was not reached")
+                outcome["error"]
+                    .as_str()
+                    .unwrap_or("the target was not reached")
             )
         };
         let v = json!({"host_ms": host_ms, "kind": "outcome", "text": line, "detail": outcome});
@@ -726,11 +747,6 @@ impl<I> Recorder<I> {
     pub fn recording(&mut self) -> Option<&mut Recording> {
         self.recording.as_mut()
     }
-
-    /// Detaches the recording (to finish it).
-    pub fn take_recording(&mut self) -> Option<Recording> {
-        self.recording.take()
-    }
 }
 
 impl<I: host::Io + Truth> host::Io for Recorder<I> {
@@ -742,7 +758,8 @@ impl<I: host::Io + Truth> host::Io for Recorder<I> {
         self.inner.write(bytes)?;
         if let Some(rec) = self.recording.as_mut() {
             let now = self.inner.now_ms();
-            for frame in bytes.split_inclusive(|b| *b == 0) {
+            // A lone delimiter (sent to flush the device's decoder) is no frame.
+            for frame in bytes.split_inclusive(|b| *b == 0).filter(|f| f != &[0]) {
                 rec.tx_frame(now, frame);
             }
         }

@@ -16,8 +16,8 @@ use serde_json::{json, Value};
 use crate::device::{parse_state, ConnectError, DeviceArgs, DeviceConfig};
 use crate::failure::Failure;
 use crate::progress::{Bars, Lines, Progress};
-use crate::sim::SimTruth;
 use crate::record::Recorder;
+use crate::sim::SimTruth;
 use crate::transport::AnyIo;
 
 /// Arguments of `host-tool plan`.

@@ -64,7 +64,7 @@ for i in range(e_phnum):
 
 for n, a, s, where in rows:
     print(f"  {n:<24} {a:#010x} {s:>7} B  {where}")
-print(f"firmware size: flash {flash} B ({flash / 1024:.1f} KiB, budget 64 KiB), "
+print(f"firmware size: flash {flash} B ({flash / 1024:.1f} KiB, budget {FLASH_BUDGET // 1024} KiB), "
       f"static RAM {ram} B ({ram / 1024:.1f} KiB, budget 16 KiB)")
 if flash > FLASH_BUDGET or ram > RAM_BUDGET:
     sys.exit("FAIL: firmware over its size budget")

@@ -146,27 +146,61 @@ fn all_36_plans_reach_their_target_on_the_elf() {
 }
 
 #[test]
-fn a_stalled_servo_on_the_elf_fails_cleanly_with_the_actuators_safe() {
-    // D&D → F&D is a tendon step: the weak servos stall, the firmware's step watch fails
-    // the step and the safe state stops the pulses (limp servos, inlet closed).
-    let sim = board("D&D", vec![Fault::ServoStall]);
-    let path = sim.path().display().to_string();
-    let out = host_tool(
-        &["plan", "--target", "F&D", "--port", &path, "--json"],
-        LIMIT,
-    );
-    let truth = sim.stop();
-    let v = out.json();
-    assert_eq!(out.code(), 1, "{v}");
-    assert_eq!(v["ok"], false, "{v}");
-    assert!(
-        v["error"].as_str().is_some_and(|e| e.contains("failed")),
-        "{v}"
-    );
-    assert!(truth.actuators_safe, "{truth:?}");
-    assert!(!truth.inlet_open, "{truth:?}");
-    assert!(
-        truth.servos_energised.iter().all(|e| !e),
-        "servos limp: {truth:?}"
-    );
+fn the_fault_subset_fails_cleanly_on_the_elf_with_the_actuators_safe() {
+    // The cases of `faults.rs` (the host-built controller's), on the board ELF: each ends in
+    // exit 1 naming the failed step and the diagnosis, with the inlet closed, the pressure
+    // within its cap and the servos limp or at their command.
+    let cases = vec![
+        (
+            Fault::ValveStuckClosed,
+            "F&P",
+            "D&F",
+            "step 1/2 (pneumatic F&P → F&F) failed",
+            "(E-12)",
+        ),
+        (
+            Fault::Leak,
+            "F&P",
+            "D&F",
+            "step 1/2 (pneumatic F&P → F&F) failed",
+            "(E-08)",
+        ),
+        (
+            Fault::ServoStall,
+            "D&D",
+            "F&D",
+            "step 1/1 (tendon D&D → F&D) failed",
+            "(E-04)",
+        ),
+        (
+            Fault::LinkDrop,
+            "F&P",
+            "D&D",
+            "link lost during step 1/3 (pneumatic F&P → F&F)",
+            "the device aborts to its safe state by itself",
+        ),
+    ];
+    let results = parallel(cases, THREADS, |(fault, from, to, step, why)| {
+        let sim = board(from, vec![fault]);
+        let path = sim.path().display().to_string();
+        let out = host_tool(&["plan", "--target", to, "--port", &path, "--json"], LIMIT);
+        // Let the device's own link watch act on a dropped link before judging the actuators.
+        std::thread::sleep(Duration::from_millis(1_000));
+        let truth = sim.stop();
+        (fault, step, why, out, truth)
+    });
+    for (fault, step, why, out, truth) in results {
+        let v = out.json();
+        assert_eq!(out.code(), 1, "{fault:?}: {v}\n{}", out.stderr);
+        assert_eq!(v["ok"], false, "{fault:?}: {v}");
+        let error = v["error"].as_str().unwrap_or_default();
+        assert!(error.contains(step), "{fault:?}: {error}");
+        assert!(error.contains(why), "{fault:?}: {error}");
+        assert!(truth.actuators_safe, "{fault:?}: {truth:?}");
+        assert!(!truth.inlet_open, "{fault:?}: {truth:?}");
+        assert!(
+            truth.max_pressure_kpa <= truth.pressure_limit_kpa,
+            "{fault:?}: {truth:?}"
+        );
+    }
 }

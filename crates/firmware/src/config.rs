@@ -6,7 +6,7 @@
 //! [`Controller`](crate::Controller). [`CraneConfig::validated`] clamps the values that have a
 //! safety meaning (the pressure cap never exceeds [`protocol::HARD_MAX_PRESSURE_KPA`]).
 
-use geometry::{BottomState, ModuleDesign, ShapeState, TopState, TrunkState};
+use geometry::{BottomState, ShapeState, TopState, TrunkState};
 use protocol::{Board, ModuleConfig, TrunkConfig};
 
 /// Linear calibration of the pressure sensor: raw 14-bit ADC counts → gauge kPa.
@@ -359,21 +359,36 @@ impl CraneConfig {
     /// Unloaded height of the straight trunk in `state`, mm: per module, layers × the layer's
     /// slant height d (folded or deployed, the geometry crate's Table 1) × the edge, or layers ×
     /// [`CraneConfig::packed_layer_mm`] when self-packed. `None` for a module the geometry
-    /// rejects. Evaluated in `f64` (software on the M4): call it once per state change.
+    /// rejects (n outside 3..=64, β outside (0°, 90°)).
+    ///
+    /// In `f32`, from the geometry crate's closed forms (eq 2: deployed d = w = tan β; Table 1:
+    /// folded d = √(w² − tan²(90°/n)), 0 where that is imaginary): the crate's `f64` versions
+    /// cost the board binary ~10 KiB of software double precision and trigonometry. A host
+    /// test checks them against the crate to 1e-4 relative over n = 3..12 and β = 10°..80°.
     pub fn trunk_height_mm(&self, state: TrunkState) -> Option<f32> {
-        let module = |m: &ModuleConfig, s: Option<ShapeState>| -> Option<f64> {
-            let layers = m.layers as f64;
+        let module = |m: &ModuleConfig, s: Option<ShapeState>| -> Option<f32> {
+            let layers = m.layers as f32;
             match s {
-                None => Some(layers * self.packed_layer_mm as f64),
+                None => Some(layers * self.packed_layer_mm),
                 Some(s) => {
-                    let d = ModuleDesign::new(m.n as u32, m.beta_deg as f64).ok()?;
-                    // `folded_d`/`w` rather than `pose`: the same d for these two states, without
-                    // pulling the pop-out states' trigonometry into the board binary.
+                    let valid_n = (geometry::design::MIN_N..=geometry::design::MAX_N)
+                        .contains(&u32::from(m.n));
+                    if !(valid_n && m.beta_deg > 0.0 && m.beta_deg < 90.0) {
+                        return None;
+                    }
+                    let w = libm::tanf(m.beta_deg.to_radians());
                     let slant = match s {
-                        ShapeState::Folded => d.folded_d().unwrap_or(0.0),
-                        _ => d.w(),
+                        ShapeState::Folded => {
+                            let t = libm::tanf(core::f32::consts::PI / (2.0 * m.n as f32));
+                            if w < t {
+                                0.0
+                            } else {
+                                libm::sqrtf((w - t) * (w + t))
+                            }
+                        }
+                        _ => w,
                     };
-                    Some(layers * slant * m.edge_mm as f64)
+                    Some(layers * slant * m.edge_mm)
                 }
             }
         };
@@ -387,7 +402,7 @@ impl CraneConfig {
             BottomState::Deployed => Some(ShapeState::Deployed),
         };
         let h = module(&self.trunk.top, top)? + module(&self.trunk.bottom, bottom)?;
-        h.is_finite().then_some(h as f32)
+        h.is_finite().then_some(h)
     }
 
     /// How far every tendon hangs slack in `state` at zero shortening: tendon lengths are

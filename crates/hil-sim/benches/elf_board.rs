@@ -111,7 +111,13 @@ fn main() {
     let wall = Instant::now();
     let v0 = s.now_ms();
     clear(&mut s);
+    s.enable_trace(1_000_000);
     let (ok, state) = host.run_plan(&mut s, 3, &steps, 120_000).unwrap();
+    let at = s.elf_board().unwrap().emu.stats().max_awake_at_ns / 1_000_000;
+    println!("  (the longest pass ended at {at} ms; plan started at {v0} ms; events:)");
+    for line in s.trace().lines().filter(|l| l.contains("event")) {
+        println!("    {}", &line[..line.len().min(110)]);
+    }
     let w = wall.elapsed().as_secs_f64() * 1e3;
     println!(
         "plan F&P → D&D (ok {ok}, {state}): {:.1} virtual ms per wall ms ({} ms in {:.0} ms); longest pass {} cycles (upload, start and run)",

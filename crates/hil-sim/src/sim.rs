@@ -695,6 +695,13 @@ impl Sim {
         }
     }
 
+    /// Writes `record` to the emulated data flash as the controller would (the next
+    /// [`Sim::power_cycle`] boots from it): a test's way to boot into any belief.
+    pub fn write_flash_record(&mut self, record: &StoredState) {
+        use firmware::hw::StateStore as _;
+        let _ = self.shell.store.save(record);
+    }
+
     /// Successful writes to the emulated data flash so far (with the ELF: records, counted
     /// as programmed bytes per 14-byte slot).
     pub fn flash_writes(&self) -> u32 {

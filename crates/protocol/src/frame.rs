@@ -214,6 +214,8 @@ pub struct FrameDecoder {
     /// have arrived, because the last four bytes are the CRC itself and where the frame ends is
     /// known only at the delimiter.
     crc: u32,
+    /// Length of the frame the last delimiter closed (its bytes stay in `buf`).
+    last_len: usize,
     stats: DecoderStats,
 }
 
@@ -234,6 +236,7 @@ impl FrameDecoder {
             code: 0,
             overflow: false,
             crc: CRC_INIT,
+            last_len: 0,
             stats: DecoderStats {
                 frames_ok: 0,
                 frames_dropped: 0,
@@ -244,6 +247,13 @@ impl FrameDecoder {
     /// The counters.
     pub fn stats(&self) -> DecoderStats {
         self.stats
+    }
+
+    /// The unstuffed bytes (CRC included) of the frame the last delimiter closed, until the
+    /// next byte is pushed: how a device reads a [`FrameError::Legacy`] frame
+    /// ([`crate::legacy`]). Empty after an oversized frame.
+    pub fn last_frame(&self) -> &[u8] {
+        self.buf.get(..self.last_len).unwrap_or(&[])
     }
 
     /// Forgets a partial frame (e.g. after the port was reopened); keeps the counters.
@@ -323,6 +333,7 @@ impl FrameDecoder {
         let run = core::mem::replace(&mut self.run, 0);
         self.code = 0;
         let overflow = core::mem::replace(&mut self.overflow, false);
+        self.last_len = if overflow { 0 } else { len };
         let crc = core::mem::replace(&mut self.crc, CRC_INIT) ^ CRC_ALGORITHM.xorout;
         let result = if overflow {
             Err(FrameError::TooLong)

@@ -65,6 +65,7 @@
 #![cfg_attr(test, allow(clippy::assertions_on_constants))]
 
 pub mod frame;
+pub mod legacy;
 pub mod messages;
 pub mod transitions;
 

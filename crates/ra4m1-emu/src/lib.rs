@@ -97,6 +97,8 @@ pub struct Stats {
     pub max_awake_cycles: u64,
     /// Resets after the first start.
     pub resets: u64,
+    /// When the longest stretch ended, ns of virtual time.
+    pub max_awake_at_ns: u64,
 }
 
 /// The emulated board.
@@ -105,6 +107,7 @@ pub struct Emulator {
     options: Options,
     flash_image: Vec<u8>,
     resets: Vec<ResetKind>,
+    symbols: std::collections::HashMap<String, u32>,
 }
 
 impl std::fmt::Debug for Emulator {
@@ -121,6 +124,17 @@ fn cpu_err(what: impl std::fmt::Debug, pc: u32) -> EmuError {
         what: format!("{what:?}"),
         pc,
     }
+}
+
+/// The ELF's symbols with their addresses.
+fn elf_symbols(elf: &[u8]) -> std::collections::HashMap<String, u32> {
+    use object::{Object, ObjectSymbol};
+    let Ok(file) = object::read::elf::ElfFile32::<object::Endianness>::parse(elf) else {
+        return Default::default();
+    };
+    file.symbols()
+        .filter_map(|s| Some((s.name().ok()?.to_string(), s.address() as u32)))
+        .collect()
 }
 
 /// Loads the PT_LOAD segments of a 32-bit ARM ELF into a code-flash image.
@@ -211,6 +225,9 @@ impl Emulator {
             wakes: 0,
             wake_start_cycles: 0,
             max_awake_cycles: 0,
+            max_awake_at: 0,
+            semihost_out: Vec::new(),
+            exit_code: None,
         };
         let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, machine)
             .map_err(|e| cpu_err(e, 0))?;
@@ -320,6 +337,7 @@ impl Emulator {
             options,
             flash_image: image,
             resets: Vec::new(),
+            symbols: elf_symbols(elf),
         };
         emu.m().flash.timing = options.flash_timing;
         emu.reset(ResetKind::PowerOn)?;
@@ -433,6 +451,7 @@ impl Emulator {
             wakes: m.wakes,
             max_awake_cycles: m.max_awake_cycles,
             resets: self.resets.len() as u64,
+            max_awake_at_ns: clock::ticks_to_ns(m.max_awake_at),
         }
     }
 
@@ -518,6 +537,17 @@ impl Emulator {
         self.m().flash.fault = fault;
     }
 
+    /// The exit code a test program gave through semihosting, once it has exited (the run
+    /// stops there).
+    pub fn exit_code(&self) -> Option<i32> {
+        self.machine().exit_code
+    }
+
+    /// Takes what the program wrote through semihosting.
+    pub fn take_semihost_output(&mut self) -> Vec<u8> {
+        std::mem::take(&mut self.m().semihost_out)
+    }
+
     /// Makes a HardFault pending (as a bus error from outside would).
     pub fn inject_hard_fault(&mut self) {
         let m = self.m();
@@ -550,6 +580,17 @@ impl Emulator {
         Some(u32::from_le_bytes(b))
     }
 
+    /// Writes RAM as a debug probe would (`false` outside RAM).
+    pub fn write_u32(&mut self, addr: u32, v: u32) -> bool {
+        (RAM.0..RAM.0 + RAM.1 - 3).contains(&addr)
+            && self.uc.mem_write(addr.into(), &v.to_le_bytes()).is_ok()
+    }
+
+    /// The address of the ELF symbol `name`.
+    pub fn symbol(&self, name: &str) -> Option<u32> {
+        self.symbols.get(name).copied()
+    }
+
     /// The exception to take now, if any.
     fn deliverable(&self) -> Result<Option<u16>, EmuError> {
         let m = self.machine();
@@ -569,6 +610,9 @@ impl Emulator {
     pub fn run_until_ns(&mut self, t_ns: u64) -> Result<(), EmuError> {
         let end = clock::ns_to_ticks(t_ns);
         loop {
+            if self.machine().exit_code.is_some() {
+                return Ok(());
+            }
             if self.machine().held_in_reset {
                 let m = self.m();
                 let level = m.sys.lvd1_reset_level_mv().unwrap_or(0);
@@ -622,7 +666,10 @@ impl Emulator {
                 let m = self.m();
                 m.asleep = true;
                 let stretch = m.awake_cycles - m.wake_start_cycles;
-                m.max_awake_cycles = m.max_awake_cycles.max(stretch);
+                if stretch > m.max_awake_cycles {
+                    m.max_awake_cycles = stretch;
+                    m.max_awake_at = m.now;
+                }
             }
         }
     }
@@ -880,6 +927,80 @@ fn exception_return(uc: &mut Unicorn<'_, Machine>, exc_return: u32) -> Result<()
     Ok(())
 }
 
+/// ARM semihosting (`BKPT 0xAB`, op in r0, argument in r1), the subset test harnesses use:
+/// SYS_WRITEC (3), SYS_WRITE0 (4), SYS_WRITE (5) to the host's output, SYS_EXIT (0x18, r1 the
+/// reason: ADP_Stopped_ApplicationExit 0x2_0026 is success) and SYS_EXIT_EXTENDED (0x20, r1 →
+/// [reason, code]). Execution goes on after the BKPT (or stops at an exit).
+fn semihosting(uc: &mut Unicorn<'_, Machine>, pc: u32) -> Result<(), EmuError> {
+    let reg =
+        |uc: &Unicorn<'_, Machine>, r| uc.reg_read(r).map(|v| v as u32).map_err(|e| cpu_err(e, pc));
+    let op = reg(uc, RegisterARM::R0)?;
+    let arg = reg(uc, RegisterARM::R1)?;
+    let bad = |what: String| EmuError::Exception { what, pc };
+    let read = |uc: &Unicorn<'_, Machine>, a: u32, n: usize| -> Result<Vec<u8>, EmuError> {
+        let mut b = vec![0u8; n];
+        uc.mem_read(a.into(), &mut b)
+            .map_err(|_| bad(format!("semihosting: {n} bytes at {a:#010x} unreadable")))?;
+        Ok(b)
+    };
+    let word = |b: &[u8], i: usize| {
+        u32::from_le_bytes([b[4 * i], b[4 * i + 1], b[4 * i + 2], b[4 * i + 3]])
+    };
+    const APPLICATION_EXIT: u32 = 0x2_0026;
+    match op {
+        0x03 => {
+            let b = read(uc, arg, 1)?;
+            uc.get_data_mut().semihost_out.extend(b);
+        }
+        0x04 => {
+            let mut s = Vec::new();
+            let mut a = arg;
+            loop {
+                let b = read(uc, a, 1)?[0];
+                if b == 0 || s.len() >= 64 * 1024 {
+                    break;
+                }
+                s.push(b);
+                a += 1;
+            }
+            uc.get_data_mut().semihost_out.extend(s);
+        }
+        0x05 => {
+            let block = read(uc, arg, 12)?;
+            let (ptr, len) = (word(&block, 1), word(&block, 2));
+            let data = read(uc, ptr, len.min(64 * 1024) as usize)?;
+            uc.get_data_mut().semihost_out.extend(data);
+            uc.reg_write(RegisterARM::R0, 0)
+                .map_err(|e| cpu_err(e, pc))?;
+        }
+        0x18 | 0x20 => {
+            let code = if op == 0x18 {
+                i32::from(arg != APPLICATION_EXIT)
+            } else {
+                let block = read(uc, arg, 8)?;
+                if word(&block, 0) == APPLICATION_EXIT {
+                    word(&block, 1) as i32
+                } else {
+                    1
+                }
+            };
+            let m = uc.get_data_mut();
+            m.exit_code = Some(code);
+            m.stopped = true;
+            let _ = uc.emu_stop();
+            return Ok(());
+        }
+        op => {
+            return Err(bad(format!(
+                "semihosting operation {op:#x} is not modelled"
+            )))
+        }
+    }
+    uc.reg_write(RegisterARM::PC, u64::from((pc + 2) | 1))
+        .map_err(|e| cpu_err(e, pc))?;
+    Ok(())
+}
+
 fn intr_hook(uc: &mut Unicorn<'_, Machine>, intno: u32) {
     let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
     if intno == 8 {
@@ -892,6 +1013,18 @@ fn intr_hook(uc: &mut Unicorn<'_, Machine>, intno: u32) {
             let _ = uc.emu_stop();
         }
         return;
+    }
+    if intno == 7 {
+        let mut op = [0u8; 2];
+        if uc.mem_read(u64::from(pc), &mut op).is_ok() && u16::from_le_bytes(op) == 0xBEAB {
+            if let Err(e) = semihosting(uc, pc) {
+                let m = uc.get_data_mut();
+                m.error = Some(e);
+                m.stopped = true;
+                let _ = uc.emu_stop();
+            }
+            return;
+        }
     }
     let m = uc.get_data_mut();
     // QEMU's ARM exception numbers: 1 UDEF, 7 BKPT, 17 NOCP, 18 INVSTATE, 22 UNALIGNED.

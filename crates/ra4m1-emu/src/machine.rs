@@ -132,6 +132,12 @@ pub struct Machine {
     pub wake_start_cycles: u64,
     /// Longest awake stretch, cycles.
     pub max_awake_cycles: u64,
+    /// When the longest awake stretch ended, ticks.
+    pub max_awake_at: u64,
+    /// Bytes the program wrote through semihosting (SYS_WRITEC/WRITE0/WRITE).
+    pub semihost_out: Vec<u8>,
+    /// The exit code the program gave through semihosting (SYS_EXIT/SYS_EXIT_EXTENDED).
+    pub exit_code: Option<i32>,
 }
 
 fn mstp_check(sys: &System, x: usize, bit: u32, name: &str) -> Result<(), Why> {

@@ -195,3 +195,45 @@ fn a_brown_out_holds_the_board_in_reset_and_is_reported() {
     assert_eq!(info.reset_cause, protocol::messages::ResetCause::BrownOut);
     assert!(!emu.machine().held_in_reset);
 }
+
+/// A probe that put the RTT channel in blocking mode and went away with the buffer full: with
+/// `defmt-rtt`'s `disable-blocking-mode` the board's next log line is dropped, not waited for —
+/// no hang, no watchdog reset, the link keeps answering (the stats line is due every 10 s).
+#[test]
+fn a_probe_gone_in_blocking_mode_does_not_hang_the_board() {
+    let mut emu = board(Options::default());
+    hello_info(&mut emu);
+    let rtt = emu
+        .symbol("_SEGGER_RTT")
+        .expect("defmt-rtt's control block");
+    // Header: 16-byte id, max up/down channels; up channel 0: name, buffer, size, write,
+    // read, flags.
+    let ch = rtt + 24;
+    let size = emu.read_u32(ch + 8).expect("size");
+    let write = emu.read_u32(ch + 12).expect("write");
+    assert!(
+        emu.write_u32(ch + 16, (write + 1) % size),
+        "read offset: the buffer is full"
+    );
+    assert!(
+        emu.write_u32(ch + 20, 2),
+        "flags: SEGGER_RTT_MODE_BLOCK_IF_FIFO_FULL"
+    );
+    let t = emu.now_ns();
+    emu.run_until_ns(t + 12_000_000_000).unwrap();
+    assert!(
+        emu.resets().is_empty(),
+        "the board hung: {:?}",
+        emu.resets()
+    );
+    let mut dec = FrameDecoder::default();
+    send(&mut emu, 40, RequestBody::GetStatus);
+    assert!(
+        wait_for(&mut emu, &mut dec, 200, |m| matches!(
+            m,
+            DeviceMessage::Response { seq: 40, .. }
+        ))
+        .is_some(),
+        "the board still answers"
+    );
+}

@@ -142,3 +142,68 @@ fn an_undefined_instruction_enters_hardfault_with_the_faulting_pc_stacked() {
     assert_ne!(m.scs.cfsr & (1 << 16), 0, "CFSR.UNDEFINSTR");
     assert_ne!(m.scs.hfsr & (1 << 30), 0, "HFSR.FORCED");
 }
+
+#[test]
+fn semihosting_writes_and_exits_with_the_programs_code() {
+    // movs r0,#4; ldr r1,=str; bkpt 0xab (SYS_WRITE0); movs r0,#0x18; ldr r1,=0x20026;
+    // bkpt 0xab (SYS_EXIT, success); b .   then the string "ok\n".
+    let img = program(
+        &[
+            0x2004, 0x4903, 0xBEAB, 0x2018, 0x4902, 0xBEAB, 0xE7FE, 0x0000,
+        ],
+        &[0x4058, 0x2_0026, 0x000A_6B6F],
+        None,
+    );
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.run_until_ns(10_000_000).expect("runs");
+    assert_eq!(emu.take_semihost_output(), b"ok\n");
+    assert_eq!(emu.exit_code(), Some(0));
+    // Another exit reason is a failure.
+    let img = program(&[0x2018, 0x2101, 0xBEAB, 0xE7FE], &[], None);
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.run_until_ns(10_000_000).expect("runs");
+    assert_eq!(emu.exit_code(), Some(1));
+}
+
+#[test]
+fn ra4m1_run_is_a_runner_that_returns_the_programs_exit_code() {
+    let img = program(
+        &[
+            0x2004, 0x4903, 0xBEAB, 0x2018, 0x4902, 0xBEAB, 0xE7FE, 0x0000,
+        ],
+        &[0x4058, 0x2_0026, 0x000A_6B6F],
+        None,
+    );
+    let dir = std::env::temp_dir().join(format!("ra4m1-run-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("prog.elf");
+    std::fs::write(&path, elf(&img)).unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_ra4m1-run"))
+            .args(args)
+            .output()
+            .expect("ra4m1-run starts")
+    };
+    let p = path.to_str().unwrap();
+    // Cargo appends the harness's own arguments after the ELF: they are passed over.
+    let out = run(&[p, "--test-threads", "1"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(out.stdout, b"ok\n");
+    // A program that never exits: the virtual time limit.
+    let spin = dir.join("spin.elf");
+    std::fs::write(&spin, elf(&program(&[0xE7FE, 0x0000], &[], None))).unwrap();
+    let out = run(&["--timeout-ms", "5", spin.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(124));
+    // Usage errors exit 2 with the usage line.
+    let out = run(&[]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("usage: ra4m1-run"));
+    let out = run(&["--timeout-ms", "zero", p]);
+    assert_eq!(out.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -100,10 +100,12 @@ fn main() -> ! {
         wdt_ms
     );
 
-    // Actuators first, in their safe state: valves closed, gripper as is (low), servos silent.
+    // Actuators first, in their safe state: valves closed, servos driven low (limp), and the
+    // gripper high = closed, as the fail-closed wiring (docs/hardware.md) held it through the
+    // reset: the init never opens it; only the controller's first output decides.
     let inlet = Output::new(pins::INLET);
     let exhaust = Output::new(pins::EXHAUST);
-    let gripper = Output::new(pins::GRIPPER);
+    let gripper = Output::new_high(pins::GRIPPER);
     let gpt7 = pwm::Timer::start(board::regs::pac::GPT167, clocks.pclkd_hz);
     let gpt5 = pwm::Timer::start(board::regs::pac::GPT165, clocks.pclkd_hz);
     let pulse = ServoPulse::default();
@@ -168,6 +170,8 @@ fn main() -> ! {
         let now = clock.now_ms();
         let t0 = board::time::cycles();
         shell.step(&mut ctl, now);
+        // One byte of a display redraw per pass (a whole one would take 0.7 ms).
+        shell.display.poll();
         let spent = board::time::cycles().wrapping_sub(t0);
         worst_cycles = worst_cycles.max(spent);
         board::wdt::feed();
@@ -178,7 +182,7 @@ fn main() -> ! {
                 "step worst {} cycles; errors out {} disp {} store {} link {}; rx dropped {}",
                 worst_cycles,
                 s.output_errors,
-                s.display_errors,
+                shell.display.missed_acks,
                 s.store_errors,
                 s.link_errors,
                 shell.link.dropped()

@@ -10,10 +10,10 @@
 //! `docs/hardware.md` lists what to check first.
 //!
 //! Data-flash programming runs while the CPU keeps executing from code flash, so nothing here
-//! has to run from RAM. A byte program (≈ 52 µs typical) is waited for, bounded by 1 ms; a
-//! block erase (≈ 9 ms typical, up to ~0.5 s) runs in the background: `erase` starts it and
-//! returns [`FlashError::Busy`], and every call after that (erase, read or write) checks
-//! FSTATR1.FRDY once and returns `Busy` until it is done — the loop never waits for it.
+//! has to run from RAM. Nothing here waits for the flash: a write programs one byte per call
+//! (≈ 52 µs each, bounded by 1 ms), and a block erase (≈ 9 ms typical, up to ~0.5 s) runs in
+//! the background; both return [`FlashError::Busy`] until done, each call checking
+//! FSTATR1.FRDY once — the caller (the record log, once per loop pass) calls again.
 //!
 //! Safety limits of this module: it only ever addresses 0x4010_0000..0x4010_2000 (data flash)
 //! through FSAR/FEAR, never code flash, never the option-setting memory, and never the extra
@@ -101,6 +101,19 @@ pub struct DataFlash {
     core_hz: u32,
     /// A background erase: its block and the cycle count when it started.
     erasing: Option<(usize, u32)>,
+    /// A write programmed one byte per call: where, what, how far, and when the byte in
+    /// flight started (`None`: none in flight).
+    writing: Option<Writing>,
+}
+
+/// A write in progress.
+#[derive(Debug, Clone, Copy)]
+struct Writing {
+    offset: usize,
+    data: [u8; 16],
+    len: usize,
+    next: usize,
+    in_flight: Option<u32>,
 }
 
 impl DataFlash {
@@ -113,6 +126,7 @@ impl DataFlash {
         let df = Self {
             core_hz,
             erasing: None,
+            writing: None,
         };
         // FISR is writable only in P/E mode.
         df.enter_pe();
@@ -223,6 +237,9 @@ impl NorFlash for DataFlash {
             return Err(FlashError::OutOfRange);
         }
         self.poll_erase()?;
+        if self.writing.is_some_and(|w| w.in_flight.is_some()) {
+            return Err(FlashError::Busy); // in P/E mode: not readable
+        }
         for (i, b) in buf.iter_mut().enumerate() {
             // SAFETY: inside the data flash's read window, readable since DFLCTL.DFLEN = 1.
             *b = unsafe { read_volatile((DF_READ_BASE + offset + i) as *const u8) };
@@ -230,22 +247,68 @@ impl NorFlash for DataFlash {
         Ok(())
     }
 
+    /// Programs `data` one byte per call: each call checks the byte in flight once (FRDY),
+    /// starts the next and returns [`FlashError::Busy`] until the last byte is done, so no
+    /// loop pass waits for the flash (≈ 52 µs a byte). Call it again with the same `offset`
+    /// and `data` to go on; different ones while a write is under way are refused
+    /// ([`FlashError::Program`]: the bytes already programmed make that slot torn).
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), FlashError> {
-        if offset + data.len() > DF_SIZE {
+        if offset + data.len() > DF_SIZE || data.len() > 16 {
             return Err(FlashError::OutOfRange);
         }
         self.poll_erase()?;
-        for (i, &b) in data.iter().enumerate() {
-            let a = DF_PE_BASE + (offset + i) as u32;
-            self.enter_pe();
-            w8(FASR, 0);
-            w16(FSARH, (a >> 16) as u16);
-            w16(FSARL, a as u16);
-            w32(FWBL0, b as u32);
-            w8(FCR, FCR_WRITE);
-            self.finish(WRITE_TIMEOUT_US, FSTATR2_WRITE_ERR, FlashError::Program)?;
+        let mut w = match self.writing {
+            Some(w) if w.offset == offset && &w.data[..w.len] == data => w,
+            Some(_) => {
+                self.writing = None;
+                return Err(FlashError::Program);
+            }
+            None => {
+                let mut buf = [0xFF; 16];
+                buf[..data.len()].copy_from_slice(data);
+                Writing {
+                    offset,
+                    data: buf,
+                    len: data.len(),
+                    next: 0,
+                    in_flight: None,
+                }
+            }
+        };
+        if let Some(started) = w.in_flight {
+            if r32(FSTATR1) & FSTATR1_FRDY == 0 {
+                let per_us = (self.core_hz / 1_000_000).max(1);
+                if cycles().wrapping_sub(started) / per_us <= WRITE_TIMEOUT_US {
+                    self.writing = Some(w);
+                    return Err(FlashError::Busy);
+                }
+                self.writing = None;
+                w32(FRESETR, 1);
+                w32(FRESETR, 0);
+                let _ = self.exit_pe();
+                return Err(FlashError::Timeout);
+            }
+            w.in_flight = None;
+            if let Err(e) = self.finish(WRITE_TIMEOUT_US, FSTATR2_WRITE_ERR, FlashError::Program) {
+                self.writing = None;
+                return Err(e);
+            }
+            w.next += 1;
         }
-        Ok(())
+        if w.next >= w.len {
+            self.writing = None;
+            return Ok(());
+        }
+        let a = DF_PE_BASE + (offset + w.next) as u32;
+        self.enter_pe();
+        w8(FASR, 0);
+        w16(FSARH, (a >> 16) as u16);
+        w16(FSARL, a as u16);
+        w32(FWBL0, w.data[w.next] as u32);
+        w8(FCR, FCR_WRITE);
+        w.in_flight = Some(cycles());
+        self.writing = Some(w);
+        Err(FlashError::Busy)
     }
 
     fn erase(&mut self, block: usize) -> Result<(), FlashError> {

@@ -108,6 +108,10 @@ pub struct FlashLog<F> {
     flash: F,
     first_block: usize,
     cursor: Option<Cursor>,
+    /// A block found blank (or erased) for the slot-0 write now under way: a write that
+    /// returned `Busy` is retried without reading the block again (it is not readable while
+    /// its byte is being programmed, and it is no longer blank).
+    blank: Option<usize>,
 }
 
 impl<F: NorFlash> FlashLog<F> {
@@ -117,6 +121,7 @@ impl<F: NorFlash> FlashLog<F> {
             flash,
             first_block,
             cursor: None,
+            blank: None,
         }
     }
 
@@ -213,8 +218,11 @@ impl<F: NorFlash> FlashLog<F> {
             block = if c.newest.is_some() { block } else { 1 - block };
             slot = 0;
         }
-        if slot == 0 && !self.block_is_blank(block)? {
-            self.flash.erase(self.first_block + block)?;
+        if slot == 0 && self.blank != Some(block) {
+            if !self.block_is_blank(block)? {
+                self.flash.erase(self.first_block + block)?;
+            }
+            self.blank = Some(block);
         }
         let mut b = [0xFFu8; SLOT_LEN];
         b[..4].copy_from_slice(&seq.to_le_bytes());
@@ -239,13 +247,15 @@ impl<F: NorFlash> FlashLog<F> {
         };
         match self.flash.write(off, &b[..SLOT_USED]) {
             Ok(()) => {}
-            // Nothing was programmed (a background erase still runs): retry the same slot.
+            // Under way (or a background erase still runs): retry the same slot and bytes.
             Err(FlashError::Busy) => return Err(FlashError::Busy),
             Err(e) => {
+                self.blank = None;
                 self.cursor = Some(skip);
                 return Err(e);
             }
         }
+        self.blank = None;
         let mut back = [0u8; SLOT_LEN];
         if let Err(e) = self.flash.read(off, &mut back) {
             self.cursor = Some(skip);

@@ -115,6 +115,13 @@ impl Output {
         pin.configure(pfs::PDR);
         Self(pin)
     }
+
+    /// Configures `pin` as a push-pull output, initially high (PODR set in the same PFS write:
+    /// no low glitch).
+    pub fn new_high(pin: PortPin) -> Self {
+        pin.configure(pfs::PDR | pfs::PODR);
+        Self(pin)
+    }
 }
 
 impl embedded_hal::digital::ErrorType for Output {

@@ -5,8 +5,12 @@
 //! CLK rising, ACK in the 9th clock, stop (DIO rises while CLK high). A frame is
 //! `0x40` (data command: write, auto-increment), `0xC0` + 4 digit bytes (address command from
 //! digit 0), then `0x88 | brightness` (display on). A 5 µs half-period keeps the clock at
-//! 100 kHz, well under the chip's 250 kHz limit even with long wires; one `show` takes
-//! ~0.7 ms, and the shell only calls it when the content changes.
+//! 100 kHz, well under the chip's 250 kHz limit even with long wires.
+//!
+//! A whole redraw would take ~0.7 ms (33 000 cycles), too much for one 1 ms loop pass, so
+//! `show` only queues the digits and [`Tm1637::poll`], called once per pass, clocks out one
+//! byte (with its frame's start or stop): a redraw is seven passes, ≈ 90 µs each. A `show`
+//! during a redraw replaces the queued digits (the latest content wins).
 
 use embedded_hal::digital::OutputPin;
 
@@ -22,12 +26,29 @@ pub enum Tm1637Error {
     NoAck,
 }
 
+/// The seven byte transfers of a redraw: (starts a frame, byte index, ends the frame).
+const STEPS: [(bool, usize, bool); 7] = [
+    (true, 0, true),
+    (true, 1, false),
+    (false, 2, false),
+    (false, 3, false),
+    (false, 4, false),
+    (false, 5, true),
+    (true, 6, true),
+];
+
 /// The display.
 #[derive(Debug)]
 pub struct Tm1637 {
     clk: Output,
     dio: OpenDrain,
     brightness: u8,
+    /// The redraw being clocked out, and the next step.
+    drawing: Option<([u8; 7], usize)>,
+    /// Digits queued while a redraw runs.
+    queued: Option<[u8; 4]>,
+    /// Bytes the chip did not acknowledge.
+    pub missed_acks: u32,
 }
 
 impl Tm1637 {
@@ -37,6 +58,9 @@ impl Tm1637 {
             clk,
             dio,
             brightness: brightness.min(7),
+            drawing: None,
+            queued: None,
+            missed_acks: 0,
         };
         d.clk(true);
         d.dio.set(true);
@@ -94,25 +118,51 @@ impl Tm1637 {
         }
     }
 
-    fn frame(&mut self, bytes: &[u8]) -> Result<(), Tm1637Error> {
-        self.start();
-        let mut res = Ok(());
-        for &b in bytes {
-            // Keep clocking the frame out even after a missing ACK, so the bus ends idle.
-            res = res.and(self.byte(b));
+    fn bytes_for(&self, seg: [u8; 4]) -> [u8; 7] {
+        [
+            0x40,
+            0xC0,
+            seg[0],
+            seg[1],
+            seg[2],
+            seg[3],
+            0x88 | self.brightness,
+        ]
+    }
+
+    /// Clocks out the next byte of a queued redraw (a no-op when there is none). Call once per
+    /// loop pass.
+    pub fn poll(&mut self) {
+        if self.drawing.is_none() {
+            if let Some(seg) = self.queued.take() {
+                self.drawing = Some((self.bytes_for(seg), 0));
+            }
         }
-        self.stop();
-        res
+        let Some((bytes, step)) = self.drawing else {
+            return;
+        };
+        let (start, i, stop) = STEPS[step];
+        if start {
+            self.start();
+        }
+        // Keep clocking after a missing ACK, so the bus ends idle; count it.
+        if self.byte(bytes[i]).is_err() {
+            self.missed_acks = self.missed_acks.wrapping_add(1);
+        }
+        if stop {
+            self.stop();
+        }
+        self.drawing = (step + 1 < STEPS.len()).then_some((bytes, step + 1));
     }
 }
 
 impl firmware::hw::SegmentDisplay for Tm1637 {
     type Error = Tm1637Error;
 
+    /// Queues the digits; [`Tm1637::poll`] clocks them out over the next passes. Never fails
+    /// here: a chip that does not acknowledge shows in [`Tm1637::missed_acks`].
     fn show(&mut self, s: [u8; 4]) -> Result<(), Tm1637Error> {
-        let data = self.frame(&[0x40]);
-        let digits = self.frame(&[0xC0, s[0], s[1], s[2], s[3]]);
-        let on = self.frame(&[0x88 | self.brightness]);
-        data.and(digits).and(on)
+        self.queued = Some(s);
+        Ok(())
     }
 }

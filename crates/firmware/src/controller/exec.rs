@@ -17,6 +17,8 @@ pub(super) enum Origin {
     Host,
     /// A standalone button.
     Local,
+    /// The identification probe (started by the host's `Identify`).
+    Identify,
 }
 
 /// Where a confirming tendon pull (`TendonPull` with snaps) is. Under a pull the tendons pin
@@ -314,6 +316,31 @@ impl Controller {
             && (0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
     }
 
+    /// Starts the identification probe.
+    pub(super) fn start_identify(&mut self) {
+        self.probe = Some(super::identify::ProbeLog::default());
+        let plan = super::identify::probe_plan(self.state());
+        self.start_exec(plan, Origin::Identify);
+    }
+
+    /// The probe ended: narrow the belief by its verdict; ask the operator where it cannot
+    /// decide (not after an abort or a fault: the host or the person decides what next).
+    fn finish_identify(&mut self, completed: bool) {
+        let Some(log) = self.probe.take() else {
+            return;
+        };
+        self.last_probe = Some(log);
+        if !completed {
+            return;
+        }
+        let mut b = self.belief;
+        b.narrow(log.verdict());
+        self.set_belief(b);
+        if !b.is_confirmed() {
+            self.ask_operator();
+        }
+    }
+
     /// Journals `step` (pending `from → to` with the states it may end in) ahead of its first
     /// actuation; returns the record's number, or `None` for a step within one state.
     fn journal_step(&mut self, step: Option<&Step>) -> Option<u32> {
@@ -365,6 +392,9 @@ impl Controller {
         self.want_inlet = false;
         self.want_exhaust = false;
         let ok = phase == PlanPhase::Done;
+        if e.origin == Origin::Identify {
+            self.finish_identify(ok);
+        }
         if !ok {
             if let Some(b) = self.interrupted_belief(&e) {
                 if b == self.belief && e.journal.is_some() {
@@ -451,6 +481,10 @@ impl Controller {
         let Some(e) = self.exec.as_ref() else {
             return false;
         };
+        if let (Some(log), Origin::Identify, false) = (self.probe.as_mut(), e.origin, e.pre_release)
+        {
+            log.sample(e.prim, e.prim_start_ms, now, p);
+        }
         if e.pre_release {
             return self.pre_release();
         }
@@ -471,6 +505,11 @@ impl Controller {
                 false
             }
             Progress::Done { evidence } => {
+                if let (Some(log), Some(e)) = (self.probe.as_mut(), self.exec.as_ref()) {
+                    if e.origin == Origin::Identify {
+                        log.primitive_done(e.prim, now, self.pressure.filt_kpa);
+                    }
+                }
                 if let Some(e) = self.exec.as_mut() {
                     e.evidence |= evidence;
                     e.prim = e.prim.saturating_add(1);
@@ -531,10 +570,7 @@ impl Controller {
                 angle_deg,
             } => {
                 let l = self
-                    .bend_lengths(
-                        (direction_deg as f64).to_radians(),
-                        (angle_deg as f64).to_radians(),
-                    )
+                    .bend_lengths(direction_deg.to_radians(), angle_deg.to_radians())
                     .ok_or(FaultCode::ServoLimit)?;
                 targets = Some(self.angles_for(l).ok_or(FaultCode::ServoLimit)?);
             }
@@ -848,7 +884,11 @@ impl Controller {
             .as_ref()
             .and_then(|e| e.plan.steps.get(next))
             .map(|s| s.from);
-        if next_from != Some(self.state()) || !self.confirmed() {
+        let probing = self
+            .exec
+            .as_ref()
+            .is_some_and(|e| e.origin == Origin::Identify);
+        if !probing && (next_from != Some(self.state()) || !self.confirmed()) {
             // The failure report names the step that cannot start.
             if let Some(e) = self.exec.as_mut() {
                 e.step = next as u8;

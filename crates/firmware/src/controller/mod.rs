@@ -18,6 +18,7 @@
 
 pub mod belief;
 mod exec;
+pub mod identify;
 pub mod link;
 mod requests;
 pub mod snap;
@@ -184,6 +185,9 @@ pub struct Controller {
     /// The operator is asked to tell the state: the candidate shown and selectable with the
     /// up/down buttons, accepted with confirm.
     asking_operator: Option<TrunkState>,
+    /// The identification probe's measurements while it runs.
+    probe: Option<identify::ProbeLog>,
+    last_probe: Option<identify::ProbeLog>,
 
     // Modes and faults.
     faults: u16,
@@ -212,8 +216,8 @@ pub struct Controller {
     /// Servo pulses on (off in the safe state).
     servos_enabled: bool,
     /// Tendon shortening that takes up each state's slack (joystick and `Bend`), by
-    /// [`TrunkState::index`]: computed once here, because the heights are `f64` (software on the
-    /// M4) and a plan's upload check needs the take-up of every step's `from`.
+    /// [`TrunkState::index`]: computed once here (a plan's upload check needs the take-up of
+    /// every step's `from`).
     take_up_mm: [f32; 6],
     /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
     /// change.
@@ -296,6 +300,8 @@ impl Controller {
                 now_ms + LEAK_SETTLE_MS
             },
             asking_operator: None,
+            probe: None,
+            last_probe: None,
             faults,
             last_fault,
             estop_latched: false,
@@ -398,8 +404,10 @@ impl Controller {
             if b == 0 {
                 let fp = core::mem::replace(&mut self.fingerprint, Fingerprint::START);
                 // Borrowed where it lies: a `Request` is ~530 bytes, a move is a memcpy on the M4.
-                if let Some(Ok(req)) = &decoded {
-                    self.on_request(req, fp.0);
+                match &decoded {
+                    Some(Ok(req)) => self.on_request(req, fp.0),
+                    Some(Err(protocol::FrameError::Legacy)) => self.on_v1_frame(),
+                    _ => {}
                 }
             }
         }
@@ -502,6 +510,11 @@ impl Controller {
     /// actuation waits for this (the journal is written ahead of the motion).
     pub fn handle_stored(&mut self) {
         self.store_persisted = self.store_polled;
+    }
+
+    /// What the last identification probe measured (for reports and calibration).
+    pub fn last_probe(&self) -> Option<identify::ProbeLog> {
+        self.last_probe
     }
 
     /// What the controller believes about the trunk.
@@ -1048,22 +1061,23 @@ impl Controller {
         Some(a)
     }
 
-    /// Tendon shortenings for a constant-curvature bend (`geometry::tendon`) around the
-    /// state's taken-up slack: the tendon on the inside of the bend is reeled in by
-    /// r_t·θ·cos(φ − φ_i) more, the others pay out (a tendon cannot push: never below 0).
-    fn bend_lengths(&self, direction_rad: f64, angle_rad: f64) -> Option<[f32; 3]> {
+    /// Tendon shortenings for a constant-curvature bend around the state's taken-up slack: the
+    /// tendon on the inside of the bend is reeled in by r_t·θ·cos(φ − φ_i) more, the others pay
+    /// out (a tendon cannot push: never below 0). `geometry::tendon`'s law, in `f32` (as the
+    /// joystick's): its `f64` costs the board binary software double precision.
+    fn bend_lengths(&self, direction_rad: f32, angle_rad: f32) -> Option<[f32; 3]> {
         let take_up_mm = self.take_up_for(self.state());
         if stiff_bend_limit_rad(&self.cfg, take_up_mm, self.max_bend_deg)
-            .is_some_and(|limit_rad| libm::fabs(angle_rad) > limit_rad)
+            .is_some_and(|limit_rad| libm::fabsf(angle_rad) > limit_rad)
         {
             return None;
         }
-        let bend = geometry::tendon::Bend::new(direction_rad, angle_rad);
-        let dl = match geometry::tendon::TendonGeometry::new(self.cfg.tendon_radius_mm as f64) {
-            Ok(g) => g.length_changes(bend),
-            Err(_) => [0.0; 3],
-        };
-        Some(dl.map(|d| (take_up_mm - d as f32).max(0.0)))
+        let k = self.cfg.tendon_radius_mm * angle_rad;
+        let mut out = [0.0; 3];
+        for (o, phi_i) in out.iter_mut().zip(geometry::tendon::TENDON_ANGLES) {
+            *o = (take_up_mm + k * libm::cosf(direction_rad - phi_i as f32)).max(0.0);
+        }
+        Some(out)
     }
 
     /// The tendon shortening that takes up `state`'s slack (0 outside the flexible states).
@@ -1161,7 +1175,7 @@ impl Controller {
         let host_plan = self
             .exec
             .as_ref()
-            .is_some_and(|e| e.origin == exec::Origin::Host);
+            .is_some_and(|e| matches!(e.origin, exec::Origin::Host | exec::Origin::Identify));
         if host_plan
             && self.now_ms.saturating_sub(self.last_rx_ms) >= self.cfg.link_timeout_ms as u64
         {
@@ -1293,11 +1307,10 @@ fn max_bend_deg(cfg: &CraneConfig, state: TrunkState) -> f32 {
 
 /// The largest bend a stiff state takes before it buckles (D&P: no folded module), with a
 /// rounding allowance, or `None` where only the tendons limit a bend. The same rule at a
-/// plan's upload (each step's `from`) and when a `Bend` runs. The cheap `f32` tests come first:
-/// the `f64` (software on the M4) only runs for a stiff state.
-fn stiff_bend_limit_rad(cfg: &CraneConfig, take_up_mm: f32, max_bend_deg: f32) -> Option<f64> {
+/// plan's upload (each step's `from`) and when a `Bend` runs.
+fn stiff_bend_limit_rad(cfg: &CraneConfig, take_up_mm: f32, max_bend_deg: f32) -> Option<f32> {
     (take_up_mm > 0.0 && max_bend_deg < cfg.joystick.max_bend_deg)
-        .then(|| (max_bend_deg as f64).to_radians() + 1e-6)
+        .then(|| max_bend_deg.to_radians() + 1e-5)
 }
 
 /// The tendon shortening that takes up `state`'s slack, short of taut by the margin: in the

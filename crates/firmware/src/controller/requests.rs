@@ -73,6 +73,19 @@ impl Controller {
         self.update_outputs();
     }
 
+    /// A protocol-v1 frame: a v1 host's Hello gets v1's refusal with this device's versions
+    /// (`protocol::legacy`), so the old host says which versions differ instead of "no
+    /// answer"; anything else of v1 is dropped.
+    pub(super) fn on_v1_frame(&mut self) {
+        let info = self.device_info(0);
+        let mut out = [0u8; link::CACHE_LEN];
+        if let Some(n) =
+            protocol::legacy::refuse_v1_hello(self.decoder.last_frame(), &info, &mut out)
+        {
+            self.tx.push_frame(&out[..n], 0);
+        }
+    }
+
     /// The device's identity; `session` is the one just opened (0 on a refused handshake:
     /// the session in force is never told to a stranger).
     fn device_info(&self, session: u32) -> DeviceInfo {
@@ -288,7 +301,7 @@ impl Controller {
                     && angle_deg.is_finite()
                     && (0.0..=180.0).contains(&angle_deg)
                     && !stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
-                        .is_some_and(|limit_rad| (angle_deg as f64).to_radians() > limit_rad)
+                        .is_some_and(|limit_rad| angle_deg.to_radians() > limit_rad)
                     && self.angles_for([worst_mm; 3]).is_some()
             }
         }
@@ -298,7 +311,7 @@ impl Controller {
         if self.exec.is_some() {
             return (ResultCode::Busy, ResponseBody::None);
         }
-        if plan.plan_id == 0 {
+        if plan.plan_id == 0 || plan.plan_id == super::identify::IDENTIFY_PLAN_ID {
             return reject(RejectReason::InvalidPlan);
         }
         if let Err(r) = self.validate(&plan.steps) {
@@ -339,7 +352,15 @@ impl Controller {
         if self.confirmed() {
             return ok();
         }
-        self.ask_operator();
+        if self.estop_latched {
+            return reject(RejectReason::EStopLatched);
+        }
+        if self.faults != 0 || !self.pressure_valid() {
+            // No probing with a fault active (reset it first, or a person tells).
+            self.ask_operator();
+        } else {
+            self.start_identify();
+        }
         (ResultCode::InProgress, ResponseBody::None)
     }
 

@@ -2210,3 +2210,123 @@ fn session_ids_differ_per_handshake_and_per_boot() {
     assert_eq!(unique.len(), ids.len(), "{ids:x?}");
     assert!(!ids.contains(&0));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Belief: boot from the journal, identification by the operator
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn a_pending_record_boots_unconfirmed_and_refuses_steps() {
+    let record = StoredState {
+        state: DD,
+        confirmed: false,
+        candidates: protocol::StateSet::single(DD).with(FD).with(FF),
+        pending: Some(protocol::Transition { from: DD, to: FD }),
+    };
+    let mut r = Rig::with(CraneConfig::default(), BootRecord::Stored(record), FD);
+    r.hello_ok();
+    let s = r.ctl.status();
+    assert_eq!((s.state, s.state_confirmed), (DD, false));
+    assert_eq!(s.candidates, record.candidates);
+    assert_eq!(s.interrupted, record.pending);
+    // Not the safe state: nothing is faulty, the state is only unknown.
+    assert_eq!(s.mode, Mode::Standalone);
+    let mut shown = display::text("d-d ");
+    shown[0] |= display::DP;
+    assert_eq!(r.ctl.poll_display(), shown);
+    for step in [
+        Rig::nominal(DD, FD),
+        Rig::nominal(FD, FF),
+        Rig::nominal(FD, DD),
+    ] {
+        assert_eq!(
+            r.request(RequestBody::RunStep(step)).0,
+            ResultCode::Rejected(RejectReason::Unconfirmed)
+        );
+    }
+    // The step buttons do nothing either.
+    r.press(|b, v| b.down = v);
+    assert_eq!(r.ctl.mode(), Mode::Standalone);
+}
+
+#[test]
+fn the_operator_picks_a_candidate_with_up_down_and_confirms_it() {
+    let record = StoredState {
+        state: DD,
+        confirmed: false,
+        candidates: protocol::StateSet::single(DD).with(FD).with(FF),
+        pending: Some(protocol::Transition { from: DD, to: FD }),
+    };
+    let mut r = Rig::with(CraneConfig::default(), BootRecord::Stored(record), FD);
+    r.hello_ok();
+    // A sensor fault: no probing, the operator is asked at once.
+    r.raw_override = Some(0);
+    r.run(r.cfg.pressure_sensor.dropout_ms as u64 + 20);
+    assert!(r.faults_raised().contains(&FaultCode::PressureSensor));
+    assert_eq!(r.request(RequestBody::Identify).0, ResultCode::InProgress);
+    assert!(r.events().any(|e| *e
+        == Event::IdentifyNeedsOperator {
+            candidates: record.candidates
+        }));
+    let all_dp = |text: &str| {
+        let mut seg = display::text(text);
+        for d in &mut seg {
+            *d |= display::DP;
+        }
+        seg
+    };
+    // The fault's code has priority on the display; once the sensor is back and the fault
+    // reset, the question shows: the best guess first, up/down walk the candidates.
+    r.raw_override = None;
+    r.run(50);
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    assert_eq!(r.ctl.poll_display(), all_dp("d-d "));
+    r.press(|b, v| b.up = v);
+    assert_eq!(r.ctl.poll_display(), all_dp("F-F "));
+    r.press(|b, v| b.up = v);
+    assert_eq!(r.ctl.poll_display(), all_dp("F-d "));
+    assert_eq!(r.ctl.mode(), Mode::Standalone, "choosing moves nothing");
+    r.press(|b, v| b.confirm = v);
+    let s = r.ctl.status();
+    assert_eq!((s.state, s.state_confirmed), (FD, true));
+    assert_eq!(r.stores.last(), Some(&StoredState::confirmed(FD)));
+    assert_eq!(r.ctl.poll_display(), display::text("F-d "));
+}
+
+#[test]
+fn a_v1_host_is_refused_in_v1_words() {
+    let mut r = Rig::new(FF);
+    // A v1 Hello (seq 9, version 1, schema 0x221ee9a8) framed with v1's CRC-16.
+    let payload = [0x09u8, 0x00, 0x01, 0xa8, 0xd3, 0xfb, 0x90, 0x02];
+    let crc = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&payload);
+    let mut raw = payload.to_vec();
+    raw.extend(crc.to_le_bytes());
+    let mut frame = [0u8; 32];
+    let n = cobs::try_encode(&raw, &mut frame).unwrap();
+    r.ctl.handle_rx(&frame[..n], r.now);
+    r.ctl.handle_rx(&[0], r.now);
+    let mut out = [0u8; 128];
+    let len = r.ctl.poll_tx(&mut out);
+    assert!(len > 0, "answered");
+    assert_eq!(out[len - 1], 0);
+    // v1 framing: COBS, then payload ‖ CRC-16; the payload is v1's
+    // Response { seq 9, Rejected(VersionMismatch), Hello(DeviceInfo { version 2, .. }) }.
+    let m = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+    let (p, check) = out[..m].split_last_chunk::<2>().unwrap();
+    assert_eq!(
+        crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC)
+            .checksum(p)
+            .to_le_bytes(),
+        *check
+    );
+    assert_eq!(
+        &p[..6],
+        &[0x00, 0x09, 0x01, 0x00, 0x01, PROTOCOL_VERSION as u8]
+    );
+    // Nothing else changed: no handshake, no session.
+    assert_eq!(r.ctl.session(), 0);
+    assert_eq!(
+        r.request(RequestBody::GetStatus).0,
+        ResultCode::Rejected(RejectReason::NoHandshake)
+    );
+}

@@ -42,7 +42,7 @@ use super::{relative_gap, Control, Frame, Problem, Raw, Stop};
 pub const SEED_BEAM_WIDTH: usize = 64;
 
 /// Fewest top-level tasks (the granularity of the certified bound and of the parallel split).
-pub const MIN_TASKS: u128 = 2048;
+pub const MIN_TASKS: u128 = 512;
 
 /// Bounds are multiplied by `1 − shave(m)`: a relative margin above the rounding error of a
 /// sum of m non-negative terms (m·ε by the standard bound; 4m·ε, at least 1e-12).
@@ -181,7 +181,7 @@ impl Worker<'_, '_> {
             }
         }
         self.unflushed += problem.catalogue.candidates(j).len() as u64;
-        if self.unflushed >= 1 << 15 {
+        if self.unflushed >= 1 << 12 {
             sh.control.add_evaluated(self.unflushed);
             self.unflushed = 0;
             if sh.control.stopped() {

@@ -181,54 +181,73 @@ impl Reach {
         j: usize,
         budget: f64,
     ) -> f64 {
+        self.suffix_from(obj, frame, j, 1, budget)
+    }
+
+    /// Sum of [`tip_lower_bound`](Self::tip_lower_bound) over the offsets `k0..` of the
+    /// remaining tips, stopping once it exceeds `budget`.
+    #[inline]
+    pub fn suffix_from(
+        &self,
+        obj: &Objective,
+        frame: &Frame,
+        j: usize,
+        k0: usize,
+        budget: f64,
+    ) -> f64 {
         let kmax = self.horizon.min(self.m - j);
         let mut sum = 0.0;
-        for k in 1..=kmax {
-            let tip = j + k - 1;
-            let cover = self.cover_of(j, k);
-            let mut best = f64::INFINITY;
-            if cover.groups.is_empty() {
-                for b in &cover.balls {
-                    let v = ball_lb(obj, tip, frame, b);
-                    if v < best {
-                        best = v;
-                        if best == 0.0 {
-                            break;
-                        }
-                    }
-                }
-            } else {
-                let mut order = [(0.0f64, 0usize); GROUPS];
-                let ng = cover.groups.len().min(GROUPS);
-                for (g, slot) in cover.groups.iter().zip(order.iter_mut()) {
-                    *slot = (ball_lb(obj, tip, frame, &g.0), slot.1);
-                }
-                for (i, slot) in order.iter_mut().enumerate().take(ng) {
-                    slot.1 = i;
-                }
-                order[..ng].sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-                'groups: for &(v, g) in &order[..ng] {
-                    if v >= best {
-                        break;
-                    }
-                    let (_, lo, hi) = cover.groups[g];
-                    for b in &cover.balls[lo..hi] {
-                        let v = ball_lb(obj, tip, frame, b);
-                        if v < best {
-                            best = v;
-                            if best == 0.0 {
-                                break 'groups;
-                            }
-                        }
-                    }
-                }
-            }
-            sum += best;
+        for k in k0..=kmax {
+            sum += self.tip_lower_bound(obj, frame, j, k);
             if sum > budget {
                 return sum;
             }
         }
         sum
+    }
+
+    /// Lower bound on the cost of the k-th next tip (k ≥ 1) after `j` modules with top frame
+    /// `frame`: the two-level minimum over the cover of `R(j,k)` (see
+    /// [`suffix_lower_bound_grouped`](Self::suffix_lower_bound_grouped)).
+    #[inline]
+    pub fn tip_lower_bound(&self, obj: &Objective, frame: &Frame, j: usize, k: usize) -> f64 {
+        let tip = j + k - 1;
+        let cover = self.cover_of(j, k);
+        let mut best = f64::INFINITY;
+        if cover.groups.is_empty() {
+            for b in &cover.balls {
+                let v = ball_lb(obj, tip, frame, b);
+                if v < best {
+                    best = v;
+                    if best == 0.0 {
+                        break;
+                    }
+                }
+            }
+            return best;
+        }
+        let mut order = [(0.0f64, 0usize); GROUPS];
+        let ng = cover.groups.len().min(GROUPS);
+        for (i, (g, slot)) in cover.groups.iter().zip(order.iter_mut()).enumerate() {
+            *slot = (ball_lb(obj, tip, frame, &g.0), i);
+        }
+        order[..ng].sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        for &(v, g) in &order[..ng] {
+            if v >= best {
+                break;
+            }
+            let (_, lo, hi) = cover.groups[g];
+            for b in &cover.balls[lo..hi] {
+                let v = ball_lb(obj, tip, frame, b);
+                if v < best {
+                    best = v;
+                    if best == 0.0 {
+                        return 0.0;
+                    }
+                }
+            }
+        }
+        best
     }
 }
 
@@ -237,7 +256,7 @@ fn ball_lb(obj: &Objective, tip: usize, frame: &Frame, b: &Ball) -> f64 {
     obj.ball_lower_bound(tip, &frame.apply_vec(&b.center), b.radius)
 }
 
-fn cover_union<'a>(frames: impl Iterator<Item = &'a Frame>, prev: &[Ball]) -> Vec<Ball> {
+pub(crate) fn cover_union<'a>(frames: impl Iterator<Item = &'a Frame>, prev: &[Ball]) -> Vec<Ball> {
     let mut balls = Vec::new();
     for f in frames {
         for b in prev {
@@ -272,7 +291,7 @@ fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
 
 /// Splits `balls` into at most `max` non-empty groups: farthest-point seeds (the first the ball
 /// farthest from the centroid), then nearest-seed assignment.
-fn cluster(balls: &[Ball], max: usize) -> Vec<Vec<Ball>> {
+pub(crate) fn cluster(balls: &[Ball], max: usize) -> Vec<Vec<Ball>> {
     let centroid: Vector3<f64> =
         balls.iter().map(|b| b.center).sum::<Vector3<f64>>() / balls.len().max(1) as f64;
     let first = balls

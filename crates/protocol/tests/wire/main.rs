@@ -5,6 +5,7 @@ mod edges;
 mod golden;
 mod handshake;
 mod incremental;
+mod legacy;
 mod mutation;
 mod props;
 mod samples;

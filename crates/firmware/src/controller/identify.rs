@@ -1,0 +1,214 @@
+//! Identification of an unconfirmed state: the sealed-pressure probe, and the operator where
+//! the sensing cannot decide (`docs/firmware.md`, "Identification").
+//!
+//! The probe is a plan step the controller runs on itself (plan id [`IDENTIFY_PLAN_ID`], so
+//! it goes through the same interlocks as any step): let the tendons out, vent, settle sealed,
+//! fill to [`PROBE_KPA`] through the inlet, vent. The gas goes into the trunk's volume plus
+//! the reservoir, so a shorter trunk fills faster: the fill rate (kPa/s from the settled
+//! baseline to the target) tells the trunk's height, and so its state where the heights differ
+//! enough. [`PROBE_SIGNATURES`] are the simulator's calibrated trunk measured through this very
+//! probe (`crates/hil-sim/tests/truth.rs` measures them on three seeds and checks them);
+//! [`RATE_TOLERANCE`] covers the seeds' spread (±2 %) and a supply ±3 % off its nominal 80 kPa.
+//! A crane with another supply or reservoir must measure its own signatures.
+//!
+//! What it tells apart (the windows of ±5 % around each signature): F&P, D&P, and F&F from
+//! F&D only at the edges of their windows, which touch; D&F and D&D differ by 1 % and are never
+//! told apart: where a step may have ended in either (`D&F → D&D`), the operator is asked. The
+//! probe stays under a third of the lowest snap pressure: it cannot change the state it
+//! measures.
+
+use geometry::TrunkState;
+use protocol::{Plan, Primitive, StateSet, Step, StepKind};
+
+/// Plan id of the probe (refused for uploads).
+pub const IDENTIFY_PLAN_ID: u16 = u16::MAX;
+/// Sealed hold after the fill, ms: a pressure that falls by more than [`LEAK_DROP_KPA`] from
+/// its first 100 ms (or from the fill's end) to its last 100 ms is a leak, and a leaking trunk
+/// fills slower than its volume says: the probe then tells nothing.
+pub const HOLD_MS: u32 = 500;
+/// See [`HOLD_MS`] (the simulator's tight trunk moves by at most 0.04 kPa).
+pub const LEAK_DROP_KPA: f32 = 0.15;
+
+/// The probe's fill target, kPa: under a third of the lowest snap (13.1 kPa).
+pub const PROBE_KPA: f32 = 4.0;
+/// Sealed settle before the fill, ms; the baseline is the mean of its second half.
+pub const SETTLE_MS: u32 = 300;
+/// Fill-rate tolerance (fraction of the signature) within which a state is kept.
+pub const RATE_TOLERANCE: f32 = 0.05;
+
+/// Measured fill rate (kPa/s) of each state, by [`TrunkState::index`] (F&P, F&F, F&D, D&P, D&F,
+/// D&D): the mean over seeds 1–3 through this probe on the simulator's calibrated trunk.
+pub const PROBE_SIGNATURES: [f32; 6] = [11.71, 10.81, 10.24, 14.08, 12.94, 12.82];
+
+/// The probe, as a plan within `state` (steps within one state change no belief): vent,
+/// settle, fill, hold; then vent.
+pub fn probe_plan(state: TrunkState) -> Plan {
+    let step = |prims: &[Primitive]| Step {
+        kind: StepKind::Pneumatic,
+        from: state,
+        to: state,
+        primitives: prims.iter().copied().collect(),
+        timeout_ms: 20_000,
+    };
+    let measure = step(&[
+        Primitive::Vent { pressure_kpa: 0.0 },
+        Primitive::Hold {
+            duration_ms: SETTLE_MS,
+        },
+        Primitive::Inflate {
+            pressure_kpa: PROBE_KPA,
+            snaps: 0,
+        },
+        Primitive::Hold {
+            duration_ms: HOLD_MS,
+        },
+    ]);
+    let vent = step(&[Primitive::Vent { pressure_kpa: 0.0 }]);
+    Plan {
+        plan_id: IDENTIFY_PLAN_ID,
+        steps: [measure, vent].into_iter().collect(),
+    }
+}
+
+/// A running mean.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Mean {
+    sum: f32,
+    n: u32,
+}
+
+impl Mean {
+    fn add(&mut self, x: f32) {
+        self.sum += x;
+        self.n += 1;
+    }
+
+    /// The mean (`None` without samples).
+    pub fn get(&self) -> Option<f32> {
+        (self.n > 0).then(|| self.sum / self.n as f32)
+    }
+}
+
+/// What the probe measured.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ProbeLog {
+    /// Mean pressure over the settle's second half (the fill's baseline), kPa.
+    pub p0: Mean,
+    /// When the current primitive began, ms.
+    pub prim_start_ms: u64,
+    /// How long the fill took, ms (0 until it ended).
+    pub fill_ms: u64,
+    /// Pressure when the fill ended, kPa.
+    pub filled_kpa: f32,
+    /// Mean pressure over the hold's first and last 100 ms, kPa.
+    pub hold_first: Mean,
+    /// See `hold_first`.
+    pub hold_last: Mean,
+}
+
+impl ProbeLog {
+    /// One control pass during primitive `index` of [`probe_step`] with pressure `p`.
+    pub fn sample(&mut self, index: u8, started_ms: u64, now_ms: u64, p: f32) {
+        self.prim_start_ms = started_ms;
+        let t = now_ms.saturating_sub(started_ms);
+        let hold = HOLD_MS as u64;
+        match index {
+            1 if t >= SETTLE_MS as u64 / 2 => self.p0.add(p),
+            3 if t < 100 && self.fill_ms > 0 => self.hold_first.add(p),
+            3 if t >= hold - 100 && t < hold => self.hold_last.add(p),
+            _ => {}
+        }
+    }
+
+    /// Primitive `index` ended at `now_ms` with pressure `p`.
+    pub fn primitive_done(&mut self, index: u8, now_ms: u64, p: f32) {
+        if index == 2 {
+            self.fill_ms = now_ms.saturating_sub(self.prim_start_ms);
+            self.filled_kpa = p;
+        }
+    }
+
+    /// Fill rate, kPa/s (`None` until the fill is recorded).
+    pub fn rate_kpa_per_s(&self) -> Option<f32> {
+        let p0 = self.p0.get()?;
+        (self.fill_ms > 0).then(|| (self.filled_kpa - p0) * 1_000.0 / self.fill_ms as f32)
+    }
+
+    /// Whether the sealed hold lost pressure like a leak (`None` until it is recorded).
+    pub fn leaking(&self) -> Option<bool> {
+        // The inlet regulator keeps holding the target through the hold: a leak shows as a
+        // hold under the target (refilled in cycles), a slow one as a falling hold.
+        let (first, last) = (self.hold_first.get()?, self.hold_last.get()?);
+        Some(first - last > LEAK_DROP_KPA || self.filled_kpa - last > LEAK_DROP_KPA)
+    }
+
+    /// The states consistent with the measurement (every state when it is incomplete or the
+    /// trunk leaks).
+    pub fn verdict(&self) -> StateSet {
+        let (Some(rate), Some(false)) = (self.rate_kpa_per_s(), self.leaking()) else {
+            return StateSet::ALL;
+        };
+        TrunkState::ALL
+            .iter()
+            .filter(|s| {
+                let want = PROBE_SIGNATURES[s.index()];
+                (rate - want).abs() <= RATE_TOLERANCE * want
+            })
+            .fold(StateSet::EMPTY, |set, s| set.with(*s))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn log_leaking(rate: f32, leak: f32) -> ProbeLog {
+        let mut l = ProbeLog::default();
+        for t in 0..300 {
+            l.sample(1, 1_000, 1_000 + t, 0.2);
+        }
+        let fill_ms = (3.8 / rate * 1_000.0) as u64;
+        l.sample(2, 1_300, 1_300, 0.2);
+        l.primitive_done(2, 1_300 + fill_ms, 4.0);
+        let end = 1_300 + fill_ms;
+        for t in 0..500 {
+            l.sample(3, end, end + t, 4.0 - leak * t as f32 / 1_000.0);
+        }
+        l
+    }
+
+    fn log(rate: f32) -> ProbeLog {
+        log_leaking(rate, 0.0)
+    }
+
+    fn set(names: &[&str]) -> StateSet {
+        names
+            .iter()
+            .fold(StateSet::EMPTY, |a, n| a.with(n.parse().unwrap()))
+    }
+
+    #[test]
+    fn the_signatures_tell_what_they_can_and_no_more() {
+        // Each state's own signature keeps it.
+        for s in TrunkState::ALL {
+            let v = log(PROBE_SIGNATURES[s.index()]).verdict();
+            assert!(v.contains(s), "{s}: {v:?}");
+        }
+        assert_eq!(log(11.71).verdict(), set(&["F&P"]));
+        assert_eq!(log(14.08).verdict(), set(&["D&P"]));
+        // D&F and D&D differ by 1 %: never told apart.
+        assert_eq!(log(12.9).verdict(), set(&["D&F", "D&D"]));
+        // F&F and F&D: apart at their signatures, together where the windows touch.
+        assert_eq!(log(10.81).verdict(), set(&["F&F"]));
+        assert_eq!(log(10.5).verdict(), set(&["F&F", "F&D"]));
+        // A leaking trunk (1 kPa/s at 4 kPa) fills slower than its volume says: no verdict.
+        assert_eq!(log_leaking(11.71, 1.0).verdict(), StateSet::ALL);
+        assert_eq!(log_leaking(11.71, 0.1).verdict(), set(&["F&P"]));
+        // Nothing fills this slowly.
+        assert!(log(8.0).verdict().is_empty());
+        // An incomplete probe says nothing.
+        let mut l = ProbeLog::default();
+        l.sample(1, 0, 200, 0.0);
+        assert_eq!(l.verdict(), StateSet::ALL);
+    }
+}

@@ -17,8 +17,6 @@ fn plan_with(fault: &str, from: &str, to: &str) -> (e2e::Output, serde_json::Val
             "--sim",
             "--sim-initial",
             from,
-            "--sim-speed",
-            super::plans::SPEED,
             "--sim-fault",
             fault,
             "--seed",

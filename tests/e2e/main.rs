@@ -8,5 +8,6 @@ mod elf;
 mod faults;
 mod graph_agreement;
 mod plans;
+mod pty;
 mod serial_garbage;
 mod usage;

@@ -1,42 +1,40 @@
-//! An in-process host for the simulator: encodes requests into the sim's link and decodes what
-//! the device sends back. Tests and benchmarks drive the real controller through it exactly as
-//! `host-tool` does over a serial port.
+//! Short request/response exchanges with a [`Sim`] the caller steps itself, for the library's
+//! own tests and benchmarks. The protocol (handshake, sequence numbers, retries, heartbeats,
+//! session) is the real host engine's, [`host::Host`], driven sans-IO here: this module only
+//! moves its bytes to and from the simulated line and steps the simulator. Whole plans with
+//! reports go through [`crate::pair`] instead.
 
-use protocol::messages::{
-    DeviceMessage, Event, Plan, PlanPhase, RequestBody, ResponseBody, ResultCode, Step,
-};
-use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN};
+use geometry::TrunkState;
+use host::{Host, HostEvent, RequestId, SessionEvent, Timing};
+use protocol::messages::{DeviceMessage, Event, Plan, PlanPhase, RequestBody, ResponseBody, Step};
+use protocol::ResultCode;
 
 use crate::Sim;
 
 /// While a plan runs, the host asks for the status this often, virtual ms.
 pub const STATUS_POLL_MS: u64 = 1_000;
-/// A request without a response is sent again after this long, virtual ms.
-pub const RETRY_MS: u64 = 300;
-/// How often the host sends a heartbeat while waiting, virtual ms.
-pub const HOST_HEARTBEAT_MS: u64 = protocol::HOST_HEARTBEAT_PERIOD_MS as u64;
 
-/// Why a host exchange failed.
+/// Why an exchange failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum HostError {
-    /// No response within the time limit.
-    #[error("no response to request {seq} within {waited_ms} ms")]
+    /// No response within the time limit (or the engine lost the link).
+    #[error("no response to request {request} within {waited_ms} ms")]
     NoResponse {
         /// The request.
-        seq: u16,
+        request: &'static str,
         /// How long it waited.
         waited_ms: u64,
     },
     /// The device refused.
-    #[error("request {seq} refused: {result:?}")]
+    #[error("{request} refused: {result:?}")]
     Refused {
         /// The request.
-        seq: u16,
+        request: &'static str,
         /// Its result.
         result: ResultCode,
     },
-    /// A message could not be encoded.
-    #[error("could not encode a request")]
+    /// The plan has more steps than a plan may hold.
+    #[error("the plan does not fit in one upload")]
     Encode,
     /// The plan did not finish within the time limit.
     #[error("plan {plan_id} did not finish within {waited_ms} ms")]
@@ -48,98 +46,105 @@ pub enum HostError {
     },
 }
 
-/// The host side of the link.
-#[derive(Debug, Default)]
+/// The host engine, stepped together with a simulator the caller owns.
+#[derive(Debug)]
 pub struct SimHost {
-    seq: u16,
-    /// The session the last successful handshake opened (0: none yet).
-    pub session: u32,
-    decoder: FrameDecoder,
-    /// Every message received, in order.
+    host: Host,
+    /// Every device event received, in order.
     pub received: Vec<DeviceMessage>,
-    last_sent_ms: u64,
+}
+
+impl Default for SimHost {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl SimHost {
     /// A host that has sent nothing.
     pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Sends a request; returns its sequence number.
-    pub fn send(&mut self, sim: &mut Sim, body: RequestBody) -> Result<u16, HostError> {
-        self.seq = self.seq.wrapping_add(1);
-        let req = Request {
-            seq: self.seq,
-            session: self.session,
-            body,
-        };
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let n = encode(&req, &mut buf).map_err(|_| HostError::Encode)?;
-        sim.write_host_bytes(&buf[..n]);
-        self.last_sent_ms = sim.now_ms();
-        Ok(self.seq)
-    }
-
-    /// Decodes whatever the device has sent; returns the new messages.
-    pub fn poll(&mut self, sim: &mut Sim) -> Vec<DeviceMessage> {
-        if !sim.has_device_bytes() {
-            return Vec::new();
+        Self {
+            host: Host::new(Timing::standard(), 1),
+            received: Vec::new(),
         }
-        let bytes = sim.read_device_bytes();
-        let new: Vec<DeviceMessage> = self
-            .decoder
-            .feed::<DeviceMessage>(&bytes)
-            .filter_map(Result::ok)
-            .collect();
-        self.received.extend(new.iter().cloned());
-        new
     }
 
-    /// Sends `body` and runs the sim until its response arrives (up to `max_ms`), resending
-    /// the same request (same `seq`: the device does not execute it twice) every
-    /// [`RETRY_MS`] while no response came, as a host does on a lossy line.
+    /// The session the handshake opened (0: none yet).
+    pub fn session(&self) -> u32 {
+        self.host.session().device().map_or(0, |d| d.session)
+    }
+
+    /// One millisecond: the engine's frames onto the line, one simulator step, the device's
+    /// bytes into the engine, its timers.
+    fn pump(&mut self, sim: &mut Sim) -> Vec<SessionEvent> {
+        while let Some(frame) = self.host.poll_transmit() {
+            sim.write_host_bytes(&frame);
+        }
+        sim.step();
+        let now = sim.now_ms();
+        if sim.has_device_bytes() {
+            self.host.handle_bytes(&sim.read_device_bytes(), now);
+        }
+        if self.host.poll_timeout().is_some_and(|t| t <= now) {
+            self.host.handle_timeout(now);
+        }
+        let mut out = Vec::new();
+        while let Some(ev) = self.host.poll_event() {
+            if let HostEvent::Session(ev) = ev {
+                if let SessionEvent::Device(e) = &ev {
+                    self.received.push(DeviceMessage::Event(e.clone()));
+                }
+                out.push(ev);
+            }
+        }
+        out
+    }
+
+    /// Sends a request without waiting for its answer (a heartbeat, say).
+    pub fn send(&mut self, sim: &mut Sim, body: RequestBody) -> Result<RequestId, HostError> {
+        Ok(self.host.request(body, sim.now_ms()))
+    }
+
+    /// Steps once and returns the device events that arrived.
+    pub fn poll(&mut self, sim: &mut Sim) -> Vec<DeviceMessage> {
+        self.pump(sim)
+            .into_iter()
+            .filter_map(|e| match e {
+                SessionEvent::Device(ev) => Some(DeviceMessage::Event(ev)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Sends `body` and runs the sim until its answer arrives (up to `max_ms`); the engine
+    /// retries with the same sequence number on a lossy line.
     pub fn request(
         &mut self,
         sim: &mut Sim,
         body: RequestBody,
         max_ms: u64,
     ) -> Result<(ResultCode, ResponseBody), HostError> {
-        self.seq = self.seq.wrapping_add(1);
-        let seq = self.seq;
-        let req = Request {
-            seq,
-            session: self.session,
-            body,
-        };
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let n = encode(&req, &mut buf).map_err(|_| HostError::Encode)?;
+        let request = host::text::request_name(&body);
         let start = sim.now_ms();
-        let mut next_send = start;
+        let id = self.host.request(body, start);
         while sim.now_ms() - start < max_ms {
-            if sim.now_ms() >= next_send {
-                // A lone delimiter first flushes any partial frame a corrupted byte left behind.
-                sim.write_host_bytes(&[0]);
-                sim.write_host_bytes(&buf[..n]);
-                self.last_sent_ms = sim.now_ms();
-                next_send = sim.now_ms() + RETRY_MS;
-            }
-            sim.step();
-            for m in self.poll(sim) {
-                if let DeviceMessage::Response {
-                    seq: s,
-                    result,
-                    body,
-                } = m
-                {
-                    if s == seq {
-                        return Ok((result, body));
+            for ev in self.pump(sim) {
+                match ev {
+                    SessionEvent::Reply { id: got, reply } if got == id => {
+                        return Ok((reply.result, reply.body))
                     }
+                    SessionEvent::Failed { id: got, .. } if got == id => {
+                        return Err(HostError::NoResponse {
+                            request,
+                            waited_ms: sim.now_ms() - start,
+                        })
+                    }
+                    _ => {}
                 }
             }
         }
         Err(HostError::NoResponse {
-            seq,
+            request,
             waited_ms: max_ms,
         })
     }
@@ -151,50 +156,70 @@ impl SimHost {
         body: RequestBody,
         max_ms: u64,
     ) -> Result<ResponseBody, HostError> {
-        let seq_next = self.seq.wrapping_add(1);
+        let request = host::text::request_name(&body);
         match self.request(sim, body, max_ms)? {
             (ResultCode::Ok | ResultCode::InProgress, b) => Ok(b),
-            (result, _) => Err(HostError::Refused {
-                seq: seq_next,
-                result,
-            }),
+            (result, _) => Err(HostError::Refused { request, result }),
         }
     }
 
-    /// The handshake; keeps the session it opened for every later request.
+    /// The handshake.
     pub fn hello(&mut self, sim: &mut Sim) -> Result<ResponseBody, HostError> {
-        let body = self.request_ok(sim, RequestBody::hello(), 1_000)?;
-        if let ResponseBody::Hello(info) = &body {
-            self.session = info.session;
+        let start = sim.now_ms();
+        self.host.connect(start);
+        while sim.now_ms() - start < 2_000 {
+            for ev in self.pump(sim) {
+                match ev {
+                    SessionEvent::Opened(info) => return Ok(ResponseBody::Hello(info)),
+                    SessionEvent::HandshakeFailed(_) => {
+                        return Err(HostError::Refused {
+                            request: "Hello",
+                            result: ResultCode::Rejected(protocol::RejectReason::VersionMismatch),
+                        })
+                    }
+                    _ => {}
+                }
+            }
         }
-        Ok(body)
+        Err(HostError::NoResponse {
+            request: "Hello",
+            waited_ms: 2_000,
+        })
     }
 
-    /// Uploads and starts a plan, then runs the sim (heartbeating) until `PlanDone` or
-    /// `max_ms`. Returns the `PlanDone` event's `ok` and final state.
+    /// Uploads and starts a plan of `steps`, then runs the sim (the engine heartbeats) until
+    /// `PlanDone` or `max_ms`. Returns the plan's `ok` and final state.
     pub fn run_plan(
         &mut self,
         sim: &mut Sim,
         plan_id: u16,
         steps: &[Step],
         max_ms: u64,
-    ) -> Result<(bool, geometry::TrunkState), HostError> {
+    ) -> Result<(bool, TrunkState), HostError> {
         let mut plan = Plan {
             plan_id,
             steps: heapless::Vec::new(),
         };
         for s in steps {
-            if plan.steps.push(s.clone()).is_err() {
-                return Err(HostError::Encode);
-            }
+            plan.steps.push(s.clone()).map_err(|_| HostError::Encode)?;
         }
         self.request_ok(sim, RequestBody::UploadPlan(plan), 1_000)?;
         self.request_ok(sim, RequestBody::StartPlan { plan_id }, 1_000)?;
         let start = sim.now_ms();
         let mut next_status = start + STATUS_POLL_MS;
-        let mut scanned = self.received.len();
         while sim.now_ms() - start < max_ms {
-            sim.step();
+            for ev in self.pump(sim) {
+                if let SessionEvent::Device(Event::PlanDone {
+                    plan_id: p,
+                    ok,
+                    state,
+                }) = ev
+                {
+                    if p == plan_id {
+                        return Ok((ok, state));
+                    }
+                }
+            }
             if sim.now_ms() >= next_status {
                 // Events can be lost on a noisy line: the status tells the plan's phase too.
                 next_status = sim.now_ms() + STATUS_POLL_MS;
@@ -211,22 +236,6 @@ impl SimHost {
                         }
                     }
                 }
-            } else if sim.now_ms() - self.last_sent_ms >= HOST_HEARTBEAT_MS {
-                self.send(sim, RequestBody::Heartbeat)?;
-            }
-            self.poll(sim);
-            while scanned < self.received.len() {
-                if let DeviceMessage::Event(Event::PlanDone {
-                    plan_id: p,
-                    ok,
-                    state,
-                }) = self.received[scanned]
-                {
-                    if p == plan_id {
-                        return Ok((ok, state));
-                    }
-                }
-                scanned += 1;
             }
         }
         Err(HostError::PlanTimeout {

@@ -13,6 +13,8 @@
 //! - [`Sim`] ([`sim`]): all of it on one virtual clock with a seeded RNG; the controller runs
 //!   through `firmware::hw::Shell`, the board's own loop body, never a re-implementation.
 //! - [`host`]: an in-process host (encodes requests, decodes device messages) for tests.
+//! - [`pair`]: the real host engine, the controller and the physics on one virtual clock.
+//! - [`swarm`]: random scenarios of the whole system checked against invariants.
 //! - [`pty`]: the simulator serving its link on a pseudo-terminal, for any serial client.
 //! - [`discovery`]: the transition graph the physics supports, as JSON or Graphviz DOT.
 //!
@@ -42,6 +44,7 @@ pub mod physics;
 pub mod pty;
 pub mod servo;
 pub mod sim;
+pub mod swarm;
 
 pub use fault::{Fault, ParseFaultError};
 pub use sim::{GroundTruth, Sim, SimOptions, TruthLog};

@@ -39,8 +39,9 @@ struct Cli {
     /// tendon-break, sensor-dropout, link-drop, line-noise.
     #[arg(long = "fault", value_name = "NAME", value_parser = parse_fault)]
     faults: Vec<Fault>,
-    /// Virtual seconds per wall second ("inf": as fast as possible).
-    #[arg(long, default_value = "20", value_parser = parse_speed)]
+    /// Virtual seconds per wall second, in (0, 20]: a pty client keeps the hardware's wall-clock
+    /// timing, and the controller's link timeout (3 s × speed) goes up to 60 s.
+    #[arg(long, default_value = "20", value_parser = parse_speed, allow_negative_numbers = true)]
     speed: f64,
     /// No simulated operator: manual steps wait for the host or a real person.
     #[arg(long)]
@@ -60,6 +61,25 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Deterministic simulation testing: random scenarios (targets, faults with onsets, line
+    /// noise, power cuts, host crashes, operator mistakes) checked against invariants.
+    Swarm {
+        /// Scenarios to run (seeds SEED, SEED+1, …).
+        #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=10_000_000))]
+        runs: u64,
+        /// The first scenario's seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Run one scenario and print its trace.
+        #[arg(long, value_name = "SEED", conflicts_with_all = ["runs", "seed"])]
+        replay: Option<u64>,
+        /// Worker threads [default: the machine's cores].
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=256))]
+        threads: Option<u64>,
+        /// Print one JSON object (runs, virtual_hours, violations, …).
+        #[arg(long)]
+        json: bool,
+    },
     /// Discover the transition graph the simulated trunk supports.
     Discover {
         /// Print JSON (the default).
@@ -80,17 +100,12 @@ fn parse_fault(s: &str) -> Result<Fault, String> {
 }
 
 fn parse_speed(s: &str) -> Result<f64, String> {
-    let v = match s.trim() {
-        "inf" | "infinity" | "max" => f64::INFINITY,
-        t => t
-            .parse::<f64>()
-            .map_err(|_| format!("`{s}` is not a number (or `inf`)"))?,
-    };
-    if v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!("speed must be positive (got {s})"))
-    }
+    let v = s
+        .trim()
+        .parse::<f64>()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    hil_sim::pty::check_pty_speed(v)?;
+    Ok(v)
 }
 
 fn main() -> ExitCode {
@@ -106,6 +121,13 @@ fn main() -> ExitCode {
         }
     };
     match cli.command {
+        Some(Command::Swarm {
+            runs,
+            seed,
+            replay,
+            threads,
+            json,
+        }) => swarm_command(runs, seed, replay, threads, json),
         Some(Command::Discover { dot, .. }) => {
             let g = discovery::discover(RigConfig::default());
             let out = if dot {
@@ -182,4 +204,111 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+fn swarm_command(
+    runs: u64,
+    seed: u64,
+    replay: Option<u64>,
+    threads: Option<u64>,
+    json: bool,
+) -> ExitCode {
+    use hil_sim::swarm;
+    let mut out = std::io::stdout();
+    if let Some(seed) = replay {
+        let scenario = swarm::Scenario::generate(seed);
+        let rep = swarm::run(&scenario, true);
+        if json {
+            let _ = writeln!(
+                out,
+                "{}",
+                report_json(1, rep.virtual_ms, &rep.violations, &[])
+            );
+        } else {
+            let _ = writeln!(out, "{}", scenario.describe());
+            let _ = write!(out, "{}", rep.trace);
+            let _ = writeln!(
+                out,
+                "reached {}/{} targets in {:.1} s of virtual time; {} violation(s)",
+                rep.reached,
+                scenario.targets.len(),
+                rep.virtual_ms as f64 / 1000.0,
+                rep.violations.len()
+            );
+        }
+        return if rep.violations.is_empty() {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::from(1)
+        };
+    }
+    let threads = threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    let wall = std::time::Instant::now();
+    let rep = swarm::swarm(seed, runs, threads);
+    let wall_s = wall.elapsed().as_secs_f64();
+    // Each failing seed, shrunk to the smallest scenario that still fails.
+    let mut seeds: Vec<u64> = rep.violations.iter().map(|v| v.seed).collect();
+    seeds.dedup();
+    let shrunk: Vec<String> = seeds
+        .iter()
+        .take(10)
+        .map(|&s| swarm::shrink(&swarm::Scenario::generate(s)).describe())
+        .collect();
+    if json {
+        let mut v = report_json(rep.runs, rep.virtual_ms, &rep.violations, &shrunk);
+        v["targets"] = serde_json::json!(rep.targets);
+        v["reached"] = serde_json::json!(rep.reached);
+        v["wall_s"] = serde_json::json!(wall_s);
+        let _ = writeln!(out, "{v}");
+    } else {
+        let _ = writeln!(
+            out,
+            "{} runs, {:.1} virtual hours in {:.1} s of wall time ({:.0}× real time); \
+             {}/{} targets reached; {} violation(s)",
+            rep.runs,
+            rep.virtual_ms as f64 / 3.6e6,
+            wall_s,
+            rep.virtual_ms as f64 / 1000.0 / wall_s.max(1e-9),
+            rep.reached,
+            rep.targets,
+            rep.violations.len()
+        );
+        for v in &rep.violations {
+            let _ = writeln!(
+                out,
+                "  seed {} at {} ms: {}: {}  (hil-sim swarm --replay {})",
+                v.seed, v.t_ms, v.invariant, v.detail, v.seed
+            );
+        }
+        for s in &shrunk {
+            let _ = writeln!(out, "  shrunk: {s}");
+        }
+    }
+    if rep.violations.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
+
+fn report_json(
+    runs: u64,
+    virtual_ms: u64,
+    violations: &[hil_sim::swarm::Violation],
+    shrunk: &[String],
+) -> serde_json::Value {
+    serde_json::json!({
+        "runs": runs,
+        "virtual_hours": virtual_ms as f64 / 3.6e6,
+        "violations": violations.iter().map(|v| serde_json::json!({
+            "seed": v.seed,
+            "t_ms": v.t_ms,
+            "invariant": v.invariant,
+            "detail": v.detail,
+        })).collect::<Vec<_>>(),
+        "shrunk": shrunk,
+    })
 }

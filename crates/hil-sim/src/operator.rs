@@ -20,6 +20,15 @@ pub enum OperatorAction {
     DoTask(ManualTask),
 }
 
+/// A mistake the operator will make at the next manual step (the swarm tester's scripts).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mistake {
+    /// Folds this instead of what was asked, and confirms.
+    WrongFold(ManualTask),
+    /// Does not come: nothing is folded and nothing confirmed.
+    Refuse,
+}
+
 /// The operator's state.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Operator {
@@ -31,6 +40,8 @@ pub struct Operator {
     release_ms: Option<u64>,
     /// Manual tasks done so far.
     pub tasks_done: u32,
+    /// The mistake to make at the next manual step, if any.
+    pub mistake: Option<Mistake>,
 }
 
 impl Operator {
@@ -42,6 +53,7 @@ impl Operator {
             due_ms: None,
             release_ms: None,
             tasks_done: 0,
+            mistake: None,
         }
     }
 
@@ -62,10 +74,23 @@ impl Operator {
             (true, None) => self.due_ms = Some(now_ms + OPERATOR_DELAY_MS),
             (false, Some(_)) => self.due_ms = None,
             (true, Some(due)) if now_ms >= due => {
-                let task = self
+                let asked = self
                     .prompted_task
                     .take()
                     .unwrap_or(ManualTask::PackBottomModule);
+                let task = match self.mistake {
+                    Some(Mistake::Refuse) => {
+                        // Stays away; the step's time limit ends the wait.
+                        self.mistake = None;
+                        self.due_ms = Some(u64::MAX);
+                        return (action, false);
+                    }
+                    Some(Mistake::WrongFold(t)) => {
+                        self.mistake = None;
+                        t
+                    }
+                    None => asked,
+                };
                 action = OperatorAction::DoTask(task);
                 self.tasks_done += 1;
                 self.due_ms = None;

@@ -21,18 +21,36 @@ struct Pacer {
     virt0: u64,
 }
 
+/// Called after every simulator step while the engine waits (the swarm tester's invariant
+/// checks and scripted events).
+pub type Monitor = Box<dyn FnMut(&mut Sim)>;
+
 /// The simulator as the host engine's I/O.
-#[derive(Debug)]
 pub struct SimIo {
     /// The simulator.
     pub sim: Sim,
     pacer: Option<Pacer>,
+    /// Runs after every step.
+    pub monitor: Option<Monitor>,
+}
+
+impl std::fmt::Debug for SimIo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimIo")
+            .field("sim", &self.sim)
+            .field("paced", &self.pacer.is_some())
+            .finish_non_exhaustive()
+    }
 }
 
 impl SimIo {
     /// The simulator, unpaced (as fast as the CPU allows).
     pub fn new(sim: Sim) -> Self {
-        Self { sim, pacer: None }
+        Self {
+            sim,
+            pacer: None,
+            monitor: None,
+        }
     }
 
     /// Paces virtual time to `speed` × wall time from now on (`None`: as fast as possible).
@@ -44,6 +62,14 @@ impl SimIo {
                 wall0: Instant::now(),
                 virt0: self.sim.now_ms(),
             });
+    }
+
+    /// One simulator step, then the monitor.
+    pub fn step(&mut self) {
+        self.sim.step();
+        if let Some(m) = self.monitor.as_mut() {
+            m(&mut self.sim);
+        }
     }
 
     fn wait_for_wall(&self) {
@@ -70,7 +96,7 @@ impl Io for SimIo {
 
     fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
         while !self.sim.has_device_bytes() && self.sim.now_ms() < deadline_ms {
-            self.sim.step();
+            self.step();
             // Pace in 10 ms slices: fine enough to watch, coarse enough to cost nothing.
             if self.pacer.is_some() && self.sim.now_ms() % 10 == 0 {
                 self.wait_for_wall();
@@ -100,15 +126,31 @@ pub struct SimShell {
     answer: Option<host::ShellAction>,
 }
 
-impl host::RunShell<SimIo> for SimShell {
-    fn event(&mut self, event: &host::RunEvent, io: &mut SimIo) {
+impl SimShell {
+    fn on_event(&mut self, event: &host::RunEvent, io: &SimIo) {
         if let host::RunEvent::IdentifyPrompt { .. } = event {
-            self.answer = Some(host::ShellAction::Declare(io.sim.ground_truth().true_state));
+            self.answer = Some(host::ShellAction::Declare(io.sim.safety().true_state));
         }
         self.events.push(event.clone());
     }
+}
+
+impl host::RunShell<SimIo> for SimShell {
+    fn event(&mut self, event: &host::RunEvent, io: &mut SimIo) {
+        self.on_event(event, io);
+    }
 
     fn poll(&mut self, _io: &mut SimIo) -> Option<host::ShellAction> {
+        self.answer.take()
+    }
+}
+
+impl host::RunShell<&mut SimIo> for SimShell {
+    fn event(&mut self, event: &host::RunEvent, io: &mut &mut SimIo) {
+        self.on_event(event, io);
+    }
+
+    fn poll(&mut self, _io: &mut &mut SimIo) -> Option<host::ShellAction> {
         self.answer.take()
     }
 }

@@ -2,9 +2,13 @@
 //!
 //! [`PtySim::spawn`] opens a pty pair (raw mode), and runs the simulator on a thread: bytes a
 //! client writes to the device path go into the controller's link; what the controller sends
-//! comes out of it. Virtual time follows wall time × `speed` (the host keeps its heartbeats in
-//! wall time, so `speed` × the host's 50 ms request period must stay well under the firmware's
-//! link timeout of 3 s virtual: `speed` ≤ 40). With `speed = ∞` the simulator runs flat out.
+//! comes out of it. Virtual time follows wall time × `speed`.
+//!
+//! A client on the pty keeps the hardware's timing on the wall clock (a heartbeat every
+//! 250 ms, the link lost after 3 s of silence): at `speed` × the device sees those heartbeats
+//! `speed` times further apart. So the simulated controller's link timeout is set to
+//! 3 s × `speed` (for `speed` > 1), and since the parameter goes up to 60 s, the pty holds a
+//! client at every speed up to [`MAX_PTY_SPEED`]; faster ones are refused with that reason.
 
 use std::os::fd::{AsFd, AsRawFd, OwnedFd};
 use std::path::{Path, PathBuf};
@@ -28,6 +32,30 @@ const WALL_TICK: Duration = Duration::from_millis(1);
 /// Most virtual time one loop pass may run (so a stalled wall clock cannot make it run away).
 const MAX_CATCH_UP_MS: u64 = 2_000;
 
+/// The fastest speed at which the pty holds a client on the hardware's timing (the device's
+/// link timeout of 3 s × speed reaches its 60 s maximum).
+pub const MAX_PTY_SPEED: f64 = 20.0;
+
+/// Why a speed cannot be served on the pty, if it cannot.
+pub fn check_pty_speed(speed: f64) -> Result<(), String> {
+    if !(speed.is_finite() && speed > 0.0) {
+        return Err(format!(
+            "speed {speed} cannot be served on a pty: a client there keeps wall-clock time \
+             (give a number in (0, {MAX_PTY_SPEED}])"
+        ));
+    }
+    if speed > MAX_PTY_SPEED {
+        return Err(format!(
+            "speed {speed} is too fast for a pty client on the hardware's timing: its 250 ms \
+             heartbeats would arrive {:.1} s apart in virtual time, beyond the longest link \
+             timeout the controller takes (60 s = ×{MAX_PTY_SPEED}); use --speed \
+             {MAX_PTY_SPEED} or less",
+            0.25 * speed
+        ));
+    }
+    Ok(())
+}
+
 /// A simulator running on its own thread behind a pseudo-terminal.
 #[derive(Debug)]
 pub struct PtySim {
@@ -50,9 +78,9 @@ impl PtySim {
         opts: SimOptions,
         log: Option<std::fs::File>,
     ) -> anyhow::Result<PtySim> {
-        if opts.speed.is_nan() || opts.speed <= 0.0 {
-            anyhow::bail!("speed must be positive (got {})", opts.speed);
-        }
+        check_pty_speed(opts.speed).map_err(|e| anyhow::anyhow!(e))?;
+        let link_timeout_ms =
+            (f64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) * opts.speed.max(1.0)).round() as u32;
         let pty = nix::pty::openpty(None, None).context("opening a pseudo-terminal")?;
         let mut t = tcgetattr(pty.slave.as_fd()).context("reading the pty's terminal settings")?;
         cfmakeraw(&mut t);
@@ -73,14 +101,16 @@ impl PtySim {
             let (truth, stop) = (Arc::clone(&truth), Arc::clone(&stop));
             std::thread::Builder::new()
                 .name("hil-sim".into())
-                .spawn(move || match Sim::try_new(opts) {
-                    Ok(sim) => {
-                        *lock(&truth) = Some(sim.ground_truth());
-                        let _ = tx.send(Ok(()));
-                        serve(sim, pty.master, pty.slave, &stop, &truth, log);
-                    }
-                    Err(e) => {
-                        let _ = tx.send(Err(e.to_string()));
+                .spawn(move || {
+                    match Sim::try_new(opts).map(|s| s.with_link_timeout_ms(link_timeout_ms)) {
+                        Ok(sim) => {
+                            *lock(&truth) = Some(sim.ground_truth());
+                            let _ = tx.send(Ok(()));
+                            serve(sim, pty.master, pty.slave, &stop, &truth, log);
+                        }
+                        Err(e) => {
+                            let _ = tx.send(Err(e.to_string()));
+                        }
                     }
                 })
                 .context("starting the simulator thread")?

@@ -74,6 +74,27 @@ impl Default for SimOptions {
     }
 }
 
+/// The truth that judges safety ([`Sim::safety`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Safety {
+    /// The trunk's true state (`None` between states).
+    pub true_state: Option<TrunkState>,
+    /// True gauge pressure, kPa.
+    pub pressure_kpa: f32,
+    /// The controller's pressure cap, kPa.
+    pub pressure_limit_kpa: f32,
+    /// The inlet passes air (a stuck valve included).
+    pub inlet_open: bool,
+    /// The controller commands the inlet open.
+    pub inlet_commanded_open: bool,
+    /// The exhaust passes air.
+    pub exhaust_open: bool,
+    /// Every servo limp or at its command.
+    pub servos_still: bool,
+    /// As [`GroundTruth::actuators_safe`].
+    pub actuators_safe: bool,
+}
+
 /// What really happened, for judging the controller.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GroundTruth {
@@ -187,6 +208,9 @@ pub struct Sim {
     trace: Option<Trace>,
     payload_n: f64,
     spare_gauss: Option<f64>,
+    /// Byte corruption probability set at run time (`None`: [`LINE_NOISE_RATE`] under the
+    /// `line-noise` fault, else none).
+    line_noise_rate: Option<f64>,
     /// The board ELF in the emulator (processor in the loop), when it runs instead of `ctl`.
     board: Option<Box<ElfBoard>>,
     board_error: Option<String>,
@@ -307,6 +331,7 @@ impl Sim {
             trace: None,
             payload_n: 0.0,
             spare_gauss: None,
+            line_noise_rate: None,
             board,
             board_error: None,
         })
@@ -343,6 +368,7 @@ impl Sim {
             trace: self.trace.clone(),
             payload_n: self.payload_n,
             spare_gauss: self.spare_gauss,
+            line_noise_rate: self.line_noise_rate,
             board: None,
             board_error: self.board_error.clone(),
         })
@@ -364,6 +390,17 @@ impl Sim {
             Some(b) => b.mode,
             None => self.ctl.mode(),
         }
+    }
+
+    /// The same simulator with the controller's link timeout set to `ms` (clamped to the
+    /// parameter's range), booted again; for a wall-clock client of a sped-up simulator, whose
+    /// heartbeats arrive `speed` times further apart in virtual time. Call before running (with
+    /// the firmware ELF the board keeps its own default).
+    pub fn with_link_timeout_ms(mut self, ms: u32) -> Self {
+        self.cfg.link_timeout_ms = ms;
+        self.cfg = self.cfg.validated();
+        self.ctl = self.shell.boot(self.cfg, self.now_ms);
+        self
     }
 
     /// The options it runs with.
@@ -424,7 +461,7 @@ impl Sim {
         if self.link_dropped {
             return;
         }
-        let noise = self.opts.faults.contains(&Fault::LineNoise);
+        let noise = self.noisy();
         for &b in bytes {
             let b = if noise { self.corrupt(b) } else { b };
             self.shell.link.rx.push_back(b);
@@ -441,8 +478,46 @@ impl Sim {
         !self.to_host.is_empty()
     }
 
+    fn noisy(&self) -> bool {
+        self.line_noise_rate.is_some_and(|r| r > 0.0)
+            || self.opts.faults.contains(&Fault::LineNoise)
+    }
+
+    /// Corrupts each byte on the link (both ways) with probability `rate` (0–1) from now on.
+    pub fn set_line_noise_rate(&mut self, rate: f64) {
+        self.line_noise_rate = Some(rate.clamp(0.0, 1.0));
+    }
+
+    /// Injects `fault` now (a fault with an onset, for the swarm tester): from this step on the
+    /// simulator behaves as if it had been given from the start; `link-drop` and
+    /// `sensor-dropout` act at once.
+    pub fn inject_fault(&mut self, fault: Fault) {
+        if self.opts.faults.contains(&fault) {
+            return;
+        }
+        self.opts.faults.push(fault);
+        match fault {
+            Fault::ServoStall => {
+                for s in &mut self.servos {
+                    s.spec.stall_torque_n_m *= SERVO_STALL_FAULT_TORQUE;
+                }
+            }
+            Fault::LinkDrop => self.link_dropped = true,
+            Fault::SensorDropout => self.sensor_lost = true,
+            _ => {}
+        }
+    }
+
+    /// The simulated operator (to script mistakes).
+    pub fn operator_mut(&mut self) -> &mut Operator {
+        &mut self.operator
+    }
+
     fn corrupt(&mut self, b: u8) -> u8 {
-        if self.rng.gen_bool(LINE_NOISE_RATE) {
+        if self
+            .rng
+            .gen_bool(self.line_noise_rate.unwrap_or(LINE_NOISE_RATE))
+        {
             b ^ self.rng.gen_range(1..=255u8)
         } else {
             b
@@ -546,11 +621,7 @@ impl Sim {
                 if self.link_dropped {
                     continue;
                 }
-                let b = if self.opts.faults.contains(&Fault::LineNoise) {
-                    self.corrupt(b)
-                } else {
-                    b
-                };
+                let b = if self.noisy() { self.corrupt(b) } else { b };
                 self.to_host.push_back(b);
             }
         }
@@ -807,18 +878,34 @@ impl TruthLog {
 }
 
 impl Sim {
+    /// The part of the truth that judges safety, cheap enough to ask every step.
+    pub fn safety(&self) -> Safety {
+        Safety {
+            true_state: self.trunk.state(),
+            pressure_kpa: self.trunk.pressure_kpa() as f32,
+            pressure_limit_kpa: self.cfg.pressure_limit_kpa,
+            inlet_open: self.inlet_passes(),
+            inlet_commanded_open: self.shell.outputs.inlet.high,
+            exhaust_open: self.shell.outputs.exhaust.high,
+            servos_still: self.servos_still(),
+            actuators_safe: self.actuators_safe(),
+        }
+    }
+
     fn inlet_passes(&self) -> bool {
         (self.shell.outputs.inlet.high || self.inlet_stuck_open)
             && !self.opts.faults.contains(&Fault::ValveStuckClosed)
     }
 
+    fn servos_still(&self) -> bool {
+        self.servos
+            .iter()
+            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5)
+    }
+
     fn actuators_safe(&self) -> bool {
         let limit = self.ctl.config().pressure_limit_kpa as f64;
-        let servos_still = self
-            .servos
-            .iter()
-            .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5);
-        !self.inlet_passes() && servos_still && self.trunk.pressure_kpa() <= limit
+        !self.inlet_passes() && self.servos_still() && self.trunk.pressure_kpa() <= limit
     }
 
     /// The injected faults in effect now (the mid-plan ones once they struck).

@@ -45,3 +45,81 @@ fn same_seed_same_run() {
     assert_eq!(a.0, b.0);
     assert_eq!(a.1, b.1);
 }
+
+#[test]
+fn after_a_power_cut_mid_step_the_run_identifies_the_state_first_then_reaches_its_target() {
+    use hil_sim::pair::SimIo;
+    use hil_sim::Sim;
+    use host::{Driver, Host, RunEvent, Timing};
+    use protocol::RequestBody;
+
+    let dd: TrunkState = "D&D".parse().unwrap();
+    let fd: TrunkState = "F&D".parse().unwrap();
+    let mut io = SimIo::new(Sim::new(SimOptions {
+        initial: dd,
+        seed: 5,
+        ..SimOptions::default()
+    }));
+    {
+        // A host starts the tendon pull D&D → F&D; 1.5 s in, the board loses power.
+        let mut d = Driver::new(Host::new(Timing::standard(), 1), &mut io);
+        d.connect().expect("handshake");
+        let plan = Graph::nominal()
+            .plan(dd, fd)
+            .unwrap()
+            .to_protocol(1)
+            .unwrap();
+        d.command(RequestBody::UploadPlan(plan)).unwrap();
+        d.command(RequestBody::StartPlan { plan_id: 1 }).unwrap();
+        d.idle(1_500).unwrap();
+        d.vanish();
+    }
+    io.sim.power_cycle();
+    io.sim.run_for(100);
+    let st = io.sim.controller().status();
+    let truth = io.sim.safety().true_state;
+    assert!(
+        !st.state_confirmed || truth == Some(st.state),
+        "boots confident and wrong: {st:?}, truth {truth:?}"
+    );
+    // A new host: the run identifies first (the simulated operator looks at the trunk), then
+    // plans from the identified state.
+    let mut d = Driver::new(Host::new(Timing::standard(), 0x4000), &mut io);
+    d.connect().expect("handshake");
+    let mut shell = SimShell::default();
+    let out = d.run_plan(Graph::nominal(), fd, RunOptions::default(), &mut shell);
+    drop(d);
+    assert!(
+        out.ok(),
+        "{:?} {:?} {:?}",
+        out.failure,
+        out.last_status,
+        shell.events
+    );
+    assert_eq!(io.sim.safety().true_state, Some(fd));
+    assert!(!st.state_confirmed, "the cut came mid-step: {st:?}");
+    assert!(
+        st.candidates.contains(truth.expect("at rest")),
+        "{st:?} vs {truth:?}"
+    );
+    // Identified before anything was planned: by the crane's probes, or by the operator, who is
+    // then asked among the device's candidates.
+    assert!(out.identified);
+    if let Some(prompt) = shell.events.iter().find_map(|e| match e {
+        RunEvent::IdentifyPrompt { candidates, .. } => Some(candidates.clone()),
+        _ => None,
+    }) {
+        assert!(
+            prompt.contains(&truth.expect("at rest")),
+            "{prompt:?} vs {truth:?}"
+        );
+    }
+    let first_plan = shell.events.iter().find_map(|e| match e {
+        RunEvent::Plan { plan, .. } => Some(plan.from()),
+        _ => None,
+    });
+    assert!(
+        first_plan.is_none_or(|f| Some(f) == truth),
+        "{first_plan:?} vs {truth:?}"
+    );
+}

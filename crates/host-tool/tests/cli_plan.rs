@@ -130,3 +130,93 @@ fn a_protocol_mismatch_exits_1_naming_both_versions_and_schema_ids() {
     assert_eq!(v["steps"], serde_json::json!([]));
     assert!(v["from"].is_null() && v["sim"].is_null(), "{v}");
 }
+
+#[test]
+fn the_simulator_is_deterministic_end_to_end() {
+    let args = [
+        "plan",
+        "--target",
+        "D&D",
+        "--sim",
+        "--sim-fault",
+        "line-noise",
+        "--seed",
+        "11",
+        "--json",
+    ];
+    let first = host_tool(&args);
+    assert_eq!(
+        first.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    for _ in 0..4 {
+        let again = host_tool(&args);
+        assert_eq!(
+            again.stdout, first.stdout,
+            "same seed, same JSON, byte for byte"
+        );
+    }
+    // Another seed is another run (the noise hits other bytes).
+    let other = host_tool(&[
+        "plan",
+        "--target",
+        "D&D",
+        "--sim",
+        "--sim-fault",
+        "line-noise",
+        "--seed",
+        "12",
+        "--json",
+    ]);
+    assert_ne!(other.stdout, first.stdout);
+}
+
+#[test]
+fn every_accepted_sim_speed_works_and_the_edges_beyond_are_refused() {
+    // The slowest pace on a run that needs only the handshake and one status (≈ 3 ms virtual,
+    // 30 ms of wall time), the fastest on a whole plan.
+    for (speed, target) in [("0.1", "F&P"), ("1000", "D&F"), ("1", "F&P")] {
+        let out = host_tool(&[
+            "plan",
+            "--target",
+            target,
+            "--sim",
+            "--sim-speed",
+            speed,
+            "--json",
+        ]);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "--sim-speed {speed}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["final_state"], target);
+    }
+    for bad in ["0.09", "1000.5", "nan", "0"] {
+        let out = host_tool(&["plan", "--target", "D&F", "--sim", "--sim-speed", bad]);
+        assert_eq!(out.status.code(), Some(2), "--sim-speed {bad}");
+    }
+}
+
+#[test]
+fn device_commands_without_port_or_sim_are_usage_errors() {
+    for args in [
+        &["plan", "--target", "D&F"][..],
+        &["stop"][..],
+        &["declare", "D&D"][..],
+        &["param", "set", "telemetry-hz", "5"][..],
+        &["status"][..],
+    ] {
+        let out = host_tool(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--port") && err.contains("--sim"),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -23,6 +23,18 @@ pub trait Io {
     fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()>;
 }
 
+impl<T: Io + ?Sized> Io for &mut T {
+    fn now_ms(&mut self) -> u64 {
+        (**self).now_ms()
+    }
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        (**self).write(bytes)
+    }
+    fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        (**self).read(deadline_ms, buf)
+    }
+}
+
 /// What the shell does between turns of a plan run: shows progress and answers prompts.
 /// It sees the I/O too (a simulated operator looks at the simulated trunk through it).
 pub trait RunShell<I> {
@@ -62,10 +74,14 @@ pub struct Driver<I: Io> {
     /// Device events seen by [`Driver::call`] and not yet taken.
     pub device_events: VecDeque<Event>,
     buf: Vec<u8>,
+    vanished: bool,
 }
 
 impl<I: Io> Drop for Driver<I> {
     fn drop(&mut self) {
+        if self.vanished {
+            return;
+        }
         self.host.close();
         while let Some(frame) = self.host.poll_transmit() {
             if self.io.write(&frame).is_err() {
@@ -83,7 +99,14 @@ impl<I: Io> Driver<I> {
             io,
             device_events: VecDeque::new(),
             buf: Vec::new(),
+            vanished: false,
         }
+    }
+
+    /// Ends without a word, as a host that crashed or was killed does: no `Close`, so the
+    /// device learns it only from the silence (its link watchdog).
+    pub fn vanish(mut self) {
+        self.vanished = true;
     }
 
     /// One turn: write what is due, wait for bytes or the next deadline, feed the engine.
@@ -114,8 +137,17 @@ impl<I: Io> Driver<I> {
 
     /// Connects: the handshake, to its end.
     pub fn connect(&mut self) -> Result<DeviceInfo, SessionError> {
+        self.connect_with(false)
+    }
+
+    /// Connects, taking the crane over from the host that holds it when `takeover`.
+    pub fn connect_with(&mut self, takeover: bool) -> Result<DeviceInfo, SessionError> {
         let now = self.io.now_ms();
-        self.host.connect(now);
+        if takeover {
+            self.host.connect_takeover(now);
+        } else {
+            self.host.connect(now);
+        }
         loop {
             while let Some(ev) = self.host.poll_event() {
                 match ev {

@@ -48,6 +48,12 @@ impl Host {
         self.route(now_ms);
     }
 
+    /// Starts a handshake that takes the crane over from the host that holds it.
+    pub fn connect_takeover(&mut self, now_ms: u64) {
+        self.session.connect_takeover(now_ms);
+        self.route(now_ms);
+    }
+
     /// Ends the device's session (see [`Session::close`]); flush [`Host::poll_transmit`].
     pub fn close(&mut self) {
         self.session.close();

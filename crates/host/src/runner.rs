@@ -21,6 +21,10 @@ use protocol::{
 use crate::session::{RequestId, Session, SessionError, SessionEvent};
 use crate::text;
 
+/// While the operator is asked to identify the state, the status is read this often (the
+/// crane's confirm button may settle it first).
+const OPERATOR_POLL_MS: u64 = 500;
+
 /// What happened to one step that was started on the device.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepReport {
@@ -190,7 +194,8 @@ pub struct Outcome {
     pub failure: Option<RunFailure>,
     /// Times the plan was remade after a surprise.
     pub replans: u32,
-    /// Whether the state was identified (by the operator) before planning.
+    /// Whether the state had to be identified before planning (by the crane's probes, or by the
+    /// operator when the probes could not decide).
     pub identified: bool,
 }
 
@@ -302,8 +307,15 @@ enum Wait {
     TakeoverAbort,
     /// A stray plan was aborted; the status after it.
     StatusAfterTakeover,
-    /// The operator's answer to an identify prompt.
+    /// `Identify` is out.
+    Identify,
+    /// The status after `Identify` answered.
+    StatusAfterIdentify,
+    /// The operator's answer to an identify prompt (the status is polled meanwhile: the crane's
+    /// own confirm button may settle it).
     Operator,
+    /// A status poll while the operator is asked.
+    OperatorPoll,
     /// A declared state; then the status.
     Declared,
     Upload,
@@ -355,6 +367,9 @@ pub struct PlanRunner {
     cancelled: bool,
     manual_confirm_pending: bool,
     status_fresh: bool,
+    probing_noted: bool,
+    prompted_identify: bool,
+    identify_requests: u32,
 }
 
 impl PlanRunner {
@@ -380,6 +395,9 @@ impl PlanRunner {
             cancelled: false,
             manual_confirm_pending: false,
             status_fresh: false,
+            probing_noted: false,
+            prompted_identify: false,
+            identify_requests: 0,
         }
     }
 
@@ -410,7 +428,7 @@ impl PlanRunner {
 
     /// When [`PlanRunner::handle_timeout`] should be called next.
     pub fn poll_timeout(&self) -> Option<u64> {
-        if self.waiting_on.is_none() && self.wait == Wait::Poll {
+        if self.waiting_on.is_none() && matches!(self.wait, Wait::Poll | Wait::Operator) {
             self.next_poll_ms
         } else {
             None
@@ -452,9 +470,10 @@ impl PlanRunner {
     /// The operator's answer to [`RunEvent::IdentifyPrompt`]: the trunk is in `state`
     /// (`None`: the operator cannot tell, and the run fails unidentified).
     pub fn declare(&mut self, session: &mut Session, state: Option<TrunkState>, now_ms: u64) {
-        if self.wait != Wait::Operator {
+        if !matches!(self.wait, Wait::Operator | Wait::OperatorPoll) {
             return;
         }
+        self.next_poll_ms = None;
         match state {
             Some(state) => {
                 self.out.identified = true;
@@ -478,10 +497,18 @@ impl PlanRunner {
 
     /// Time has passed: poll the status when due.
     pub fn handle_timeout(&mut self, session: &mut Session, now_ms: u64) {
+        if self.wait == Wait::Operator && self.waiting_on.is_none() {
+            if self.next_poll_ms.is_some_and(|at| now_ms >= at) {
+                self.next_poll_ms = None;
+                self.ask(session, Wait::OperatorPoll, RequestBody::GetStatus, now_ms);
+            }
+            return;
+        }
         if self.wait == Wait::Poll && self.waiting_on.is_none() {
             if let Some(at) = self.next_poll_ms {
                 if now_ms >= at {
                     self.next_poll_ms = Some(at.max(now_ms) + self.options.poll_ms);
+                    self.status_fresh = false;
                     self.waiting_on = Some(session.request(RequestBody::GetStatus, now_ms));
                 }
             }
@@ -515,6 +542,8 @@ impl PlanRunner {
 
     fn ask(&mut self, session: &mut Session, wait: Wait, body: RequestBody, now_ms: u64) {
         self.wait = wait;
+        // Whatever comes next, the last status predates it.
+        self.status_fresh = false;
         let id = if matches!(body, RequestBody::Abort) {
             session.request_first(body, now_ms)
         } else {
@@ -559,6 +588,17 @@ impl PlanRunner {
                     self.target
                 ),
             ));
+        }
+        // A run that ended on a failed request has no fresh status: what it last heard is
+        // stale, and is not reported as confirmed.
+        if failure.as_ref().is_some_and(|f| {
+            matches!(
+                f.kind,
+                FailureKind::LinkLost | FailureKind::Refused | FailureKind::Protocol
+            )
+        }) && !self.status_fresh
+        {
+            self.out.state_confirmed = false;
         }
         self.out.failure = failure;
         self.events.push_back(RunEvent::Finished);
@@ -629,13 +669,29 @@ impl PlanRunner {
     ) {
         let reply = crate::session::Reply { result, body };
         match self.wait {
-            Wait::Status | Wait::StatusAfterReset | Wait::StatusAfterTakeover => {
+            Wait::Status
+            | Wait::StatusAfterReset
+            | Wait::StatusAfterTakeover
+            | Wait::StatusAfterIdentify
+            | Wait::OperatorPoll => {
                 let after = self.wait;
                 match reply.status() {
                     Ok(st) => self.on_first_status(session, st, after, now_ms),
                     Err(e) => self.finish(Some(RunFailure::from_session("before planning", &e))),
                 }
             }
+            Wait::Identify => match reply.accepted("Identify") {
+                Ok(_) => self.ask(
+                    session,
+                    Wait::StatusAfterIdentify,
+                    RequestBody::GetStatus,
+                    now_ms,
+                ),
+                Err(e) => self.finish(Some(RunFailure {
+                    kind: FailureKind::Unidentified,
+                    ..RunFailure::from_session("identifying the unconfirmed state", &e)
+                })),
+            },
             Wait::ResetFaults | Wait::TakeoverAbort => {
                 let (name, next) = if self.wait == Wait::ResetFaults {
                     ("ResetFaults", Wait::StatusAfterReset)
@@ -769,7 +825,40 @@ impl PlanRunner {
                 "the e-stop is latched: release it and reset faults first",
             )));
         }
-        if matches!(st.mode, Mode::Running | Mode::WaitingManual) {
+        // Identification under way: the crane runs its probes (a short plan of its own) or asks
+        // its operator; that is what this run asked for, not another host's plan.
+        let identifying =
+            matches!(after, Wait::StatusAfterIdentify | Wait::OperatorPoll) && !st.state_confirmed;
+        if identifying && !st.estop {
+            if st.mode == Mode::Running {
+                if !self.probing_noted {
+                    self.probing_noted = true;
+                    self.events.push_back(RunEvent::Note(
+                        "the crane probes its state (identification)".into(),
+                    ));
+                }
+                self.wait = Wait::Operator;
+                self.next_poll_ms = Some(now_ms + self.options.poll_ms);
+                return;
+            }
+            if st.faults == 0 || self.prompted_identify {
+                if !self.prompted_identify {
+                    self.prompted_identify = true;
+                    let mut candidates: Vec<TrunkState> = st.candidates.iter().collect();
+                    if candidates.is_empty() {
+                        candidates = TrunkState::ALL.to_vec();
+                    }
+                    self.events.push_back(RunEvent::IdentifyPrompt {
+                        believed: st.state,
+                        candidates,
+                    });
+                }
+                self.wait = Wait::Operator;
+                self.next_poll_ms = Some(now_ms + OPERATOR_POLL_MS);
+                return;
+            }
+        }
+        if matches!(st.mode, Mode::Running | Mode::WaitingManual) && !identifying {
             if self.options.take_over_running && after != Wait::StatusAfterTakeover {
                 self.events.push_back(RunEvent::Note(
                     "a plan left by another host is running: aborting it first".into(),
@@ -799,12 +888,37 @@ impl PlanRunner {
             return self.ask(session, Wait::ResetFaults, RequestBody::ResetFaults, now_ms);
         }
         if !st.state_confirmed {
-            self.wait = Wait::Operator;
-            self.events.push_back(RunEvent::IdentifyPrompt {
-                believed: st.state,
-                candidates: TrunkState::ALL.to_vec(),
-            });
-            return;
+            if self.identify_requests >= 2 {
+                return self.finish(Some(RunFailure::new(
+                    FailureKind::Unidentified,
+                    format!(
+                        "the device's state is still unconfirmed after identification (it may \
+                         be {}); look at the trunk and run `host-tool declare STATE`",
+                        st.candidates
+                            .iter()
+                            .map(|s| s.name())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )));
+            }
+            self.identify_requests += 1;
+            self.events.push_back(RunEvent::Note(format!(
+                "the device has not confirmed its state ({}{}): identifying it first",
+                st.state,
+                st.interrupted.map_or(String::new(), |t| format!(
+                    ", was going {} → {}",
+                    t.from, t.to
+                ))
+            )));
+            return self.ask(session, Wait::Identify, RequestBody::Identify, now_ms);
+        }
+        if matches!(after, Wait::StatusAfterIdentify | Wait::OperatorPoll) && !self.out.identified {
+            self.out.identified = true;
+            self.events.push_back(RunEvent::Note(format!(
+                "identified: the crane's probes confirm {}",
+                st.state
+            )));
         }
         self.next_plan_id = st.plan.map_or(0, |p| p.plan_id).wrapping_add(1).max(1);
         if st.state == self.target {
@@ -967,6 +1081,22 @@ impl PlanRunner {
                     elapsed_ms: elapsed,
                     pressure_kpa: st.pressure_kpa,
                 });
+                let limit = edge.transition.timeout_ms;
+                if elapsed > limit.saturating_add(self.options.step_grace_ms) {
+                    self.report_current_failed(Some(elapsed));
+                    let step = self.current_step();
+                    let mut fail = RunFailure::new(
+                        FailureKind::Timeout,
+                        format!(
+                            "{}: nobody did the manual step within its time limit of {limit} ms \
+                             (device time); the host aborted it",
+                            step.map_or(String::new(), |s| s.to_string())
+                        ),
+                    );
+                    fail.step = step;
+                    return self.abort(session, fail, now_ms);
+                }
+                let f = self.following.as_mut().expect("checked");
                 if !f.prompted[current] {
                     f.prompted[current] = true;
                     let task = manual_task(edge.transition.primitives);

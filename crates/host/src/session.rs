@@ -287,13 +287,23 @@ impl Session {
 
     /// Starts the handshake.
     pub fn connect(&mut self, now_ms: u64) {
+        self.start_handshake(RequestBody::hello(), now_ms);
+    }
+
+    /// Starts a handshake that takes the crane over from a host that holds it (that host's
+    /// next state-changing request is refused: it is told).
+    pub fn connect_takeover(&mut self, now_ms: u64) {
+        self.start_handshake(RequestBody::hello_takeover(), now_ms);
+    }
+
+    fn start_handshake(&mut self, hello: RequestBody, now_ms: u64) {
         if self.phase != Phase::New {
             return;
         }
         self.phase = Phase::Handshaking;
         self.last_rx_ms = now_ms;
         let id = self.alloc_id();
-        self.queue.push_back((id, RequestBody::hello(), false));
+        self.queue.push_back((id, hello, false));
         self.pump(now_ms);
     }
 

@@ -4,9 +4,10 @@
 use protocol::RequestBody;
 use serde_json::json;
 
-use crate::cmd::status::{mode_name, snapshot, status_json, Snapshot};
+use crate::cmd::status::{snapshot, status_json, Snapshot};
 use crate::device::{parse_state, DeviceArgs};
 use crate::failure::Failure;
+use host::text;
 
 /// Arguments of `host-tool declare`.
 #[derive(Debug, clap::Args)]
@@ -43,7 +44,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             } else {
                 ", not confirmed"
             },
-            mode_name(status.mode)
+            text::mode(status.mode)
         );
     }
     // The status read after the request is the truth; a device that kept another state did

@@ -1,6 +1,7 @@
 //! `host-tool status`: one snapshot of the device.
 
-use protocol::{Board, DeviceInfo, Mode, PlanPhase, RequestBody, Status};
+use host::text;
+use protocol::{DeviceInfo, RequestBody, Status};
 use serde_json::{json, Value};
 
 use crate::device::DeviceArgs;
@@ -69,43 +70,11 @@ pub fn run(args: Args) -> Result<(), Failure> {
     Ok(())
 }
 
-/// A board's name for people.
-pub fn board_name(board: Board) -> &'static str {
-    match board {
-        Board::UnoR4Wifi => "Arduino UNO R4 WiFi",
-        Board::UnoR4Minima => "Arduino UNO R4 Minima",
-        Board::Simulator => "hil-sim simulator",
-    }
-}
-
-/// A mode's name.
-pub fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::Standalone => "standalone",
-        Mode::Running => "running",
-        Mode::WaitingManual => "waiting-manual",
-        Mode::Safe => "safe",
-        Mode::EStop => "e-stop",
-    }
-}
-
-/// A plan phase's name.
-pub fn phase_name(phase: PlanPhase) -> String {
-    match phase {
-        PlanPhase::Ready => "ready".into(),
-        PlanPhase::Running => "running".into(),
-        PlanPhase::WaitingManual => "waiting-manual".into(),
-        PlanPhase::Done => "done".into(),
-        PlanPhase::Failed(f) => format!("failed: E-{:02} {}", f.code(), f.description()),
-        PlanPhase::Aborted => "aborted".into(),
-    }
-}
-
 fn status_text(s: &Status, info: &DeviceInfo) -> String {
     let v = info.firmware_version;
     let mut t = format!(
         "device:       {} (firmware {}.{}.{}, protocol {})\n",
-        board_name(info.board),
+        text::board(info.board),
         v[0],
         v[1],
         v[2],
@@ -120,7 +89,7 @@ fn status_text(s: &Status, info: &DeviceInfo) -> String {
             " (not confirmed)"
         }
     );
-    t += &format!("mode:         {}\n", mode_name(s.mode));
+    t += &format!("mode:         {}\n", text::mode(s.mode));
     t += &format!(
         "pressure:     {:.1} kPa (limit {:.1}); inlet {}, exhaust {}\n",
         s.pressure_kpa,
@@ -146,7 +115,7 @@ fn status_text(s: &Status, info: &DeviceInfo) -> String {
             p.plan_id,
             u16::from(p.step) + 1,
             p.steps,
-            phase_name(p.phase)
+            text::phase(p.phase)
         );
     }
     t += &format!(
@@ -168,7 +137,7 @@ pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> V
     json!({
         "state": s.state.name(),
         "state_confirmed": s.state_confirmed,
-        "mode": mode_name(s.mode),
+        "mode": text::mode(s.mode),
         "pressure_kpa": s.pressure_kpa,
         "servo_deg": s.servo_deg,
         "inlet_open": s.inlet_open,
@@ -180,13 +149,13 @@ pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> V
             "plan_id": p.plan_id,
             "step": p.step,
             "steps": p.steps,
-            "phase": phase_name(p.phase),
+            "phase": text::phase(p.phase),
         })),
         "frames_rx": s.frames_rx,
         "frames_dropped": s.frames_dropped,
         "uptime_ms": s.uptime_ms,
         "device": {
-            "board": board_name(info.board),
+            "board": text::board(info.board),
             "firmware_version": info.firmware_version,
             "protocol_version": info.protocol_version,
             "schema_id": info.schema_id,

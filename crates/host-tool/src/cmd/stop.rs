@@ -2,8 +2,9 @@
 
 use serde_json::json;
 
-use crate::cmd::status::{mode_name, snapshot, status_json, Snapshot};
+use crate::cmd::status::{snapshot, status_json, Snapshot};
 use crate::failure::Failure;
+use host::text;
 use protocol::{Mode, RequestBody};
 
 /// Arguments of `host-tool stop`: the same as `status`'s (the device, `--json`).
@@ -26,7 +27,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         crate::out!(
             "aborted: the device is in mode {} at {}; inlet {}, exhaust {}, pressure {:.1} kPa, \
              servos {} {:.1}° {:.1}° {:.1}°",
-            mode_name(status.mode),
+            text::mode(status.mode),
             status.state,
             if status.inlet_open { "OPEN" } else { "closed" },
             if status.exhaust_open {

@@ -1,0 +1,63 @@
+//! Whole-system speed on one core: the host engine, the controller and the physics in-process
+//! on one virtual clock (`hil_sim::pair`). Prints the wall time of all 36 (initial, target)
+//! plans (median of 5) and the simulation speed (virtual time / wall time).
+//!
+//! `cargo bench -p hil-sim --bench pair`
+
+use std::time::Instant;
+
+use geometry::TrunkState;
+use hil_sim::pair::{pair, SimShell};
+use hil_sim::SimOptions;
+use host::RunOptions;
+use planner::graph::Graph;
+
+fn all_36() -> (f64, u64) {
+    let start = Instant::now();
+    let mut virtual_ms = 0;
+    for from in TrunkState::ALL {
+        for to in TrunkState::ALL {
+            let mut p = pair(SimOptions {
+                initial: from,
+                seed: 7,
+                ..SimOptions::default()
+            });
+            p.connect().expect("handshake");
+            let out = p.run_plan(
+                Graph::nominal(),
+                to,
+                RunOptions::default(),
+                &mut SimShell::default(),
+            );
+            assert!(out.ok(), "{from} → {to}: {:?}", out.failure);
+            virtual_ms += p.io.sim.now_ms();
+        }
+    }
+    (start.elapsed().as_secs_f64(), virtual_ms)
+}
+
+fn main() {
+    let mut runs: Vec<(f64, u64)> = (0..5).map(|_| all_36()).collect();
+    runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (wall_s, virtual_ms) = runs[2];
+    println!(
+        "all 36 plans in-process (one core): {:.3} s wall, median of 5 (min {:.3}, max {:.3}); \
+         {:.1} s virtual: {:.0}× real time",
+        wall_s,
+        runs[0].0,
+        runs[4].0,
+        virtual_ms as f64 / 1000.0,
+        virtual_ms as f64 / 1000.0 / wall_s
+    );
+    let start = Instant::now();
+    let rep = hil_sim::swarm::swarm(0, 500, 1);
+    let wall = start.elapsed().as_secs_f64();
+    println!(
+        "swarm, 500 scenarios on one core: {:.2} virtual hours in {:.2} s: {:.0}× real time \
+         (invariants checked every step); {} violation(s)",
+        rep.virtual_ms as f64 / 3.6e6,
+        wall,
+        rep.virtual_ms as f64 / 1000.0 / wall,
+        rep.violations.len()
+    );
+}

@@ -1,0 +1,691 @@
+//! The swarm tester: random scenarios of the whole system on one virtual clock, checked
+//! against invariants at every step (FoundationDB's and TigerBeetle's deterministic simulation
+//! testing, for a crane).
+//!
+//! A [`Scenario`] is drawn from a seed: an initial state, 1–5 targets, injected faults with
+//! random onsets (several at once), line noise 0–2 %, power cuts, host crashes (a new host
+//! engine takes over), and an operator mistake at a manual step. [`run`] plays it with the real
+//! host engine, the real controller and the physics; [`Checker`] watches every millisecond.
+//! Same seed, same run: [`run`] of a seed is reproducible exactly, and a failing scenario is
+//! [`shrink`]ed to a smaller one that still fails.
+
+use std::cell::RefCell;
+use std::fmt::Write as _;
+use std::rc::Rc;
+
+use geometry::TrunkState;
+use host::{Driver, Host, HostEvent, RunEvent, RunOptions, SessionEvent, Timing};
+use planner::graph::Graph;
+use protocol::messages::{ManualTask, Mode};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::operator::Mistake;
+use crate::pair::SimIo;
+use crate::{Fault, Sim, SimOptions};
+
+/// True pressure allowed above the cap: the sensor's noise (3σ = 0.45 kPa), the filter's lag
+/// and the exhaust's response while the firmware vents an over-pressure.
+pub const PRESSURE_TOLERANCE_KPA: f32 = 3.0;
+/// After a fault becomes active, the actuators must be safe within this long (the firmware
+/// closes the inlet at once; limp servos and a vent to the cap take a moment).
+pub const SAFE_WITHIN_MS: u64 = 2_000;
+/// A confirmed state may disagree with the trunk this long while the trunk settles (a snap takes
+/// a few hundred ms; the controller confirms at the end of a step).
+pub const SETTLE_MS: u64 = 1_000;
+/// A run's time bound: this much for connecting, identifying and replanning, plus each
+/// planned step's own limit and the host's grace past it.
+pub const RUN_BASE_BOUND_MS: u64 = 60_000;
+/// The host's grace past a step's limit ([`host::RunOptions::step_grace_ms`]'s default).
+const STEP_GRACE_MS: u64 = 5_000;
+/// Host sessions per target (each crash or failure starts a new one).
+const ATTEMPTS_PER_TARGET: usize = 3;
+
+/// The faults a scenario may inject (line noise is drawn as a rate of its own).
+const INJECTABLE: [Fault; 7] = [
+    Fault::ValveStuckClosed,
+    Fault::ValveStuckOpen,
+    Fault::Leak,
+    Fault::ServoStall,
+    Fault::TendonBreak,
+    Fault::SensorDropout,
+    Fault::LinkDrop,
+];
+
+/// One random scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Its seed (also the simulator's).
+    pub seed: u64,
+    /// The trunk's state at start.
+    pub initial: TrunkState,
+    /// States to reach, in order.
+    pub targets: Vec<TrunkState>,
+    /// Faults and their onsets (virtual ms).
+    pub faults: Vec<(Fault, u64)>,
+    /// Byte corruption probability on the link.
+    pub line_noise: f64,
+    /// Power cuts (virtual ms).
+    pub power_cuts: Vec<u64>,
+    /// Host crashes (virtual ms): the engine vanishes without a word; a new one takes over.
+    pub host_crashes: Vec<u64>,
+    /// The operator's mistake at the first manual step.
+    pub mistake: Option<Mistake>,
+}
+
+impl Scenario {
+    /// The scenario of `seed`.
+    pub fn generate(seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_5eed_5eed_5eed);
+        let state = |rng: &mut ChaCha8Rng| TrunkState::ALL[rng.gen_range(0..6)];
+        let initial = state(&mut rng);
+        let targets = (0..rng.gen_range(1..=5)).map(|_| state(&mut rng)).collect();
+        let horizon = 60_000;
+        let mut faults = Vec::new();
+        // Most runs are nominal or nearly: faults are rare events, and a run with every fault
+        // tests little beyond the first.
+        if rng.gen_bool(0.4) {
+            for _ in 0..rng.gen_range(1..=3) {
+                let f = INJECTABLE[rng.gen_range(0..INJECTABLE.len())];
+                if !faults.iter().any(|(g, _)| *g == f) {
+                    faults.push((f, rng.gen_range(0..horizon)));
+                }
+            }
+        }
+        let line_noise = if rng.gen_bool(0.3) {
+            rng.gen_range(0.0..0.02)
+        } else {
+            0.0
+        };
+        let times = |rng: &mut ChaCha8Rng, p: f64| -> Vec<u64> {
+            let mut v = Vec::new();
+            for _ in 0..3 {
+                if rng.gen_bool(p) {
+                    v.push(rng.gen_range(0..horizon));
+                }
+            }
+            v
+        };
+        let power_cuts = times(&mut rng, 0.15);
+        let host_crashes = times(&mut rng, 0.15);
+        let mistake = match rng.gen_range(0..10) {
+            0 => Some(Mistake::Refuse),
+            1 => Some(Mistake::WrongFold(
+                [
+                    ManualTask::PackBottomModule,
+                    ManualTask::FoldTopModule,
+                    ManualTask::FoldBottomModule,
+                ][rng.gen_range(0..3)],
+            )),
+            _ => None,
+        };
+        Self {
+            seed,
+            initial,
+            targets,
+            faults,
+            line_noise,
+            power_cuts,
+            host_crashes,
+            mistake,
+        }
+    }
+
+    /// Smaller scenarios: each with one element fewer (a target, a fault, a cut, a crash, the
+    /// noise, the mistake).
+    pub fn smaller(&self) -> Vec<Scenario> {
+        let mut out = Vec::new();
+        for i in 0..self.targets.len() {
+            if self.targets.len() > 1 {
+                let mut s = self.clone();
+                s.targets.remove(i);
+                out.push(s);
+            }
+        }
+        for i in 0..self.faults.len() {
+            let mut s = self.clone();
+            s.faults.remove(i);
+            out.push(s);
+        }
+        for i in 0..self.power_cuts.len() {
+            let mut s = self.clone();
+            s.power_cuts.remove(i);
+            out.push(s);
+        }
+        for i in 0..self.host_crashes.len() {
+            let mut s = self.clone();
+            s.host_crashes.remove(i);
+            out.push(s);
+        }
+        if self.line_noise > 0.0 {
+            out.push(Scenario {
+                line_noise: 0.0,
+                ..self.clone()
+            });
+        }
+        if self.mistake.is_some() {
+            out.push(Scenario {
+                mistake: None,
+                ..self.clone()
+            });
+        }
+        out
+    }
+
+    /// One line for people.
+    pub fn describe(&self) -> String {
+        let names = |v: &[TrunkState]| v.iter().map(|s| s.name()).collect::<Vec<_>>().join(" → ");
+        let mut t = format!(
+            "seed {}: {} → {}",
+            self.seed,
+            self.initial,
+            names(&self.targets)
+        );
+        for (f, at) in &self.faults {
+            let _ = write!(t, ", {f} at {at} ms");
+        }
+        if self.line_noise > 0.0 {
+            let _ = write!(t, ", line noise {:.2} %", self.line_noise * 100.0);
+        }
+        for at in &self.power_cuts {
+            let _ = write!(t, ", power cut at {at} ms");
+        }
+        for at in &self.host_crashes {
+            let _ = write!(t, ", host crash at {at} ms");
+        }
+        if let Some(m) = self.mistake {
+            let _ = write!(t, ", operator {m:?}");
+        }
+        t
+    }
+}
+
+/// An invariant that did not hold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Violation {
+    /// The scenario's seed.
+    pub seed: u64,
+    /// Virtual time, ms.
+    pub t_ms: u64,
+    /// Which invariant, by a stable name.
+    pub invariant: &'static str,
+    /// What happened.
+    pub detail: String,
+}
+
+/// The invariants, checked after every simulator step.
+#[derive(Debug, Default)]
+pub struct Checker {
+    seed: u64,
+    /// Every violation so far (at most one per invariant and scenario: the first).
+    pub violations: Vec<Violation>,
+    fault_since: Option<u64>,
+    disagree_since: Option<u64>,
+    boot_check_at: Option<u64>,
+    trace: Option<String>,
+    last_mode: Option<Mode>,
+}
+
+impl Checker {
+    fn violate(&mut self, t_ms: u64, invariant: &'static str, detail: String) {
+        if self.violations.iter().any(|v| v.invariant == invariant) {
+            return;
+        }
+        if let Some(tr) = self.trace.as_mut() {
+            let _ = writeln!(tr, "{t_ms:>9} VIOLATION {invariant}: {detail}");
+        }
+        self.violations.push(Violation {
+            seed: self.seed,
+            t_ms,
+            invariant,
+            detail,
+        });
+    }
+
+    fn note(&mut self, t_ms: u64, what: &str) {
+        if let Some(tr) = self.trace.as_mut() {
+            let _ = writeln!(tr, "{t_ms:>9} {what}");
+        }
+    }
+
+    /// The checks of one step.
+    pub fn check(&mut self, sim: &Sim) {
+        let t = sim.now_ms();
+        let truth = sim.safety();
+        let status = sim.controller().status();
+        if self.last_mode != Some(status.mode) {
+            self.note(
+                t,
+                &format!(
+                    "device mode {:?}, belief {}{}, truth {}",
+                    status.mode,
+                    status.state,
+                    if status.state_confirmed {
+                        " (confirmed)"
+                    } else {
+                        " (unconfirmed)"
+                    },
+                    truth.true_state.map_or("between", |s| s.name())
+                ),
+            );
+            self.last_mode = Some(status.mode);
+        }
+        // Pressure never above the cap (plus the sensor's tolerance).
+        if truth.pressure_kpa > truth.pressure_limit_kpa + PRESSURE_TOLERANCE_KPA {
+            self.violate(
+                t,
+                "pressure-cap",
+                format!(
+                    "true pressure {:.2} kPa above the cap {:.1} kPa + {PRESSURE_TOLERANCE_KPA}",
+                    truth.pressure_kpa, truth.pressure_limit_kpa
+                ),
+            );
+        }
+        // After any fault the actuators are safe within the bound.
+        if status.faults != 0 {
+            let since = *self.fault_since.get_or_insert(t);
+            // What the controller commands, and the pressure: a valve stuck open cannot be
+            // closed by any firmware (the pressure then must stay under the cap all the same).
+            let safe = !truth.inlet_commanded_open
+                && truth.servos_still
+                && truth.pressure_kpa <= truth.pressure_limit_kpa + PRESSURE_TOLERANCE_KPA;
+            if !safe && t - since > SAFE_WITHIN_MS {
+                self.violate(
+                    t,
+                    "safe-after-fault",
+                    format!(
+                        "faults {:#06x} active since {since} ms and the actuators are not safe \
+                         (inlet commanded {}, servos still {}, pressure {:.1} kPa)",
+                        status.faults,
+                        if truth.inlet_commanded_open {
+                            "open"
+                        } else {
+                            "closed"
+                        },
+                        truth.servos_still,
+                        truth.pressure_kpa
+                    ),
+                );
+            }
+        } else {
+            self.fault_since = None;
+        }
+        // Whenever the device says confirmed, it is the truth (outside a step, once settled).
+        let idle = !matches!(status.mode, Mode::Running | Mode::WaitingManual);
+        let wrong = status.state_confirmed && truth.true_state != Some(status.state);
+        if idle && wrong {
+            let since = *self.disagree_since.get_or_insert(t);
+            if t - since > SETTLE_MS {
+                self.violate(
+                    t,
+                    "device-confirmed-truth",
+                    format!(
+                        "the device reports {} confirmed; the trunk is {}",
+                        status.state,
+                        truth.true_state.map_or("between states", |s| s.name())
+                    ),
+                );
+            }
+        } else {
+            self.disagree_since = None;
+        }
+        // After a power cut the state is true or unconfirmed (checked once the board is up).
+        if self.boot_check_at.is_some_and(|at| t >= at) {
+            self.boot_check_at = None;
+            if wrong {
+                self.violate(
+                    t,
+                    "power-cut-truth",
+                    format!(
+                        "after a power cut the device boots with {} confirmed; the trunk is {}",
+                        status.state,
+                        truth.true_state.map_or("between states", |s| s.name())
+                    ),
+                );
+            }
+        }
+    }
+}
+
+/// What one scenario did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunReport {
+    /// The scenario.
+    pub scenario: Scenario,
+    /// Virtual time it took, ms.
+    pub virtual_ms: u64,
+    /// Targets reached (confirmed and true).
+    pub reached: usize,
+    /// Invariants that did not hold.
+    pub violations: Vec<Violation>,
+    /// The trace, when asked for.
+    pub trace: String,
+}
+
+/// Plays `scenario`; with `trace`, records what happened.
+pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
+    let seed = scenario.seed;
+    let mut sim = Sim::new(SimOptions {
+        initial: scenario.initial,
+        seed,
+        faults: Vec::new(),
+        speed: f64::INFINITY,
+        operator: true,
+        firmware_elf: None,
+    });
+    sim.set_line_noise_rate(scenario.line_noise);
+    sim.operator_mut().mistake = scenario.mistake;
+    let checker = Rc::new(RefCell::new(Checker {
+        seed,
+        trace: trace.then(String::new),
+        ..Checker::default()
+    }));
+    let crash = Rc::new(RefCell::new(false));
+    let mut io = SimIo::new(sim);
+    {
+        let checker = Rc::clone(&checker);
+        let crash = Rc::clone(&crash);
+        let mut faults = scenario.faults.clone();
+        let mut cuts = scenario.power_cuts.clone();
+        let mut crashes = scenario.host_crashes.clone();
+        io.monitor = Some(Box::new(move |sim: &mut Sim| {
+            let t = sim.now_ms();
+            faults.retain(|(f, at)| {
+                if t >= *at {
+                    sim.inject_fault(*f);
+                    checker.borrow_mut().note(t, &format!("inject {f}"));
+                    false
+                } else {
+                    true
+                }
+            });
+            let before = cuts.len();
+            cuts.retain(|at| t < *at);
+            if cuts.len() < before {
+                sim.power_cycle();
+                let mut c = checker.borrow_mut();
+                c.note(t, "power cut");
+                c.boot_check_at = Some(t + 50);
+            }
+            let before = crashes.len();
+            crashes.retain(|at| t < *at);
+            if crashes.len() < before {
+                *crash.borrow_mut() = true;
+            }
+            checker.borrow_mut().check(sim);
+        }));
+    }
+    let mut reached = 0;
+    let mut first_seq: u16 = 1;
+    // A host restarted after a crash takes the crane over from its dead predecessor.
+    let mut takeover = false;
+    for &target in &scenario.targets {
+        for _attempt in 0..ATTEMPTS_PER_TARGET {
+            first_seq = first_seq.wrapping_add(0x1111).max(1);
+            let mut driver = Driver::new(Host::new(Timing::standard(), first_seq), &mut io);
+            let result = play_target(&mut driver, target, &crash, &checker, takeover);
+            takeover = matches!(result, Played::Crashed);
+            if takeover {
+                driver.vanish();
+            } else {
+                drop(driver);
+            }
+            match result {
+                Played::Reached => {
+                    reached += 1;
+                    break;
+                }
+                Played::Crashed | Played::Failed => {}
+            }
+        }
+        // A pause at the target, as a person would take before the next request.
+        let pause = 500 + (seed.wrapping_mul(2_654_435_761) >> 7) % 8_000;
+        let end = io.sim.now_ms() + pause;
+        while io.sim.now_ms() < end {
+            io.step();
+        }
+    }
+    io.monitor = None;
+    let c = checker.borrow();
+    RunReport {
+        scenario: scenario.clone(),
+        virtual_ms: io.sim.now_ms(),
+        reached,
+        violations: c.violations.clone(),
+        trace: c.trace.clone().unwrap_or_default(),
+    }
+}
+
+enum Played {
+    Reached,
+    Crashed,
+    Failed,
+}
+
+/// One host session toward `target`: connect, run the plan, judge the host's final claim.
+fn play_target(
+    d: &mut Driver<&mut SimIo>,
+    target: TrunkState,
+    crash: &RefCell<bool>,
+    checker: &RefCell<Checker>,
+    takeover: bool,
+) -> Played {
+    let start = d.io.sim.now_ms();
+    let mut bound_ms = RUN_BASE_BOUND_MS;
+    checker.borrow_mut().note(
+        start,
+        &format!(
+            "host connects{}, target {target}",
+            if takeover { " (taking over)" } else { "" }
+        ),
+    );
+    if takeover {
+        d.host.connect_takeover(start);
+    } else {
+        d.host.connect(start);
+    }
+    let mut opened = false;
+    loop {
+        if *crash.borrow() {
+            *crash.borrow_mut() = false;
+            checker.borrow_mut().note(d.io.sim.now_ms(), "host crash");
+            return Played::Crashed;
+        }
+        if d.io.sim.now_ms() - start > bound_ms {
+            checker.borrow_mut().violate(
+                d.io.sim.now_ms(),
+                "run-time-bound",
+                format!("the run toward {target} did not end within its bound of {bound_ms} ms"),
+            );
+            return Played::Failed;
+        }
+        while let Some(ev) = d.host.poll_event() {
+            let now = d.io.sim.now_ms();
+            match ev {
+                HostEvent::Session(SessionEvent::Opened(_)) if !opened => {
+                    opened = true;
+                    let options = RunOptions {
+                        take_over_running: true,
+                        ..RunOptions::default()
+                    };
+                    d.host.run_plan(Graph::nominal(), target, options, now);
+                }
+                HostEvent::Session(SessionEvent::HandshakeFailed(e)) => {
+                    checker
+                        .borrow_mut()
+                        .note(now, &format!("handshake failed: {e}"));
+                    return Played::Failed;
+                }
+                HostEvent::Run(RunEvent::IdentifyPrompt { .. }) => {
+                    // The person at the crane looks at the trunk.
+                    let truth = d.io.sim.ground_truth().true_state;
+                    checker.borrow_mut().note(
+                        now,
+                        &format!(
+                            "operator identifies {}",
+                            truth.map_or("nothing (between states)", |s| s.name())
+                        ),
+                    );
+                    d.host.declare(truth, now);
+                }
+                HostEvent::Run(RunEvent::Plan { plan, .. }) => {
+                    bound_ms += plan
+                        .steps()
+                        .iter()
+                        .map(|st| u64::from(st.edge.transition.timeout_ms) + STEP_GRACE_MS)
+                        .sum::<u64>();
+                    // No step actuates from a false belief: the plan starts where the trunk is.
+                    let truth = d.io.sim.ground_truth().true_state;
+                    if truth != Some(plan.from()) {
+                        checker.borrow_mut().violate(
+                            now,
+                            "plan-from-truth",
+                            format!(
+                                "a plan from {} was started; the trunk is {}",
+                                plan.from(),
+                                truth.map_or("between states", |s| s.name())
+                            ),
+                        );
+                    }
+                    checker
+                        .borrow_mut()
+                        .note(now, &format!("plan {} → {}", plan.from(), plan.target()));
+                }
+                HostEvent::Run(RunEvent::Finished) => {
+                    let out = d
+                        .host
+                        .runner()
+                        .map(|r| r.outcome().clone())
+                        .unwrap_or_default();
+                    // Let the trunk settle, then judge the host's claim.
+                    let end = now + 500;
+                    while d.io.sim.now_ms() < end {
+                        d.io.step();
+                    }
+                    let truth = d.io.sim.ground_truth().true_state;
+                    let t = d.io.sim.now_ms();
+                    checker.borrow_mut().note(
+                        t,
+                        &format!(
+                            "run ends: ok {}, host says {} (confirmed {}), truth {}; {}",
+                            out.ok(),
+                            out.final_state.map_or("nothing", |s| s.name()),
+                            out.state_confirmed,
+                            truth.map_or("between states", |s| s.name()),
+                            out.error().unwrap_or("")
+                        ),
+                    );
+                    if out.state_confirmed && out.final_state.is_some() && out.final_state != truth
+                    {
+                        checker.borrow_mut().violate(
+                            t,
+                            "host-confirmed-truth",
+                            format!(
+                                "the host reports {} confirmed at the end; the trunk is {}",
+                                out.final_state.map_or("nothing", |s| s.name()),
+                                truth.map_or("between states", |s| s.name())
+                            ),
+                        );
+                    }
+                    return if out.ok() {
+                        Played::Reached
+                    } else {
+                        Played::Failed
+                    };
+                }
+                _ => {}
+            }
+        }
+        if d.host.session().is_closed() && !opened {
+            return Played::Failed;
+        }
+        if d.turn().is_err() {
+            return Played::Failed;
+        }
+    }
+}
+
+/// The smallest scenario derived from `failing` that still violates an invariant (greedy:
+/// drop one element at a time while it still fails).
+pub fn shrink(failing: &Scenario) -> Scenario {
+    let mut best = failing.clone();
+    loop {
+        let next = best
+            .smaller()
+            .into_iter()
+            .find(|s| !run(s, false).violations.is_empty());
+        match next {
+            Some(s) => best = s,
+            None => return best,
+        }
+    }
+}
+
+/// The swarm's totals.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SwarmReport {
+    /// Scenarios run.
+    pub runs: u64,
+    /// Virtual time of all runs, ms.
+    pub virtual_ms: u64,
+    /// Targets asked for and reached.
+    pub targets: u64,
+    /// Targets reached.
+    pub reached: u64,
+    /// Every violation, with its seed.
+    pub violations: Vec<Violation>,
+}
+
+/// Runs `runs` scenarios with seeds `seed..seed + runs` on `threads` threads.
+pub fn swarm(seed: u64, runs: u64, threads: usize) -> SwarmReport {
+    let threads = threads.max(1) as u64;
+    let parts: Vec<SwarmReport> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|k| {
+                scope.spawn(move || {
+                    let mut r = SwarmReport::default();
+                    let mut i = k;
+                    while i < runs {
+                        let s = Scenario::generate(seed.wrapping_add(i));
+                        let rep = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                            run(&s, false)
+                        }))
+                        .unwrap_or_else(|_| RunReport {
+                            scenario: s.clone(),
+                            virtual_ms: 0,
+                            reached: 0,
+                            violations: vec![Violation {
+                                seed: s.seed,
+                                t_ms: 0,
+                                invariant: "no-panic",
+                                detail: "the run panicked".into(),
+                            }],
+                            trace: String::new(),
+                        });
+                        r.runs += 1;
+                        r.virtual_ms += rep.virtual_ms;
+                        r.targets += s.targets.len() as u64;
+                        r.reached += rep.reached as u64;
+                        r.violations.extend(rep.violations);
+                        i += threads;
+                    }
+                    r
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_default())
+            .collect()
+    });
+    let mut total = SwarmReport::default();
+    for p in parts {
+        total.runs += p.runs;
+        total.virtual_ms += p.virtual_ms;
+        total.targets += p.targets;
+        total.reached += p.reached;
+        total.violations.extend(p.violations);
+    }
+    total.violations.sort_by_key(|v| (v.seed, v.t_ms));
+    total
+}

@@ -514,6 +514,13 @@ fn a_host_killed_mid_step_over_the_pty_leaves_an_honest_status() {
             .expect("pty");
             let mut host = Client::open(sim.path());
             host.hello();
+            // The pty stretches the link timeout by the speed (a wall-clock client's 3 s);
+            // this client keeps virtual time, so the device's own 3 s apply.
+            let (res, _) = host.request(RequestBody::SetParam {
+                id: ParamId::LinkTimeoutMs,
+                value: 3_000.0,
+            });
+            assert_eq!(res, protocol::ResultCode::Ok);
             let (res, _) = host.request(RequestBody::RunStep(t.step()));
             assert_eq!(res, protocol::ResultCode::InProgress);
             let started = sim.ground_truth().time_ms;

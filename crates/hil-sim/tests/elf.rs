@@ -231,10 +231,20 @@ fn a_power_cut_mid_step_boots_the_elf_into_a_truthful_report() {
             }
             reports.push((st.state, st.state_confirmed, st.candidates, st.interrupted));
         }
-        assert_eq!(
-            reports[0], reports[1],
-            "cut at {cut_ms} ms: host-built vs ELF"
-        );
+        if reports[0] != reports[1] {
+            // The board programs a record one byte per pass (≈ 15 ms for a slot): cut within
+            // that window after a confirmation, its newest complete record is still the step's
+            // journal, while the host-built controller's store is written at once. Both are
+            // truthful (checked above); the ELF's must be exactly that journal.
+            let (state, confirmed, _, _) = reports[0];
+            let (_, elf_confirmed, _, elf_interrupted) = reports[1];
+            assert!(
+                confirmed && !elf_confirmed && elf_interrupted.is_some_and(|t| t.to == state),
+                "cut at {cut_ms} ms: host-built {:?} vs ELF {:?}",
+                reports[0],
+                reports[1]
+            );
+        }
     }
 }
 

@@ -410,3 +410,146 @@ fn no_false_leak_fault_after_a_link_loss_or_a_reboot_mid_step() {
         }
     }
 }
+
+/// The other repro, over the pty as an outside client sees it: a host starts the
+/// nominal step of every edge, is killed mid-step (it stops talking, sends no `Close`), and a
+/// new host asks for the status 3.5 s later. The device must report the truth, or unconfirmed
+/// with the truth among the candidates.
+#[test]
+fn a_host_killed_mid_step_over_the_pty_leaves_an_honest_status() {
+    use std::io::{Read, Write};
+    use std::os::fd::AsFd;
+    use std::os::unix::fs::OpenOptionsExt;
+
+    struct Client {
+        port: std::fs::File,
+        dec: protocol::FrameDecoder,
+        seq: u16,
+        session: u32,
+    }
+    impl Client {
+        fn open(path: &std::path::Path) -> Client {
+            let port = std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .custom_flags(
+                    nix::fcntl::OFlag::O_NONBLOCK.bits() | nix::fcntl::OFlag::O_NOCTTY.bits(),
+                )
+                .open(path)
+                .expect("open the device path");
+            Client {
+                port,
+                dec: protocol::FrameDecoder::default(),
+                seq: 0,
+                session: 0,
+            }
+        }
+
+        /// Waits (on the port, at most `ms` of wall time) for bytes; feeds them.
+        fn pump(&mut self, ms: u16) -> Vec<protocol::DeviceMessage> {
+            let mut fds = [nix::poll::PollFd::new(
+                self.port.as_fd(),
+                nix::poll::PollFlags::POLLIN,
+            )];
+            let _ = nix::poll::poll(&mut fds, nix::poll::PollTimeout::from(ms));
+            let mut buf = [0u8; 1024];
+            let mut out = Vec::new();
+            while let Ok(n) = self.port.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                out.extend(
+                    self.dec
+                        .feed::<protocol::DeviceMessage>(&buf[..n])
+                        .flatten(),
+                );
+            }
+            out
+        }
+
+        fn request(&mut self, body: RequestBody) -> (protocol::ResultCode, protocol::ResponseBody) {
+            self.seq += 1;
+            let req = protocol::Request {
+                seq: self.seq,
+                session: self.session,
+                body,
+            };
+            let mut frame = [0u8; protocol::MAX_FRAME_LEN];
+            let n = protocol::encode(&req, &mut frame).unwrap();
+            let start = std::time::Instant::now();
+            let mut last_send = None::<std::time::Instant>;
+            while start.elapsed() < std::time::Duration::from_secs(10) {
+                if last_send.is_none_or(|t| t.elapsed() > std::time::Duration::from_millis(250)) {
+                    self.port.write_all(&[0]).unwrap();
+                    self.port.write_all(&frame[..n]).unwrap();
+                    last_send = Some(std::time::Instant::now());
+                }
+                for m in self.pump(20) {
+                    if let protocol::DeviceMessage::Response { seq, result, body } = m {
+                        if seq == self.seq {
+                            return (result, body);
+                        }
+                    }
+                }
+            }
+            panic!("no answer to {:?}", req.body);
+        }
+
+        fn hello(&mut self) {
+            let (res, body) = self.request(RequestBody::hello());
+            assert_eq!(res, protocol::ResultCode::Ok, "{body:?}");
+            if let protocol::ResponseBody::Hello(info) = body {
+                self.session = info.session;
+            }
+        }
+    }
+
+    for t in &TRANSITIONS {
+        for kill_ms in [400u64, 1_500] {
+            let sim = hil_sim::pty::PtySim::spawn(SimOptions {
+                initial: t.from,
+                seed: 4,
+                ..SimOptions::default()
+            })
+            .expect("pty");
+            let mut host = Client::open(sim.path());
+            host.hello();
+            // The pty stretches the link timeout by the speed (a wall-clock client's 3 s);
+            // this client keeps virtual time, so the device's own 3 s apply.
+            let (res, _) = host.request(RequestBody::SetParam {
+                id: ParamId::LinkTimeoutMs,
+                value: 3_000.0,
+            });
+            assert_eq!(res, protocol::ResultCode::Ok);
+            let (res, _) = host.request(RequestBody::RunStep(t.step()));
+            assert_eq!(res, protocol::ResultCode::InProgress);
+            let started = sim.ground_truth().time_ms;
+            // The host runs, heartbeating, until it is killed.
+            while sim.ground_truth().time_ms < started + kill_ms {
+                host.request(RequestBody::Heartbeat);
+            }
+            drop(host);
+            let killed = sim.ground_truth().time_ms;
+            // 3.5 s later a new host asks (the old one's session has timed out by then).
+            let mut next = Client::open(sim.path());
+            while sim.ground_truth().time_ms < killed + 3_500 {
+                next.pump(20);
+            }
+            next.hello();
+            let (_, body) = next.request(RequestBody::GetStatus);
+            let protocol::ResponseBody::Status(status) = body else {
+                panic!("{body:?}")
+            };
+            // Let the trunk settle before reading the truth.
+            let truth = sim.stop().true_state;
+            let verdict = judge(&status, truth);
+            assert!(
+                matches!(verdict, Verdict::True | Verdict::Unconfirmed),
+                "{} -> {} host killed at {kill_ms} ms: {verdict:?}: {status:?}, truth {truth:?}",
+                t.from,
+                t.to
+            );
+            assert_ne!(status.mode, Mode::Running, "the device stopped by itself");
+        }
+    }
+}

@@ -12,6 +12,7 @@ use host::{Driver, Host, SessionError, Timing};
 use protocol::DeviceInfo;
 
 use crate::failure::Failure;
+use crate::record::{Recorder, Recording};
 use crate::sim::{SimConfig, SimTruth};
 use crate::transport::{self, AnyIo, SerialIo};
 
@@ -111,8 +112,8 @@ impl DeviceArgs {
 
 /// An open, handshaken connection: the host engine driven over the device's I/O.
 pub struct Connection {
-    /// The engine and its I/O.
-    pub session: Driver<AnyIo>,
+    /// The engine and its I/O (recorded when a recording is attached).
+    pub session: Driver<Recorder<AnyIo>>,
     /// Who the device is.
     pub info: DeviceInfo,
 }
@@ -120,7 +121,7 @@ pub struct Connection {
 impl Connection {
     /// The simulator's ground truth now, if the device is the built-in simulator.
     pub fn truth(&self) -> Option<SimTruth> {
-        match &self.session.io {
+        match &self.session.io.inner {
             AnyIo::Sim(io) => Some(io.sim.ground_truth().into()),
             AnyIo::Serial(_) => None,
         }
@@ -130,7 +131,7 @@ impl Connection {
     /// lost link the simulator first runs on for the device's link timeout (and a margin), so
     /// the truth shows what the crane did about the silent host, as a real one would.
     pub fn close(mut self) -> Option<SimTruth> {
-        if let AnyIo::Sim(io) = &mut self.session.io {
+        if let AnyIo::Sim(io) = &mut self.session.io.inner {
             if self.session.host.session().is_closed() {
                 io.sim
                     .run_for(u64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) + 1_000);
@@ -177,6 +178,14 @@ fn first_seq() -> u16 {
 impl DeviceConfig {
     /// Opens the device (starting the simulator if it is one) and does the handshake.
     pub fn connect(&self) -> Result<Connection, ConnectError> {
+        self.connect_recorded(None)
+    }
+
+    /// As [`DeviceConfig::connect`], recording the session (handshake included) to `recording`.
+    pub fn connect_recorded(
+        &self,
+        recording: Option<Recording>,
+    ) -> Result<Connection, ConnectError> {
         let (name, io, seq) = match self {
             DeviceConfig::Port(path) => {
                 let port = transport::open(path).map_err(ConnectError::Open)?;
@@ -193,11 +202,14 @@ impl DeviceConfig {
                 1,
             ),
         };
-        let mut session = Driver::new(Host::new(Timing::standard(), seq), io);
+        let mut session = Driver::new(
+            Host::new(Timing::standard(), seq),
+            Recorder::new(io, recording),
+        );
         match session.connect() {
             Ok(info) => Ok(Connection { session, info }),
             Err(source) => {
-                let conn_truth = match &session.io {
+                let conn_truth = match &session.io.inner {
                     AnyIo::Sim(io) => Some(io.sim.ground_truth().into()),
                     AnyIo::Serial(_) => None,
                 };

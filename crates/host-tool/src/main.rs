@@ -48,6 +48,7 @@ mod cmd;
 mod device;
 mod failure;
 mod progress;
+mod record;
 mod sim;
 mod transport;
 
@@ -85,6 +86,8 @@ enum Command {
     Stop(cmd::stop::Args),
     /// List serial ports; recognise Arduino UNO R4 boards.
     Ports(cmd::ports::Args),
+    /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
+    Log(cmd::log::Args),
 }
 
 fn main() -> ExitCode {
@@ -102,6 +105,7 @@ fn main() -> ExitCode {
         Command::Param(args) => cmd::param::run(args),
         Command::Stop(args) => cmd::stop::run(args),
         Command::Ports(args) => cmd::ports::run(args),
+        Command::Log(args) => cmd::log::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -268,8 +268,8 @@ impl Controller {
         });
         self.safe = false;
         self.enable_servos();
-        self.joystick_armed = false;
-        self.joystick_used_raw = None;
+        self.joystick.armed = false;
+        self.joystick.used_raw = None;
         let pre_release = self.pre_release_needed(plan.steps.first());
         let journal = self.journal_step(plan.steps.first());
         self.exec = Some(Exec {
@@ -318,7 +318,7 @@ impl Controller {
 
     /// Starts the identification probe.
     pub(super) fn start_identify(&mut self) {
-        self.probe = Some(super::identify::ProbeLog::default());
+        self.ident.probe = Some(super::identify::ProbeLog::default());
         let plan = super::identify::probe_plan(self.state());
         self.start_exec(plan, Origin::Identify);
     }
@@ -326,10 +326,10 @@ impl Controller {
     /// The probe ended: narrow the belief by its verdict; ask the operator where it cannot
     /// decide (not after an abort or a fault: the host or the person decides what next).
     fn finish_identify(&mut self, completed: bool) {
-        let Some(log) = self.probe.take() else {
+        let Some(log) = self.ident.probe.take() else {
             return;
         };
-        self.last_probe = Some(log);
+        self.ident.last = Some(log);
         if !completed {
             return;
         }
@@ -481,7 +481,8 @@ impl Controller {
         let Some(e) = self.exec.as_ref() else {
             return false;
         };
-        if let (Some(log), Origin::Identify, false) = (self.probe.as_mut(), e.origin, e.pre_release)
+        if let (Some(log), Origin::Identify, false) =
+            (self.ident.probe.as_mut(), e.origin, e.pre_release)
         {
             log.sample(e.prim, e.prim_start_ms, now, p);
         }
@@ -505,7 +506,7 @@ impl Controller {
                 false
             }
             Progress::Done { evidence } => {
-                if let (Some(log), Some(e)) = (self.probe.as_mut(), self.exec.as_ref()) {
+                if let (Some(log), Some(e)) = (self.ident.probe.as_mut(), self.exec.as_ref()) {
                     if e.origin == Origin::Identify {
                         log.primitive_done(e.prim, now, self.pressure.filt_kpa);
                     }

@@ -107,7 +107,7 @@ pub struct ProbeLog {
 }
 
 impl ProbeLog {
-    /// One control pass during primitive `index` of [`probe_step`] with pressure `p`.
+    /// One control pass during primitive `index` of the first step of [`probe_plan`] with pressure `p`.
     pub fn sample(&mut self, index: u8, started_ms: u64, now_ms: u64, p: f32) {
         self.prim_start_ms = started_ms;
         let t = now_ms.saturating_sub(started_ms);

@@ -11,6 +11,11 @@
 //! - `exec`: plan execution, one step at a time, primitive by primitive, with the step's
 //!   time limit; state confirmation from snaps (or the person, for manual steps).
 //! - [`snap`]: the snap-through detector on the filtered pressure.
+//! - [`belief`]: what is known about the trunk's state (confirmed, or unconfirmed with the
+//!   candidates and the interrupted step), and the reach of a step.
+//! - [`identify`]: the sealed-pressure probe that identifies an unconfirmed state, and the
+//!   operator's answer where it cannot decide.
+//! - `exec` also journals each step to the store ahead of its first actuation.
 //! - this module: sensors (pressure filter, dropout, over-pressure, leak), buttons and joystick,
 //!   servo slewing, the valve overlay of the safe state, periodic events, the display.
 //!
@@ -163,6 +168,60 @@ struct InletWatch {
     vent_start: Option<(u64, f32)>,
 }
 
+/// The joystick: the last sample, the one last acted on, and whether it has taken the servos.
+#[derive(Debug, Clone, Copy)]
+struct Joystick {
+    raw: [u16; 2],
+    used_raw: Option<[u16; 2]>,
+    /// It takes the servos only once moved past the dead zone (entering standalone never
+    /// moves the tendons by itself).
+    armed: bool,
+}
+
+/// When the periodic events are due.
+#[derive(Debug, Clone, Copy)]
+struct Periodic {
+    next_heartbeat_ms: u64,
+    next_telemetry_ms: u64,
+    last_progress_ms: u64,
+}
+
+/// The persisted record's handover to the shell: records made, taken
+/// ([`Controller::poll_store`]) and persisted ([`Controller::handle_stored`]), counted; a step
+/// actuates only once its journal record is persisted.
+#[derive(Debug, Clone, Copy, Default)]
+struct Journal {
+    pending: Option<StoredState>,
+    made: u32,
+    polled: u32,
+    persisted: u32,
+}
+
+/// Identification of an unconfirmed state.
+#[derive(Debug, Clone, Copy, Default)]
+struct Identification {
+    /// The operator is asked: the candidate shown (up/down select, confirm accepts).
+    asking: Option<TrunkState>,
+    /// The probe's measurements while it runs, and the last probe's.
+    probe: Option<identify::ProbeLog>,
+    last: Option<identify::ProbeLog>,
+}
+
+/// Who the device talks to (`docs/protocol.md`, "Sessions").
+#[derive(Debug, Clone, Copy)]
+struct LinkSession {
+    /// A host has shaken hands since boot (events are sent from then on).
+    handshake: bool,
+    /// The current session (0: none).
+    session: u32,
+    opened: u32,
+    /// Mixed from sensor noise, frame arrival times and the shell's seed: session ids.
+    entropy: u32,
+    reset_cause: ResetCause,
+    /// When the session's owner was last heard.
+    last_rx_ms: u64,
+}
+
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
 #[derive(Debug, Clone)]
 pub struct Controller {
@@ -173,21 +232,10 @@ pub struct Controller {
 
     // Trunk state.
     belief: Belief,
-    pending_store: Option<StoredState>,
-    /// Records made, handed to the shell ([`Controller::poll_store`]) and persisted
-    /// ([`Controller::handle_stored`]), counted: a step actuates only once its journal is
-    /// persisted.
-    store_made: u32,
-    store_polled: u32,
-    store_persisted: u32,
+    journal: Journal,
     /// The leak watch is quiet until then ([`LEAK_SETTLE_MS`]).
     leak_quiet_until_ms: u64,
-    /// The operator is asked to tell the state: the candidate shown and selectable with the
-    /// up/down buttons, accepted with confirm.
-    asking_operator: Option<TrunkState>,
-    /// The identification probe's measurements while it runs.
-    probe: Option<identify::ProbeLog>,
-    last_probe: Option<identify::ProbeLog>,
+    ident: Identification,
 
     // Modes and faults.
     faults: u16,
@@ -206,9 +254,7 @@ pub struct Controller {
     inlet: InletWatch,
     buttons: Buttons,
     debounce: Debounce,
-    joystick_raw: [u16; 2],
-    joystick_used_raw: Option<[u16; 2]>,
-    joystick_armed: bool,
+    joystick: Joystick,
 
     // Actuators.
     servo_deg: [f32; 3],
@@ -235,23 +281,12 @@ pub struct Controller {
     // Link.
     decoder: FrameDecoder,
     fingerprint: Fingerprint,
-    /// A host has shaken hands since boot (events are sent from then on).
-    handshake: bool,
-    /// The current session (0: none); see `docs/protocol.md`, "Sessions".
-    session: u32,
-    sessions_opened: u32,
-    /// Mixed from sensor noise, frame arrival times and the shell's seed: session ids.
-    entropy: u32,
-    reset_cause: ResetCause,
-    /// When the session owner was last heard.
-    last_rx_ms: u64,
+    link: LinkSession,
     cache: ResponseCache,
     tx: TxQueue,
     defer_events: bool,
     deferred: Vec<Event, 8>,
-    next_heartbeat_ms: u64,
-    next_telemetry_ms: u64,
-    last_progress_ms: u64,
+    periodic: Periodic,
 }
 
 impl Controller {
@@ -288,10 +323,7 @@ impl Controller {
             boot_ms: now_ms,
             last_tick_ms: now_ms,
             belief,
-            pending_store: None,
-            store_made: 0,
-            store_polled: 0,
-            store_persisted: 0,
+            journal: Journal::default(),
             // After a reset mid-step the servos, now slack, may let a compressed trunk
             // lengthen, and a snap may still complete: not a leak.
             leak_quiet_until_ms: if belief.is_confirmed() {
@@ -299,9 +331,7 @@ impl Controller {
             } else {
                 now_ms + LEAK_SETTLE_MS
             },
-            asking_operator: None,
-            probe: None,
-            last_probe: None,
+            ident: Identification::default(),
             faults,
             last_fault,
             estop_latched: false,
@@ -322,9 +352,11 @@ impl Controller {
             inlet: InletWatch::default(),
             buttons: Buttons::default(),
             debounce: Debounce::default(),
-            joystick_raw: cfg.joystick.center_raw,
-            joystick_used_raw: None,
-            joystick_armed: false,
+            joystick: Joystick {
+                raw: cfg.joystick.center_raw,
+                used_raw: None,
+                armed: false,
+            },
             servo_deg,
             servo_target_deg: servo_deg,
             servos_enabled: faults == 0,
@@ -345,19 +377,23 @@ impl Controller {
             plan_status: None,
             decoder: FrameDecoder::new(),
             fingerprint: Fingerprint::START,
-            handshake: false,
-            session: 0,
-            sessions_opened: 0,
-            entropy: Fingerprint::START.0,
-            reset_cause: ResetCause::Unknown,
-            last_rx_ms: now_ms,
+            link: LinkSession {
+                handshake: false,
+                session: 0,
+                opened: 0,
+                entropy: Fingerprint::START.0,
+                reset_cause: ResetCause::Unknown,
+                last_rx_ms: now_ms,
+            },
             cache: ResponseCache::new(),
             tx: TxQueue::new(),
             defer_events: false,
             deferred: Vec::new(),
-            next_heartbeat_ms: now_ms,
-            next_telemetry_ms: now_ms,
-            last_progress_ms: now_ms,
+            periodic: Periodic {
+                next_heartbeat_ms: now_ms,
+                next_telemetry_ms: now_ms,
+                last_progress_ms: now_ms,
+            },
         };
         ctl.update_outputs();
         ctl
@@ -366,7 +402,7 @@ impl Controller {
     /// The board restarted through its watchdog: raises the Watchdog fault (safe state until
     /// reset). Call once after [`Controller::new`].
     pub fn report_watchdog_reset(&mut self) {
-        self.reset_cause = ResetCause::Watchdog;
+        self.link.reset_cause = ResetCause::Watchdog;
         self.raise(FaultCode::Watchdog);
     }
 
@@ -374,8 +410,8 @@ impl Controller {
     /// [`protocol::DeviceInfo::reset_cause`]; `Unknown` until set). A watchdog reset is
     /// reported with [`Controller::report_watchdog_reset`] instead, which also raises the fault.
     pub fn set_reset_cause(&mut self, cause: ResetCause) {
-        if self.reset_cause != ResetCause::Watchdog {
-            self.reset_cause = cause;
+        if self.link.reset_cause != ResetCause::Watchdog {
+            self.link.reset_cause = cause;
         }
     }
 
@@ -384,7 +420,7 @@ impl Controller {
     /// times are mixed in anyway.
     pub fn add_entropy(&mut self, seed: u32) {
         for b in seed.to_le_bytes() {
-            self.entropy = Fingerprint(self.entropy).with(b).0;
+            self.link.entropy = Fingerprint(self.link.entropy).with(b).0;
         }
     }
 
@@ -417,10 +453,10 @@ impl Controller {
     pub fn handle_inputs(&mut self, inputs: &Inputs, now_ms: u64) {
         self.advance_clock(now_ms);
         // The ADC's lowest bits are noise: cheap entropy for session ids.
-        self.entropy = self.entropy.rotate_left(3) ^ u32::from(inputs.pressure_raw);
+        self.link.entropy = self.link.entropy.rotate_left(3) ^ u32::from(inputs.pressure_raw);
         self.on_pressure(inputs.pressure_raw);
         self.on_buttons(inputs.buttons);
-        self.joystick_raw = inputs.joystick_raw;
+        self.joystick.raw = inputs.joystick_raw;
         self.update_outputs();
     }
 
@@ -478,7 +514,7 @@ impl Controller {
         if self.exec.as_ref().is_some_and(|e| e.waiting_manual) {
             return display::text("HAnd");
         }
-        if let Some(s) = self.asking_operator {
+        if let Some(s) = self.ident.asking {
             // "Is it this one?": the candidate with every decimal point lit.
             let mut seg = display::text(s.display_text());
             for d in &mut seg {
@@ -499,9 +535,9 @@ impl Controller {
     /// The record to persist, once per change (the shell saves it, then calls
     /// [`Controller::handle_stored`]).
     pub fn poll_store(&mut self) -> Option<StoredState> {
-        let s = self.pending_store.take();
+        let s = self.journal.pending.take();
         if s.is_some() {
-            self.store_polled = self.store_made;
+            self.journal.polled = self.journal.made;
         }
         s
     }
@@ -509,12 +545,12 @@ impl Controller {
     /// The record last taken with [`Controller::poll_store`] is persisted. A step's first
     /// actuation waits for this (the journal is written ahead of the motion).
     pub fn handle_stored(&mut self) {
-        self.store_persisted = self.store_polled;
+        self.journal.persisted = self.journal.polled;
     }
 
     /// What the last identification probe measured (for reports and calibration).
     pub fn last_probe(&self) -> Option<identify::ProbeLog> {
-        self.last_probe
+        self.ident.last
     }
 
     /// What the controller believes about the trunk.
@@ -532,16 +568,16 @@ impl Controller {
             || moving
             || self.outputs.inlet_open
             || self.outputs.exhaust_open
-            || self.joystick_armed;
+            || self.joystick.armed;
         let mut d = if active {
             now + self.cfg.control_period_ms as u64
         } else {
             now + 1_000
         };
-        if self.handshake {
-            d = d.min(self.next_heartbeat_ms.max(now));
+        if self.link.handshake {
+            d = d.min(self.periodic.next_heartbeat_ms.max(now));
             if self.cfg.telemetry_hz > 0.0 {
-                d = d.min(self.next_telemetry_ms.max(now));
+                d = d.min(self.periodic.next_telemetry_ms.max(now));
             }
         }
         d
@@ -589,7 +625,7 @@ impl Controller {
 
     /// The current session id (0: none), as the last successful handshake opened it.
     pub fn session(&self) -> u32 {
-        self.session
+        self.link.session
     }
 
     /// The configuration in force (after validation and parameter changes).
@@ -646,7 +682,7 @@ impl Controller {
         }
         self.belief = belief;
         if belief.is_confirmed() {
-            self.asking_operator = None;
+            self.ident.asking = None;
         }
         self.store(StoredState {
             state: belief.state(),
@@ -667,14 +703,14 @@ impl Controller {
     /// Hands `record` to the shell to persist; returns its number (see
     /// [`Controller::journal_persisted`]).
     fn store(&mut self, record: StoredState) -> u32 {
-        self.store_made = self.store_made.wrapping_add(1);
-        self.pending_store = Some(record);
-        self.store_made
+        self.journal.made = self.journal.made.wrapping_add(1);
+        self.journal.pending = Some(record);
+        self.journal.made
     }
 
     /// Whether record number `n` (or a later one) is persisted.
     fn journal_persisted(&self, n: u32) -> bool {
-        self.store_persisted.wrapping_sub(n) < u32::MAX / 2
+        self.journal.persisted.wrapping_sub(n) < u32::MAX / 2
     }
 
     /// A person or the host says the trunk is in `state`: confirmed and persisted; a
@@ -699,7 +735,7 @@ impl Controller {
         } else {
             c.iter().next()
         };
-        self.asking_operator = shown;
+        self.ident.asking = shown;
         self.emit(Event::IdentifyNeedsOperator { candidates: c });
     }
 
@@ -735,7 +771,7 @@ impl Controller {
             self.leak_quiet_until_ms = self.now_ms + LEAK_SETTLE_MS;
         }
         self.servos_enabled = false;
-        self.joystick_armed = false;
+        self.joystick.armed = false;
         self.want_inlet = false;
         self.want_exhaust = false;
         self.update_outputs();
@@ -755,7 +791,7 @@ impl Controller {
         let slack = slack_angles(&self.cfg);
         self.servo_deg = slack;
         self.servo_target_deg = slack;
-        self.joystick_used_raw = None;
+        self.joystick.used_raw = None;
         self.servos_enabled = true;
     }
 
@@ -1005,7 +1041,7 @@ impl Controller {
             if let Some(e) = self.exec.as_mut().filter(|e| e.waiting_manual) {
                 e.manual_confirmed = true;
                 self.advance_exec();
-            } else if let (Some(shown), None) = (self.asking_operator, &self.exec) {
+            } else if let (Some(shown), None) = (self.ident.asking, &self.exec) {
                 // The operator says the trunk is in the state shown.
                 self.declare(shown);
             } else if self.safe || self.estop_latched {
@@ -1016,14 +1052,14 @@ impl Controller {
         if idle && grip {
             self.gripper_closed = !self.gripper_closed;
         }
-        if let (Some(shown), true) = (self.asking_operator, idle || self.safe) {
+        if let (Some(shown), true) = (self.ident.asking, idle || self.safe) {
             // Identification by the operator: up/down pick a candidate, confirm takes it.
             if up || down {
                 let c: Vec<TrunkState, 6> = self.belief.candidates().iter().collect();
                 if let Some(i) = c.iter().position(|s| *s == shown) {
                     let n = c.len();
                     let j = if up { (i + 1) % n } else { (i + n - 1) % n };
-                    self.asking_operator = Some(c[j]);
+                    self.ident.asking = Some(c[j]);
                 }
             }
             return;
@@ -1087,12 +1123,12 @@ impl Controller {
 
     fn standalone_joystick(&mut self) {
         if self.mode() != Mode::Standalone || !self.state().is_flexible() || !self.confirmed() {
-            self.joystick_armed = false;
-            self.joystick_used_raw = None;
+            self.joystick.armed = false;
+            self.joystick.used_raw = None;
             return;
         }
-        let raw = self.joystick_raw;
-        if self.joystick_used_raw == Some(raw) {
+        let raw = self.joystick.raw;
+        if self.joystick.used_raw == Some(raw) {
             return;
         }
         let jc = self.cfg.joystick;
@@ -1102,12 +1138,12 @@ impl Controller {
         if m > jc.dead_zone {
             // The joystick takes the servos only once it has been moved: entering standalone
             // (after a plan or an abort) never moves the tendons by itself.
-            self.joystick_armed = true;
+            self.joystick.armed = true;
         }
-        if !self.joystick_armed {
+        if !self.joystick.armed {
             return;
         }
-        self.joystick_used_raw = Some(raw);
+        self.joystick.used_raw = Some(raw);
         let jc = crate::config::JoystickConfig {
             max_bend_deg: self.max_bend_deg,
             ..jc
@@ -1177,7 +1213,7 @@ impl Controller {
             .as_ref()
             .is_some_and(|e| matches!(e.origin, exec::Origin::Host | exec::Origin::Identify));
         if host_plan
-            && self.now_ms.saturating_sub(self.last_rx_ms) >= self.cfg.link_timeout_ms as u64
+            && self.now_ms.saturating_sub(self.link.last_rx_ms) >= self.cfg.link_timeout_ms as u64
         {
             self.raise(FaultCode::LinkLoss);
         }
@@ -1185,7 +1221,7 @@ impl Controller {
 
     /// Queues an event (only once a host has shaken hands: nobody listens before).
     fn emit(&mut self, ev: Event) {
-        if !self.handshake {
+        if !self.link.handshake {
             return;
         }
         if self.defer_events {
@@ -1209,20 +1245,20 @@ impl Controller {
     }
 
     fn periodic_events(&mut self) {
-        if !self.handshake {
+        if !self.link.handshake {
             return;
         }
         let now = self.now_ms;
         let mut progress_due = false;
-        if now >= self.next_heartbeat_ms {
-            self.next_heartbeat_ms = now + protocol::HEARTBEAT_PERIOD_MS as u64;
+        if now >= self.periodic.next_heartbeat_ms {
+            self.periodic.next_heartbeat_ms = now + protocol::HEARTBEAT_PERIOD_MS as u64;
             let (uptime_ms, mode) = (self.uptime_ms(), self.mode());
             self.emit(Event::Heartbeat { uptime_ms, mode });
             progress_due = true;
         }
-        if self.cfg.telemetry_hz > 0.0 && now >= self.next_telemetry_ms {
+        if self.cfg.telemetry_hz > 0.0 && now >= self.periodic.next_telemetry_ms {
             let period = (1_000.0 / self.cfg.telemetry_hz) as u64;
-            self.next_telemetry_ms = now + period.max(1);
+            self.periodic.next_telemetry_ms = now + period.max(1);
             let t = Telemetry {
                 uptime_ms: self.uptime_ms(),
                 pressure_kpa: self.pressure.filt_kpa,
@@ -1235,7 +1271,8 @@ impl Controller {
             self.emit(Event::Telemetry(t));
             progress_due = true;
         }
-        if progress_due && now.saturating_sub(self.last_progress_ms) >= PROGRESS_PERIOD_MS {
+        if progress_due && now.saturating_sub(self.periodic.last_progress_ms) >= PROGRESS_PERIOD_MS
+        {
             if let Some(e) = &self.exec {
                 let ev = Event::StepProgress {
                     plan_id: e.plan.plan_id,
@@ -1243,7 +1280,7 @@ impl Controller {
                     primitive: e.prim,
                     elapsed_ms: now.saturating_sub(e.step_start_ms) as u32,
                 };
-                self.last_progress_ms = now;
+                self.periodic.last_progress_ms = now;
                 self.emit(ev);
             }
         }

@@ -31,10 +31,10 @@ impl Controller {
     pub(super) fn on_request(&mut self, req: &Request, fingerprint: u32) {
         // Only the session owner's requests keep the link alive (a stranger's status polls
         // must not hide the owner's silence from the link watch).
-        if self.session != 0 && req.session == self.session {
-            self.last_rx_ms = self.now_ms;
+        if self.link.session != 0 && req.session == self.link.session {
+            self.link.last_rx_ms = self.now_ms;
         }
-        self.entropy = Fingerprint(self.entropy ^ fingerprint)
+        self.link.entropy = Fingerprint(self.link.entropy ^ fingerprint)
             .with(self.now_ms as u8)
             .0;
         if let Some(frame) = self.cache.lookup(req.seq, fingerprint) {
@@ -96,26 +96,26 @@ impl Controller {
             board: self.cfg.board,
             trunk: self.cfg.trunk,
             session,
-            reset_cause: self.reset_cause,
+            reset_cause: self.link.reset_cause,
         }
     }
 
     /// Whether the session's owner was heard within the link timeout.
     fn owner_live(&self) -> bool {
-        self.session != 0
-            && self.now_ms.saturating_sub(self.last_rx_ms) < self.cfg.link_timeout_ms as u64
+        self.link.session != 0
+            && self.now_ms.saturating_sub(self.link.last_rx_ms) < self.cfg.link_timeout_ms as u64
     }
 
     /// A new session id: never 0, never the one it replaces; unpredictable to another host
     /// (mixed from the sensor noise and the arrival times of every frame since boot, and
     /// whatever the shell added with [`Controller::add_entropy`]).
     fn next_session_id(&mut self) -> u32 {
-        self.sessions_opened = self.sessions_opened.wrapping_add(1);
-        let mut h = Fingerprint(self.entropy);
+        self.link.opened = self.link.opened.wrapping_add(1);
+        let mut h = Fingerprint(self.link.entropy);
         for b in (self.now_ms as u32)
             .to_le_bytes()
             .into_iter()
-            .chain(self.sessions_opened.to_le_bytes())
+            .chain(self.link.opened.to_le_bytes())
         {
             h = h.with(b);
         }
@@ -126,7 +126,7 @@ impl Controller {
         x ^= x >> 15;
         x = x.wrapping_mul(0x846c_a68b);
         x ^= x >> 16;
-        if x == 0 || x == self.session {
+        if x == 0 || x == self.link.session {
             x = x.wrapping_add(0x9e37_79b9) | 1;
         }
         x
@@ -141,17 +141,17 @@ impl Controller {
             let info = ResponseBody::Hello(self.device_info(0));
             return (ResultCode::Rejected(RejectReason::SessionBusy), info);
         }
-        let first = !self.handshake;
-        self.handshake = true;
-        self.session = self.next_session_id();
-        self.last_rx_ms = self.now_ms;
+        let first = !self.link.handshake;
+        self.link.handshake = true;
+        self.link.session = self.next_session_id();
+        self.link.last_rx_ms = self.now_ms;
         if first {
-            self.next_heartbeat_ms = self.now_ms;
-            self.next_telemetry_ms = self.now_ms;
+            self.periodic.next_heartbeat_ms = self.now_ms;
+            self.periodic.next_telemetry_ms = self.now_ms;
         }
         (
             ResultCode::Ok,
-            ResponseBody::Hello(self.device_info(self.session)),
+            ResponseBody::Hello(self.device_info(self.link.session)),
         )
     }
 
@@ -171,16 +171,16 @@ impl Controller {
             self.enter_safe(PlanPhase::Aborted);
             return ok();
         }
-        if !self.handshake {
+        if !self.link.handshake {
             return reject(RejectReason::NoHandshake);
         }
-        if body.needs_session() && (self.session == 0 || req.session != self.session) {
+        if body.needs_session() && (self.link.session == 0 || req.session != self.link.session) {
             return reject(RejectReason::NotSessionOwner);
         }
         match *body {
             RequestBody::Hello { .. } | RequestBody::Abort => ok(), // handled above
             RequestBody::Close => {
-                self.session = 0;
+                self.link.session = 0;
                 ok()
             }
             RequestBody::Identify => self.identify(),
@@ -412,7 +412,7 @@ impl Controller {
             ParamId::ServoSlewDegPerS => self.cfg.servo.slew_deg_per_s = value,
             ParamId::TelemetryHz => {
                 self.cfg.telemetry_hz = value;
-                self.next_telemetry_ms = self.now_ms;
+                self.periodic.next_telemetry_ms = self.now_ms;
             }
             ParamId::LinkTimeoutMs => self.cfg.link_timeout_ms = value as u32,
         }

@@ -3,6 +3,7 @@
 pub mod declare;
 pub mod fk;
 pub mod ik;
+pub mod log;
 pub mod model;
 pub mod monitor;
 pub mod output;

@@ -30,6 +30,9 @@ pub struct Args {
     /// One JSON object per line on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Also record the session to this MCAP file (`host-tool log` reads it).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<std::path::PathBuf>,
 }
 
 /// Runs `host-tool monitor`.
@@ -51,12 +54,14 @@ pub fn run(args: Args) -> Result<(), Failure> {
         )));
     }
     let cancel = crate::cmd::plan::interrupt_flag();
-    let mut conn = device.connect()?;
+    let recording = args
+        .record
+        .as_deref()
+        .map(|p| crate::record::start(p, "monitor", &device))
+        .transpose()?;
+    let mut conn = device.connect_recorded(recording)?;
     let s = &mut conn.session;
-    let previous = match s.command(RequestBody::GetParam(ParamId::TelemetryHz)) {
-        Ok(ResponseBody::Param { value, .. }) => Some(value),
-        _ => None,
-    };
+    let previous = previous_telemetry_rate(s);
     let streaming = s
         .command(RequestBody::SetParam {
             id: ParamId::TelemetryHz,
@@ -117,6 +122,25 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     conn.close();
     result.map_err(Failure::Runtime)
+}
+
+fn previous_telemetry_rate<I: host::Io>(s: &mut host::Driver<I>) -> Option<f32> {
+    match s.command(RequestBody::GetParam(ParamId::TelemetryHz)) {
+        Ok(ResponseBody::Param { value, .. }) => Some(value),
+        _ => None,
+    }
+}
+
+/// Sets the device's telemetry rate; returns the previous one to restore (`None`: it could
+/// not be read or the device refused the new one).
+pub fn set_telemetry_rate<I: host::Io>(s: &mut host::Driver<I>, hz: u32) -> Option<f32> {
+    let previous = previous_telemetry_rate(s)?;
+    s.command(RequestBody::SetParam {
+        id: ParamId::TelemetryHz,
+        value: hz as f32,
+    })
+    .ok()?;
+    Some(previous)
 }
 
 fn print_sample(json: bool, t: &Telemetry, mode: Option<&str>) {

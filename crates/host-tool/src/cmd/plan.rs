@@ -9,13 +9,14 @@ use std::sync::mpsc;
 use std::sync::Arc;
 
 use geometry::TrunkState;
-use host::{text, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
+use host::{text, Io as _, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
 use planner::graph::{kind_name, Graph, Plan, PrimitiveText};
 use serde_json::{json, Value};
 
 use crate::device::{parse_state, ConnectError, DeviceArgs, DeviceConfig};
 use crate::failure::Failure;
 use crate::progress::{Bars, Lines, Progress};
+use crate::record::Recorder;
 use crate::sim::SimTruth;
 use crate::transport::AnyIo;
 
@@ -37,6 +38,10 @@ pub struct Args {
     /// Print one JSON object on stdout instead of a summary.
     #[arg(long)]
     pub json: bool,
+    /// Record the session to this MCAP file (telemetry at 50 Hz during the run, events,
+    /// requests and responses, the plan; the ground truth with --sim). `host-tool log` reads it.
+    #[arg(long, value_name = "FILE.mcap", conflicts_with = "dry_run")]
+    pub record: Option<std::path::PathBuf>,
 }
 
 /// Validated arguments.
@@ -46,6 +51,7 @@ struct Config {
     dry_run: bool,
     from: Option<TrunkState>,
     json: bool,
+    record: Option<std::path::PathBuf>,
 }
 
 impl Args {
@@ -69,6 +75,7 @@ impl Args {
                 .map(|s| parse_state("--from", s))
                 .transpose()?,
             json: self.json,
+            record: self.record.clone(),
         })
     }
 }
@@ -96,8 +103,13 @@ struct CliShell {
     identify: Option<Vec<TrunkState>>,
 }
 
-impl RunShell<AnyIo> for CliShell {
-    fn event(&mut self, event: &RunEvent, io: &mut AnyIo) {
+impl RunShell<Recorder<AnyIo>> for CliShell {
+    fn event(&mut self, event: &RunEvent, io: &mut Recorder<AnyIo>) {
+        let now = io.now_ms();
+        if let Some(rec) = io.recording() {
+            rec.run_event(now, event);
+        }
+        let io = &mut io.inner;
         match event {
             RunEvent::Plan { plan, replan } => {
                 self.ui.plan(plan, *replan);
@@ -151,7 +163,7 @@ impl RunShell<AnyIo> for CliShell {
         }
     }
 
-    fn poll(&mut self, _io: &mut AnyIo) -> Option<ShellAction> {
+    fn poll(&mut self, _io: &mut Recorder<AnyIo>) -> Option<ShellAction> {
         if self.interrupted.load(Ordering::SeqCst) && !self.cancel_sent {
             self.cancel_sent = true;
             return Some(ShellAction::Cancel(
@@ -191,8 +203,13 @@ pub fn run(args: Args) -> Result<(), Failure> {
     if cfg.dry_run {
         return dry_run(&cfg);
     }
+    let recording = cfg
+        .record
+        .as_deref()
+        .map(|p| crate::record::start(p, "plan", &cfg.device))
+        .transpose()?;
     let interrupted = interrupt_flag();
-    let mut conn = match cfg.device.connect() {
+    let mut conn = match cfg.device.connect_recorded(recording) {
         Ok(c) => c,
         Err(e) => {
             let truth = match &e {
@@ -227,12 +244,28 @@ pub fn run(args: Args) -> Result<(), Failure> {
         identify: None,
         pending: None,
     };
+    // A recording gets the snap's pressure curve: telemetry at 50 Hz while the plan runs.
+    let previous_rate = if conn.session.io.recording().is_some() {
+        crate::cmd::monitor::set_telemetry_rate(&mut conn.session, 50)
+    } else {
+        None
+    };
     let outcome = conn.session.run_plan(
         Graph::nominal(),
         cfg.target,
         RunOptions::default(),
         &mut shell,
     );
+    if let Some(value) = previous_rate {
+        let _ = conn.session.command(protocol::RequestBody::SetParam {
+            id: protocol::ParamId::TelemetryHz,
+            value,
+        });
+    }
+    let now = conn.session.io.now_ms();
+    if let Some(rec) = conn.session.io.recording() {
+        rec.outcome(now, outcome.ok(), outcome_json(&outcome, None));
+    }
     let stats = conn.session.host.session().stats();
     if stats.retries > 0 || stats.frames_dropped > 0 {
         crate::say!(

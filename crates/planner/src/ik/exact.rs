@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use super::exhaustive::{prefixes, split_depth};
 use super::reach::Reach;
 use super::symmetry::{self, Mirror};
-use super::{relative_gap, Control, Frame, Problem, Raw, Stop};
+use super::{relative_gap, Control, Frame, Metric, Problem, Raw, Stop};
 
 /// Beam width of the seeding incumbent.
 pub const SEED_BEAM_WIDTH: usize = 64;
@@ -215,6 +215,9 @@ impl Worker<'_, '_> {
     }
 }
 
+/// Searches still running after this long switch to the target's fine lower-bound grid.
+const FINE_GRID_AFTER: std::time::Duration = std::time::Duration::from_millis(100);
+
 /// Fewer open tasks than this are split into their children before a pass.
 const MIN_OPEN_TASKS: usize = 512;
 
@@ -290,6 +293,7 @@ pub(crate) fn solve_with(
         }
     };
     let m = problem.m();
+    let start = Instant::now();
     let reach = Reach::new(&problem.catalogue, m);
     // Incumbent: beam, then window polish.
     let seed_reach = Reach::new(&problem.catalogue, super::beam::BEAM_HORIZON);
@@ -354,6 +358,7 @@ pub(crate) fn solve_with(
     // Largest threshold step (bound units), adapted to how fast the passes grow.
     let mut step = f64::INFINITY;
     let mut last_nodes = 0u64;
+    let mut fine = false;
     loop {
         let ub = shared.ub();
         let lb = global_lower_bound(&tasks, ub);
@@ -379,6 +384,20 @@ pub(crate) fn solve_with(
             let before = tasks.len();
             tasks = split(&shared, tasks, ub);
             evaluated += tasks.len().saturating_sub(before) as u64;
+        }
+        // Not proven quickly: the fine distance grid pays for its build (≈ 0.1 s).
+        if !fine && problem.objective.metric() == Metric::Eq36 && start.elapsed() >= FINE_GRID_AFTER
+        {
+            fine = true;
+            problem.objective.target().prepare_fine_bounds();
+            // A second seed: the beam ranks prefixes better on the fine grid.
+            let reach =
+                Reach::new(&problem.catalogue, super::beam::BEAM_HORIZON).with_fine_bounds();
+            let (seed, _, e1, _) =
+                super::beam::beam_with(problem, &reach, SEED_BEAM_WIDTH, control);
+            let (seed, e2) = super::window::polish(problem, seed, 2, control);
+            evaluated += e1 + e2;
+            shared.offer(problem.cost_sum(&seed), &seed);
         }
         let t = threshold.min(ub).max(lb);
         let hist_lo = t;

@@ -262,6 +262,17 @@ impl Objective {
         d * d
     }
 
+    /// Like [`ball_lower_bound`](Self::ball_lower_bound), with the target's fine grid for eq 36
+    /// once it is built ([`Target::prepare_fine_bounds`]).
+    #[inline(always)]
+    pub fn ball_lower_bound_fine(&self, i: usize, center: &Point3<f64>, radius: f64) -> f64 {
+        let d = match self.metric {
+            Metric::Eq36 => self.target.dist_lower_bound_fine(center, radius),
+            Metric::Ordered => ((center - self.stations[i]).norm() - radius).max(0.0),
+        };
+        d * d
+    }
+
     /// The point tip `i` is matched to (the nearest point of the target for eq 36).
     pub fn matched_point(&self, i: usize, p: &Point3<f64>) -> Point3<f64> {
         match self.metric {

@@ -74,9 +74,18 @@ pub struct Reach {
     uniform: bool,
     m: usize,
     horizon: usize,
+    /// Whether [`suffix_lower_bound`](Self::suffix_lower_bound) uses the target's fine grid.
+    fine: bool,
 }
 
 impl Reach {
+    /// These covers, with [`suffix_lower_bound`](Self::suffix_lower_bound) on the target's fine
+    /// lower-bound grid (once built: `Target::prepare_fine_bounds`).
+    pub fn with_fine_bounds(mut self) -> Self {
+        self.fine = true;
+        self
+    }
+
     /// Covers for a boom of `catalogue`, for suffix lengths up to `horizon`.
     pub fn new(catalogue: &Catalogue, horizon: usize) -> Self {
         let m = catalogue.len();
@@ -122,6 +131,7 @@ impl Reach {
             uniform,
             m,
             horizon,
+            fine: false,
         }
     }
 
@@ -152,7 +162,11 @@ impl Reach {
             let cover = self.cover_of(j, k);
             let mut best = f64::INFINITY;
             for b in &cover.balls {
-                let v = ball_lb(obj, tip, frame, b);
+                let v = if self.fine {
+                    ball_lb_fine(obj, tip, frame, b)
+                } else {
+                    ball_lb(obj, tip, frame, b)
+                };
                 if v < best {
                     best = v;
                     if best == 0.0 {
@@ -216,7 +230,7 @@ impl Reach {
         let mut best = f64::INFINITY;
         if cover.groups.is_empty() {
             for b in &cover.balls {
-                let v = ball_lb(obj, tip, frame, b);
+                let v = ball_lb_fine(obj, tip, frame, b);
                 if v < best {
                     best = v;
                     if best == 0.0 {
@@ -229,7 +243,7 @@ impl Reach {
         let mut order = [(0.0f64, 0usize); GROUPS];
         let ng = cover.groups.len().min(GROUPS);
         for (i, (g, slot)) in cover.groups.iter().zip(order.iter_mut()).enumerate() {
-            *slot = (ball_lb(obj, tip, frame, &g.0), i);
+            *slot = (ball_lb_fine(obj, tip, frame, &g.0), i);
         }
         order[..ng].sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         for &(v, g) in &order[..ng] {
@@ -238,7 +252,7 @@ impl Reach {
             }
             let (_, lo, hi) = cover.groups[g];
             for b in &cover.balls[lo..hi] {
-                let v = ball_lb(obj, tip, frame, b);
+                let v = ball_lb_fine(obj, tip, frame, b);
                 if v < best {
                     best = v;
                     if best == 0.0 {
@@ -254,6 +268,11 @@ impl Reach {
 #[inline(always)]
 fn ball_lb(obj: &Objective, tip: usize, frame: &Frame, b: &Ball) -> f64 {
     obj.ball_lower_bound(tip, &frame.apply_vec(&b.center), b.radius)
+}
+
+#[inline(always)]
+fn ball_lb_fine(obj: &Objective, tip: usize, frame: &Frame, b: &Ball) -> f64 {
+    obj.ball_lower_bound_fine(tip, &frame.apply_vec(&b.center), b.radius)
 }
 
 pub(crate) fn cover_union<'a>(frames: impl Iterator<Item = &'a Frame>, prev: &[Ball]) -> Vec<Ball> {

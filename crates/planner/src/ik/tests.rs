@@ -183,6 +183,10 @@ proptest! {
         let ex = solve(&p, Algorithm::Exhaustive, &Control::new()).unwrap();
         let opt_sum = ex.rms * ex.rms * m as f64;
         let tol = 1e-9 * opt_sum + 1e-15;
+        // Half the cases on the fine lower-bound grid (long searches switch to it).
+        if min_tasks == 8 || target_gap > 0.2 {
+            p.objective.target().prepare_fine_bounds();
+        }
         let trace = std::sync::Mutex::new(Vec::new());
         let mut control = Control::new();
         control.target_gap = target_gap;
@@ -321,4 +325,39 @@ proptest! {
             prop_assert!(lb <= opt_sum * (1.0 + 1e-9) + 1e-15);
         }
     }
+}
+
+#[test]
+fn fine_grid_bounds_are_bounds_and_tighter() {
+    let t = Target::new(vec![
+        Point3::origin(),
+        Point3::new(1.0, 0.5, 2.0),
+        Point3::new(-0.5, 1.0, 3.5),
+        Point3::new(0.3, -0.2, 5.0),
+    ])
+    .unwrap();
+    t.prepare_fine_bounds();
+    let mut x: u64 = 42;
+    let mut rnd = || {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (x >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut coarse_sum, mut fine_sum) = (0.0, 0.0);
+    for _ in 0..20_000 {
+        let p = Point3::new(6.0 * rnd() - 3.0, 6.0 * rnd() - 3.0, 9.0 * rnd() - 2.0);
+        let r = 0.3 * rnd();
+        // Every point of the ball is at least the bound away: check the centre and a point
+        // on the sphere.
+        let dir = nalgebra::Vector3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize();
+        let fine = t.dist_lower_bound_fine(&p, r);
+        let coarse = t.dist_lower_bound(&p, r);
+        for q in [p, p + dir * r] {
+            assert!(fine <= t.dist(&q) + 1e-12, "{p} {r}");
+        }
+        coarse_sum += coarse;
+        fine_sum += fine;
+    }
+    assert!(fine_sum > coarse_sum, "{fine_sum} vs {coarse_sum}");
 }

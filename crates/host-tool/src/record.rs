@@ -1,0 +1,845 @@
+//! Recording a session to MCAP: [`Recorder`] wraps the engine's I/O ([`host::Io`]), forwards
+//! every byte and records it — raw frames on `/frames`, decoded requests and responses, the
+//! device's telemetry, events, faults and state — so the engine itself stays untouched. The
+//! shell adds what only it sees (the plan, run events) through [`Recorder::recording`].
+//!
+//! Every message is JSON with a JSON schema (`crane.*`), or Foxglove's well-known `foxglove.Log`
+//! for the human-readable lines. Log time is the device's time (its uptime, ns): messages that
+//! carry the uptime are stamped with it, the others with the host's receive time plus the latest
+//! device − host offset, never going back. The host's time (the I/O's clock: ms since the port
+//! was opened, or the simulator's virtual clock) is the publish time and a `host_ms` field.
+//!
+//! Chunks (LZ4) are closed at least every [`FLUSH_PERIOD_MS`] of host time and written out, so
+//! a writer that dies leaves a file readable up to its last chunk (`host-tool log recover`, or
+//! any reader that reads linearly without the summary).
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use host::{text, RunEvent};
+use protocol::{DeviceMessage, Event, Request, ResponseBody, Telemetry};
+use serde_json::{json, Value};
+
+/// Longest stretch of host time between closed chunks.
+pub const FLUSH_PERIOD_MS: u64 = 1000;
+/// Chunks are closed at this size too.
+const CHUNK_SIZE: u64 = 256 * 1024;
+/// Ground-truth samples per second (simulator only).
+pub const TRUTH_HZ: u64 = 50;
+
+/// The recording's channels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Topic {
+    /// Device telemetry samples.
+    Telemetry,
+    /// Device events (all but telemetry).
+    Events,
+    /// Faults raised and cleared.
+    Faults,
+    /// The device's state and its confidence.
+    State,
+    /// Human-readable lines (foxglove.Log).
+    Log,
+    /// Requests sent, decoded.
+    Requests,
+    /// Responses received, decoded.
+    Responses,
+    /// Raw frames, both directions.
+    Frames,
+    /// The plan (and every replan).
+    Plan,
+    /// The plan runner's events.
+    Run,
+    /// The simulator's ground truth.
+    Truth,
+}
+
+/// Every topic, in channel-id order.
+pub const TOPICS: [Topic; 11] = [
+    Topic::Telemetry,
+    Topic::Events,
+    Topic::Faults,
+    Topic::State,
+    Topic::Log,
+    Topic::Requests,
+    Topic::Responses,
+    Topic::Frames,
+    Topic::Plan,
+    Topic::Run,
+    Topic::Truth,
+];
+
+impl Topic {
+    /// The MCAP topic.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Topic::Telemetry => "/telemetry",
+            Topic::Events => "/events",
+            Topic::Faults => "/faults",
+            Topic::State => "/state",
+            Topic::Log => "/log",
+            Topic::Requests => "/link/requests",
+            Topic::Responses => "/link/responses",
+            Topic::Frames => "/link/frames",
+            Topic::Plan => "/plan",
+            Topic::Run => "/run",
+            Topic::Truth => "/sim/truth",
+        }
+    }
+
+    /// The schema's name.
+    pub const fn schema_name(self) -> &'static str {
+        match self {
+            Topic::Telemetry => "crane.Telemetry",
+            Topic::Events => "crane.Event",
+            Topic::Faults => "crane.Fault",
+            Topic::State => "crane.State",
+            Topic::Log => "foxglove.Log",
+            Topic::Requests => "crane.Request",
+            Topic::Responses => "crane.Response",
+            Topic::Frames => "crane.RawFrame",
+            Topic::Plan => "crane.Plan",
+            Topic::Run => "crane.RunEvent",
+            Topic::Truth => "crane.GroundTruth",
+        }
+    }
+
+    /// The JSON schema of its messages.
+    pub fn schema(self) -> Value {
+        let num = json!({"type": "number"});
+        let int = json!({"type": "integer"});
+        let boolean = json!({"type": "boolean"});
+        let string = json!({"type": "string"});
+        let any = json!({});
+        let deg3 =
+            json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
+        let states = json!({"type": "array", "items": {"type": "string"}});
+        let (title, props, required): (&str, Value, Vec<&str>) = match self {
+            Topic::Telemetry => (
+                "A telemetry sample (pressure kPa, servo commands deg, valves)",
+                json!({"device_ms": int, "host_ms": int, "pressure_kpa": num, "servo_deg": deg3,
+                       "inlet_open": boolean, "exhaust_open": boolean, "state": string,
+                       "state_confirmed": boolean}),
+                vec![
+                    "device_ms",
+                    "host_ms",
+                    "pressure_kpa",
+                    "servo_deg",
+                    "inlet_open",
+                    "exhaust_open",
+                    "state",
+                    "state_confirmed",
+                ],
+            ),
+            Topic::Events => (
+                "A device event (decoded)",
+                json!({"host_ms": int, "kind": string, "text": string, "event": any}),
+                vec!["host_ms", "kind", "event"],
+            ),
+            Topic::Faults => (
+                "A fault raised or cleared",
+                json!({"host_ms": int, "raised": boolean, "code": string, "text": string}),
+                vec!["host_ms", "raised", "code"],
+            ),
+            Topic::State => (
+                "The device's state and its confidence",
+                json!({"host_ms": int, "state": string, "state_confirmed": boolean,
+                       "candidates": states, "source": string}),
+                vec![
+                    "host_ms",
+                    "state",
+                    "state_confirmed",
+                    "candidates",
+                    "source",
+                ],
+            ),
+            Topic::Log => return foxglove_log_schema(),
+            Topic::Requests => (
+                "A request sent to the device (decoded)",
+                json!({"host_ms": int, "seq": int, "session": int, "name": string, "body": any}),
+                vec!["host_ms", "seq", "session", "name", "body"],
+            ),
+            Topic::Responses => (
+                "A response from the device (decoded)",
+                json!({"host_ms": int, "seq": int, "result": any, "body": any}),
+                vec!["host_ms", "seq", "result", "body"],
+            ),
+            Topic::Frames => (
+                "A raw frame on the wire (COBS, delimiter included), hex",
+                json!({"host_ms": int, "dir": {"type": "string", "enum": ["tx", "rx"]},
+                       "len": int, "hex": string, "decoded": boolean}),
+                vec!["host_ms", "dir", "len", "hex", "decoded"],
+            ),
+            Topic::Plan => (
+                "The plan the host made (replan: after a surprise)",
+                json!({"host_ms": int, "from": string, "target": string, "replan": boolean,
+                       "expected_s": num, "steps": {"type": "array"}}),
+                vec!["host_ms", "from", "target", "replan", "steps"],
+            ),
+            Topic::Run => (
+                "An event of the host's plan runner",
+                json!({"host_ms": int, "kind": string, "text": string, "detail": any}),
+                vec!["host_ms", "kind", "text"],
+            ),
+            Topic::Truth => (
+                "The simulator's ground truth",
+                json!({"host_ms": int, "time_ms": int, "true_state": {"type": ["string", "null"]},
+                       "pressure_kpa": num, "module_heights_mm": {"type": "array"},
+                       "bend_deg": num, "tendon_tension_n": deg3, "servo_deg": deg3,
+                       "inlet_open": boolean, "exhaust_open": boolean,
+                       "believed_state": string, "snaps": int, "actuators_safe": boolean}),
+                vec!["host_ms", "time_ms", "pressure_kpa"],
+            ),
+        };
+        json!({
+            "$schema": "https://json-schema.org/draft/2020-12/schema",
+            "title": title,
+            "type": "object",
+            "properties": props,
+            "required": required,
+        })
+    }
+}
+
+/// Foxglove's `foxglove.Log` as a JSON schema (levels 1 DEBUG … 5 FATAL).
+fn foxglove_log_schema() -> Value {
+    json!({
+        "title": "foxglove.Log",
+        "description": "A log message",
+        "type": "object",
+        "properties": {
+            "timestamp": {"type": "object", "properties": {
+                "sec": {"type": "integer", "minimum": 0},
+                "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}},
+            "level": {"type": "integer", "enum": [0, 1, 2, 3, 4, 5]},
+            "message": {"type": "string"},
+            "name": {"type": "string"},
+            "file": {"type": "string"},
+            "line": {"type": "integer", "minimum": 0},
+        },
+    })
+}
+
+/// `foxglove.Log` levels.
+#[derive(Debug, Clone, Copy)]
+pub enum Level {
+    /// Information.
+    Info = 2,
+    /// Something went wrong but the run goes on.
+    Warning = 3,
+    /// A fault or failure.
+    Error = 4,
+}
+
+/// An open MCAP recording.
+pub struct Recording {
+    path: PathBuf,
+    writer: Option<mcap::Writer<BufWriter<File>>>,
+    channels: [u16; TOPICS.len()],
+    sequence: u32,
+    counts: [u64; TOPICS.len()],
+    /// Device − host clock offset, ms, from the latest message that carried the uptime.
+    offset_ms: Option<i64>,
+    last_log_ns: u64,
+    last_flush_ms: u64,
+    failed: Option<String>,
+}
+
+impl std::fmt::Debug for Recording {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Recording")
+            .field("path", &self.path)
+            .field("counts", &self.counts)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Recording {
+    /// Creates `path` (replacing it) and writes the header, schemas, channels and `metadata`
+    /// (a `session` record: the command, the device, the host clock's start).
+    pub fn create(path: &Path, metadata: BTreeMap<String, String>) -> anyhow::Result<Self> {
+        use anyhow::Context as _;
+        let file = File::create(path)
+            .with_context(|| format!("cannot create the recording {}", path.display()))?;
+        let mut w = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Lz4))
+            .chunk_size(Some(CHUNK_SIZE))
+            .profile("")
+            .library(concat!("host-tool ", env!("CARGO_PKG_VERSION")))
+            .create(BufWriter::new(file))
+            .with_context(|| format!("cannot write the recording {}", path.display()))?;
+        let mut channels = [0u16; TOPICS.len()];
+        for (i, t) in TOPICS.iter().enumerate() {
+            let schema = serde_json::to_vec(&t.schema()).expect("a JSON value serialises");
+            let sid = w.add_schema(t.schema_name(), "jsonschema", &schema)?;
+            channels[i] = w.add_channel(sid, t.name(), "json", &BTreeMap::new())?;
+        }
+        w.write_metadata(&mcap::records::Metadata {
+            name: "session".into(),
+            metadata,
+        })?;
+        w.flush()?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            writer: Some(w),
+            channels,
+            sequence: 0,
+            counts: [0; TOPICS.len()],
+            offset_ms: None,
+            last_log_ns: 0,
+            last_flush_ms: 0,
+            failed: None,
+        })
+    }
+
+    /// Writes one message. `device_ms`: the device's time if the message carries it.
+    pub fn write(&mut self, topic: Topic, host_ms: u64, device_ms: Option<u64>, msg: &Value) {
+        let Some(w) = self.writer.as_mut() else {
+            return;
+        };
+        if let Some(d) = device_ms {
+            self.offset_ms = Some(d as i64 - host_ms as i64);
+        }
+        let log_ms = device_ms
+            .unwrap_or_else(|| (host_ms as i64 + self.offset_ms.unwrap_or(0)).max(0) as u64);
+        let log_ns = (log_ms * 1_000_000).max(self.last_log_ns);
+        self.last_log_ns = log_ns;
+        self.sequence = self.sequence.wrapping_add(1);
+        let data = serde_json::to_vec(msg).expect("a JSON value serialises");
+        let header = mcap::records::MessageHeader {
+            channel_id: self.channels[topic as usize],
+            sequence: self.sequence,
+            log_time: log_ns,
+            publish_time: host_ms * 1_000_000,
+        };
+        let mut result = w.write_to_known_channel(&header, &data);
+        if result.is_ok() && host_ms >= self.last_flush_ms + FLUSH_PERIOD_MS {
+            self.last_flush_ms = host_ms;
+            result = w.flush();
+        }
+        match result {
+            Ok(()) => self.counts[topic as usize] += 1,
+            Err(e) => self.fail(e),
+        }
+    }
+
+    fn fail(&mut self, e: mcap::McapError) {
+        let msg = format!("recording to {} stopped: {e}", self.path.display());
+        crate::say!("{msg}");
+        self.failed = Some(msg);
+        // The chunks written so far stay readable; nothing more is written.
+        if let Some(w) = self.writer.take() {
+            std::mem::forget(w);
+        }
+    }
+
+    /// A `foxglove.Log` line.
+    pub fn log(&mut self, host_ms: u64, level: Level, name: &str, message: &str) {
+        let ns = self.estimated_device_ns(host_ms);
+        let v = json!({
+            "timestamp": {"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000},
+            "level": level as u8,
+            "message": message,
+            "name": name,
+            "file": "",
+            "line": 0,
+        });
+        self.write(Topic::Log, host_ms, None, &v);
+    }
+
+    fn estimated_device_ns(&self, host_ms: u64) -> u64 {
+        let ms = (host_ms as i64 + self.offset_ms.unwrap_or(0)).max(0) as u64;
+        (ms * 1_000_000).max(self.last_log_ns)
+    }
+
+    /// A frame the host sent.
+    pub fn tx_frame(&mut self, host_ms: u64, frame: &[u8]) {
+        let mut copy = frame.to_vec();
+        let decoded = protocol::decode::<Request>(&mut copy);
+        self.raw(host_ms, "tx", frame, decoded.is_ok(), None);
+        if let Ok(req) = decoded {
+            let v = json!({
+                "host_ms": host_ms,
+                "seq": req.seq,
+                "session": req.session,
+                "name": text::request_name(&req.body),
+                "body": serde_json::to_value(&req.body).unwrap_or(Value::Null),
+            });
+            self.write(Topic::Requests, host_ms, None, &v);
+        }
+    }
+
+    /// A frame the device sent.
+    pub fn rx_frame(&mut self, host_ms: u64, frame: &[u8]) {
+        let mut copy = frame.to_vec();
+        let decoded = protocol::decode::<DeviceMessage>(&mut copy);
+        // The device's time, where the message carries it: the raw frame gets it too.
+        let device_ms = match &decoded {
+            Ok(DeviceMessage::Response {
+                body: ResponseBody::Status(s),
+                ..
+            }) => Some(u64::from(s.uptime_ms)),
+            Ok(DeviceMessage::Event(Event::Telemetry(t))) => Some(u64::from(t.uptime_ms)),
+            Ok(DeviceMessage::Event(Event::Heartbeat { uptime_ms, .. })) => {
+                Some(u64::from(*uptime_ms))
+            }
+            _ => None,
+        };
+        self.raw(host_ms, "rx", frame, decoded.is_ok(), device_ms);
+        match decoded {
+            Ok(DeviceMessage::Response { seq, result, body }) => {
+                let v = json!({
+                    "host_ms": host_ms,
+                    "seq": seq,
+                    "result": serde_json::to_value(result).unwrap_or(Value::Null),
+                    "body": serde_json::to_value(&body).unwrap_or(Value::Null),
+                });
+                self.write(Topic::Responses, host_ms, device_ms, &v);
+                if let ResponseBody::Status(s) = body {
+                    let v = json!({
+                        "host_ms": host_ms,
+                        "state": s.state.name(),
+                        "state_confirmed": s.state_confirmed,
+                        "candidates": s.candidates.iter().map(|c| c.name()).collect::<Vec<_>>(),
+                        "source": "status",
+                    });
+                    self.write(Topic::State, host_ms, device_ms, &v);
+                }
+            }
+            Ok(DeviceMessage::Event(ev)) => self.event(host_ms, &ev),
+            Err(_) => {}
+        }
+    }
+
+    fn raw(
+        &mut self,
+        host_ms: u64,
+        dir: &str,
+        frame: &[u8],
+        decoded: bool,
+        device_ms: Option<u64>,
+    ) {
+        let mut hex = String::with_capacity(frame.len() * 2);
+        for b in frame {
+            use std::fmt::Write as _;
+            let _ = write!(hex, "{b:02x}");
+        }
+        let v = json!({"host_ms": host_ms, "dir": dir, "len": frame.len(), "hex": hex,
+                       "decoded": decoded});
+        self.write(Topic::Frames, host_ms, device_ms, &v);
+    }
+
+    fn event(&mut self, host_ms: u64, ev: &Event) {
+        if let Event::Telemetry(t) = ev {
+            self.write(
+                Topic::Telemetry,
+                host_ms,
+                Some(u64::from(t.uptime_ms)),
+                &telemetry_json(t, host_ms),
+            );
+            return;
+        }
+        let device_ms = match ev {
+            Event::Heartbeat { uptime_ms, .. } => Some(u64::from(*uptime_ms)),
+            _ => None,
+        };
+        let (kind, line) = event_text(ev);
+        let v = json!({
+            "host_ms": host_ms,
+            "kind": kind,
+            "text": line,
+            "event": serde_json::to_value(ev).unwrap_or(Value::Null),
+        });
+        self.write(Topic::Events, host_ms, device_ms, &v);
+        match ev {
+            Event::FaultRaised(f) | Event::FaultCleared(f) => {
+                let raised = matches!(ev, Event::FaultRaised(_));
+                let v = json!({"host_ms": host_ms, "raised": raised,
+                               "code": text::fault_code(*f), "text": text::fault(*f)});
+                self.write(Topic::Faults, host_ms, None, &v);
+            }
+            Event::StateReached { state, confirmed } => {
+                let v = json!({"host_ms": host_ms, "state": state.name(),
+                               "state_confirmed": confirmed,
+                               "candidates": if *confirmed { vec![state.name()] } else { vec![] },
+                               "source": "state-reached"});
+                self.write(Topic::State, host_ms, None, &v);
+            }
+            Event::IdentifyNeedsOperator { candidates } => {
+                let names: Vec<&str> = candidates.iter().map(|c| c.name()).collect();
+                let v = json!({"host_ms": host_ms,
+                               "state": names.first().copied().unwrap_or(""),
+                               "state_confirmed": false, "candidates": names,
+                               "source": "identify-needs-operator"});
+                self.write(Topic::State, host_ms, None, &v);
+            }
+            _ => {}
+        }
+        if let Some(line) = line {
+            let level = match ev {
+                Event::FaultRaised(_) => Level::Error,
+                Event::StepDone { ok: false, .. } | Event::PlanDone { ok: false, .. } => {
+                    Level::Warning
+                }
+                _ => Level::Info,
+            };
+            self.log(host_ms, level, "device", &line);
+        }
+    }
+
+    /// A plan-runner event (from the shell).
+    pub fn run_event(&mut self, host_ms: u64, ev: &RunEvent) {
+        let (kind, line, detail) = match ev {
+            RunEvent::Plan { plan, replan } => {
+                let steps: Vec<Value> = plan
+                    .steps()
+                    .iter()
+                    .map(|s| {
+                        json!({
+                            "kind": planner::graph::kind_name(s.edge.kind()),
+                            "from": s.edge.from().name(),
+                            "to": s.edge.to().name(),
+                            "expected_s": s.edge.cost_s,
+                            "timeout_ms": s.edge.transition.timeout_ms,
+                            "why": s.why,
+                        })
+                    })
+                    .collect();
+                let v = json!({"host_ms": host_ms, "from": plan.from().name(),
+                               "target": plan.target().name(), "replan": replan,
+                               "expected_s": plan.cost_s(), "steps": steps});
+                self.write(Topic::Plan, host_ms, None, &v);
+                let text = format!(
+                    "{}plan {} → {}: {} steps",
+                    if *replan { "re" } else { "" },
+                    plan.from(),
+                    plan.target(),
+                    plan.steps().len()
+                );
+                ("plan", text, Value::Null)
+            }
+            RunEvent::StepStarted { index, total } => (
+                "step-started",
+                format!("step {}/{} started", index + 1, total),
+                json!({"index": index, "total": total}),
+            ),
+            // At the telemetry rate: the samples carry it.
+            RunEvent::StepProgress { .. } => return,
+            RunEvent::ManualPrompt { index, task } => (
+                "manual-prompt",
+                format!(
+                    "step {}: manual task: {}",
+                    index + 1,
+                    planner::graph::manual_task_text(*task)
+                ),
+                json!({"index": index}),
+            ),
+            RunEvent::IdentifyPrompt {
+                believed,
+                candidates,
+            } => {
+                let names: Vec<&str> = candidates.iter().map(|c| c.name()).collect();
+                let v = json!({"host_ms": host_ms, "state": believed.name(),
+                               "state_confirmed": false, "candidates": names,
+                               "source": "identify-prompt"});
+                self.write(Topic::State, host_ms, None, &v);
+                (
+                    "identify-prompt",
+                    format!("state unconfirmed; candidates {}", names.join(", ")),
+                    json!({"believed": believed.name(), "candidates": names}),
+                )
+            }
+            RunEvent::StepFinished { index, report } => (
+                "step-finished",
+                format!(
+                    "step {} {} → {} {}",
+                    index + 1,
+                    report.from,
+                    report.to,
+                    if report.ok { "done" } else { "FAILED" }
+                ),
+                json!({"index": index, "from": report.from.name(), "to": report.to.name(),
+                       "ok": report.ok, "duration_ms": report.duration_ms,
+                       "kind": planner::graph::kind_name(report.kind)}),
+            ),
+            RunEvent::Note(m) => ("note", m.clone(), Value::Null),
+            RunEvent::Finished => ("finished", "run finished".to_string(), Value::Null),
+        };
+        let v = json!({"host_ms": host_ms, "kind": kind, "text": line, "detail": detail});
+        self.write(Topic::Run, host_ms, None, &v);
+        self.log(host_ms, Level::Info, "run", &line);
+    }
+
+    /// The plan run's outcome (the `plan --json` object), on `/run` and `/log`.
+    pub fn outcome(&mut self, host_ms: u64, ok: bool, outcome: Value) {
+        let line = if ok {
+            "outcome: target reached".to_string()
+        } else {
+            format!(
+                "outcome: FAILED: {}",
+                outcome["error"]
+                    .as_str()
+                    .unwrap_or("the target was not reached")
+            )
+        };
+        let v = json!({"host_ms": host_ms, "kind": "outcome", "text": line, "detail": outcome});
+        self.write(Topic::Run, host_ms, None, &v);
+        let level = if ok { Level::Info } else { Level::Error };
+        self.log(host_ms, level, "run", &line);
+    }
+
+    /// Writes the summary and closes the file; the error, if any write failed.
+    pub fn finish(&mut self) -> Result<(), String> {
+        if let Some(mut w) = self.writer.take() {
+            if let Err(e) = w.finish() {
+                return Err(format!("recording to {}: {e}", self.path.display()));
+            }
+        }
+        self.failed.clone().map_or(Ok(()), Err)
+    }
+}
+
+impl Drop for Recording {
+    fn drop(&mut self) {
+        if let Err(e) = self.finish() {
+            crate::say!("{e}");
+        }
+    }
+}
+
+/// A telemetry sample as recorded (and as `monitor --json` prints its fields).
+pub fn telemetry_json(t: &Telemetry, host_ms: u64) -> Value {
+    json!({
+        "device_ms": t.uptime_ms,
+        "host_ms": host_ms,
+        "pressure_kpa": t.pressure_kpa,
+        "servo_deg": t.servo_deg,
+        "inlet_open": t.inlet_open,
+        "exhaust_open": t.exhaust_open,
+        "state": t.state.name(),
+        "state_confirmed": t.state_confirmed,
+    })
+}
+
+/// An event's kind and its line for people (none for heartbeats and step progress).
+fn event_text(ev: &Event) -> (&'static str, Option<String>) {
+    match ev {
+        Event::Heartbeat { .. } => ("heartbeat", None),
+        Event::Telemetry(_) => ("telemetry", None),
+        Event::StepProgress { .. } => ("step-progress", None),
+        Event::StepDone {
+            plan_id,
+            step,
+            ok,
+            state,
+            duration_ms,
+        } => (
+            "step-done",
+            Some(format!(
+                "plan {plan_id} step {} {} in {duration_ms} ms, now {state}",
+                step + 1,
+                if *ok { "done" } else { "FAILED" }
+            )),
+        ),
+        Event::PlanDone { plan_id, ok, state } => (
+            "plan-done",
+            Some(format!(
+                "plan {plan_id} {} at {state}",
+                if *ok { "done" } else { "FAILED" }
+            )),
+        ),
+        Event::StateReached { state, confirmed } => (
+            "state-reached",
+            Some(format!(
+                "state {state}{}",
+                if *confirmed { "" } else { " (unconfirmed)" }
+            )),
+        ),
+        Event::ManualRequired { step, task, .. } => (
+            "manual-required",
+            Some(format!(
+                "manual step {} required: {}",
+                step + 1,
+                planner::graph::manual_task_text(*task)
+            )),
+        ),
+        Event::FaultRaised(f) => ("fault-raised", Some(format!("FAULT {}", text::fault(*f)))),
+        Event::FaultCleared(f) => (
+            "fault-cleared",
+            Some(format!("fault cleared: {}", text::fault(*f))),
+        ),
+        Event::IdentifyNeedsOperator { candidates } => (
+            "identify-needs-operator",
+            Some(format!(
+                "identification needs the operator: one of {}",
+                candidates
+                    .iter()
+                    .map(|s| s.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+        ),
+    }
+}
+
+/// What an I/O can say about the world beyond the wire (the simulator's ground truth).
+pub trait Truth {
+    /// The ground truth now, as recorded on `/sim/truth` (`None`: a real device).
+    fn truth_json(&self) -> Option<Value> {
+        None
+    }
+}
+
+impl Truth for crate::transport::AnyIo {
+    fn truth_json(&self) -> Option<Value> {
+        match self {
+            crate::transport::AnyIo::Sim(io) => {
+                let t = io.sim.ground_truth();
+                Some(json!({
+                    "time_ms": t.time_ms,
+                    "true_state": t.true_state.map(|s| s.name()),
+                    "pressure_kpa": t.pressure_kpa,
+                    "max_pressure_kpa": t.max_pressure_kpa,
+                    "module_heights_mm": t.module_heights_mm,
+                    "bend_deg": t.bend_deg,
+                    "tendon_tension_n": t.tendon_tension_n,
+                    "servo_deg": t.servo_deg,
+                    "servos_energised": t.servos_energised,
+                    "inlet_open": t.inlet_open,
+                    "exhaust_open": t.exhaust_open,
+                    "gripper_closed": t.gripper_closed,
+                    "believed_state": t.believed_state.name(),
+                    "mode": text::mode(t.mode),
+                    "snaps": t.snaps,
+                    "actuators_safe": t.actuators_safe,
+                }))
+            }
+            crate::transport::AnyIo::Serial(_) => None,
+        }
+    }
+}
+
+/// The engine's I/O with a tap: forwards every call to `inner`, and records what passes when a
+/// [`Recording`] is attached.
+pub struct Recorder<I> {
+    /// The I/O that does the work.
+    pub inner: I,
+    recording: Option<Recording>,
+    /// Bytes of the device's current, unfinished frame.
+    rx_partial: Vec<u8>,
+    next_truth_ms: u64,
+}
+
+impl<I> Recorder<I> {
+    /// `inner`, recorded to `recording` (if any).
+    pub fn new(inner: I, recording: Option<Recording>) -> Self {
+        Self {
+            inner,
+            recording,
+            rx_partial: Vec::new(),
+            next_truth_ms: 0,
+        }
+    }
+
+    /// The recording, if one is attached.
+    pub fn recording(&mut self) -> Option<&mut Recording> {
+        self.recording.as_mut()
+    }
+}
+
+impl<I: host::Io + Truth> host::Io for Recorder<I> {
+    fn now_ms(&mut self) -> u64 {
+        self.inner.now_ms()
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.inner.write(bytes)?;
+        if let Some(rec) = self.recording.as_mut() {
+            let now = self.inner.now_ms();
+            // A lone delimiter (sent to flush the device's decoder) is no frame.
+            for frame in bytes.split_inclusive(|b| *b == 0).filter(|f| f != &[0]) {
+                rec.tx_frame(now, frame);
+            }
+        }
+        Ok(())
+    }
+
+    fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        let start = buf.len();
+        self.inner.read(deadline_ms, buf)?;
+        let Some(rec) = self.recording.as_mut() else {
+            return Ok(());
+        };
+        let now = self.inner.now_ms();
+        for &b in &buf[start..] {
+            self.rx_partial.push(b);
+            if b == 0 {
+                if self.rx_partial.len() > 1 {
+                    rec.rx_frame(now, &self.rx_partial);
+                }
+                self.rx_partial.clear();
+            } else if self.rx_partial.len() > 4 * protocol::MAX_FRAME_LEN {
+                // Noise without delimiters: recorded as one undecodable frame.
+                rec.rx_frame(now, &self.rx_partial);
+                self.rx_partial.clear();
+            }
+        }
+        if now >= self.next_truth_ms {
+            if let Some(mut t) = self.inner.truth_json() {
+                t["host_ms"] = json!(now);
+                rec.write(Topic::Truth, now, None, &t);
+            }
+            self.next_truth_ms = now + 1000 / TRUTH_HZ;
+        }
+        Ok(())
+    }
+}
+
+/// Opens the recording `path` for `command` on `device`, before anything is sent: a path that
+/// cannot be written is refused up front.
+pub fn start(
+    path: &Path,
+    command: &str,
+    device: &crate::device::DeviceConfig,
+) -> Result<Recording, crate::failure::Failure> {
+    use crate::device::DeviceConfig;
+    let mut meta = BTreeMap::new();
+    meta.insert("command".to_string(), command.to_string());
+    meta.insert(
+        "argv".to_string(),
+        std::env::args().collect::<Vec<_>>().join(" "),
+    );
+    let (device_text, clock) = match device {
+        DeviceConfig::Port(p) => (
+            format!("port {p}"),
+            "host_ms: ms since the port was opened (wall clock)",
+        ),
+        DeviceConfig::Sim(s) => (
+            format!(
+                "simulator seed {} initial {} faults [{}]",
+                s.seed,
+                s.initial,
+                s.faults
+                    .iter()
+                    .map(|f| f.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            "host_ms: the simulator's virtual clock, ms",
+        ),
+    };
+    meta.insert("device".to_string(), device_text);
+    meta.insert("host_clock".to_string(), clock.to_string());
+    meta.insert(
+        "log_time".to_string(),
+        "device uptime (ns); messages without one: host time + latest device-host offset"
+            .to_string(),
+    );
+    let unix_ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis());
+    meta.insert("started_unix_ms".to_string(), unix_ms.to_string());
+    Recording::create(path, meta).map_err(crate::failure::Failure::Runtime)
+}

@@ -1,0 +1,175 @@
+#!/usr/bin/env python3
+"""Reads host-tool's MCAP recordings back with the Python `mcap` reader (PyPI), independently of
+the Rust writer: channels, schemas, message counts, monotonic log times, contents.
+
+  check_mcap.py plan FILE.mcap PLAN.json        a `plan --sim --record` run and its --json
+  check_mcap.py monitor FILE.mcap MONITOR.jsonl a `monitor --json --record` run and what it printed
+  check_mcap.py killed FILE.mcap RECOVERED.mcap a recording whose writer was killed, and
+                                                `host-tool log recover` of it
+"""
+import json
+import sys
+
+from mcap.exceptions import McapError
+from mcap.reader import NonSeekingReader, make_reader
+
+TOPICS = {
+    "/telemetry": "crane.Telemetry",
+    "/events": "crane.Event",
+    "/faults": "crane.Fault",
+    "/state": "crane.State",
+    "/log": "foxglove.Log",
+    "/link/requests": "crane.Request",
+    "/link/responses": "crane.Response",
+    "/link/frames": "crane.RawFrame",
+    "/plan": "crane.Plan",
+    "/run": "crane.RunEvent",
+    "/sim/truth": "crane.GroundTruth",
+}
+
+passed = 0
+failed = 0
+
+
+def check(cond, what):
+    global passed, failed
+    if cond:
+        passed += 1
+        print(f"ok   {what}")
+    else:
+        failed += 1
+        print(f"FAIL {what}")
+
+
+def read_all(path):
+    """(summary, [(topic, schema name, log_time, data)]) in file order."""
+    with open(path, "rb") as f:
+        r = make_reader(f)
+        summary = r.get_summary()
+        msgs = [
+            (ch.topic, sch.name if sch else None, m.log_time, json.loads(m.data))
+            for sch, ch, m in r.iter_messages(log_time_order=False)
+        ]
+    return summary, msgs
+
+
+def common(path):
+    summary, msgs = read_all(path)
+    topics = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
+    check(topics == TOPICS, f"{path}: channels and schemas {sorted(topics)}")
+    encodings = {summary.schemas[c.schema_id].encoding for c in summary.channels.values()}
+    check(encodings == {"jsonschema"}, f"jsonschema schemas ({encodings})")
+    for s in summary.schemas.values():
+        json.loads(s.data)  # every schema is JSON
+    counts = {}
+    for t, *_ in msgs:
+        counts[t] = counts.get(t, 0) + 1
+    stats = summary.statistics.channel_message_counts
+    by_id = {c.id: c.topic for c in summary.channels.values()}
+    check(
+        all(stats.get(i, 0) == counts.get(t, 0) for i, t in by_id.items()),
+        f"statistics match the messages read ({len(msgs)})",
+    )
+    times = [lt for _, _, lt, _ in msgs]
+    check(all(a <= b for a, b in zip(times, times[1:])), "log times never go back (file order)")
+    tel = [d for t, _, _, d in msgs if t == "/telemetry"]
+    tel_times = [lt for t, _, lt, _ in msgs if t == "/telemetry"]
+    check(
+        all(lt == d["device_ms"] * 1_000_000 for lt, d in zip(tel_times, tel)),
+        "telemetry log time = device uptime",
+    )
+    logs = [d for t, _, _, d in msgs if t == "/log"]
+    check(
+        all(set(d) >= {"timestamp", "level", "message"} and 1 <= d["level"] <= 5 for d in logs),
+        f"foxglove.Log fields ({len(logs)} lines)",
+    )
+    return summary, msgs, counts
+
+
+def plan(path, plan_json):
+    out = json.load(open(plan_json))
+    _, msgs, counts = common(path)
+    plans = [d for t, _, _, d in msgs if t == "/plan"]
+    check(len(plans) == 1, "one plan (no replan)")
+    check(
+        [(s["from"], s["to"], s["kind"]) for s in plans[0]["steps"]]
+        == [(s["from"], s["to"], s["kind"]) for s in out["steps"]],
+        "recorded plan = the steps plan --json reports",
+    )
+    tel = [d for t, _, _, d in msgs if t == "/telemetry"]
+    span_s = (tel[-1]["device_ms"] - tel[0]["device_ms"]) / 1000
+    check(len(tel) >= 45 * span_s, f"telemetry at 50 Hz: {len(tel)} samples over {span_s:.2f} s")
+    check(max(d["pressure_kpa"] for d in tel) > 20, "the pressure trace has the snaps' peaks")
+    check(tel[-1]["state"] == out["final_state"], f"last sample's state {tel[-1]['state']}")
+    truth = [d for t, _, _, d in msgs if t == "/sim/truth"]
+    check(len(truth) >= 45 * span_s and truth[-1]["true_state"] == out["sim"]["true_state"],
+          f"ground truth at 50 Hz, ends in {truth[-1]['true_state']}")
+    reqs = [d for t, _, _, d in msgs if t == "/link/requests"]
+    resps = [d for t, _, _, d in msgs if t == "/link/responses"]
+    names = [r["name"] for r in reqs]
+    check(names[0] == "Hello" and "UploadPlan" in names and "StartPlan" in names,
+          f"requests decoded ({len(reqs)}: Hello … UploadPlan, StartPlan …)")
+    check({r["seq"] for r in resps} <= {r["seq"] for r in reqs}, "every response answers a request")
+    frames = [d for t, _, _, d in msgs if t == "/link/frames"]
+    check(
+        sum(1 for f in frames if f["dir"] == "tx") == len(reqs)
+        and all(f["decoded"] and len(f["hex"]) == 2 * f["len"] for f in frames),
+        f"raw frames ({len(frames)}), one per request sent",
+    )
+    done = [d for t, _, _, d in msgs if t == "/events" and d["kind"] == "step-done"]
+    check(len(done) == len(out["steps"]), f"{len(done)} step-done events")
+    outcome = [d for t, _, _, d in msgs if t == "/run" and d["kind"] == "outcome"]
+    check(len(outcome) == 1 and outcome[0]["detail"]["ok"] is True, "the outcome is recorded")
+    check(counts.get("/faults", 0) == 0, "no faults")
+
+
+def monitor(path, printed):
+    lines = [json.loads(l) for l in open(printed) if l.strip()]
+    samples = [l for l in lines if l["type"] == "telemetry"]
+    _, msgs, _ = common(path)
+    tel = [d for t, _, _, d in msgs if t == "/telemetry"]
+    # The recording also has the few samples that came while monitor restored the device's
+    # telemetry rate and closed the session, after its last print.
+    check(len(samples) > 20 and 0 <= len(tel) - len(samples) <= 5,
+          f"{len(tel)} telemetry samples recorded, {len(samples)} printed")
+    same = all(
+        d["device_ms"] == s["uptime_ms"]
+        and d["state"] == s["state"]
+        and d["pressure_kpa"] == s["pressure_kpa"]
+        and d["servo_deg"] == s["servo_deg"]
+        and d["inlet_open"] == s["inlet_open"]
+        and d["exhaust_open"] == s["exhaust_open"]
+        for d, s in zip(tel, samples)
+    )
+    check(same, "every recorded sample equals the one monitor --json printed")
+
+
+def killed(path, recovered):
+    # The standard reader, streaming (no summary needed), up to the last complete record.
+    n = 0
+    topics = set()
+    error = None
+    with open(path, "rb") as f:
+        try:
+            for rec in NonSeekingReader(f).iter_messages(log_time_order=False):
+                n += 1
+                topics.add(rec[1].topic)
+        except (McapError, EOFError, Exception) as e:  # the truncated tail
+            error = type(e).__name__
+    check(n > 100 and "/telemetry" in topics,
+          f"killed recording: {n} messages readable (stopped at: {error})")
+    summary, msgs = read_all(recovered)
+    check(len(msgs) == n, f"recovered file: complete, {len(msgs)} messages = {n} readable")
+    times = [lt for _, _, lt, _ in msgs]
+    check(all(a <= b for a, b in zip(times, times[1:])), "recovered log times never go back")
+
+
+def main():
+    kind, a, b = sys.argv[1:4]
+    {"plan": plan, "monitor": monitor, "killed": killed}[kind](a, b)
+    print(f"check_mcap {kind}: {passed} passed, {failed} failed")
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -79,6 +79,9 @@ enum Command {
         /// Print one JSON object (runs, virtual_hours, violations, …).
         #[arg(long)]
         json: bool,
+        /// Leave out the operator's mistakes at manual steps (a wrong fold, a refusal).
+        #[arg(long)]
+        no_operator_mistakes: bool,
     },
     /// Discover the transition graph the simulated trunk supports.
     Discover {
@@ -127,7 +130,8 @@ fn main() -> ExitCode {
             replay,
             threads,
             json,
-        }) => swarm_command(runs, seed, replay, threads, json),
+            no_operator_mistakes,
+        }) => swarm_command(runs, seed, replay, threads, json, no_operator_mistakes),
         Some(Command::Discover { dot, .. }) => {
             let g = discovery::discover(RigConfig::default());
             let out = if dot {
@@ -212,11 +216,17 @@ fn swarm_command(
     replay: Option<u64>,
     threads: Option<u64>,
     json: bool,
+    no_mistakes: bool,
 ) -> ExitCode {
     use hil_sim::swarm;
+    let make: fn(u64) -> swarm::Scenario = if no_mistakes {
+        swarm::Scenario::generate_without_mistakes
+    } else {
+        swarm::Scenario::generate
+    };
     let mut out = std::io::stdout();
     if let Some(seed) = replay {
-        let scenario = swarm::Scenario::generate(seed);
+        let scenario = make(seed);
         let rep = swarm::run(&scenario, true);
         if json {
             let _ = writeln!(
@@ -247,7 +257,7 @@ fn swarm_command(
         |t| t as usize,
     );
     let wall = std::time::Instant::now();
-    let rep = swarm::swarm(seed, runs, threads);
+    let rep = swarm::swarm_of(seed, runs, threads, make);
     let wall_s = wall.elapsed().as_secs_f64();
     // Each failing seed, shrunk to the smallest scenario that still fails.
     let mut seeds: Vec<u64> = rep.violations.iter().map(|v| v.seed).collect();
@@ -255,7 +265,7 @@ fn swarm_command(
     let shrunk: Vec<String> = seeds
         .iter()
         .take(10)
-        .map(|&s| swarm::shrink(&swarm::Scenario::generate(s)).describe())
+        .map(|&s| swarm::shrink(&make(s)).describe())
         .collect();
     if json {
         let mut v = report_json(rep.runs, rep.virtual_ms, &rep.violations, &shrunk);

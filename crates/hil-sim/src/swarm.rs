@@ -74,6 +74,15 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// The scenario of `seed` without the operator's mistake (the one class of scenario the
+    /// crane cannot yet hold the truth through: docs/simulator.md).
+    pub fn generate_without_mistakes(seed: u64) -> Self {
+        Self {
+            mistake: None,
+            ..Self::generate(seed)
+        }
+    }
+
     /// The scenario of `seed`.
     pub fn generate(seed: u64) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_5eed_5eed_5eed);
@@ -638,6 +647,11 @@ pub struct SwarmReport {
 
 /// Runs `runs` scenarios with seeds `seed..seed + runs` on `threads` threads.
 pub fn swarm(seed: u64, runs: u64, threads: usize) -> SwarmReport {
+    swarm_of(seed, runs, threads, Scenario::generate)
+}
+
+/// [`swarm`] with scenarios made by `make` from their seeds.
+pub fn swarm_of(seed: u64, runs: u64, threads: usize, make: fn(u64) -> Scenario) -> SwarmReport {
     let threads = threads.max(1) as u64;
     let parts: Vec<SwarmReport> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..threads)
@@ -646,7 +660,7 @@ pub fn swarm(seed: u64, runs: u64, threads: usize) -> SwarmReport {
                     let mut r = SwarmReport::default();
                     let mut i = k;
                     while i < runs {
-                        let s = Scenario::generate(seed.wrapping_add(i));
+                        let s = make(seed.wrapping_add(i));
                         let rep = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                             run(&s, false)
                         }))

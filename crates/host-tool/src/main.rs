@@ -44,6 +44,7 @@ macro_rules! out_raw {
     }};
 }
 
+mod client;
 mod cmd;
 mod device;
 mod failure;
@@ -88,6 +89,9 @@ enum Command {
     Ports(cmd::ports::Args),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
     Log(cmd::log::Args),
+    /// Own the link to a crane (or the simulator), record it, and serve other terminals'
+    /// status/stop/declare/monitor/plan over a local socket.
+    Serve(cmd::serve::Args),
 }
 
 fn main() -> ExitCode {
@@ -106,6 +110,7 @@ fn main() -> ExitCode {
         Command::Stop(args) => cmd::stop::run(args),
         Command::Ports(args) => cmd::ports::run(args),
         Command::Log(args) => cmd::log::run(args),
+        Command::Serve(args) => cmd::serve::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -30,6 +30,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         status,
         info,
         truth,
+        ..
     } = snapshot(&args.device, Some(RequestBody::DeclareState(declared)))?;
     if args.json {
         let mut v = status_json(&status, &info, truth.as_ref());

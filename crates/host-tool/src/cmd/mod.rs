@@ -11,6 +11,7 @@ pub mod param;
 pub mod pattern;
 pub mod plan;
 pub mod ports;
+pub mod serve;
 pub mod states;
 pub mod status;
 pub mod stop;

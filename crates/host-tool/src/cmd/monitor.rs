@@ -37,6 +37,9 @@ pub struct Args {
 
 /// Runs `host-tool monitor`.
 pub fn run(args: Args) -> Result<(), Failure> {
+    if let Some(server) = crate::client::server_for(&args.device)? {
+        return through_server(&server, &args);
+    }
     let device = args.device.validate(Some(1.0))?;
     let duration = match args.duration {
         Some(d) if !(d.is_finite() && d > 0.0) => {
@@ -122,6 +125,40 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     conn.close();
     result.map_err(Failure::Runtime)
+}
+
+/// `monitor` through a server: the server's telemetry (at its rate), until Ctrl-C or
+/// `--duration` of wall time.
+fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> {
+    if args.record.is_some() {
+        return Err(Failure::usage(
+            "a server holds this device and records its session itself: --record is not needed",
+        ));
+    }
+    if let Some(d) = args.duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
+        return Err(Failure::usage(format!(
+            "invalid --duration {d}: it must be > 0 seconds"
+        )));
+    }
+    let cancel = crate::cmd::plan::interrupt_flag();
+    let mut c = crate::client::Client::connect(server)?;
+    c.send(&serde_json::json!({"op": "monitor"}))?;
+    let start = std::time::Instant::now();
+    while !cancel.load(Ordering::SeqCst)
+        && args
+            .duration
+            .is_none_or(|d| start.elapsed().as_secs_f64() < d)
+    {
+        if let Some(v) = c.recv_within()? {
+            if let Some(e) = v["error"].as_str() {
+                return Err(Failure::Runtime(anyhow::anyhow!("{e}")));
+            }
+            if let Ok(ev) = serde_json::from_value::<Event>(v["event"].clone()) {
+                print_event(args.json, &ev);
+            }
+        }
+    }
+    Ok(())
 }
 
 fn previous_telemetry_rate<I: host::Io>(s: &mut host::Driver<I>) -> Option<f32> {

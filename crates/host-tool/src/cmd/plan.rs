@@ -199,6 +199,11 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
 
 /// Runs `host-tool plan`.
 pub fn run(args: Args) -> Result<(), Failure> {
+    if !args.dry_run {
+        if let Some(server) = crate::client::server_for(&args.device)? {
+            return through_server(&server, &args);
+        }
+    }
     let cfg = args.validate()?;
     if cfg.dry_run {
         return dry_run(&cfg);
@@ -287,6 +292,42 @@ pub fn run(args: Args) -> Result<(), Failure> {
         ));
     }
     result
+}
+
+/// `plan` through a server: the server runs it; its notes on stderr, the outcome as usual.
+fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> {
+    let target = parse_state("target", &args.target)?;
+    if args.record.is_some() {
+        return Err(Failure::usage(
+            "a server holds this device and records its session itself: --record is not needed",
+        ));
+    }
+    let mut c = crate::client::Client::connect(server)?;
+    c.send(&json!({"op": "plan", "target": target.name()}))?;
+    loop {
+        let v = c.recv_ok()?;
+        if let Some(n) = v["note"].as_str() {
+            crate::say!("{}", n.trim_end());
+        }
+        if let Some(outcome) = v.get("outcome") {
+            if args.json {
+                crate::out!("{outcome}");
+            }
+            return if v["ok"] == true {
+                if !args.json {
+                    crate::say!("reached {target}");
+                }
+                Ok(())
+            } else {
+                Err(Failure::Runtime(anyhow::anyhow!(
+                    "{}",
+                    outcome["error"]
+                        .as_str()
+                        .unwrap_or("the target was not reached")
+                )))
+            };
+        }
+    }
 }
 
 /// Prints the outcome (JSON or a summary) and turns it into the exit status.

@@ -28,10 +28,16 @@ pub struct Snapshot {
     pub info: DeviceInfo,
     /// The simulator's ground truth, if the device is the simulator.
     pub truth: Option<SimTruth>,
+    /// Through a server, after an abort: engine ms from the stop's arrival to the device's
+    /// answer.
+    pub abort_latency_ms: Option<u64>,
 }
 
 /// Connects to the device, sends `request` (if any), reads its status and closes the connection.
 pub fn snapshot(device: &DeviceArgs, request: Option<RequestBody>) -> Result<Snapshot, Failure> {
+    if let Some(server) = crate::client::server_for(device)? {
+        return crate::client::snapshot(&server, request);
+    }
     let device = device.validate(None)?;
     let mut conn = device.connect()?;
     if let Some(request) = request {
@@ -45,6 +51,7 @@ pub fn snapshot(device: &DeviceArgs, request: Option<RequestBody>) -> Result<Sna
         status,
         info,
         truth: conn.close(),
+        abort_latency_ms: None,
     })
 }
 
@@ -54,6 +61,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         status,
         info,
         truth,
+        ..
     } = snapshot(&args.device, None)?;
     if args.json {
         crate::out!("{}", status_json(&status, &info, truth.as_ref()));

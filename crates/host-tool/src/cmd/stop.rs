@@ -16,12 +16,16 @@ pub fn run(args: Args) -> Result<(), Failure> {
         status,
         info,
         truth,
+        abort_latency_ms,
     } = snapshot(&args.device, Some(RequestBody::Abort))?;
     let safe = !status.inlet_open;
     if args.json {
         let mut v = status_json(&status, &info, truth.as_ref());
         v["aborted"] = json!(true);
         v["safe"] = json!(safe);
+        if let Some(ms) = abort_latency_ms {
+            v["abort_latency_ms"] = json!(ms);
+        }
         crate::out!("{v}");
     } else {
         crate::out!(

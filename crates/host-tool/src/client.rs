@@ -1,0 +1,211 @@
+//! The client side of `host-tool serve`: where a server's socket is, and one JSON line each way.
+//!
+//! Sockets live in a directory only the user can enter (`$XDG_RUNTIME_DIR/host-tool`, else
+//! `/tmp/host-tool-UID`, mode 0700; each socket 0600), one per device: the port's path with
+//! `/` as `_`, or `sim` for a simulator. A command given `--port P` goes through the server of
+//! P if one answers; a command given neither `--port` nor `--sim` goes through the one server
+//! that runs (several: it must be told which).
+
+use std::io::{BufRead as _, BufReader, Write};
+use std::os::unix::net::UnixStream;
+use std::path::PathBuf;
+
+use serde_json::Value;
+
+use crate::device::DeviceArgs;
+use crate::failure::Failure;
+
+/// The directory of the servers' sockets (created 0700 by [`socket_dir_create`]).
+pub fn socket_dir() -> PathBuf {
+    match std::env::var_os("XDG_RUNTIME_DIR") {
+        Some(d) if !d.is_empty() => PathBuf::from(d).join("host-tool"),
+        _ => PathBuf::from(format!("/tmp/host-tool-{}", uid())),
+    }
+}
+
+/// This process's user id (the owner of `/proc/self`).
+fn uid() -> u32 {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata("/proc/self").map_or(0, |m| m.uid())
+}
+
+/// Creates the socket directory, user-only; refuses one that others can enter or that
+/// belongs to someone else.
+pub fn socket_dir_create() -> anyhow::Result<PathBuf> {
+    use std::os::unix::fs::{DirBuilderExt, MetadataExt, PermissionsExt};
+    let dir = socket_dir();
+    if !dir.exists() {
+        std::fs::DirBuilder::new()
+            .mode(0o700)
+            .recursive(true)
+            .create(&dir)?;
+    }
+    let meta = std::fs::metadata(&dir)?;
+    if meta.uid() != uid() {
+        anyhow::bail!("{} belongs to another user", dir.display());
+    }
+    if meta.permissions().mode() & 0o077 != 0 {
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))?;
+    }
+    Ok(dir)
+}
+
+/// The socket's file name for a device: `sim`, or the port's path.
+pub fn socket_name(port: Option<&str>) -> String {
+    match port {
+        None => "sim.sock".into(),
+        Some(p) => format!("{}.sock", p.replace('/', "_")),
+    }
+}
+
+/// The server that serves the device `args` names, if one answers: `--port P` → P's server;
+/// neither `--port` nor `--sim` → the one server running. `--sim` is always the in-process
+/// simulator.
+pub fn server_for(args: &DeviceArgs) -> Result<Option<PathBuf>, Failure> {
+    if args.sim {
+        return Ok(None);
+    }
+    let dir = socket_dir();
+    if let Some(port) = &args.port {
+        let path = dir.join(socket_name(Some(port)));
+        return Ok(UnixStream::connect(&path).is_ok().then_some(path));
+    }
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return Ok(None);
+    };
+    let live: Vec<PathBuf> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "sock"))
+        .filter(|p| UnixStream::connect(p).is_ok())
+        .collect();
+    match live.len() {
+        0 => Ok(None),
+        1 => Ok(live.into_iter().next()),
+        _ => Err(Failure::usage(format!(
+            "{} servers run ({}): give --port PATH to say which",
+            live.len(),
+            live.iter()
+                .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().replace('_', "/")))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+    }
+}
+
+/// A connection to a server.
+pub struct Client {
+    reader: BufReader<UnixStream>,
+    writer: UnixStream,
+    partial: Vec<u8>,
+}
+
+/// What a client says when the server is gone.
+pub const SERVER_GONE: &str = "the server went away (host-tool serve ended); if the crane was \
+    moving, its link watchdog stops it";
+
+impl Client {
+    /// Connects to the server at `path`.
+    pub fn connect(path: &std::path::Path) -> Result<Self, Failure> {
+        let s = UnixStream::connect(path)
+            .map_err(|e| anyhow::anyhow!("cannot reach the server at {}: {e}", path.display()))?;
+        Ok(Self {
+            reader: BufReader::new(s.try_clone().map_err(anyhow::Error::from)?),
+            writer: s,
+            partial: Vec::new(),
+        })
+    }
+
+    /// Sends one request line.
+    pub fn send(&mut self, v: &Value) -> Result<(), Failure> {
+        let mut line = v.to_string();
+        line.push('\n');
+        self.writer
+            .write_all(line.as_bytes())
+            .map_err(|_| Failure::Runtime(anyhow::anyhow!("{SERVER_GONE}")))
+    }
+
+    /// The next line from the server; the server's going away is an error that says so.
+    pub fn recv(&mut self) -> Result<Value, Failure> {
+        self.writer
+            .set_read_timeout(None)
+            .map_err(anyhow::Error::from)?;
+        loop {
+            if let Some(v) = self.recv_timeout()? {
+                return Ok(v);
+            }
+        }
+    }
+
+    /// The next line if one comes within a short wait (100 ms), `None` otherwise.
+    pub fn recv_within(&mut self) -> Result<Option<Value>, Failure> {
+        self.writer
+            .set_read_timeout(Some(std::time::Duration::from_millis(100)))
+            .map_err(anyhow::Error::from)?;
+        self.recv_timeout()
+    }
+
+    fn recv_timeout(&mut self) -> Result<Option<Value>, Failure> {
+        match self.reader.read_until(b'\n', &mut self.partial) {
+            Ok(0) => Err(Failure::Runtime(anyhow::anyhow!("{SERVER_GONE}"))),
+            Ok(_) if self.partial.ends_with(b"\n") => {
+                let line = std::mem::take(&mut self.partial);
+                serde_json::from_slice(&line).map(Some).map_err(|e| {
+                    Failure::Runtime(anyhow::anyhow!(
+                        "the server sent a bad line ({e}): {}",
+                        String::from_utf8_lossy(&line)
+                    ))
+                })
+            }
+            Ok(_) => Err(Failure::Runtime(anyhow::anyhow!("{SERVER_GONE}"))),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(None)
+            }
+            Err(_) => Err(Failure::Runtime(anyhow::anyhow!("{SERVER_GONE}"))),
+        }
+    }
+
+    /// The next line, or an error line's message as a runtime failure.
+    pub fn recv_ok(&mut self) -> Result<Value, Failure> {
+        let v = self.recv()?;
+        match v.get("error").and_then(Value::as_str) {
+            Some(e) => Err(Failure::Runtime(anyhow::anyhow!("{e}"))),
+            None => Ok(v),
+        }
+    }
+}
+
+/// `status`/`stop`/`declare` through a server: the request (if any), then a status.
+pub fn snapshot(
+    path: &std::path::Path,
+    request: Option<protocol::RequestBody>,
+) -> Result<crate::cmd::status::Snapshot, Failure> {
+    let mut c = Client::connect(path)?;
+    c.send(&serde_json::json!({"op": "snapshot", "request": request}))?;
+    let v = c.recv_ok()?;
+    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("the server's answer: {e}"));
+    let status = serde_json::from_value(v["status"].clone()).map_err(bad)?;
+    let info = serde_json::from_value(v["info"].clone()).map_err(bad)?;
+    let truth = v["truth"].as_object().map(|t| crate::sim::SimTruth {
+        true_state: t
+            .get("true_state")
+            .and_then(Value::as_str)
+            .and_then(|s| s.parse().ok()),
+        max_pressure_kpa: t["max_pressure_kpa"].as_f64().unwrap_or(f64::NAN) as f32,
+        pressure_limit_kpa: t["pressure_limit_kpa"].as_f64().unwrap_or(f64::NAN) as f32,
+        actuators_safe: t["actuators_safe"].as_bool().unwrap_or(false),
+    });
+    Ok(crate::cmd::status::Snapshot {
+        status,
+        info,
+        truth,
+        abort_latency_ms: v["abort_latency_ms"].as_u64(),
+    })
+}

@@ -1,0 +1,512 @@
+//! `host-tool serve`: one process owns the link to a crane (or the simulator), keeps its
+//! session and heartbeat, records it to MCAP, and serves local clients over a Unix socket —
+//! `status`, `stop`, `declare`, `monitor` and `plan` from other terminals go through it.
+//!
+//! One thread: the engine ([`host::Host`], through the connection's driver) is turned in slices
+//! of at most [`SLICE_MS`] of engine time; between slices the server accepts clients and reads
+//! their requests (one JSON line each). A `stop` is sent with `request_first`, ahead of anything
+//! queued, and cancels a running plan. Client protocol (JSON lines):
+//!
+//! - `{"op":"snapshot","request":R}` (R: a `protocol::RequestBody` or null) → `{"status", "info",
+//!   "truth", "abort_latency_ms"}` or `{"error"}`
+//! - `{"op":"monitor"}` → `{"event": protocol::Event}` lines until the client hangs up
+//! - `{"op":"plan","target":"D&D"}` → `{"note"}` lines, then `{"outcome", "ok"}`
+
+use std::collections::HashMap;
+use std::io::{Read, Write};
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+
+use geometry::TrunkState;
+use host::{HostEvent, Io as _, RequestId, RunEvent, RunOptions, SessionEvent};
+use planner::graph::Graph;
+use protocol::{Event, ParamId, RequestBody};
+use serde_json::{json, Value};
+
+use crate::device::{parse_state, Connection, DeviceArgs, DeviceConfig};
+use crate::failure::Failure;
+use crate::transport::AnyIo;
+
+/// Longest slice of engine time between looks at the clients.
+pub const SLICE_MS: u64 = 10;
+
+/// Arguments of `host-tool serve`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    pub device: DeviceArgs,
+    /// Record the session to this MCAP file [default: host-tool-serve-UNIXTIME.mcap here].
+    #[arg(long, value_name = "FILE.mcap", conflicts_with = "no_record")]
+    pub record: Option<PathBuf>,
+    /// Do not record.
+    #[arg(long)]
+    pub no_record: bool,
+    /// Telemetry rate while serving, 1–50 Hz.
+    #[arg(long, value_name = "HZ", default_value_t = 50)]
+    pub rate: u32,
+}
+
+struct Conn {
+    stream: UnixStream,
+    buf: Vec<u8>,
+    monitor: bool,
+    alive: bool,
+}
+
+impl Conn {
+    fn send(&mut self, v: &Value) {
+        let mut line = v.to_string();
+        line.push('\n');
+        // A client that does not read is dropped rather than allowed to stall the link.
+        if self.stream.write_all(line.as_bytes()).is_err() {
+            self.alive = false;
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Stage {
+    /// The client's own request; its status follows.
+    Request { abort_at: Option<u64> },
+    /// The status after it.
+    Status { abort_latency_ms: Option<u64> },
+}
+
+struct Server {
+    conn: Connection,
+    sim: bool,
+    clients: HashMap<u64, Conn>,
+    next_client: u64,
+    pending: HashMap<RequestId, (u64, Stage)>,
+    plan_client: Option<u64>,
+    buf: Vec<u8>,
+}
+
+/// Runs `host-tool serve`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    let device = args.device.validate(Some(1.0))?;
+    if !(1..=50).contains(&args.rate) {
+        return Err(Failure::usage(format!(
+            "invalid --rate {}: it must be 1–50 Hz",
+            args.rate
+        )));
+    }
+    let dir = crate::client::socket_dir_create().map_err(Failure::Runtime)?;
+    let port = match &device {
+        DeviceConfig::Port(p) => Some(p.as_str()),
+        DeviceConfig::Sim(_) => None,
+    };
+    let sock = dir.join(crate::client::socket_name(port));
+    if UnixStream::connect(&sock).is_ok() {
+        return Err(Failure::Runtime(anyhow::anyhow!(
+            "a server already serves this device ({})",
+            sock.display()
+        )));
+    }
+    let _ = std::fs::remove_file(&sock);
+    let record = if args.no_record {
+        None
+    } else {
+        Some(args.record.clone().unwrap_or_else(|| {
+            let t = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs());
+            PathBuf::from(format!("host-tool-serve-{t}.mcap"))
+        }))
+    };
+    let recording = record
+        .as_deref()
+        .map(|p| crate::record::start(p, "serve", &device))
+        .transpose()?;
+    let interrupted = crate::cmd::plan::interrupt_flag();
+    let mut conn = device.connect_recorded(recording)?;
+    let _ = conn.session.command(RequestBody::SetParam {
+        id: ParamId::TelemetryHz,
+        value: args.rate as f32,
+    });
+    let listener = {
+        use std::os::unix::fs::PermissionsExt;
+        let l = UnixListener::bind(&sock)
+            .map_err(|e| anyhow::anyhow!("cannot listen on {}: {e}", sock.display()))?;
+        std::fs::set_permissions(&sock, std::fs::Permissions::from_mode(0o600))
+            .map_err(anyhow::Error::from)?;
+        l.set_nonblocking(true).map_err(anyhow::Error::from)?;
+        l
+    };
+    crate::say!(
+        "serving {} on {}{}",
+        port.unwrap_or("the simulator"),
+        sock.display(),
+        record
+            .as_ref()
+            .map_or(String::new(), |r| format!(", recording to {}", r.display()))
+    );
+    let mut server = Server {
+        sim: matches!(conn.session.io.inner, AnyIo::Sim(_)),
+        conn,
+        clients: HashMap::new(),
+        next_client: 0,
+        pending: HashMap::new(),
+        plan_client: None,
+        buf: Vec::new(),
+    };
+    let result = server.serve(&listener, &interrupted);
+    let _ = std::fs::remove_file(&sock);
+    for c in server.clients.values_mut() {
+        let _ = c.stream.shutdown(std::net::Shutdown::Both);
+    }
+    server.conn.close();
+    result
+}
+
+impl Server {
+    fn now(&mut self) -> u64 {
+        self.conn.session.io.now_ms()
+    }
+
+    fn serve(
+        &mut self,
+        listener: &UnixListener,
+        interrupted: &std::sync::atomic::AtomicBool,
+    ) -> Result<(), Failure> {
+        let mut stopping_since: Option<u64> = None;
+        loop {
+            if interrupted.load(Ordering::SeqCst) && stopping_since.is_none() {
+                let now = self.now();
+                stopping_since = Some(now);
+                if self.plan_running() {
+                    self.conn
+                        .session
+                        .host
+                        .cancel("the server was interrupted", now);
+                }
+            }
+            if let Some(since) = stopping_since {
+                // Wait for a cancelled plan's safe end, at most 10 s.
+                if !self.plan_running() || self.now() > since + 10_000 {
+                    return Ok(());
+                }
+            }
+            while let Ok((stream, _)) = listener.accept() {
+                if stream.set_nonblocking(true).is_ok() {
+                    self.next_client += 1;
+                    self.clients.insert(
+                        self.next_client,
+                        Conn {
+                            stream,
+                            buf: Vec::new(),
+                            monitor: false,
+                            alive: true,
+                        },
+                    );
+                }
+            }
+            self.read_clients();
+            self.turn()
+                .map_err(|e| anyhow::anyhow!("serial I/O failed: {e}"))?;
+            while let Some(ev) = self.conn.session.host.poll_event() {
+                self.dispatch(ev)?;
+            }
+            self.clients.retain(|_, c| c.alive);
+        }
+    }
+
+    fn plan_running(&self) -> bool {
+        self.conn
+            .session
+            .host
+            .runner()
+            .is_some_and(|r| !r.is_finished())
+    }
+
+    /// One slice: as the driver's turn, but never waiting past [`SLICE_MS`].
+    fn turn(&mut self) -> std::io::Result<()> {
+        let d = &mut self.conn.session;
+        while let Some(frame) = d.host.poll_transmit() {
+            d.io.write(&frame)?;
+        }
+        let now = d.io.now_ms();
+        let deadline = d
+            .host
+            .poll_timeout()
+            .unwrap_or(now + SLICE_MS)
+            .min(now + SLICE_MS);
+        self.buf.clear();
+        if deadline > now {
+            d.io.read(deadline, &mut self.buf)?;
+        }
+        let now = d.io.now_ms();
+        if !self.buf.is_empty() {
+            d.host.handle_bytes(&self.buf, now);
+        }
+        if d.host.poll_timeout().is_some_and(|t| t <= now) {
+            d.host.handle_timeout(now);
+        }
+        while let Some(frame) = d.host.poll_transmit() {
+            d.io.write(&frame)?;
+        }
+        Ok(())
+    }
+
+    fn read_clients(&mut self) {
+        let mut lines = Vec::new();
+        for (id, c) in self.clients.iter_mut() {
+            let mut chunk = [0u8; 4096];
+            loop {
+                match c.stream.read(&mut chunk) {
+                    Ok(0) => {
+                        c.alive = false;
+                        break;
+                    }
+                    Ok(n) => c.buf.extend_from_slice(&chunk[..n]),
+                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                    Err(_) => {
+                        c.alive = false;
+                        break;
+                    }
+                }
+            }
+            while let Some(pos) = c.buf.iter().position(|b| *b == b'\n') {
+                let line: Vec<u8> = c.buf.drain(..=pos).collect();
+                lines.push((*id, line));
+            }
+            if c.buf.len() > 1 << 20 {
+                c.alive = false;
+            }
+        }
+        for (id, line) in lines {
+            match serde_json::from_slice::<Value>(&line) {
+                Ok(v) => self.handle(id, &v),
+                Err(e) => self.reply(id, &json!({"error": format!("bad request line: {e}")})),
+            }
+        }
+    }
+
+    fn reply(&mut self, id: u64, v: &Value) {
+        if let Some(c) = self.clients.get_mut(&id) {
+            c.send(v);
+        }
+    }
+
+    fn handle(&mut self, client: u64, v: &Value) {
+        let now = self.now();
+        match v["op"].as_str() {
+            Some("snapshot") => {
+                let request = if v["request"].is_null() {
+                    None
+                } else {
+                    match serde_json::from_value::<RequestBody>(v["request"].clone()) {
+                        Ok(r) => Some(r),
+                        Err(e) => {
+                            return self
+                                .reply(client, &json!({"error": format!("bad request: {e}")}))
+                        }
+                    }
+                };
+                let host = &mut self.conn.session.host;
+                match request {
+                    Some(RequestBody::Abort) => {
+                        // Ahead of everything queued; a running plan is cancelled once the
+                        // device has answered (its runner's own abort would supersede this one).
+                        let id = host.request_first(RequestBody::Abort, now);
+                        self.pending.insert(
+                            id,
+                            (
+                                client,
+                                Stage::Request {
+                                    abort_at: Some(now),
+                                },
+                            ),
+                        );
+                    }
+                    Some(body) => {
+                        let id = host.request(body, now);
+                        self.pending
+                            .insert(id, (client, Stage::Request { abort_at: None }));
+                    }
+                    None => {
+                        let id = host.request(RequestBody::GetStatus, now);
+                        self.pending.insert(
+                            id,
+                            (
+                                client,
+                                Stage::Status {
+                                    abort_latency_ms: None,
+                                },
+                            ),
+                        );
+                    }
+                }
+            }
+            Some("monitor") => {
+                if let Some(c) = self.clients.get_mut(&client) {
+                    c.monitor = true;
+                }
+            }
+            Some("plan") => {
+                let target = match v["target"]
+                    .as_str()
+                    .ok_or_else(|| "a plan needs a target".to_string())
+                    .and_then(|t| parse_state("target", t).map_err(|e| format!("{e:?}")))
+                {
+                    Ok(t) => t,
+                    Err(e) => return self.reply(client, &json!({"error": e})),
+                };
+                if self.plan_running() {
+                    return self.reply(
+                        client,
+                        &json!({"error": "a plan is already running on this server"}),
+                    );
+                }
+                self.plan_client = Some(client);
+                self.conn.session.host.run_plan(
+                    Graph::nominal(),
+                    target,
+                    RunOptions::default(),
+                    now,
+                );
+            }
+            _ => self.reply(client, &json!({"error": format!("unknown request: {v}")})),
+        }
+    }
+
+    fn dispatch(&mut self, ev: HostEvent) -> Result<(), Failure> {
+        let now = self.now();
+        match ev {
+            HostEvent::Session(SessionEvent::Reply { id, reply }) => {
+                let Some((client, stage)) = self.pending.remove(&id) else {
+                    return Ok(());
+                };
+                match stage {
+                    Stage::Request { abort_at } => {
+                        if let Err(e) = reply.accepted("request") {
+                            self.reply(client, &json!({"error": e.to_string()}));
+                            return Ok(());
+                        }
+                        let latency = abort_at.map(|t| now.saturating_sub(t));
+                        if abort_at.is_some() && self.plan_running() {
+                            self.conn
+                                .session
+                                .host
+                                .cancel("stopped from another terminal (host-tool stop)", now);
+                        }
+                        let id = self.conn.session.host.request(RequestBody::GetStatus, now);
+                        self.pending.insert(
+                            id,
+                            (
+                                client,
+                                Stage::Status {
+                                    abort_latency_ms: latency,
+                                },
+                            ),
+                        );
+                    }
+                    Stage::Status { abort_latency_ms } => match reply.status() {
+                        Ok(status) => {
+                            let truth = self.conn.truth().map(|t| t.to_json());
+                            let v = json!({
+                                "status": status,
+                                "info": self.conn.info,
+                                "truth": truth,
+                                "abort_latency_ms": abort_latency_ms,
+                            });
+                            self.reply(client, &v);
+                        }
+                        Err(e) => self.reply(client, &json!({"error": e.to_string()})),
+                    },
+                }
+            }
+            HostEvent::Session(SessionEvent::Failed { id, error }) => {
+                if let Some((client, _)) = self.pending.remove(&id) {
+                    self.reply(client, &json!({"error": error.to_string()}));
+                }
+            }
+            HostEvent::Session(SessionEvent::Device(e)) => self.device_event(&e),
+            HostEvent::Session(SessionEvent::LinkLost(e)) => {
+                return Err(Failure::Runtime(anyhow::anyhow!("link lost: {e}")));
+            }
+            HostEvent::Session(_) => {}
+            HostEvent::Run(ev) => self.run_event(&ev, now),
+        }
+        Ok(())
+    }
+
+    fn device_event(&mut self, e: &Event) {
+        if matches!(e, Event::Heartbeat { .. }) {
+            return;
+        }
+        let v = json!({"event": e});
+        for c in self.clients.values_mut().filter(|c| c.monitor) {
+            c.send(&v);
+        }
+    }
+
+    fn run_event(&mut self, ev: &RunEvent, now: u64) {
+        if let Some(rec) = self.conn.session.io.recording() {
+            rec.run_event(now, ev);
+        }
+        let note = match ev {
+            RunEvent::Plan { plan, .. } => Some(plan.to_string()),
+            RunEvent::StepStarted { index, total } => {
+                Some(format!("step {}/{} started", index + 1, total))
+            }
+            RunEvent::StepProgress { .. } => None,
+            RunEvent::ManualPrompt { index, task } => Some(format!(
+                "step {}: {} — press the confirm button on the crane",
+                index + 1,
+                planner::graph::manual_task_text(*task)
+            )),
+            RunEvent::IdentifyPrompt { candidates, .. } => {
+                // The simulated person looks at the simulated trunk; nobody answers for a
+                // real crane here: declare it from another terminal (`host-tool declare`).
+                let truth: Option<TrunkState> = match &self.conn.session.io.inner {
+                    AnyIo::Sim(io) if self.sim => io.sim.ground_truth().true_state,
+                    _ => None,
+                };
+                self.conn.session.host.declare(truth, now);
+                Some(format!(
+                    "state unconfirmed (one of {}); {}",
+                    candidates
+                        .iter()
+                        .map(|s| s.name())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    match truth {
+                        Some(s) => format!("simulated operator: the trunk is {s}"),
+                        None => "nobody can tell here".into(),
+                    }
+                ))
+            }
+            RunEvent::StepFinished { index, report } => Some(format!(
+                "step {} {} → {}: {}",
+                index + 1,
+                report.from,
+                report.to,
+                if report.ok { "done" } else { "FAILED" }
+            )),
+            RunEvent::Note(m) => Some(m.clone()),
+            RunEvent::Finished => {
+                let outcome = self
+                    .conn
+                    .session
+                    .host
+                    .runner()
+                    .map(|r| r.outcome().clone())
+                    .unwrap_or_default();
+                let truth = self.conn.truth();
+                let v = crate::cmd::plan::outcome_json(&outcome, truth.as_ref());
+                if let Some(rec) = self.conn.session.io.recording() {
+                    rec.outcome(now, outcome.ok(), v.clone());
+                }
+                if let Some(c) = self.plan_client.take() {
+                    self.reply(c, &json!({"outcome": v, "ok": outcome.ok()}));
+                }
+                None
+            }
+        };
+        if let (Some(n), Some(c)) = (note, self.plan_client) {
+            self.reply(c, &json!({"note": n}));
+        }
+    }
+}

@@ -1,0 +1,193 @@
+//! `host-tool serve` with clients in other processes, as people at several terminals use it:
+//! a plan runs through the server, `stop` from a second process aborts it, `monitor` from a
+//! third prints samples; a server that dies is reported by its clients. Each test has its own
+//! socket directory (XDG_RUNTIME_DIR).
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+fn cmd(dir: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_host-tool"));
+    c.args(args)
+        .env("XDG_RUNTIME_DIR", dir)
+        .stdin(Stdio::null());
+    c
+}
+
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cli-serve-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Starts `serve` and waits for its "serving" line (it listens from then on).
+fn serve(dir: &Path, extra: &[&str]) -> Child {
+    let mut args = vec!["serve", "--sim", "--seed", "7", "--sim-speed", "2"];
+    args.extend_from_slice(extra);
+    let mut child = cmd(dir, &args).stderr(Stdio::piped()).spawn().unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    assert!(line.starts_with("serving the simulator on "), "{line}");
+    // Keep draining its stderr so it never blocks on a full pipe.
+    std::thread::spawn(move || for _ in err.lines() {});
+    child
+}
+
+/// A plan client; returns it and a reader of its stderr (progress lines).
+fn plan(dir: &Path) -> (Child, BufReader<std::process::ChildStderr>) {
+    let mut child = cmd(dir, &["plan", "--target", "D&D", "--json"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let err = BufReader::new(child.stderr.take().unwrap());
+    (child, err)
+}
+
+fn wait_for(err: &mut BufReader<std::process::ChildStderr>, what: &str) -> String {
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        assert!(
+            err.read_line(&mut line).unwrap() > 0,
+            "no '{what}' in:\n{seen}"
+        );
+        seen.push_str(&line);
+        if line.contains(what) {
+            return seen;
+        }
+    }
+}
+
+#[test]
+fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
+    let dir = temp("stop");
+    let rec = dir.join("serve.mcap");
+    let mut server = serve(&dir, &["--record", rec.to_str().unwrap()]);
+    let (mut planner, mut progress) = plan(&dir);
+    wait_for(&mut progress, "step 2/3 started");
+
+    // A third terminal: monitor prints telemetry samples (50 Hz device time, paced 2×).
+    let out = cmd(&dir, &["monitor", "--duration", "0.5", "--json"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let samples: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .filter(|v: &serde_json::Value| v["type"] == "telemetry")
+        .collect();
+    // 0.5 s of wall time at 2× is 1 s of device time: ~50 samples; at least half of them.
+    assert!(samples.len() >= 25, "{} samples", samples.len());
+    let t: Vec<u64> = samples
+        .iter()
+        .map(|s| s["uptime_ms"].as_u64().unwrap())
+        .collect();
+    assert!(
+        t.windows(2).all(|w| w[1] > w[0]),
+        "device time goes forward"
+    );
+    assert!(
+        samples.iter().any(|s| s["inlet_open"] == true),
+        "the step inflates"
+    );
+
+    // A second terminal: stop.
+    let out = cmd(&dir, &["stop", "--json"]).output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["aborted"], true);
+    assert_eq!(v["safe"], true, "{v}");
+    let latency = v["abort_latency_ms"]
+        .as_u64()
+        .expect("latency through the server");
+    assert!(latency <= 200, "stop took {latency} ms of device time");
+
+    // The plan ends: aborted, not reached.
+    let status = planner.wait().unwrap();
+    assert_eq!(status.code(), Some(1));
+    let mut stdout = String::new();
+    std::io::Read::read_to_string(&mut planner.stdout.take().unwrap(), &mut stdout).unwrap();
+    let outcome: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(outcome["ok"], false);
+    assert_eq!(outcome["failure"]["kind"], "aborted", "{outcome}");
+    // Stopped in step 2 (or, on a machine slow enough, step 3): never completed.
+    let step = outcome["failure"]["step"]["index"].as_u64().unwrap();
+    assert!((1..=2).contains(&step), "{outcome}");
+    assert_eq!(outcome["sim"]["actuators_safe"], true, "{outcome}");
+
+    // SIGTERM: the server ends cleanly and its recording is complete.
+    let term = Command::new("kill")
+        .args(["-TERM", &server.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(term.success());
+    assert_eq!(server.wait().unwrap().code(), Some(0));
+    let sum = cmd(&dir, &["log", "summary", rec.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&sum.stdout);
+    assert!(
+        text.contains("complete (summary and footer present)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("/plan ") && text.contains("/telemetry "),
+        "{text}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn clients_say_the_server_went_away_when_it_dies() {
+    let dir = temp("gone");
+    let mut server = serve(&dir, &["--no-record"]);
+    let (mut planner, mut progress) = plan(&dir);
+    wait_for(&mut progress, "step 1/3 started");
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let rest = wait_for(&mut progress, "error");
+    assert!(rest.contains("the server went away"), "{rest}");
+    assert_eq!(planner.wait().unwrap().code(), Some(1));
+    // No server: a command without --port/--sim is the usual usage error again.
+    let out = cmd(&dir, &["status"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_socket_is_the_users_only() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp("perm");
+    let mut server = serve(&dir, &["--no-record"]);
+    let sock_dir = dir.join("host-tool");
+    let mode = std::fs::metadata(&sock_dir).unwrap().permissions().mode();
+    assert_eq!(mode & 0o777, 0o700, "{mode:o}");
+    let mode = std::fs::metadata(sock_dir.join("sim.sock"))
+        .unwrap()
+        .permissions()
+        .mode();
+    assert_eq!(mode & 0o777, 0o600, "{mode:o}");
+    // A second server for the same device is refused.
+    let out = cmd(&dir, &["serve", "--sim", "--no-record"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("already serves"));
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -24,7 +24,7 @@ fn temp(name: &str) -> PathBuf {
 
 /// Starts `serve` and waits for its "serving" line (it listens from then on).
 fn serve(dir: &Path, extra: &[&str]) -> Child {
-    let mut args = vec!["serve", "--sim", "--seed", "7", "--sim-speed", "5"];
+    let mut args = vec!["serve", "--sim", "--seed", "7", "--sim-speed", "2"];
     args.extend_from_slice(extra);
     let mut child = cmd(dir, &args).stderr(Stdio::piped()).spawn().unwrap();
     let mut err = BufReader::new(child.stderr.take().unwrap());
@@ -70,8 +70,8 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
     let (mut planner, mut progress) = plan(&dir);
     wait_for(&mut progress, "step 2/3 started");
 
-    // A third terminal: monitor prints telemetry samples (50 Hz device time, paced 5×).
-    let out = cmd(&dir, &["monitor", "--duration", "0.4", "--json"])
+    // A third terminal: monitor prints telemetry samples (50 Hz device time, paced 2×).
+    let out = cmd(&dir, &["monitor", "--duration", "0.5", "--json"])
         .output()
         .unwrap();
     assert_eq!(
@@ -85,8 +85,16 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
         .map(|l| serde_json::from_str(l).unwrap())
         .filter(|v: &serde_json::Value| v["type"] == "telemetry")
         .collect();
-    // 0.4 s of wall time at 5× is 2 s of device time: ~100 samples; at least half of them.
-    assert!(samples.len() >= 50, "{} samples", samples.len());
+    // 0.5 s of wall time at 2× is 1 s of device time: ~50 samples; at least half of them.
+    assert!(samples.len() >= 25, "{} samples", samples.len());
+    let t: Vec<u64> = samples
+        .iter()
+        .map(|s| s["uptime_ms"].as_u64().unwrap())
+        .collect();
+    assert!(
+        t.windows(2).all(|w| w[1] > w[0]),
+        "device time goes forward"
+    );
     assert!(
         samples.iter().any(|s| s["inlet_open"] == true),
         "the step inflates"
@@ -116,7 +124,9 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
     let outcome: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(outcome["ok"], false);
     assert_eq!(outcome["failure"]["kind"], "aborted", "{outcome}");
-    assert_eq!(outcome["failure"]["step"]["index"], 1, "{outcome}");
+    // Stopped in step 2 (or, on a machine slow enough, step 3): never completed.
+    let step = outcome["failure"]["step"]["index"].as_u64().unwrap();
+    assert!((1..=2).contains(&step), "{outcome}");
     assert_eq!(outcome["sim"]["actuators_safe"], true, "{outcome}");
 
     // SIGTERM: the server ends cleanly and its recording is complete.

@@ -161,9 +161,17 @@ fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T,
     }
 }
 
+/// Longest frame checked for being protocol v1's: a v1 `Hello`, heartbeat or status answer is
+/// shorter, and the bitwise CRC-16 over it stays a few thousand cycles on the M4 (a corrupted
+/// 500-byte frame must not cost the control loop a bitwise pass over all of it).
+pub const LEGACY_CHECK_MAX: usize = 64;
+
 /// A frame whose CRC-32 failed: [`FrameError::Legacy`] when it is a valid protocol-v1 frame
-/// (payload ‖ CRC-16/IBM-SDLC), else [`FrameError::Crc`].
+/// (payload ‖ CRC-16/IBM-SDLC) of at most [`LEGACY_CHECK_MAX`] bytes, else [`FrameError::Crc`].
 fn legacy_or_crc(raw: &[u8]) -> FrameError {
+    if raw.len() > LEGACY_CHECK_MAX {
+        return FrameError::Crc;
+    }
     match raw.split_last_chunk::<2>() {
         Some((payload, check))
             if !payload.is_empty() && LEGACY_CRC.checksum(payload).to_le_bytes() == *check =>

@@ -70,7 +70,8 @@ pub mod messages;
 pub mod transitions;
 
 pub use frame::{
-    decode, encode, DecoderStats, Feed, FrameDecoder, FrameError, MAX_FRAME_LEN, MAX_RAW_LEN,
+    decode, encode, DecoderStats, Feed, FrameDecoder, FrameError, LEGACY_CHECK_MAX, MAX_FRAME_LEN,
+    MAX_RAW_LEN,
 };
 pub use messages::*;
 

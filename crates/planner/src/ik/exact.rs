@@ -218,6 +218,9 @@ impl Worker<'_, '_> {
 /// Searches still running after this long switch to the target's fine lower-bound grid.
 const FINE_GRID_AFTER: std::time::Duration = std::time::Duration::from_millis(100);
 
+/// Eq 36 problems with at least this many sequences build the fine grid before the seed.
+const FINE_GRID_SEQUENCES: u128 = 10_000_000_000_000;
+
 /// Fewer open tasks than this are split into their children before a pass.
 const MIN_OPEN_TASKS: usize = 512;
 
@@ -296,7 +299,14 @@ pub(crate) fn solve_with(
     let start = Instant::now();
     let reach = Reach::new(&problem.catalogue, m);
     // Incumbent: beam, then window polish.
-    let seed_reach = Reach::new(&problem.catalogue, super::beam::BEAM_HORIZON);
+    // Large eq 36 problems use the fine grid from the start (seed included).
+    let fine_now = problem.objective.metric() == Metric::Eq36
+        && problem.catalogue.sequences() >= FINE_GRID_SEQUENCES;
+    let mut seed_reach = Reach::new(&problem.catalogue, super::beam::BEAM_HORIZON);
+    if fine_now {
+        problem.objective.target().prepare_fine_bounds();
+        seed_reach = seed_reach.with_fine_bounds();
+    }
     let (seed, _, seed_evals, _) =
         super::beam::beam_with(problem, &seed_reach, SEED_BEAM_WIDTH, control);
     let (seed, polish_evals) = super::window::polish(problem, seed, 2, control);
@@ -358,7 +368,7 @@ pub(crate) fn solve_with(
     // Largest threshold step (bound units), adapted to how fast the passes grow.
     let mut step = f64::INFINITY;
     let mut last_nodes = 0u64;
-    let mut fine = false;
+    let mut fine = fine_now;
     loop {
         let ub = shared.ub();
         let lb = global_lower_bound(&tasks, ub);

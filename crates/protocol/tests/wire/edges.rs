@@ -189,6 +189,12 @@ fn a_protocol_v1_frame_is_told_apart_and_dropped() {
     );
     frame[4] ^= 0x01;
     assert_eq!(decode::<Request>(&mut frame), Err(FrameError::Crc));
+    // Longer than LEGACY_CHECK_MAX: not checked (a plain CRC error), so a corrupted long
+    // frame never costs a bitwise CRC-16 over all of it.
+    let payload = [0x01u8; LEGACY_CHECK_MAX];
+    let crc16 = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&payload);
+    let mut frame = stuff(&payload, &crc16.to_le_bytes());
+    assert_eq!(decode::<Request>(&mut frame), Err(FrameError::Crc));
 }
 
 fn hex(bytes: &[u8]) -> String {

@@ -135,7 +135,7 @@ fn device_failure(id: ParamId, err: SessionError) -> Failure {
 
 /// The device, or the server that holds it.
 enum Link {
-    Direct(Connection),
+    Direct(Box<Connection>),
     Server(std::path::PathBuf),
 }
 
@@ -143,7 +143,7 @@ impl Link {
     fn open(device: &DeviceArgs) -> Result<Self, Failure> {
         Ok(match crate::client::server_for(device)? {
             Some(path) => Link::Server(path),
-            None => Link::Direct(device.validate(None)?.connect()?),
+            None => Link::Direct(Box::new(device.validate(None)?.connect()?)),
         })
     }
 

@@ -14,9 +14,10 @@
 //!   state (passing through the bottom's half-packed intermediate, which is not a state), or
 //!   the winches reach their travel or stall, then release.
 //!
-//! Manual edges are the catalogue's (a person can fold anything); [`verify_catalogue`] checks
-//! that each catalogue edge's own primitives, with their parameters perturbed by a margin, land
-//! where the catalogue says.
+//! Manual edges are the catalogue's (a person can fold anything); [`verify_catalogue`] checks,
+//! through the real controller (the host engine sends each catalogue step, the firmware
+//! executes it), that each edge's own primitives, with their parameters perturbed by a margin,
+//! land where the catalogue says.
 
 use geometry::TrunkState;
 use protocol::messages::{ManualTask, Primitive, StepKind};
@@ -448,33 +449,45 @@ pub fn catalogue_edges() -> Vec<Edge> {
     e
 }
 
-/// Runs `t`'s primitives from `t.from`, with every pressure scaled by `pressure_scale` and every
-/// pull length offset by `length_offset_mm`; returns where the trunk settled.
+/// Runs `t` as one step through the real controller on the simulated crane (the host engine
+/// sends it, the controller executes its primitives with its own regulator, relief and sealed
+/// release, the simulated operator does a manual step), with every inflation pressure scaled by
+/// `pressure_scale` and every pull length offset by `length_offset_mm`; returns where the trunk
+/// really settled (the simulator's truth, not what the controller concluded), or why the step
+/// could not be sent.
 pub fn run_transition(
     t: &Transition,
     pressure_scale: f32,
     length_offset_mm: f32,
-    cfg: RigConfig,
-) -> (Option<TrunkState>, Rig) {
-    let mut rig = Rig::new(t.from, cfg);
-    for p in t.primitives {
-        let p = match *p {
-            Primitive::Inflate {
-                pressure_kpa,
-                snaps,
-            } => Primitive::Inflate {
-                pressure_kpa: pressure_kpa * pressure_scale,
-                snaps,
-            },
-            Primitive::TendonPull { length_mm, snaps } => Primitive::TendonPull {
-                length_mm: length_mm + length_offset_mm,
-                snaps,
-            },
-            other => other,
-        };
-        rig.apply(&p);
+) -> Result<Option<TrunkState>, crate::host::HostError> {
+    let mut sim = crate::Sim::new(crate::SimOptions {
+        initial: t.from,
+        seed: 0,
+        ..crate::SimOptions::default()
+    });
+    let mut host = crate::host::SimHost::new();
+    host.hello(&mut sim)?;
+    let mut step = t.step();
+    // A pull longer than the winches' travel is refused by the controller (its interlock): the
+    // margin is tested within what it accepts.
+    let max_pull_mm = sim.crane_config().max_tendon_mm;
+    for p in step.primitives.iter_mut() {
+        match p {
+            Primitive::Inflate { pressure_kpa, .. } => *pressure_kpa *= pressure_scale,
+            Primitive::TendonPull { length_mm, .. } => {
+                *length_mm = (*length_mm + length_offset_mm).clamp(0.0, max_pull_mm)
+            }
+            _ => {}
+        }
     }
-    (rig.settled_state(), rig)
+    // The step's own time limit, and the operator's delay for a manual one, bound the run.
+    let limit_ms = u64::from(step.timeout_ms) + 10_000;
+    host.run_plan(&mut sim, 1, &[step], limit_ms)?;
+    // The trunk settles (the engine heartbeats meanwhile).
+    for _ in 0..1_500 {
+        host.poll(&mut sim);
+    }
+    Ok(sim.safety().true_state)
 }
 
 /// A catalogue edge that did not land where it says.
@@ -490,13 +503,10 @@ pub struct Mismatch {
     pub perturbation: (f32, f32),
 }
 
-/// Runs every catalogue edge nominally and perturbed (pressures ×(1 ± `pressure_margin`),
-/// lengths ± `length_margin_mm`); returns the edges that missed.
-pub fn verify_catalogue(
-    pressure_margin: f32,
-    length_margin_mm: f32,
-    cfg: RigConfig,
-) -> Vec<Mismatch> {
+/// Runs every catalogue edge through the real controller ([`run_transition`]) nominally and
+/// perturbed (pressures ×(1 ± `pressure_margin`), lengths ± `length_margin_mm`); returns the
+/// edges that missed.
+pub fn verify_catalogue(pressure_margin: f32, length_margin_mm: f32) -> Vec<Mismatch> {
     let mut bad = Vec::new();
     for t in &TRANSITIONS {
         for (ps, lo) in [
@@ -504,7 +514,7 @@ pub fn verify_catalogue(
             (1.0 - pressure_margin, -length_margin_mm),
             (1.0 + pressure_margin, length_margin_mm),
         ] {
-            let (got, _) = run_transition(t, ps, lo, cfg);
+            let got = run_transition(t, ps, lo).ok().flatten();
             if got != Some(t.to) {
                 bad.push(Mismatch {
                     from: t.from,

@@ -101,8 +101,9 @@ fn discovered_graph_equals_the_catalogue() {
 
 #[test]
 fn catalogue_primitives_have_margin() {
-    // Pressures ±10 % and pull lengths ±10 mm land on the same states.
-    let bad = discovery::verify_catalogue(0.10, 10.0, RigConfig::default());
+    // Pressures ±10 % and pull lengths ±10 mm land on the same states, executed by the real
+    // controller.
+    let bad = discovery::verify_catalogue(0.10, 10.0);
     assert!(bad.is_empty(), "{bad:#?}");
 }
 

@@ -209,3 +209,20 @@ pub fn snapshot(
         abort_latency_ms: v["abort_latency_ms"].as_u64(),
     })
 }
+
+/// One request through a server, answered as the engine would (`param`).
+pub fn call(
+    path: &std::path::Path,
+    body: protocol::RequestBody,
+) -> Result<Result<protocol::ResponseBody, host::SessionError>, Failure> {
+    let name = host::text::request_name(&body);
+    let mut c = Client::connect(path)?;
+    c.send(&serde_json::json!({"op": "call", "request": body}))?;
+    let v = c.recv_ok()?;
+    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("the server's answer: {e}"));
+    let reply = host::Reply {
+        result: serde_json::from_value(v["result"].clone()).map_err(bad)?,
+        body: serde_json::from_value(v["body"].clone()).map_err(bad)?,
+    };
+    Ok(reply.accepted(name))
+}

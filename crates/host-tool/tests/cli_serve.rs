@@ -169,7 +169,7 @@ fn clients_say_the_server_went_away_when_it_dies() {
 }
 
 #[test]
-fn the_socket_is_the_users_only() {
+fn the_socket_is_the_users_only_and_param_goes_through_the_server() {
     use std::os::unix::fs::PermissionsExt;
     let dir = temp("perm");
     let mut server = serve(&dir, &["--no-record"]);
@@ -181,6 +181,45 @@ fn the_socket_is_the_users_only() {
         .permissions()
         .mode();
     assert_eq!(mode & 0o777, 0o600, "{mode:o}");
+    // `param` goes through the server: a write, then a read from another process.
+    let out = cmd(&dir, &["param", "set", "link-timeout-ms", "5000", "--json"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        (v["previous"].as_f64(), v["value"].as_f64()),
+        (Some(3000.0), Some(5000.0))
+    );
+    let out = cmd(&dir, &["param", "get", "link-timeout-ms", "--json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["params"][0]["value"].as_f64(), Some(5000.0), "{v}");
+    // A refusal through the server keeps the device's reason.
+    let out = cmd(&dir, &["param", "set", "servo-max-deg", "0", "--json"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = cmd(&dir, &["param", "set", "servo-min-deg", "10"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("servo-min-deg must not exceed servo-max-deg"),
+        "{err}"
+    );
     // A second server for the same device is refused.
     let out = cmd(&dir, &["serve", "--sim", "--no-record"])
         .output()

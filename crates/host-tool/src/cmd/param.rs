@@ -133,11 +133,41 @@ fn device_failure(id: ParamId, err: SessionError) -> Failure {
     Failure::Runtime(anyhow::anyhow!("{} {err}{hint}", param_name(id)))
 }
 
+/// The device, or the server that holds it.
+enum Link {
+    Direct(Box<Connection>),
+    Server(std::path::PathBuf),
+}
+
+impl Link {
+    fn open(device: &DeviceArgs) -> Result<Self, Failure> {
+        Ok(match crate::client::server_for(device)? {
+            Some(path) => Link::Server(path),
+            None => Link::Direct(Box::new(device.validate(None)?.connect()?)),
+        })
+    }
+
+    fn command(
+        &mut self,
+        body: RequestBody,
+    ) -> Result<Result<ResponseBody, SessionError>, Failure> {
+        match self {
+            Link::Direct(conn) => Ok(conn.session.command(body)),
+            Link::Server(path) => crate::client::call(path, body),
+        }
+    }
+
+    fn close(self) {
+        if let Link::Direct(conn) = self {
+            conn.close();
+        }
+    }
+}
+
 /// Reads one parameter from the device.
-fn get(conn: &mut Connection, id: ParamId) -> Result<f32, Failure> {
+fn get(conn: &mut Link, id: ParamId) -> Result<f32, Failure> {
     match conn
-        .session
-        .command(RequestBody::GetParam(id))
+        .command(RequestBody::GetParam(id))?
         .map_err(|e| device_failure(id, e))?
     {
         ResponseBody::Param { id: got, value } if got == id => Ok(value),
@@ -182,7 +212,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 Some(n) => vec![parse_param(&n)?],
                 None => ParamId::ALL.to_vec(),
             };
-            let mut conn = device.validate(None)?.connect()?;
+            let mut conn = Link::open(&device)?;
             let mut values = Vec::with_capacity(ids.len());
             for &id in &ids {
                 values.push((id, get(&mut conn, id)?));
@@ -206,11 +236,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
         } => {
             let id = parse_param(&name)?;
             let value = parse_value(id, &value)?;
-            let mut conn = device.validate(None)?.connect()?;
+            let mut conn = Link::open(&device)?;
             let previous = get(&mut conn, id)?;
             let now = match conn
-                .session
-                .command(RequestBody::SetParam { id, value })
+                .command(RequestBody::SetParam { id, value })?
                 .map_err(|e| device_failure(id, e))?
             {
                 ResponseBody::Param { id: got, value } if got == id => value,

@@ -1,6 +1,6 @@
 //! `host-tool serve`: one process owns the link to a crane (or the simulator), keeps its
 //! session and heartbeat, records it to MCAP, and serves local clients over a Unix socket —
-//! `status`, `stop`, `declare`, `monitor` and `plan` from other terminals go through it.
+//! `status`, `stop`, `declare`, `param`, `monitor` and `plan` from other terminals go through it.
 //!
 //! One thread: the engine ([`host::Host`], through the connection's driver) is turned in slices
 //! of at most [`SLICE_MS`] of engine time; between slices the server accepts clients and reads
@@ -9,6 +9,7 @@
 //!
 //! - `{"op":"snapshot","request":R}` (R: a `protocol::RequestBody` or null) → `{"status", "info",
 //!   "truth", "abort_latency_ms"}` or `{"error"}`
+//! - `{"op":"call","request":R}` → `{"result": protocol::ResultCode, "body": ResponseBody}`
 //! - `{"op":"monitor"}` → `{"event": protocol::Event}` lines until the client hangs up
 //! - `{"op":"plan","target":"D&D"}` → `{"note"}` lines, then `{"outcome", "ok"}`
 
@@ -71,6 +72,8 @@ enum Stage {
     Request { abort_at: Option<u64> },
     /// The status after it.
     Status { abort_latency_ms: Option<u64> },
+    /// One request whose answer goes back as it is (`param`).
+    Call,
 }
 
 struct Server {
@@ -339,6 +342,18 @@ impl Server {
                     }
                 }
             }
+            Some("call") => match serde_json::from_value::<RequestBody>(v["request"].clone()) {
+                Ok(body) => {
+                    let host = &mut self.conn.session.host;
+                    let id = if matches!(body, RequestBody::Abort) {
+                        host.request_first(body, now)
+                    } else {
+                        host.request(body, now)
+                    };
+                    self.pending.insert(id, (client, Stage::Call));
+                }
+                Err(e) => self.reply(client, &json!({"error": format!("bad request: {e}")})),
+            },
             Some("monitor") => {
                 if let Some(c) = self.clients.get_mut(&client) {
                     c.monitor = true;
@@ -379,6 +394,9 @@ impl Server {
                     return Ok(());
                 };
                 match stage {
+                    Stage::Call => {
+                        self.reply(client, &json!({"result": reply.result, "body": reply.body}));
+                    }
                     Stage::Request { abort_at } => {
                         if let Err(e) = reply.accepted("request") {
                             self.reply(client, &json!({"error": e.to_string()}));

@@ -85,6 +85,8 @@ enum Command {
     Param(cmd::param::Args),
     /// Abort whatever runs; report the safe state.
     Stop(cmd::stop::Args),
+    /// Identify an unconfirmed trunk state: the crane's probes, then the operator.
+    Identify(cmd::identify::Args),
     /// List serial ports; recognise Arduino UNO R4 boards.
     Ports(cmd::ports::Args),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
@@ -108,6 +110,7 @@ fn main() -> ExitCode {
         Command::Declare(args) => cmd::declare::run(args),
         Command::Param(args) => cmd::param::run(args),
         Command::Stop(args) => cmd::stop::run(args),
+        Command::Identify(args) => cmd::identify::run(args),
         Command::Ports(args) => cmd::ports::run(args),
         Command::Log(args) => cmd::log::run(args),
         Command::Serve(args) => cmd::serve::run(args),

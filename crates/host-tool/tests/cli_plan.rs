@@ -220,3 +220,19 @@ fn device_commands_without_port_or_sim_are_usage_errors() {
         );
     }
 }
+
+#[test]
+fn identify_reports_a_confirmed_state_at_once() {
+    let out = host_tool(&["identify", "--sim", "--sim-initial", "F&D", "--json"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["state"], "F&D");
+    assert_eq!(v["state_confirmed"], true);
+    assert_eq!(v["identified"], false);
+    assert_eq!(v["sim"]["true_state"], "F&D");
+}

@@ -227,6 +227,9 @@ pub struct RunOptions {
     /// A plan found running on the device (left by a host that died) is aborted and the run
     /// goes on from the device's state afterwards, instead of refusing.
     pub take_over_running: bool,
+    /// Only identify: end as soon as the device's state is confirmed (whatever it is), without
+    /// planning (`host-tool identify`).
+    pub identify_only: bool,
 }
 
 impl Default for RunOptions {
@@ -236,6 +239,7 @@ impl Default for RunOptions {
             step_grace_ms: 5_000,
             poll_ms: 100,
             take_over_running: false,
+            identify_only: false,
         }
     }
 }
@@ -921,6 +925,12 @@ impl PlanRunner {
             )));
         }
         self.next_plan_id = st.plan.map_or(0, |p| p.plan_id).wrapping_add(1).max(1);
+        if self.options.identify_only {
+            // The "target" of an identification is whatever the device now confirms.
+            self.target = st.state;
+            self.out.target = Some(st.state);
+            return self.finish(None);
+        }
         if st.state == self.target {
             return self.finish(None);
         }

@@ -2,6 +2,7 @@
 
 pub mod declare;
 pub mod fk;
+pub mod identify;
 pub mod ik;
 pub mod log;
 pub mod model;

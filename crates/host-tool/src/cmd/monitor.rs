@@ -186,6 +186,7 @@ fn print_sample(json: bool, t: &Telemetry, mode: Option<&str>) {
             "type": "telemetry",
             "uptime_ms": t.uptime_ms,
             "state": t.state.name(),
+            "state_confirmed": t.state_confirmed,
             "pressure_kpa": t.pressure_kpa,
             "servo_deg": t.servo_deg,
             "inlet_open": t.inlet_open,

@@ -93,7 +93,7 @@ pub fn interrupt_flag() -> Arc<AtomicBool> {
 
 /// The terminal side of a run: progress, the operator's Enter for manual steps, the
 /// operator's answer when the state must be identified, and the interrupt.
-struct CliShell {
+pub(crate) struct CliShell {
     ui: Box<dyn Progress>,
     pending: Option<ShellAction>,
     plan: Option<Plan>,
@@ -101,6 +101,27 @@ struct CliShell {
     cancel_sent: bool,
     confirm: Option<mpsc::Receiver<String>>,
     identify: Option<Vec<TrunkState>>,
+}
+
+impl CliShell {
+    /// The terminal shell of a run: bars on a terminal, plain lines otherwise; stdin lines
+    /// when stdin is a terminal; the interrupt flag.
+    pub(crate) fn new(interrupted: Arc<AtomicBool>) -> Self {
+        let ui: Box<dyn Progress> = if std::io::stderr().is_terminal() {
+            Box::new(Bars::default())
+        } else {
+            Box::new(Lines)
+        };
+        Self {
+            ui,
+            pending: None,
+            plan: None,
+            interrupted,
+            cancel_sent: false,
+            confirm: stdin_lines(),
+            identify: None,
+        }
+    }
 }
 
 impl RunShell<Recorder<AnyIo>> for CliShell {
@@ -235,20 +256,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             return finish(&cfg, &out, truth);
         }
     };
-    let ui: Box<dyn Progress> = if std::io::stderr().is_terminal() {
-        Box::new(Bars::default())
-    } else {
-        Box::new(Lines)
-    };
-    let mut shell = CliShell {
-        ui,
-        plan: None,
-        interrupted: interrupted.clone(),
-        cancel_sent: false,
-        confirm: stdin_lines(),
-        identify: None,
-        pending: None,
-    };
+    let mut shell = CliShell::new(interrupted.clone());
     // A recording gets the snap's pressure curve: telemetry at 50 Hz while the plan runs.
     let previous_rate = if conn.session.io.recording().is_some() {
         crate::cmd::monitor::set_telemetry_rate(&mut conn.session, 50)
@@ -403,6 +411,11 @@ pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
         "target": name(out.target),
         "final_state": name(out.final_state),
         "state_confirmed": out.state_confirmed,
+        "candidates": out
+            .last_status
+            .as_ref()
+            .filter(|_| !out.state_confirmed)
+            .map(|st| st.candidates.iter().map(|c| c.name()).collect::<Vec<_>>()),
         "identified": out.identified,
         "steps": out.steps.iter().map(|s| json!({
             "kind": kind_name(s.kind),
@@ -421,7 +434,7 @@ pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
 /// A thread that hands on each line typed on a terminal (Enter confirms a manual step; a state
 /// name answers an identify prompt); none when stdin is not a terminal (never block on a pipe
 /// or /dev/null).
-fn stdin_lines() -> Option<mpsc::Receiver<String>> {
+pub(crate) fn stdin_lines() -> Option<mpsc::Receiver<String>> {
     if !std::io::stdin().is_terminal() {
         return None;
     }

@@ -78,6 +78,29 @@ pub fn run(args: Args) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The device's belief in words: the state, and when it is not confirmed, what it may be and
+/// which step was under way.
+pub fn belief_text(s: &Status) -> String {
+    if s.state_confirmed {
+        return format!("{} (confirmed)", s.state);
+    }
+    let may: Vec<&str> = s.candidates.iter().map(|c| c.name()).collect();
+    format!(
+        "{} NOT CONFIRMED: the trunk may be {}{}; `host-tool identify` or a plan identifies it \
+         first",
+        s.state,
+        if may.is_empty() {
+            "in any state".to_string()
+        } else {
+            format!("any of {}", may.join(", "))
+        },
+        s.interrupted.map_or(String::new(), |t| format!(
+            " (was going {} → {})",
+            t.from, t.to
+        ))
+    )
+}
+
 fn status_text(s: &Status, info: &DeviceInfo) -> String {
     let v = info.firmware_version;
     let mut t = format!(
@@ -88,15 +111,7 @@ fn status_text(s: &Status, info: &DeviceInfo) -> String {
         v[2],
         info.protocol_version
     );
-    t += &format!(
-        "state:        {}{}\n",
-        s.state,
-        if s.state_confirmed {
-            ""
-        } else {
-            " (not confirmed)"
-        }
-    );
+    t += &format!("state:        {}\n", crate::cmd::status::belief_text(s));
     t += &format!("mode:         {}\n", text::mode(s.mode));
     t += &format!(
         "pressure:     {:.1} kPa (limit {:.1}); inlet {}, exhaust {}\n",
@@ -145,6 +160,8 @@ pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> V
     json!({
         "state": s.state.name(),
         "state_confirmed": s.state_confirmed,
+        "candidates": s.candidates.iter().map(|c| c.name()).collect::<Vec<_>>(),
+        "interrupted": s.interrupted.map(|t| json!({"from": t.from.name(), "to": t.to.name()})),
         "mode": text::mode(s.mode),
         "pressure_kpa": s.pressure_kpa,
         "servo_deg": s.servo_deg,

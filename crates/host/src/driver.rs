@@ -111,11 +111,19 @@ impl<I: Io> Driver<I> {
 
     /// One turn: write what is due, wait for bytes or the next deadline, feed the engine.
     pub fn turn(&mut self) -> std::io::Result<()> {
+        self.turn_until(None)
+    }
+
+    /// A turn that never waits past `cap` (the clock's ms).
+    fn turn_until(&mut self, cap: Option<u64>) -> std::io::Result<()> {
         while let Some(frame) = self.host.poll_transmit() {
             self.io.write(&frame)?;
         }
         let now = self.io.now_ms();
-        let deadline = self.host.poll_timeout().unwrap_or(now + IDLE_WAIT_MS);
+        let mut deadline = self.host.poll_timeout().unwrap_or(now + IDLE_WAIT_MS);
+        if let Some(cap) = cap {
+            deadline = deadline.min(cap);
+        }
         self.buf.clear();
         if deadline > now {
             self.io.read(deadline, &mut self.buf)?;
@@ -214,28 +222,8 @@ impl<I: Io> Driver<I> {
                 return Err(SessionError::Closed);
             }
             // Never wait past `end`.
-            while let Some(frame) = self.host.poll_transmit() {
-                self.io
-                    .write(&frame)
-                    .map_err(|e| io_error("Heartbeat", &e))?;
-            }
-            let now = self.io.now_ms();
-            let deadline = self.host.poll_timeout().unwrap_or(end).min(end);
-            self.buf.clear();
-            if deadline > now {
-                self.io
-                    .read(deadline, &mut self.buf)
-                    .map_err(|e| io_error("Heartbeat", &e))?;
-            }
-            let now = self.io.now_ms();
-            if !self.buf.is_empty() {
-                let bytes = std::mem::take(&mut self.buf);
-                self.host.handle_bytes(&bytes, now);
-                self.buf = bytes;
-            }
-            if self.host.poll_timeout().is_some_and(|t| t <= now) {
-                self.host.handle_timeout(now);
-            }
+            self.turn_until(Some(end))
+                .map_err(|e| io_error("Heartbeat", &e))?;
         }
         Ok(())
     }

@@ -1063,48 +1063,35 @@ impl PlanRunner {
                     self.abort(session, fail, now_ms);
                 }
             }
-            PlanPhase::Running => {
+            PlanPhase::Running | PlanPhase::WaitingManual => {
                 self.events.push_back(RunEvent::StepProgress {
                     index: current,
                     elapsed_ms: elapsed,
                     pressure_kpa: st.pressure_kpa,
                 });
+                // The host's backstop: a step running, or a manual step waiting, past its own
+                // time limit and a grace is aborted.
                 let limit = edge.transition.timeout_ms;
                 if elapsed > limit.saturating_add(self.options.step_grace_ms) {
                     self.report_current_failed(Some(elapsed));
                     let step = self.current_step();
+                    let what = if ps.phase == PlanPhase::WaitingManual {
+                        "nobody did the manual step within its time limit"
+                    } else {
+                        "did not finish within its time limit"
+                    };
                     let mut fail = RunFailure::new(
                         FailureKind::Timeout,
                         format!(
-                            "{} did not finish within its time limit of {limit} ms (device \
-                             time); the host aborted it",
-                            step.map_or(String::new(), |s| s.to_string())
-                        ),
-                    );
-                    fail.step = step;
-                    self.abort(session, fail, now_ms);
-                }
-            }
-            PlanPhase::WaitingManual => {
-                self.events.push_back(RunEvent::StepProgress {
-                    index: current,
-                    elapsed_ms: elapsed,
-                    pressure_kpa: st.pressure_kpa,
-                });
-                let limit = edge.transition.timeout_ms;
-                if elapsed > limit.saturating_add(self.options.step_grace_ms) {
-                    self.report_current_failed(Some(elapsed));
-                    let step = self.current_step();
-                    let mut fail = RunFailure::new(
-                        FailureKind::Timeout,
-                        format!(
-                            "{}: nobody did the manual step within its time limit of {limit} ms \
-                             (device time); the host aborted it",
+                            "{} {what} of {limit} ms (device time); the host aborted it",
                             step.map_or(String::new(), |s| s.to_string())
                         ),
                     );
                     fail.step = step;
                     return self.abort(session, fail, now_ms);
+                }
+                if ps.phase == PlanPhase::Running {
+                    return;
                 }
                 let f = self.following.as_mut().expect("checked");
                 if !f.prompted[current] {

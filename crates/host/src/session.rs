@@ -349,15 +349,9 @@ impl Session {
 
     /// Queues a request; its answer comes as [`SessionEvent::Reply`] (or `Failed`).
     pub fn request(&mut self, body: RequestBody, now_ms: u64) -> RequestId {
-        let id = self.alloc_id();
-        self.stats.requests += 1;
-        if self.phase == Phase::Closed {
-            self.events.push_back(SessionEvent::Failed {
-                id,
-                error: SessionError::Closed,
-            });
-            return id;
-        }
+        let Ok(id) = self.admit() else {
+            return self.next_id();
+        };
         self.queue.push_back((id, body, false));
         self.pump(now_ms);
         id
@@ -367,15 +361,9 @@ impl Session {
     /// A request already on the wire is abandoned ([`SessionError::Preempted`]): its answer,
     /// if it comes, is ignored.
     pub fn request_first(&mut self, body: RequestBody, now_ms: u64) -> RequestId {
-        let id = self.alloc_id();
-        self.stats.requests += 1;
-        if self.phase == Phase::Closed {
-            self.events.push_back(SessionEvent::Failed {
-                id,
-                error: SessionError::Closed,
-            });
-            return id;
-        }
+        let Ok(id) = self.admit() else {
+            return self.next_id();
+        };
         if self.phase == Phase::Open {
             if let Some(p) = self.pending.take() {
                 if !p.internal {
@@ -443,6 +431,25 @@ impl Session {
     /// The next thing the owner should know.
     pub fn poll_event(&mut self) -> Option<SessionEvent> {
         self.events.pop_front()
+    }
+
+    /// A new request's id; on a closed session the request fails at once (`Err`).
+    fn admit(&mut self) -> Result<RequestId, ()> {
+        let id = self.alloc_id();
+        self.stats.requests += 1;
+        if self.phase == Phase::Closed {
+            self.events.push_back(SessionEvent::Failed {
+                id,
+                error: SessionError::Closed,
+            });
+            return Err(());
+        }
+        Ok(id)
+    }
+
+    /// The id [`Session::admit`] gave last.
+    fn next_id(&self) -> RequestId {
+        RequestId(self.next_id)
     }
 
     fn alloc_id(&mut self) -> RequestId {

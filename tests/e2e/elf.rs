@@ -50,36 +50,21 @@ fn board(initial: &str, faults: Vec<Fault>) -> PtySim {
 
 #[test]
 fn hil_sim_firmware_elf_serves_the_elf_and_answers_status() {
-    use std::io::{BufRead, BufReader};
-    use std::process::{Command, Stdio};
     let elf = elf();
-    let mut sim = Command::new(e2e::binary("hil-sim"))
-        .args([
-            "--pty",
-            "--initial",
-            "D&F",
-            "--speed",
-            "5",
-            "--firmware-elf",
-        ])
-        .arg(&elf)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("hil-sim starts");
-    let mut first = String::new();
-    let mut stdout = BufReader::new(sim.stdout.take().expect("stdout is piped"));
-    stdout
-        .read_line(&mut first)
-        .expect("hil-sim prints its device path");
-    let path = first.split_whitespace().last().expect("a path").to_string();
+    let sim = e2e::hil_sim_pty(&[
+        std::ffi::OsStr::new("--initial"),
+        "D&F".as_ref(),
+        "--speed".as_ref(),
+        "5".as_ref(),
+        "--firmware-elf".as_ref(),
+        elf.as_os_str(),
+    ]);
+    let (path, first) = (sim.path.clone(), sim.first_line.clone());
     let out = host_tool(
         &["status", "--port", &path, "--json"],
         Duration::from_secs(30),
     );
-    let _ = sim.kill();
-    let _ = sim.wait();
+    drop(sim);
     assert!(first.contains("board ELF"), "{first}");
     assert_eq!(out.code(), 0, "{}", out.stderr);
     let v = out.json();

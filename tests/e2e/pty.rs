@@ -2,45 +2,16 @@
 //! timing, and the pty holds it at every speed it accepts; faster speeds are refused up front.
 
 use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use e2e::{binary, host_tool, run};
+use e2e::{binary, hil_sim_pty, host_tool, run};
 
 const LIMIT: Duration = Duration::from_secs(60);
 
-struct PtySim {
-    child: Child,
-    path: String,
-}
-
-impl Drop for PtySim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn pty_sim(args: &[&str]) -> PtySim {
-    let mut child = Command::new(binary("hil-sim"))
-        .arg("--pty")
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("hil-sim starts");
-    let mut first = String::new();
-    BufReader::new(child.stdout.take().expect("stdout is piped"))
-        .read_line(&mut first)
-        .expect("hil-sim prints its device path");
-    let path = first.split_whitespace().last().expect("a path").to_string();
-    PtySim { child, path }
-}
-
 #[test]
 fn a_plan_over_the_pty_at_the_fastest_accepted_speed_reaches_its_target() {
-    let sim = pty_sim(&["--initial", "F&P", "--speed", "20", "--seed", "2"]);
+    let sim = hil_sim_pty(&["--initial", "F&P", "--speed", "20", "--seed", "2"]);
     let out = host_tool(
         &["plan", "--target", "D&F", "--port", &sim.path, "--json"],
         LIMIT,
@@ -53,7 +24,7 @@ fn a_plan_over_the_pty_at_the_fastest_accepted_speed_reaches_its_target() {
 
 #[test]
 fn the_slowest_accepted_speed_answers_status() {
-    let sim = pty_sim(&["--initial", "D&D", "--speed", "0.1"]);
+    let sim = hil_sim_pty(&["--initial", "D&D", "--speed", "0.1"]);
     let out = host_tool(&["status", "--port", &sim.path, "--json"], LIMIT);
     assert_eq!(out.code(), 0, "{}", out.stderr);
     assert_eq!(out.json()["state"], "D&D");
@@ -85,7 +56,7 @@ fn speeds_the_pty_cannot_hold_are_refused_with_the_reason() {
 /// `host-tool plan` over the pty, stopped by `signal` once its first step runs: it aborts on
 /// the device, waits for the safe state and exits 130; `status` afterwards shows the safe mode.
 fn signal_mid_plan(signal: nix::sys::signal::Signal) {
-    let sim = pty_sim(&["--initial", "F&P", "--speed", "2", "--seed", "4"]);
+    let sim = hil_sim_pty(&["--initial", "F&P", "--speed", "2", "--seed", "4"]);
     let mut plan = Command::new(binary("host-tool"))
         .args(["plan", "--target", "D&D", "--port", &sim.path, "--json"])
         .stdin(Stdio::null())

@@ -1,27 +1,15 @@
 //! Garbage on the device's serial line never stops it answering `status`: a separate
 //! `hil-sim --pty` process, random bytes written to its pty, then `host-tool status --port`.
 
-use std::io::{BufRead, BufReader, Write};
-use std::process::{Command, Stdio};
+use std::io::Write;
 use std::time::Duration;
 
-use e2e::{binary, host_tool, Noise};
+use e2e::{hil_sim_pty, host_tool, Noise};
 
 #[test]
 fn garbage_on_the_line_never_stops_the_device_answering_status() {
-    let mut sim = Command::new(binary("hil-sim"))
-        .args(["--pty", "--initial", "D&F", "--seed", "3"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("hil-sim starts");
-    let mut first = String::new();
-    let mut stdout = BufReader::new(sim.stdout.take().expect("stdout is piped"));
-    stdout
-        .read_line(&mut first)
-        .expect("hil-sim prints its device path");
-    let path = first.split_whitespace().last().expect("a path").to_string();
+    let sim = hil_sim_pty(&["--initial", "D&F", "--seed", "3"]);
+    let path = sim.path.clone();
     let result = std::panic::catch_unwind(|| {
         let mut noise = Noise::new(0x5eed);
         for round in 0..5 {
@@ -53,8 +41,7 @@ fn garbage_on_the_line_never_stops_the_device_answering_status() {
             );
         }
     });
-    let _ = sim.kill();
-    let _ = sim.wait();
+    drop(sim);
     if let Err(panic) = result {
         std::panic::resume_unwind(panic);
     }

@@ -5,7 +5,8 @@
 //! tests, so the binaries are located next to the test executable (`target/<profile>/deps/..`)
 //! rather than through `CARGO_BIN_EXE_*` (which only a package's own tests get).
 
-use std::io::Read;
+use std::ffi::OsStr;
+use std::io::{BufRead, BufReader, Read};
 use std::path::PathBuf;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
@@ -164,5 +165,47 @@ impl Noise {
     /// `n` bytes.
     pub fn bytes(&mut self, n: usize) -> Vec<u8> {
         (0..n).map(|_| self.byte()).collect()
+    }
+}
+
+/// A `hil-sim --pty` process, killed when dropped.
+pub struct PtyProcess {
+    child: Child,
+    /// The device path it serves.
+    pub path: String,
+    /// The line it printed first (naming the path).
+    pub first_line: String,
+}
+
+impl Drop for PtyProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `hil-sim --pty ARGS…` and waits for the line that names its device path.
+pub fn hil_sim_pty<S: AsRef<OsStr>>(args: &[S]) -> PtyProcess {
+    let mut child = Command::new(binary("hil-sim"))
+        .arg("--pty")
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("hil-sim starts");
+    let mut first_line = String::new();
+    BufReader::new(child.stdout.take().expect("stdout is piped"))
+        .read_line(&mut first_line)
+        .expect("hil-sim prints its device path");
+    let path = first_line
+        .split_whitespace()
+        .last()
+        .expect("a path")
+        .to_string();
+    PtyProcess {
+        child,
+        path,
+        first_line,
     }
 }

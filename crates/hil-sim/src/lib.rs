@@ -12,7 +12,7 @@
 //! - [`fault`]: injectable faults.
 //! - [`Sim`] ([`sim`]): all of it on one virtual clock with a seeded RNG; the controller runs
 //!   through `firmware::hw::Shell`, the board's own loop body, never a re-implementation.
-//! - [`host`]: an in-process host (encodes requests, decodes device messages) for tests.
+//! - [`host`]: `SimHost`, short exchanges for tests, the real host engine driven sans-IO.
 //! - [`pair`]: the real host engine, the controller and the physics on one virtual clock.
 //! - [`swarm`]: random scenarios of the whole system checked against invariants.
 //! - [`pty`]: the simulator serving its link on a pseudo-terminal, for any serial client.

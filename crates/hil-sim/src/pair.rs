@@ -135,22 +135,19 @@ impl SimShell {
     }
 }
 
-impl host::RunShell<SimIo> for SimShell {
-    fn event(&mut self, event: &host::RunEvent, io: &mut SimIo) {
-        self.on_event(event, io);
-    }
-
-    fn poll(&mut self, _io: &mut SimIo) -> Option<host::ShellAction> {
-        self.answer.take()
+impl AsMut<SimIo> for SimIo {
+    fn as_mut(&mut self) -> &mut SimIo {
+        self
     }
 }
 
-impl host::RunShell<&mut SimIo> for SimShell {
-    fn event(&mut self, event: &host::RunEvent, io: &mut &mut SimIo) {
-        self.on_event(event, io);
+/// For the simulator owned by a driver, or borrowed by one (`Driver<&mut SimIo>`).
+impl<I: AsMut<SimIo>> host::RunShell<I> for SimShell {
+    fn event(&mut self, event: &host::RunEvent, io: &mut I) {
+        self.on_event(event, io.as_mut());
     }
 
-    fn poll(&mut self, _io: &mut &mut SimIo) -> Option<host::ShellAction> {
+    fn poll(&mut self, _io: &mut I) -> Option<host::ShellAction> {
         self.answer.take()
     }
 }

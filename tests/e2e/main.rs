@@ -10,4 +10,5 @@ mod graph_agreement;
 mod plans;
 mod pty;
 mod serial_garbage;
+mod swarm;
 mod usage;

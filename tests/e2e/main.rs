@@ -4,6 +4,7 @@
 //! `cargo build --workspace --bins --release && cargo test -p e2e --release`
 //! (`cargo test --workspace --release` builds them itself).
 
+mod cli;
 mod elf;
 mod faults;
 mod graph_agreement;

@@ -177,6 +177,19 @@ pub struct PtyProcess {
     pub first_line: String,
 }
 
+impl PtyProcess {
+    /// Its process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Waits for it to end (at most 20 s) and gives its exit code (`None`: killed by a signal
+    /// or still running).
+    pub fn wait_code(mut self) -> Option<i32> {
+        wait_with_limit(&mut self.child, Duration::from_secs(20)).and_then(|s| s.code())
+    }
+}
+
 impl Drop for PtyProcess {
     fn drop(&mut self) {
         let _ = self.child.kill();

@@ -33,6 +33,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod cli;
 pub mod devices;
 pub mod discovery;
 pub mod elf_board;

@@ -1,18 +1,20 @@
 //! `hil-sim`: the simulated crane on a pseudo-terminal, or the transition discovery.
 //!
 //! ```text
-//! hil-sim --pty [--initial STATE] [--seed N] [--fault NAME]... [--speed X] [--no-operator]
-//!         [--firmware-elf PATH] [--truth-log FILE]
+//! hil-sim --pty [--sim-initial STATE] [--seed N] [--sim-fault NAME]... [--sim-speed X]
+//!         [--no-operator] [--firmware-elf PATH] [--truth-log FILE]
 //! hil-sim discover [--json | --dot]
 //! ```
-//! With `--pty` the first line of stdout ends with the device path; the simulator then runs until
-//! SIGINT, SIGTERM or SIGHUP (exit 0, the truth log's last line written). Usage errors exit with
-//! 2, runtime failures with 1.
+//! The simulator's options have `host-tool`'s names and defaults (`--sim-initial F&P`,
+//! `--seed 1`, `--sim-fault`, `--sim-speed`; the old `--initial`, `--fault`, `--speed` are
+//! aliases). With `--pty` the first line of stdout ends with the device path; the simulator then
+//! runs until SIGINT, SIGTERM or SIGHUP (exit 130, as host-tool, the truth log's last line
+//! written). Usage errors exit with 2, runtime failures with 1.
 
 use std::io::Write as _;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use geometry::TrunkState;
 use hil_sim::discovery::{self, RigConfig};
 use hil_sim::pty::PtySim;
@@ -23,26 +25,31 @@ use hil_sim::{Fault, SimOptions};
     name = "hil-sim",
     version,
     about = "Simulated Yoshimura crane (trunk physics + hardware) running the real firmware controller",
-    args_conflicts_with_subcommands = true
+    args_conflicts_with_subcommands = true,
+    propagate_version = true,
+    after_help = "Examples:\n  hil-sim --pty --sim-initial 'D&F' --sim-speed 5\n  hil-sim discover --dot | dot -Tsvg > graph.svg\n\nExit codes: 0 success, 1 runtime failure, 2 usage error, 130 ended by SIGINT, SIGTERM or SIGHUP.\nState names hold '&': quote them ('D&F')."
 )]
 struct Cli {
     /// Serve the controller's serial link on a pseudo-terminal (prints the device path).
     #[arg(long)]
     pty: bool,
-    /// The trunk's state at start: F&P, F&F, F&D, D&P, D&F or D&D.
-    #[arg(long, default_value = "F&P", value_parser = parse_state)]
-    initial: TrunkState,
-    /// Seed of the simulation's randomness (same seed, same run).
-    #[arg(long, default_value_t = 0)]
+    /// The trunk's state at start, quoted: 'F&P', 'F&F', 'F&D', 'D&P', 'D&F' or 'D&D'.
+    #[arg(long, alias = "initial", value_name = "STATE", default_value = "F&P", value_parser = parse_state)]
+    sim_initial: TrunkState,
+    /// Seed of the simulation's randomness, any integer (negative ones count modulo 2^64; same
+    /// seed, same run).
+    #[arg(long, value_name = "N", default_value = "1", allow_negative_numbers = true,
+          value_parser = hil_sim::cli::parse_seed)]
     seed: u64,
     /// Inject a fault (repeatable): valve-stuck-closed, valve-stuck-open, leak, servo-stall,
     /// tendon-break, sensor-dropout, link-drop, line-noise.
-    #[arg(long = "fault", value_name = "NAME", value_parser = parse_fault)]
+    #[arg(long = "sim-fault", alias = "fault", value_name = "NAME", value_parser = parse_fault)]
     faults: Vec<Fault>,
-    /// Virtual seconds per wall second, in (0, 20]: a pty client keeps the hardware's wall-clock
-    /// timing, and the controller's link timeout (3 s × speed) goes up to 60 s.
-    #[arg(long, default_value = "20", value_parser = parse_speed, allow_negative_numbers = true)]
-    speed: f64,
+    /// Virtual seconds per wall second [range: (0, 20]]: a pty client keeps the hardware's
+    /// wall-clock timing, and the controller's link timeout (3 s × speed) goes up to 60 s.
+    /// Default 1: real time, as the crane.
+    #[arg(long, alias = "speed", value_name = "X", default_value = "1", value_parser = parse_speed, allow_negative_numbers = true)]
+    sim_speed: f64,
     /// No simulated operator: manual steps wait for the host or a real person.
     #[arg(long)]
     no_operator: bool,
@@ -67,11 +74,13 @@ enum Command {
         /// Scenarios to run (seeds SEED, SEED+1, …).
         #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=10_000_000))]
         runs: u64,
-        /// The first scenario's seed.
-        #[arg(long, default_value_t = 0)]
+        /// The first scenario's seed, any integer (negative ones count modulo 2^64).
+        #[arg(long, default_value = "0", allow_negative_numbers = true,
+              value_parser = hil_sim::cli::parse_seed)]
         seed: u64,
         /// Run one scenario and print its trace.
-        #[arg(long, value_name = "SEED", conflicts_with_all = ["runs", "seed"])]
+        #[arg(long, value_name = "SEED", conflicts_with_all = ["runs", "seed"],
+              allow_negative_numbers = true, value_parser = hil_sim::cli::parse_seed)]
         replay: Option<u64>,
         /// Worker threads [default: the machine's cores].
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..=256))]
@@ -94,8 +103,19 @@ enum Command {
     },
 }
 
+/// The version line: the crate version, the protocol version and the wire schema id.
+fn version() -> String {
+    format!(
+        "{} (protocol {}, schema {:#010x})",
+        env!("CARGO_PKG_VERSION"),
+        protocol::PROTOCOL_VERSION,
+        protocol::SCHEMA_ID
+    )
+}
+
 fn parse_state(s: &str) -> Result<TrunkState, String> {
-    s.parse().map_err(|e| format!("{e}"))
+    s.parse()
+        .map_err(|e| format!("{e}{}", hil_sim::cli::ampersand_hint(s)))
 }
 
 fn parse_fault(s: &str) -> Result<Fault, String> {
@@ -112,7 +132,12 @@ fn parse_speed(s: &str) -> Result<f64, String> {
 }
 
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    let version: &'static str = Box::leak(version().into_boxed_str());
+    let cli = match Cli::command()
+        .version(version)
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
         Ok(c) => c,
         Err(e) => {
             let _ = e.print();
@@ -150,10 +175,10 @@ fn main() -> ExitCode {
         }
         None if cli.pty => {
             let opts = SimOptions {
-                initial: cli.initial,
+                initial: cli.sim_initial,
                 seed: cli.seed,
                 faults: cli.faults,
-                speed: cli.speed,
+                speed: cli.sim_speed,
                 operator: !cli.no_operator,
                 firmware_elf: cli.firmware_elf.clone(),
             };
@@ -189,19 +214,20 @@ fn main() -> ExitCode {
             let _ = writeln!(
                 out,
                 "hil-sim: simulated crane (initial {}, seed {}, speed {}{}) on {}",
-                cli.initial,
+                cli.sim_initial,
                 cli.seed,
-                cli.speed,
+                cli.sim_speed,
                 cli.firmware_elf
                     .as_ref()
                     .map_or(String::new(), |p| format!(", board ELF {}", p.display())),
                 sim.path().display()
             );
             let _ = out.flush();
-            // Until SIGINT, SIGTERM or SIGHUP; then stop cleanly (the truth log's final line).
+            // Until SIGINT, SIGTERM or SIGHUP; then stop cleanly (the truth log's final line)
+            // and exit as an interrupted command does (130, as host-tool).
             let _ = rx.recv();
             sim.stop();
-            ExitCode::SUCCESS
+            ExitCode::from(130)
         }
         None => {
             eprintln!("hil-sim: nothing to do; use --pty or `hil-sim discover` (see --help)");

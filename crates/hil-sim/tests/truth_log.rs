@@ -27,7 +27,11 @@ fn the_truth_log_gets_a_first_line_and_a_last_one_at_sigterm() {
         .unwrap();
     assert!(status.success());
     let exit = child.wait().unwrap();
-    assert!(exit.success(), "SIGTERM ends it cleanly: {exit:?}");
+    assert_eq!(
+        exit.code(),
+        Some(130),
+        "SIGTERM ends it cleanly, as an interrupt: {exit:?}"
+    );
     let text = std::fs::read_to_string(&path).unwrap();
     let lines: Vec<serde_json::Value> = text
         .lines()

@@ -16,28 +16,35 @@ use crate::record::{Recorder, Recording};
 use crate::sim::{SimConfig, SimTruth};
 use crate::transport::{self, AnyIo, SerialIo};
 
+/// The environment variable naming the crane's port when `--port` is not given.
+pub const PORT_ENV: &str = "CRANE_PORT";
+
 /// Device selection, shared by `plan`, `status`, `monitor` and `stop`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DeviceArgs {
     /// Serial device of a real crane, e.g. /dev/ttyACM0 (or a `hil-sim --pty` device).
-    #[arg(long, value_name = "PATH")]
+    /// Default: $CRANE_PORT, else the one UNO R4 plugged in (asked on a terminal when several).
+    #[arg(short, long, value_name = "PATH")]
     pub port: Option<String>,
-    /// Use the built-in simulator, in-process (needed when no --port is given).
+    /// Use the built-in simulator, in-process (instead of a crane).
     #[arg(long, conflicts_with = "port")]
     pub sim: bool,
-    /// Simulator: the trunk's initial state [default: F&P].
+    /// Simulator: the trunk's initial state, quoted: 'F&P', 'F&F', 'F&D', 'D&P', 'D&F' or
+    /// 'D&D' [default: F&P].
     #[arg(long, value_name = "STATE")]
     pub sim_initial: Option<String>,
-    /// Simulator: pace virtual time at X times wall time, 0.1–1000 [default: as fast as
-    /// the CPU allows; `monitor`: 1].
-    #[arg(long, value_name = "X")]
+    /// Simulator: pace virtual time at X times wall time [range: 0.1–1000] [default: as fast
+    /// as the CPU allows; `monitor`: 1].
+    #[arg(long, value_name = "X", value_parser = crate::num::number_in(0.1, 1000.0))]
     pub sim_speed: Option<f64>,
     /// Simulator: inject a fault (repeatable): valve-stuck-closed, valve-stuck-open, leak,
     /// servo-stall, tendon-break, sensor-dropout, link-drop, line-noise.
     #[arg(long = "sim-fault", value_name = "NAME")]
     pub sim_faults: Vec<String>,
-    /// Simulator: random seed (same seed, same run).
-    #[arg(long, value_name = "N")]
+    /// Simulator: random seed, any integer (negative ones count modulo 2^64; same seed, same
+    /// run) [default: 1].
+    #[arg(long, value_name = "N", allow_negative_numbers = true,
+          value_parser = hil_sim::cli::parse_seed)]
     pub seed: Option<u64>,
 }
 
@@ -50,17 +57,29 @@ pub enum DeviceConfig {
     Sim(SimConfig),
 }
 
-/// Parses a trunk state argument; the error lists the six valid states.
+/// Parses a trunk state argument; the error lists the six valid states, and when the value
+/// looks like a state cut at its `&` by the shell, says to quote it.
 pub fn parse_state(what: &str, value: &str) -> Result<TrunkState, Failure> {
-    TrunkState::from_str(value)
-        .map_err(|e| Failure::usage(format!("invalid {what} '{value}': {e}")))
+    TrunkState::from_str(value).map_err(|e| {
+        Failure::usage(format!(
+            "invalid {what} '{value}': {e}{}",
+            hil_sim::cli::ampersand_hint(value)
+        ))
+    })
 }
 
 impl DeviceArgs {
     /// Validates the selection. `default_speed`: the simulator's pacing when none is given
     /// (`None`: as fast as possible).
     pub fn validate(&self, default_speed: Option<f64>) -> Result<DeviceConfig, Failure> {
-        if let Some(path) = &self.port {
+        let from_env = if self.sim {
+            None
+        } else {
+            std::env::var(PORT_ENV)
+                .ok()
+                .filter(|p| !p.trim().is_empty())
+        };
+        if let Some(path) = self.port.as_ref().or(from_env.as_ref()) {
             let sim_only = [
                 (self.sim_initial.is_some(), "--sim-initial"),
                 (self.sim_speed.is_some(), "--sim-speed"),
@@ -87,7 +106,7 @@ impl DeviceArgs {
         if let Some(speed) = speed {
             if !(speed.is_finite() && (0.1..=1000.0).contains(&speed)) {
                 return Err(Failure::usage(format!(
-                    "invalid --sim-speed {speed}: it must be between 0.1 and 1000"
+                    "invalid --sim-speed {speed}: expected a number from 0.1 to 1000"
                 )));
             }
         }
@@ -96,10 +115,7 @@ impl DeviceArgs {
             faults.push(crate::sim::parse_fault(name).map_err(Failure::usage)?);
         }
         if !self.sim {
-            return Err(Failure::usage(
-                "this command acts on a crane: give --port PATH (e.g. /dev/ttyACM0; \
-                 `host-tool ports` lists them) or --sim for the built-in simulator",
-            ));
+            return crate::cmd::ports::detect().map(DeviceConfig::Port);
         }
         Ok(DeviceConfig::Sim(SimConfig {
             initial,
@@ -131,6 +147,13 @@ impl Connection {
     /// lost link the simulator first runs on for the device's link timeout (and a margin), so
     /// the truth shows what the crane did about the silent host, as a real one would.
     pub fn close(mut self) -> Option<SimTruth> {
+        let st = self.session.host.session().stats();
+        crate::debug!(
+            "link: {} requests, {} retried, {} corrupt frames dropped",
+            st.requests,
+            st.retries,
+            st.frames_dropped
+        );
         if let AnyIo::Sim(io) = &mut self.session.io.inner {
             if self.session.host.session().is_closed() {
                 io.sim
@@ -206,8 +229,19 @@ impl DeviceConfig {
             Host::new(Timing::standard(), seq),
             Recorder::new(io, recording),
         );
+        let started = std::time::Instant::now();
         match session.connect() {
-            Ok(info) => Ok(Connection { session, info }),
+            Ok(info) => {
+                crate::debug!(
+                    "handshake with {name}: {} ms wall time; protocol {}, schema {:#010x}, \
+                     session {}",
+                    started.elapsed().as_millis(),
+                    info.protocol_version,
+                    info.schema_id,
+                    info.session
+                );
+                Ok(Connection { session, info })
+            }
             Err(source) => {
                 let conn_truth = match &session.io.inner {
                     AnyIo::Sim(io) => Some(io.sim.ground_truth().into()),

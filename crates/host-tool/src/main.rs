@@ -1,19 +1,22 @@
 //! `host-tool`: the command line of the Yoshimura crane.
 //!
 //! Arguments are parsed by clap, validated into a config once, then the command runs.
-//! Exit codes: 0 success, 1 runtime failure (device, link, plan), 2 usage error.
+//! Exit codes: 0 success, 1 runtime failure (device, link, plan), 2 usage error, 130
+//! interrupted (SIGINT, SIGTERM, SIGHUP; the crane made safe first).
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
-/// A line on stderr. A closed stderr (the terminal went away) is no reason to die mid-plan:
-/// the run goes on to its safe end.
+/// A note on stderr, left out with `-q`. A closed stderr (the terminal went away) is no reason
+/// to die mid-plan: the run goes on to its safe end.
 #[macro_export]
 macro_rules! say {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($t)*);
+        if $crate::cli::notes() {
+            let _ = writeln!(std::io::stderr(), $($t)*);
+        }
     }};
 }
 
@@ -22,32 +25,49 @@ macro_rules! say {
 macro_rules! say_raw {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        let _ = write!(std::io::stderr(), $($t)*);
+        if $crate::cli::notes() {
+            let _ = write!(std::io::stderr(), $($t)*);
+        }
     }};
 }
 
-/// A line on stdout; a closed stdout (`| head`) ends nothing abruptly.
+/// Debug detail on stderr, only with `-v` (frames, retries, timings).
 #[macro_export]
-macro_rules! out {
+macro_rules! debug {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($t)*);
+        if $crate::cli::debug() {
+            let _ = writeln!(std::io::stderr(), $($t)*);
+        }
     }};
+}
+
+/// A line on stdout; a closed stdout (`| head`) ends nothing abruptly (it is noted, see
+/// `cli::stdout_closed`).
+#[macro_export]
+macro_rules! out {
+    () => {
+        $crate::cli::write_stdout(format_args!("\n"))
+    };
+    ($($t:tt)*) => {
+        $crate::cli::write_stdout(format_args!("{}\n", format_args!($($t)*)))
+    };
 }
 
 /// Text on stdout without a newline (as [`out!`]).
 #[macro_export]
 macro_rules! out_raw {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = write!(std::io::stdout(), $($t)*);
-    }};
+    ($($t:tt)*) => {
+        $crate::cli::write_stdout(format_args!($($t)*))
+    };
 }
 
+mod cli;
 mod client;
 mod cmd;
 mod device;
 mod failure;
+mod num;
 mod progress;
 mod record;
 mod sim;
@@ -55,11 +75,34 @@ mod transport;
 
 /// Design, plan and command Yoshimura-origami cranes (or their simulator).
 #[derive(Debug, Parser)]
-#[command(name = "host-tool", version, about, propagate_version = true)]
+#[command(
+    name = "host-tool",
+    version,
+    about,
+    propagate_version = true,
+    after_help = EXAMPLES
+)]
 struct Cli {
+    /// Say more: protocol frames, retries and timings on stderr.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count, conflicts_with = "quiet")]
+    verbose: u8,
+    /// Say nothing but errors (and the output asked for).
+    #[arg(short, long, global = true)]
+    quiet: bool,
     #[command(subcommand)]
     command: Command,
 }
+
+/// Examples for `--help`: quoted where a shell would split them (`&` backgrounds a command).
+const EXAMPLES: &str = "Examples:
+  host-tool plan --target 'D&F' --sim           # the main job, on the built-in simulator
+  host-tool plan --target 'D&F' -p /dev/ttyACM0 # a real crane
+  host-tool status -j                           # one JSON object (CRANE_PORT or the only UNO R4)
+  host-tool ik --n 6 --beta 35 --modules 8 --target helix:radius=1,pitch=4 --svg fit.svg
+  host-tool completions bash > ~/.local/share/bash-completion/completions/host-tool
+
+Exit codes: 0 success, 1 runtime failure (device, link, plan), 2 usage error, 130 interrupted.
+State names hold '&': quote them ('D&F').";
 
 #[derive(Debug, Subcommand)]
 enum Command {
@@ -94,10 +137,65 @@ enum Command {
     /// Own the link to a crane (or the simulator), record it, and serve other terminals'
     /// status/stop/declare/monitor/plan over a local socket.
     Serve(cmd::serve::Args),
+    /// Print a shell completion script: `host-tool completions bash|zsh|fish`.
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the man page (roff): `host-tool man | man -l -`.
+    Man,
+}
+
+impl Command {
+    /// Whether the command was asked for JSON (`-j/--json`).
+    fn json(&self) -> bool {
+        match self {
+            Command::States(a) => a.json,
+            Command::Fk(a) => a.json,
+            Command::Ik(a) => a.json,
+            Command::Plan(a) => a.json,
+            Command::Status(a) | Command::Stop(a) => a.json,
+            Command::Monitor(a) => a.json,
+            Command::Declare(a) => a.json,
+            Command::Param(a) => a.json(),
+            Command::Identify(a) => a.json,
+            Command::Ports(a) => a.json,
+            _ => false,
+        }
+    }
+}
+
+/// Whether the raw arguments ask for JSON (for errors before the arguments parse).
+fn json_in_args() -> bool {
+    std::env::args_os()
+        .skip(1)
+        .take_while(|a| a != "--")
+        .any(|a| a == "--json" || a == "-j")
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let version: &'static str = Box::leak(cli::version().into_boxed_str());
+    let matches = Cli::command().version(version).try_get_matches();
+    let cli = match matches.and_then(|m| Cli::from_arg_matches(&m)) {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            if code == 2 && json_in_args() {
+                let text = e.to_string();
+                let first = text.lines().next().unwrap_or("");
+                cli::print_json(cli::error_json(
+                    first.strip_prefix("error: ").unwrap_or(first),
+                    2,
+                    None,
+                ));
+            }
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    cli::set_verbosity(cli.quiet, cli.verbose);
+    let json = cli.command.json();
     let result = match cli.command {
         Command::States(args) => cmd::states::run(args),
         Command::Fk(args) => cmd::fk::run(args),
@@ -114,9 +212,27 @@ fn main() -> ExitCode {
         Command::Ports(args) => cmd::ports::run(args),
         Command::Log(args) => cmd::log::run(args),
         Command::Serve(args) => cmd::serve::run(args),
+        Command::Completions { shell } => {
+            let mut out = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "host-tool", &mut out);
+            out_raw!("{}", String::from_utf8_lossy(&out));
+            Ok(())
+        }
+        Command::Man => {
+            let mut out = Vec::new();
+            match clap_mangen::Man::new(Cli::command().version(version)).render(&mut out) {
+                Ok(()) => {
+                    out_raw!("{}", String::from_utf8_lossy(&out));
+                    Ok(())
+                }
+                Err(e) => Err(failure::Failure::Runtime(anyhow::anyhow!(
+                    "rendering the man page: {e}"
+                ))),
+            }
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(failure) => failure.report(),
+        Err(failure) => failure.report(json),
     }
 }

@@ -68,7 +68,7 @@ impl Progress for Lines {
         if replan {
             crate::say!("new plan:");
         }
-        crate::say_raw!("{plan}");
+        crate::say_raw!("{}", crate::cli::wrap(&plan.to_string()));
     }
 
     fn step_started(&mut self, index: usize, _total: usize, plan: &Plan) {
@@ -86,7 +86,7 @@ impl Progress for Lines {
     }
 
     fn note(&mut self, message: &str) {
-        crate::say!("{message}");
+        crate::say!("{}", crate::cli::wrap(message));
     }
 }
 
@@ -108,7 +108,7 @@ impl Progress for Bars {
         if replan {
             crate::say!("new plan:");
         }
-        crate::say_raw!("{plan}");
+        crate::say_raw!("{}", crate::cli::wrap(&plan.to_string()));
     }
 
     fn step_started(&mut self, index: usize, _total: usize, plan: &Plan) {
@@ -117,7 +117,8 @@ impl Progress for Bars {
         }
         let expected_ms = (plan.steps()[index].edge.cost_s * 1000.0).max(1.0) as u64;
         let bar = ProgressBar::new(expected_ms);
-        let style = ProgressStyle::with_template("{prefix:.bold} [{bar:30.cyan/blue}] {msg}")
+        // `wide_bar` takes what the terminal's width leaves: the line never wraps.
+        let style = ProgressStyle::with_template("{prefix:.bold} [{wide_bar:.cyan/blue}] {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> ");
         bar.set_style(style);
@@ -157,7 +158,7 @@ impl Progress for Bars {
 
     fn note(&mut self, message: &str) {
         match &self.bar {
-            Some(bar) => bar.println(message),
+            Some(bar) => bar.println(crate::cli::wrap(message)),
             None => crate::say!("{message}"),
         }
     }

@@ -276,6 +276,7 @@ impl<I: Io> Driver<I> {
                         step: None,
                         fault: None,
                         reject: None,
+                        refusal: None,
                         message: format!("serial I/O failed: {e}"),
                     });
                 }

@@ -124,6 +124,9 @@ pub struct RunFailure {
     pub fault: Option<FaultCode>,
     /// The device's refusal, where it gave one.
     pub reject: Option<RejectReason>,
+    /// The field the device refused, with the value asked for and the limit, where it named
+    /// one.
+    pub refusal: Option<protocol::Refusal>,
     /// For people.
     pub message: String,
 }
@@ -135,6 +138,7 @@ impl RunFailure {
             step: None,
             fault: None,
             reject: None,
+            refusal: None,
             message: message.into(),
         }
     }
@@ -145,6 +149,10 @@ impl RunFailure {
     }
 
     fn from_session(context: &str, e: &SessionError) -> Self {
+        let refusal = match e {
+            SessionError::Rejected { refusal, .. } => *refusal,
+            _ => None,
+        };
         let (kind, reject) = match e {
             SessionError::Timeout { .. } | SessionError::Closed => (FailureKind::LinkLost, None),
             SessionError::Rejected { reason, .. } => (
@@ -169,6 +177,7 @@ impl RunFailure {
         };
         Self {
             reject,
+            refusal,
             ..Self::new(kind, message)
         }
     }
@@ -446,9 +455,19 @@ impl PlanRunner {
             return;
         }
         self.cancelled = true;
-        let step = self.current_step();
+        // Every step already done: nothing was cut short, so no step is named (nor reported
+        // failed) — the trunk reached its last step's state before the operator stopped.
+        let all_done = self
+            .following
+            .as_ref()
+            .is_some_and(|f| f.current >= f.plan.steps().len());
+        let step = if all_done { None } else { self.current_step() };
         let message = match step {
             Some(s) => format!("{s} aborted by the operator ({why})"),
+            None if all_done => format!(
+                "stopped by the operator after the last step was done ({why}); no step was cut \
+                 short"
+            ),
             None => format!("aborted by the operator ({why})"),
         };
         let mut failure = RunFailure::new(FailureKind::Aborted, message);
@@ -557,7 +576,10 @@ impl PlanRunner {
     }
 
     fn current_step(&self) -> Option<StepRef> {
-        let f = self.following.as_ref()?;
+        Self::step_of(self.following.as_ref()?)
+    }
+
+    fn step_of(f: &Following) -> Option<StepRef> {
         let steps = f.plan.steps();
         let i = f.current.min(steps.len().checked_sub(1)?);
         let e = &steps[i].edge;
@@ -730,8 +752,25 @@ impl PlanRunner {
                     )
                 }
                 Err(e) => {
+                    // A refusal that names a step: the failure is that step's.
+                    let step = match &e {
+                        SessionError::Rejected {
+                            refusal: Some(protocol::Refusal { step: Some(i), .. }),
+                            ..
+                        } => self.following.as_mut().and_then(|f| {
+                            f.current = usize::from(*i);
+                            Self::step_of(f)
+                        }),
+                        _ => None,
+                    };
                     self.following = None;
-                    self.finish(Some(RunFailure::from_session("uploading the plan", &e)))
+                    let context = match step {
+                        Some(s) => format!("uploading the plan: {s}"),
+                        None => "uploading the plan".to_string(),
+                    };
+                    let mut failure = RunFailure::from_session(&context, &e);
+                    failure.step = step;
+                    self.finish(Some(failure))
                 }
             },
             Wait::Start => match reply.accepted("StartPlan") {

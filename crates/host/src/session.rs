@@ -77,7 +77,14 @@ impl Reply {
     pub fn accepted(self, request: &'static str) -> Result<ResponseBody, SessionError> {
         match self.result {
             ResultCode::Ok | ResultCode::InProgress => Ok(self.body),
-            ResultCode::Rejected(reason) => Err(SessionError::Rejected { request, reason }),
+            ResultCode::Rejected(reason) => Err(SessionError::Rejected {
+                request,
+                reason,
+                refusal: match self.body {
+                    ResponseBody::Refused(r) => Some(r),
+                    _ => None,
+                },
+            }),
             ResultCode::Busy => Err(SessionError::Busy { request }),
         }
     }
@@ -114,12 +121,14 @@ pub enum SessionError {
     #[error("{}", text::version_mismatch(.0))]
     VersionMismatch(protocol::VersionMismatch),
     /// The device refused the request.
-    #[error("the device refused {request}: {}", text::reject(*.reason))]
+    #[error("the device refused {request}: {}", text::refusal(*.reason, .refusal.as_ref()))]
     Rejected {
         /// Which request.
         request: &'static str,
         /// Why.
         reason: RejectReason,
+        /// The field, the value asked for and the limit, when the device names them.
+        refusal: Option<protocol::Refusal>,
     },
     /// The device is busy (e.g. a plan runs).
     #[error("the device is busy and refused {request} (a plan is running?)")]
@@ -530,6 +539,7 @@ impl Session {
                 .push_back(SessionEvent::HandshakeFailed(SessionError::Rejected {
                     request: "Hello",
                     reason,
+                    refusal: None,
                 }));
             return;
         }

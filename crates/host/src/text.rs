@@ -2,7 +2,9 @@
 //! gets its words (the protocol crate carries no strings beyond each fault's short description).
 
 pub use planner::graph::{kind_name, manual_task_text as manual_task, PrimitiveText};
-use protocol::{Board, FaultCode, Mode, PlanPhase, RejectReason, RequestBody};
+use protocol::{
+    Board, FaultCode, Mode, ParamId, PlanPhase, Refusal, RefusedField, RejectReason, RequestBody,
+};
 
 /// The fault's display code, `E-04`.
 pub fn fault_code(fault: FaultCode) -> String {
@@ -72,6 +74,110 @@ pub const fn reject(reason: RejectReason) -> &'static str {
             "the trunk state is unconfirmed: identify or declare it before running steps"
         }
     }
+}
+
+/// A parameter's command-line name (kebab-case).
+pub const fn param_name(id: ParamId) -> &'static str {
+    match id {
+        ParamId::PressureLimitKpa => "pressure-limit-kpa",
+        ParamId::ServoMinDeg => "servo-min-deg",
+        ParamId::ServoMaxDeg => "servo-max-deg",
+        ParamId::ServoSlewDegPerS => "servo-slew-deg-per-s",
+        ParamId::TelemetryHz => "telemetry-hz",
+        ParamId::LinkTimeoutMs => "link-timeout-ms",
+    }
+}
+
+/// A parameter's unit, for people.
+pub const fn param_unit(id: ParamId) -> &'static str {
+    match id {
+        ParamId::PressureLimitKpa => "kPa",
+        ParamId::ServoMinDeg | ParamId::ServoMaxDeg => "deg",
+        ParamId::ServoSlewDegPerS => "deg/s",
+        ParamId::TelemetryHz => "Hz",
+        ParamId::LinkTimeoutMs => "ms",
+    }
+}
+
+/// The stable machine name of a refused field (for JSON).
+pub const fn refused_field_name(field: RefusedField) -> &'static str {
+    match field {
+        RefusedField::Pressure => "pressure",
+        RefusedField::TendonLength => "tendon-length",
+        RefusedField::ServoAngle => "servo-angle",
+        RefusedField::BendAngle => "bend-angle",
+        RefusedField::Duration => "duration",
+        RefusedField::Param(id) => param_name(id),
+        RefusedField::Steps => "steps",
+    }
+}
+
+/// A refusal in words: the reason, and when the device named it, the field, what the request
+/// needs, the limit and how to change it — "it needs 16 kPa, above the pressure limit of
+/// 10 kPa; raise the limit with `host-tool param set pressure-limit-kpa 16`" (the step is named
+/// by whoever knows the plan: [`crate::runner`]).
+pub fn refusal(reason: RejectReason, detail: Option<&Refusal>) -> String {
+    let Some(r) = detail else {
+        return reject(reason).to_string();
+    };
+    let (v, lim) = (r.value, r.limit);
+    let what = match r.field {
+        RefusedField::Pressure => format!(
+            "it needs {v} kPa, above the pressure limit of {lim} kPa; raise the limit with \
+             `host-tool param set pressure-limit-kpa {v}` (at most {}) if the trunk is rated \
+             for it",
+            protocol::HARD_MAX_PRESSURE_KPA
+        ),
+        RefusedField::TendonLength => format!(
+            "it needs a tendon length of {v} mm, beyond the tendons' travel of {lim} mm (a \
+             limit of the build, in the firmware's calibration)"
+        ),
+        RefusedField::ServoAngle => {
+            let name = if v < lim {
+                "servo-min-deg"
+            } else {
+                "servo-max-deg"
+            };
+            format!(
+                "it needs a servo angle of {v}°, beyond {name} = {lim}°; change it with \
+                 `host-tool param set {name} {v}` if the servo can reach it"
+            )
+        }
+        RefusedField::BendAngle => format!(
+            "it bends {v}°, more than the {lim}° that fit from its state (the tendons' travel \
+             and the stiffness of the state); bend less or from a more deployed state"
+        ),
+        RefusedField::Duration => {
+            format!("its time of {v} ms is outside 1 to {lim} ms; the planner's cost model sets it")
+        }
+        RefusedField::Param(id) => {
+            let (lo, hi) = id.range();
+            let unit = param_unit(id);
+            let name = param_name(id);
+            match id {
+                ParamId::ServoMinDeg if (lo..=hi).contains(&v) => format!(
+                    "{name} {v} {unit} would pass servo-max-deg = {lim} {unit}; raise \
+                     servo-max-deg first"
+                ),
+                ParamId::ServoMaxDeg if (lo..=hi).contains(&v) => format!(
+                    "{name} {v} {unit} would pass servo-min-deg = {lim} {unit}; lower \
+                     servo-min-deg first"
+                ),
+                _ => format!(
+                    "{name} {v} {unit} is outside its range {lo} to {hi} {unit}{}",
+                    if id.is_integer() {
+                        " (whole numbers)"
+                    } else {
+                        ""
+                    }
+                ),
+            }
+        }
+        RefusedField::Steps => format!(
+            "the plan is empty, does not chain on here, or has more than {lim} steps ({v} given)"
+        ),
+    };
+    format!("{}: {what}", reject(reason))
 }
 
 /// The stable machine name of a refusal (for JSON).

@@ -245,10 +245,20 @@ impl ParamId {
         }
     }
 
-    /// Whether `value` is finite and within [`ParamId::range`].
+    /// Whether the parameter takes whole numbers only (`link-timeout-ms`: a fraction would be
+    /// truncated by the device, so it is refused).
+    pub const fn is_integer(self) -> bool {
+        matches!(self, ParamId::LinkTimeoutMs)
+    }
+
+    /// Whether `value` is finite, within [`ParamId::range`] and, for an integer parameter,
+    /// whole.
     pub fn accepts(self, value: f32) -> bool {
         let (lo, hi) = self.range();
-        value.is_finite() && value >= lo && value <= hi
+        value.is_finite()
+            && value >= lo
+            && value <= hi
+            && (!self.is_integer() || value as u32 as f32 == value)
     }
 }
 
@@ -333,6 +343,45 @@ pub enum ResponseBody {
         /// Its value.
         value: f32,
     },
+    /// With a `Rejected` result: the field the refusal is about, what the request asks for and
+    /// the limit it passes.
+    Refused(Refusal),
+}
+
+/// What a refusal is about: the field, the value asked for and the limit it passes, both in
+/// the field's unit.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Schema)]
+pub struct Refusal {
+    /// The plan step (0-based) the refused value belongs to; `None` outside a plan.
+    pub step: Option<u8>,
+    /// The field.
+    pub field: RefusedField,
+    /// The value the request asks for.
+    pub value: f32,
+    /// The limit it passes (a maximum, or for [`RefusedField::Param`] below its range the
+    /// minimum).
+    pub limit: f32,
+}
+
+/// The field a [`Refusal`] names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Schema)]
+pub enum RefusedField {
+    /// A step's pressure (kPa) against the pressure limit ([`ParamId::PressureLimitKpa`]).
+    Pressure,
+    /// A tendon length (mm) against the tendons' travel.
+    TendonLength,
+    /// A servo angle (deg) a tendon length needs against the servo limits
+    /// ([`ParamId::ServoMinDeg`], [`ParamId::ServoMaxDeg`]).
+    ServoAngle,
+    /// A bend angle (deg) against the largest bend that fits from the step's state.
+    BendAngle,
+    /// A step's time limit or a hold (ms) against the longest accepted.
+    Duration,
+    /// A parameter's value against its range or the parameter it must not pass.
+    Param(ParamId),
+    /// The plan's number of steps against the most a plan holds (`value` 0: empty or not
+    /// chained).
+    Steps,
 }
 
 /// Who the device is.

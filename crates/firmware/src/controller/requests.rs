@@ -3,9 +3,9 @@
 use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
-    DeviceInfo, DeviceMessage, ParamId, Plan, PlanPhase, PlanStatus, Primitive, RejectReason,
-    Request, RequestBody, ResponseBody, ResultCode, Step, MAX_FRAME_LEN, PROTOCOL_VERSION,
-    SCHEMA_ID,
+    DeviceInfo, DeviceMessage, ParamId, Plan, PlanPhase, PlanStatus, Primitive, Refusal,
+    RefusedField, RejectReason, Request, RequestBody, ResponseBody, ResultCode, Step,
+    MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID,
 };
 
 use super::link::Fingerprint;
@@ -26,6 +26,28 @@ fn ok() -> Answer {
 fn reject(r: RejectReason) -> Answer {
     (ResultCode::Rejected(r), ResponseBody::None)
 }
+
+/// A refusal naming its field: `value` asked for, `limit` passed.
+fn refuse(
+    r: RejectReason,
+    step: Option<u8>,
+    field: RefusedField,
+    value: f32,
+    limit: f32,
+) -> Answer {
+    (
+        ResultCode::Rejected(r),
+        ResponseBody::Refused(Refusal {
+            step,
+            field,
+            value,
+            limit,
+        }),
+    )
+}
+
+/// A field's value and the limit it passes.
+type Passed = (RefusedField, f32, f32);
 
 impl Controller {
     pub(super) fn on_request(&mut self, req: &Request, fingerprint: u32) {
@@ -239,53 +261,112 @@ impl Controller {
         None
     }
 
-    /// Checks a plan's shape and values; `Err` is the rejection.
-    fn validate(&self, steps: &[Step]) -> Result<(), RejectReason> {
+    /// Checks a plan's shape and values; `Err` is the rejection (naming the step and the
+    /// field where a value is refused).
+    fn validate(&self, steps: &[Step]) -> Result<(), Answer> {
+        let shape = |i: usize| {
+            refuse(
+                RejectReason::InvalidPlan,
+                Some(i as u8),
+                RefusedField::Steps,
+                steps.len() as f32,
+                protocol::MAX_PLAN_STEPS as f32,
+            )
+        };
         if steps.is_empty() {
-            return Err(RejectReason::InvalidPlan);
+            return Err(shape(0));
         }
-        for w in steps.windows(2) {
+        for (i, w) in steps.windows(2).enumerate() {
             if w[0].to != w[1].from {
-                return Err(RejectReason::InvalidPlan);
+                return Err(shape(i + 1));
             }
         }
-        for s in steps {
+        for (i, s) in steps.iter().enumerate() {
             if s.primitives.is_empty() {
-                return Err(RejectReason::InvalidPlan);
+                return Err(shape(i));
             }
-            if s.timeout_ms == 0 || s.timeout_ms > MAX_STEP_TIMEOUT_MS {
-                return Err(RejectReason::OutOfRange);
-            }
-            for p in &s.primitives {
-                if !self.primitive_in_range(p, s.from) {
-                    return Err(RejectReason::OutOfRange);
-                }
+            let passed = if s.timeout_ms == 0 || s.timeout_ms > MAX_STEP_TIMEOUT_MS {
+                Err((
+                    RefusedField::Duration,
+                    s.timeout_ms as f32,
+                    MAX_STEP_TIMEOUT_MS as f32,
+                ))
+            } else {
+                s.primitives
+                    .iter()
+                    .try_for_each(|p| self.primitive_in_range(p, s.from))
+            };
+            if let Err((field, value, limit)) = passed {
+                return Err(refuse(
+                    RejectReason::OutOfRange,
+                    Some(i as u8),
+                    field,
+                    value,
+                    limit,
+                ));
             }
         }
         if !self.confirmed() {
-            return Err(RejectReason::Unconfirmed);
+            return Err(reject(RejectReason::Unconfirmed));
         }
         if steps[0].from != self.state() {
-            return Err(RejectReason::WrongState);
+            return Err(reject(RejectReason::WrongState));
         }
         Ok(())
     }
 
-    /// Whether `p`'s values fit, for a step that starts in `from`.
-    fn primitive_in_range(&self, p: &Primitive, from: TrunkState) -> bool {
-        let pressure_ok =
-            |kpa: f32| kpa.is_finite() && kpa >= 0.0 && kpa <= self.cfg.pressure_limit_kpa;
+    /// A tendon length (the same on all three) against the travel and the servo limits.
+    fn tendon_in_range(&self, length_mm: f32) -> Result<(), Passed> {
+        let max = self.cfg.max_tendon_mm;
+        if !(length_mm.is_finite() && length_mm >= 0.0 && length_mm <= max) {
+            return Err((RefusedField::TendonLength, length_mm, max));
+        }
+        if self.angles_for([length_mm; 3]).is_some() {
+            return Ok(());
+        }
+        let sc = &self.cfg.servo;
+        let deg = (0..3)
+            .map(|i| sc.slack_deg[i] + sc.pull_sign[i] * length_mm / sc.mm_per_deg())
+            .find(|a| !sc.allows(*a))
+            .unwrap_or(f32::NAN);
+        let limit = if deg < sc.min_deg {
+            sc.min_deg
+        } else {
+            sc.max_deg
+        };
+        Err((RefusedField::ServoAngle, deg, limit))
+    }
+
+    /// Whether `p`'s values fit, for a step that starts in `from`; `Err` names the field.
+    fn primitive_in_range(&self, p: &Primitive, from: TrunkState) -> Result<(), Passed> {
+        let limit = self.cfg.pressure_limit_kpa;
+        let pressure = |kpa: f32| {
+            if kpa.is_finite() && kpa >= 0.0 && kpa <= limit {
+                Ok(())
+            } else {
+                Err((RefusedField::Pressure, kpa, limit))
+            }
+        };
+        let duration = |ms: u32, zero_ok: bool| {
+            if (zero_ok || ms > 0) && ms <= MAX_STEP_TIMEOUT_MS {
+                Ok(())
+            } else {
+                Err((
+                    RefusedField::Duration,
+                    ms as f32,
+                    MAX_STEP_TIMEOUT_MS as f32,
+                ))
+            }
+        };
         match *p {
-            Primitive::Inflate { pressure_kpa, .. } => pressure_ok(pressure_kpa),
-            Primitive::Vent { pressure_kpa } => pressure_ok(pressure_kpa),
+            Primitive::Inflate { pressure_kpa, .. } => pressure(pressure_kpa),
+            Primitive::Vent { pressure_kpa } => pressure(pressure_kpa),
             Primitive::TendonPull { length_mm, .. } | Primitive::TendonRelease { length_mm } => {
-                self.angles_for([length_mm; 3]).is_some()
+                self.tendon_in_range(length_mm)
             }
-            Primitive::Hold { duration_ms } => duration_ms <= MAX_STEP_TIMEOUT_MS,
-            Primitive::WaitSnap { timeout_ms } => {
-                timeout_ms > 0 && timeout_ms <= MAX_STEP_TIMEOUT_MS
-            }
-            Primitive::Manual(_) | Primitive::Gripper { .. } => true,
+            Primitive::Hold { duration_ms } => duration(duration_ms, true),
+            Primitive::WaitSnap { timeout_ms } => duration(timeout_ms, false),
+            Primitive::Manual(_) | Primitive::Gripper { .. } => Ok(()),
             Primitive::Bend {
                 direction_deg,
                 angle_deg,
@@ -297,12 +378,18 @@ impl Controller {
                 // r_t·θ, whatever the direction.
                 let take_up_mm = self.take_up_for(from);
                 let worst_mm = take_up_mm + self.cfg.tendon_radius_mm * angle_deg.to_radians();
-                direction_deg.is_finite()
+                let stiff =
+                    stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
+                        .map_or(180.0, f32::to_degrees)
+                        .min(180.0);
+                if !(direction_deg.is_finite()
                     && angle_deg.is_finite()
-                    && (0.0..=180.0).contains(&angle_deg)
-                    && !stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
-                        .is_some_and(|limit_rad| angle_deg.to_radians() > limit_rad)
-                    && self.angles_for([worst_mm; 3]).is_some()
+                    && angle_deg >= 0.0
+                    && angle_deg <= stiff)
+                {
+                    return Err((RefusedField::BendAngle, angle_deg, stiff));
+                }
+                self.tendon_in_range(worst_mm)
             }
         }
     }
@@ -315,7 +402,7 @@ impl Controller {
             return reject(RejectReason::InvalidPlan);
         }
         if let Err(r) = self.validate(&plan.steps) {
-            return reject(r);
+            return r;
         }
         self.plan_status = Some(PlanStatus {
             plan_id: plan.plan_id,
@@ -336,7 +423,7 @@ impl Controller {
         };
         // The state may have changed since the upload (a button step, a declared state).
         if let Err(r) = self.validate(&plan.steps) {
-            return reject(r);
+            return r;
         }
         let plan = plan.clone();
         self.start_exec(plan, Origin::Host);
@@ -369,7 +456,7 @@ impl Controller {
             return b;
         }
         if let Err(r) = self.validate(core::slice::from_ref(step)) {
-            return reject(r);
+            return r;
         }
         let mut steps = Vec::new();
         let _ = steps.push(step.clone());
@@ -389,8 +476,24 @@ impl Controller {
     }
 
     fn set_param(&mut self, id: ParamId, value: f32) -> Answer {
+        let passes = |limit: f32| {
+            refuse(
+                RejectReason::OutOfRange,
+                None,
+                RefusedField::Param(id),
+                value,
+                limit,
+            )
+        };
         if !id.accepts(value) {
-            return reject(RejectReason::OutOfRange);
+            let (lo, hi) = id.range();
+            return passes(if value < lo {
+                lo
+            } else if value > hi || !value.is_finite() {
+                hi
+            } else {
+                value as u32 as f32
+            });
         }
         match id {
             ParamId::PressureLimitKpa => {
@@ -399,13 +502,13 @@ impl Controller {
             }
             ParamId::ServoMinDeg => {
                 if value > self.cfg.servo.max_deg {
-                    return reject(RejectReason::OutOfRange);
+                    return passes(self.cfg.servo.max_deg);
                 }
                 self.cfg.servo.min_deg = value;
             }
             ParamId::ServoMaxDeg => {
                 if value < self.cfg.servo.min_deg {
-                    return reject(RejectReason::OutOfRange);
+                    return passes(self.cfg.servo.min_deg);
                 }
                 self.cfg.servo.max_deg = value;
             }

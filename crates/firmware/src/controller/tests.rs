@@ -934,9 +934,21 @@ fn plan_validation_rejects_bad_plans() {
     // Steps that do not chain.
     let mut p = Rig::plan(2, &[FP, FF]);
     p.steps.push(Rig::nominal(DF, DD)).unwrap();
+    let refused = |step, field, value, limit| {
+        ResponseBody::Refused(protocol::Refusal {
+            step,
+            field,
+            value,
+            limit,
+        })
+    };
+    // The refusal names the step that does not chain on.
     assert_eq!(
         r.request(RequestBody::UploadPlan(p)),
-        reject(RejectReason::InvalidPlan)
+        (
+            ResultCode::Rejected(RejectReason::InvalidPlan),
+            refused(Some(1), protocol::RefusedField::Steps, 2.0, 8.0)
+        )
     );
     // Id 0, empty.
     assert_eq!(
@@ -948,26 +960,60 @@ fn plan_validation_rejects_bad_plans() {
         steps: heapless::Vec::new(),
     };
     assert_eq!(
-        r.request(RequestBody::UploadPlan(empty)),
-        reject(RejectReason::InvalidPlan)
+        r.request(RequestBody::UploadPlan(empty)).0,
+        ResultCode::Rejected(RejectReason::InvalidPlan)
     );
     // Not from the current state.
     assert_eq!(
         r.request(RequestBody::UploadPlan(Rig::plan(5, &[DD, FD]))),
         reject(RejectReason::WrongState)
     );
-    // Values out of range: above the cap, too long a pull, NaN, zero timeout.
+    // Values out of range: above the cap, too long a pull, NaN, zero timeout. Each refusal
+    // names the field, the value asked for and the limit.
+    use protocol::RefusedField as F;
+    let cap = r.cfg.pressure_limit_kpa;
+    for (prim, field, value, limit) in [
+        (
+            Primitive::Inflate {
+                pressure_kpa: 45.0,
+                snaps: 1,
+            },
+            F::Pressure,
+            45.0,
+            cap,
+        ),
+        (
+            Primitive::TendonPull {
+                length_mm: 500.0,
+                snaps: 1,
+            },
+            F::TendonLength,
+            500.0,
+            r.cfg.max_tendon_mm,
+        ),
+        (
+            Primitive::Bend {
+                direction_deg: 0.0,
+                angle_deg: 200.0,
+            },
+            F::BendAngle,
+            200.0,
+            180.0,
+        ),
+    ] {
+        let s = step(StepKind::Pneumatic, FP, FF, &[prim], 1_000);
+        assert_eq!(
+            r.request(RequestBody::RunStep(s)),
+            (
+                ResultCode::Rejected(RejectReason::OutOfRange),
+                refused(Some(0), field, value, limit)
+            ),
+            "{prim:?}"
+        );
+    }
     for prim in [
         Primitive::Inflate {
-            pressure_kpa: 45.0,
-            snaps: 1,
-        },
-        Primitive::Inflate {
             pressure_kpa: f32::NAN,
-            snaps: 1,
-        },
-        Primitive::TendonPull {
-            length_mm: 500.0,
             snaps: 1,
         },
         Primitive::Bend {
@@ -977,8 +1023,8 @@ fn plan_validation_rejects_bad_plans() {
     ] {
         let s = step(StepKind::Pneumatic, FP, FF, &[prim], 1_000);
         assert_eq!(
-            r.request(RequestBody::RunStep(s)),
-            reject(RejectReason::OutOfRange),
+            r.request(RequestBody::RunStep(s)).0,
+            ResultCode::Rejected(RejectReason::OutOfRange),
             "{prim:?}"
         );
     }
@@ -991,7 +1037,10 @@ fn plan_validation_rejects_bad_plans() {
     );
     assert_eq!(
         r.request(RequestBody::RunStep(s)),
-        reject(RejectReason::OutOfRange)
+        (
+            ResultCode::Rejected(RejectReason::OutOfRange),
+            refused(Some(0), F::Duration, 0.0, 3_600_000.0)
+        )
     );
     // Unknown plan id.
     assert_eq!(
@@ -1203,18 +1252,29 @@ fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
             steps: heapless::Vec::from_slice(steps).unwrap(),
         }))
     };
-    let reject = |x| (ResultCode::Rejected(x), ResponseBody::None);
+    let reject = |_| ResultCode::Rejected(RejectReason::OutOfRange);
     let mut r = Rig::connected(FF);
     let limit_deg = (r.cfg.max_tendon_mm - r.ctl.take_up_for(FF)) / r.cfg.tendon_radius_mm;
     assert!((limit_deg.to_degrees() - 78.1).abs() < 0.1, "{limit_deg}");
     // 90° (94 mm of pull alone: the old check, without the take-up, let it through).
+    let (code, body) = upload(&mut r, 1, &[bend(FF, 90.0)]);
+    assert_eq!(code, reject(()));
+    // The tendon the bend would need passes the travel: named with its length and the limit.
+    let ResponseBody::Refused(why) = body else {
+        panic!("{body:?}")
+    };
     assert_eq!(
-        upload(&mut r, 1, &[bend(FF, 90.0)]),
-        reject(RejectReason::OutOfRange)
+        (why.step, why.field, why.limit),
+        (
+            Some(0),
+            protocol::RefusedField::TendonLength,
+            r.cfg.max_tendon_mm
+        )
     );
+    assert!(why.value > r.cfg.max_tendon_mm, "{why:?}");
     assert_eq!(
-        r.request(RequestBody::RunStep(bend(FF, 90.0))),
-        reject(RejectReason::OutOfRange)
+        r.request(RequestBody::RunStep(bend(FF, 90.0))).0,
+        reject(())
     );
     // The same bend in D&D (no slack to take up) passes.
     let mut dd = Rig::connected(DD);
@@ -1224,8 +1284,8 @@ fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
     let mut fp = Rig::connected(FP);
     let to_ff = Rig::nominal(FP, FF);
     assert_eq!(
-        upload(&mut fp, 2, &[to_ff.clone(), bend(FF, 90.0)]),
-        reject(RejectReason::OutOfRange)
+        upload(&mut fp, 2, &[to_ff.clone(), bend(FF, 90.0)]).0,
+        reject(())
     );
     assert_eq!(
         upload(&mut fp, 3, &[to_ff, bend(FF, 20.0)]).0,
@@ -1233,10 +1293,16 @@ fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
     );
     // Stiff D&P bends at most 8°: refused above it at upload too.
     let mut dp = Rig::connected(DP);
+    let (code, body) = upload(&mut dp, 4, &[bend(DP, 10.0)]);
+    assert_eq!(code, reject(()));
+    let ResponseBody::Refused(why) = body else {
+        panic!("{body:?}")
+    };
     assert_eq!(
-        upload(&mut dp, 4, &[bend(DP, 10.0)]),
-        reject(RejectReason::OutOfRange)
+        (why.field, why.value),
+        (protocol::RefusedField::BendAngle, 10.0)
     );
+    assert!((8.0..10.0).contains(&why.limit), "{why:?}");
     assert_eq!(upload(&mut dp, 5, &[bend(DP, 8.0)]).0, ResultCode::Ok);
     // Just inside the limit, the accepted bend runs to its end: no ServoLimit.
     r.heartbeat_every_ms = 250;

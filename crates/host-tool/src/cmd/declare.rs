@@ -18,7 +18,7 @@ pub struct Args {
     #[command(flatten)]
     pub device: DeviceArgs,
     /// Print one JSON object on stdout.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
 }
 
@@ -32,10 +32,18 @@ pub fn run(args: Args) -> Result<(), Failure> {
         truth,
         ..
     } = snapshot(&args.device, Some(RequestBody::DeclareState(declared)))?;
+    let kept = (status.state != declared).then(|| {
+        format!(
+            "the device accepted the declaration of {declared} but reports {}",
+            status.state
+        )
+    });
     if args.json {
         let mut v = status_json(&status, &info, truth.as_ref());
         v["declared"] = json!(declared.name());
-        crate::out!("{v}");
+        v["ok"] = json!(kept.is_none());
+        v["error"] = json!(kept);
+        crate::cli::print_json(v);
     } else {
         crate::out!(
             "declared {declared}: the device now reports {}{} (mode {})",
@@ -50,12 +58,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     // The status read after the request is the truth; a device that kept another state did
     // not do what was asked.
-    if status.state == declared {
-        Ok(())
-    } else {
-        Err(Failure::Runtime(anyhow::anyhow!(
-            "the device accepted the declaration of {declared} but reports {}",
-            status.state
-        )))
+    match kept {
+        None => Ok(()),
+        Some(e) => Err(Failure::Runtime(anyhow::anyhow!("{e}"))),
     }
 }

@@ -26,7 +26,7 @@ pub struct Args {
     pub all_states: bool,
     /// Print JSON (`{"tips": [[x, y, z], …], "infeasible": [{"module", "state", "strain"}, …]}`)
     /// instead of a table.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
 }
 
@@ -116,7 +116,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             .map(|p| {
                 let xyz: Vec<String> = [p.x, p.y, p.z]
                     .iter()
-                    .map(|v| Value::from(*v).to_string())
+                    .map(|v| crate::num::json(*v).to_string())
                     .collect();
                 format!("[{}]", xyz.join(","))
             })
@@ -129,18 +129,15 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     ordered_object(&[
                         ("module", (i + 1).to_string()),
                         ("state", Value::from(m.name.as_str()).to_string()),
-                        ("strain", Value::from(strain).to_string()),
+                        ("strain", crate::num::json(strain).to_string()),
                     ])
                 })
             })
             .collect();
-        crate::out!(
-            "{}",
-            ordered_object(&[
-                ("tips", format!("[{}]", list.join(","))),
-                ("infeasible", format!("[{}]", infeasible.join(","))),
-            ])
-        );
+        crate::cli::print_json_text(&ordered_object(&[
+            ("tips", format!("[{}]", list.join(","))),
+            ("infeasible", format!("[{}]", infeasible.join(","))),
+        ]));
         return Ok(());
     }
     crate::out!(
@@ -161,14 +158,15 @@ pub fn run(args: Args) -> Result<(), Failure> {
             || "feasible".to_string(),
             |strain| format!("INFEASIBLE (strain {strain:.3})"),
         );
+        let w = |v: f64| crate::num::fixed_w(v, 5, 10);
         crate::out!(
-            "  {:>3}  {:<12} {:>8.3} {:>10.5} {:>10.5} {:>10.5}  {mark}",
+            "  {:>3}  {:<12} {:>8.3} {} {} {}  {mark}",
             k + 1,
             m.name,
             m.design.beta_deg(),
-            p.x,
-            p.y,
-            p.z
+            w(p.x),
+            w(p.y),
+            w(p.z)
         );
     }
     let used = stack.iter().filter(|m| m.infeasible.is_some()).count();

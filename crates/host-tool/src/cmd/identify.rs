@@ -16,7 +16,7 @@ pub struct Args {
     #[command(flatten)]
     pub device: DeviceArgs,
     /// Print one JSON object on stdout.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
 }
 
@@ -44,18 +44,15 @@ pub fn run(args: Args) -> Result<(), Failure> {
         .map(|s| s.candidates.iter().map(|c| c.name()).collect())
         .unwrap_or_default();
     if args.json {
-        crate::out!(
-            "{}",
-            json!({
-                "ok": out.ok(),
-                "state": out.final_state.map(|s| s.name()),
-                "state_confirmed": out.state_confirmed,
-                "identified": out.identified,
-                "candidates": candidates,
-                "error": out.error(),
-                "sim": truth.as_ref().map(crate::sim::SimTruth::to_json),
-            })
-        );
+        crate::cli::print_json(json!({
+            "ok": out.ok(),
+            "state": out.final_state.map(|s| s.name()),
+            "state_confirmed": out.state_confirmed,
+            "identified": out.identified,
+            "candidates": candidates,
+            "error": out.error(),
+            "sim": truth.as_ref().map(crate::sim::SimTruth::to_json),
+        }));
     } else if out.ok() {
         crate::out!(
             "the trunk is {} (confirmed{})",

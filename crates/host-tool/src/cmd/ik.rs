@@ -38,11 +38,11 @@ pub struct Args {
     /// bottom module first (the crane trunk is `35,31.72`).
     #[arg(long, allow_hyphen_values = true)]
     pub beta: String,
-    /// Number of modules m (≥ 1).
+    /// Number of modules m (an integer in [1, 10000]).
     #[arg(long, allow_hyphen_values = true)]
     pub modules: String,
     /// Target polyline as CSV: one `x,y,z` row per point in units of l, optional header row,
-    /// blank lines and `#` comments ignored.
+    /// blank lines and `#` comments ignored; `-` reads stdin.
     #[arg(long, value_name = "FILE")]
     pub target_file: Option<PathBuf>,
     /// Built-in target curve: helix, sine or arc with named parameters, e.g.
@@ -87,9 +87,10 @@ pub struct Args {
     pub gap: Option<String>,
     /// Print JSON: `{"states", "rms", "optimal", "lower_bound_rms", "gap", "stop",
     /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible"}`.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
-    /// Write an SVG of the target and the fitted boom (three orthographic views) to this file.
+    /// Write an SVG of the target and the fitted boom (three orthographic views) to this file
+    /// (`-`: stdout); checked before the solve.
     #[arg(long, value_name = "OUT")]
     pub svg: Option<PathBuf>,
     /// Write a 3D model of the fitted boom as binary glTF 2.0 (l = 75 mm; strain in red).
@@ -142,11 +143,14 @@ const MAX_TARGET_FILE_BYTES: u64 = 64 << 20;
 
 /// Reads a text file of at most `limit` bytes.
 fn read_bounded(path: &std::path::Path, limit: u64) -> std::io::Result<String> {
+    read_bounded_from(std::fs::File::open(path)?, limit)
+}
+
+/// Reads at most `limit` bytes of text from `r`.
+fn read_bounded_from(r: impl std::io::Read, limit: u64) -> std::io::Result<String> {
     use std::io::Read;
     let mut text = String::new();
-    std::fs::File::open(path)?
-        .take(limit + 1)
-        .read_to_string(&mut text)?;
+    r.take(limit + 1).read_to_string(&mut text)?;
     if text.len() as u64 > limit {
         return Err(std::io::Error::other(format!(
             "larger than {} MiB; a target curve needs far fewer points",
@@ -193,12 +197,7 @@ impl Args {
     /// Parses and validates everything, reading the target file.
     pub fn validate(self) -> Result<Config, Failure> {
         let n = parse_n(&self.n)?;
-        let m = parse_count("--modules", &self.modules, 0, MAX_MODULES)?;
-        if m == 0 {
-            return Err(Failure::usage(
-                "--modules must be at least 1 (got m = 0): a boom needs at least one module",
-            ));
-        }
+        let m = parse_count("--modules", &self.modules, 1, MAX_MODULES)?;
         let designs = designs_from(n, &self.beta, m, &format!("--modules is {m}"))?;
         let (target, source) = match (&self.target_file, &self.target) {
             (Some(_), Some(_)) => {
@@ -213,7 +212,12 @@ impl Args {
             )))
             }
             (Some(path), None) => {
-                let text = read_bounded(path, MAX_TARGET_FILE_BYTES).map_err(|e| {
+                let text = if super::output::is_stdout(path) {
+                    read_bounded_from(std::io::stdin().lock(), MAX_TARGET_FILE_BYTES)
+                } else {
+                    read_bounded(path, MAX_TARGET_FILE_BYTES)
+                }
+                .map_err(|e| {
                     Failure::usage(format!("cannot read --target-file {}: {e}", path.display()))
                 })?;
                 let t = ik::target::parse_csv(&text).map_err(|e| {
@@ -367,6 +371,17 @@ fn spawn_progress(
 /// Runs `host-tool ik`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let cfg = args.validate()?;
+    if cfg.json && cfg.svg.as_deref().is_some_and(super::output::is_stdout) {
+        return Err(Failure::usage(
+            "--svg - and --json both write to stdout; give --svg a file name",
+        ));
+    }
+    // Every output is opened before the solve: a bad path fails now, not after the work.
+    let svg_out = cfg
+        .svg
+        .as_deref()
+        .map(|p| super::output::open_one("--svg", p))
+        .transpose()?;
     let gltf = super::model::open_ik_gltf(cfg.gltf.as_deref())?;
     let catalogue = Catalogue::from_designs(&cfg.designs, !cfg.all_states)
         .map_err(|e| Failure::usage(e.to_string()))?;
@@ -402,9 +417,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
         ));
     }
     match solution.stop {
-        ik::Stop::Interrupted => {
-            crate::say!("interrupted: showing the best boom found so far (not proven optimal)")
-        }
+        // Said once, by the interrupted exit (130) after the output.
+        ik::Stop::Interrupted => {}
         ik::Stop::TimeLimit => {
             crate::say!(
                 "time limit reached: showing the best boom found so far (not proven optimal)"
@@ -413,7 +427,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
         ik::Stop::Gap | ik::Stop::Finished => {}
     }
     super::model::write_ik_gltf(gltf, &cfg.designs, &solution.names)?;
-    if let Some(path) = &cfg.svg {
+    let svg_to_stdout = cfg.svg.as_deref().is_some_and(super::output::is_stdout);
+    if let Some(out) = svg_out {
         let caption = caption(&cfg, &solution);
         let text = svg::render(
             &problem,
@@ -422,17 +437,17 @@ pub fn run(args: Args) -> Result<(), Failure> {
             &caption,
             &infeasible_note(&problem, &solution),
         );
-        std::fs::write(path, text).map_err(|e| {
-            Failure::Runtime(anyhow::anyhow!(
-                "cannot write --svg {}: {e}",
-                path.display()
-            ))
-        })?;
+        out.write(|w| w.write_all(text.as_bytes()))?;
     }
     if cfg.json {
-        crate::out!("{}", solution_json(&cfg, &problem, &solution));
-    } else {
+        crate::cli::print_json_text(&solution_json(&cfg, &problem, &solution));
+    } else if !svg_to_stdout {
         print_table(&cfg, &problem, &solution);
+    }
+    if solution.stop == ik::Stop::Interrupted {
+        return Err(Failure::Interrupted(
+            "the solve was stopped by Ctrl-C; the best boom found so far is shown".into(),
+        ));
     }
     Ok(())
 }
@@ -467,7 +482,7 @@ fn infeasible_note(problem: &Problem, s: &ik::Solution) -> String {
 }
 
 fn opt_value(x: Option<f64>) -> String {
-    x.map_or_else(|| "null".to_string(), |v| Value::from(v).to_string())
+    x.map_or_else(|| "null".to_string(), |v| crate::num::json(v).to_string())
 }
 
 fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
@@ -478,18 +493,24 @@ fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
             ordered_object(&[
                 ("module", i.to_string()),
                 ("state", Value::from(name).to_string()),
-                ("strain", Value::from(strain).to_string()),
+                ("strain", crate::num::json(strain).to_string()),
             ])
         })
         .collect();
     let tips: Vec<Value> = s
         .tips
         .iter()
-        .map(|p| Value::from(vec![p.x, p.y, p.z]))
+        .map(|p| {
+            Value::from(vec![
+                crate::num::json(p.x),
+                crate::num::json(p.y),
+                crate::num::json(p.z),
+            ])
+        })
         .collect();
     ordered_object(&[
         ("states", Value::from(states).to_string()),
-        ("rms", Value::from(s.rms).to_string()),
+        ("rms", crate::num::json(s.rms).to_string()),
         ("optimal", Value::from(s.optimal).to_string()),
         ("lower_bound_rms", opt_value(s.lower_bound_rms)),
         ("gap", opt_value(s.gap)),
@@ -497,7 +518,7 @@ fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
         ("evaluated", Value::from(s.evaluated).to_string()),
         (
             "elapsed_ms",
-            Value::from(s.elapsed.as_secs_f64() * 1e3).to_string(),
+            crate::num::json(s.elapsed.as_secs_f64() * 1e3).to_string(),
         ),
         ("tips", Value::from(tips).to_string()),
         ("all_states", Value::from(cfg.all_states).to_string()),
@@ -564,9 +585,9 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
     crate::out!("algorithm  {} ({status})", cfg.algorithm.name());
     crate::out!("boom       {}", describe_boom(cfg));
     crate::out!(
-        "target     {} ({} points, length {:.4} l)",
+        "target     {} ({}, length {:.4} l)",
         describe_target(cfg),
-        cfg.target.points().len(),
+        crate::num::plural(cfg.target.points().len(), "point", "points"),
         cfg.target.length()
     );
     crate::out!(
@@ -609,14 +630,15 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
         } else {
             format!("INFEASIBLE (strain {:.3})", c.strain)
         };
+        let w = |v: f64| crate::num::fixed_w(v, 5, 10);
         crate::out!(
-            "{:>4}  {:<10} {:>10.5} {:>10.5} {:>10.5} {:>10.5}  {mark}",
+            "{:>4}  {:<10} {} {} {} {}  {mark}",
             i + 1,
             name,
-            p.x,
-            p.y,
-            p.z,
-            err
+            w(p.x),
+            w(p.y),
+            w(p.z),
+            w(err)
         );
     }
 }

@@ -21,14 +21,15 @@ use host::text::fault_list;
 pub struct Args {
     #[command(flatten)]
     pub device: DeviceArgs,
-    /// Stop after this many seconds (default: until Ctrl-C).
+    /// Stop after this many seconds, > 0 [default: until Ctrl-C].
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
-    /// Telemetry rate, samples per second of device time (1–50).
-    #[arg(long, value_name = "HZ", default_value_t = 10)]
+    /// Samples per second [range: 1–50, whole numbers]: the device's telemetry rate (device
+    /// time) and, in text, at most this many lines per wall second.
+    #[arg(long, value_name = "HZ", default_value_t = 10, value_parser = crate::num::int_in(1, 50))]
     pub rate: u32,
     /// One JSON object per line on stdout.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
     /// Also record the session to this MCAP file (`host-tool log` reads it).
     #[arg(long, value_name = "FILE.mcap")]
@@ -83,14 +84,15 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let status_period_ms = (1000 / u64::from(args.rate)).max(1);
     let mut next_status = start;
     let mut result = Ok(());
+    let mut lines = Lines::new(args.json, args.rate);
     while !cancel.load(Ordering::SeqCst)
+        && !crate::cli::stdout_closed()
         && duration_ms.is_none_or(|d| s.io.now_ms().saturating_sub(start) < d)
     {
         if !streaming && s.io.now_ms() >= next_status {
             next_status += status_period_ms;
             match s.status() {
-                Ok(st) => print_sample(
-                    args.json,
+                Ok(st) => lines.sample(
                     &Telemetry {
                         uptime_ms: st.uptime_ms,
                         pressure_kpa: st.pressure_kpa,
@@ -114,17 +116,91 @@ pub fn run(args: Args) -> Result<(), Failure> {
             break;
         }
         while let Some(ev) = s.device_events.pop_front() {
-            print_event(args.json, &ev);
+            lines.event(&ev);
         }
     }
+    // Whatever ended the watch (the duration, Ctrl-C, a closed stdout, a link error), the
+    // device gets its telemetry rate back.
     if let Some(value) = previous {
-        let _ = s.command(RequestBody::SetParam {
+        let restored = s.command(RequestBody::SetParam {
             id: ParamId::TelemetryHz,
             value,
         });
+        match restored {
+            Ok(_) => crate::debug!("telemetry rate restored to {value} Hz"),
+            Err(e) => crate::say!("note: could not restore the telemetry rate to {value} Hz: {e}"),
+        }
     }
     conn.close();
-    result.map_err(Failure::Runtime)
+    result.map_err(Failure::Runtime)?;
+    if cancel.load(Ordering::SeqCst) {
+        return Err(Failure::Interrupted(
+            "monitor stopped by Ctrl-C, SIGTERM or SIGHUP (the telemetry rate restored)".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// What `monitor` prints: a header, then at most `rate` sample lines per wall second (the
+/// latest sample of each interval; every sample in JSON), never two at the same displayed
+/// time, and every event.
+struct Lines {
+    json: bool,
+    min_gap: Duration,
+    last_shown: Option<std::time::Instant>,
+    last_uptime_cs: Option<u32>,
+    header: bool,
+}
+
+impl Lines {
+    fn new(json: bool, rate: u32) -> Self {
+        Self {
+            json,
+            min_gap: Duration::from_secs_f64(1.0 / f64::from(rate.max(1))),
+            last_shown: None,
+            last_uptime_cs: None,
+            header: false,
+        }
+    }
+
+    fn sample(&mut self, t: &Telemetry, mode: Option<&str>) {
+        // The time is shown to 0.01 s: a second sample in the same hundredth adds nothing.
+        let cs = t.uptime_ms / 10;
+        if self.last_uptime_cs == Some(cs) {
+            return;
+        }
+        if !self.json {
+            let now = std::time::Instant::now();
+            if self
+                .last_shown
+                .is_some_and(|last| now.duration_since(last) < self.min_gap)
+            {
+                return;
+            }
+            self.last_shown = Some(now);
+            if !self.header {
+                self.header = true;
+                crate::out!("{}", header());
+            }
+        }
+        self.last_uptime_cs = Some(cs);
+        print_sample(self.json, t, mode);
+    }
+
+    fn event(&mut self, ev: &Event) {
+        match ev {
+            Event::Telemetry(t) => self.sample(t, None),
+            other => print_event(self.json, other),
+        }
+    }
+}
+
+/// The column names above the sample lines.
+fn header() -> String {
+    format!(
+        "{:>11}  {:<5}  {:>9}  {:<27}  {:<12}  {}",
+        "device time", "state", "pressure", "servos", "inlet", "exhaust"
+    )
 }
 
 /// `monitor` through a server: the server's telemetry (at its rate), until Ctrl-C or
@@ -196,16 +272,17 @@ fn print_sample(json: bool, t: &Telemetry, mode: Option<&str>) {
         if let Some(mode) = mode {
             v["mode"] = json!(mode);
         }
-        crate::out!("{v}");
+        crate::out!("{}", crate::num::clean(v));
     } else {
+        use crate::num::fixed_w;
         crate::out!(
-            "{:>9.2} s  {}  {:5.1} kPa  servos {:5.1}° {:5.1}° {:5.1}°  inlet {}  exhaust {}{}",
+            "{:>9.2} s  {:<5}  {} kPa  servos {}° {}° {}°  inlet {}  exhaust {}{}",
             f64::from(t.uptime_ms) / 1000.0,
-            t.state,
-            t.pressure_kpa,
-            t.servo_deg[0],
-            t.servo_deg[1],
-            t.servo_deg[2],
+            t.state.name(),
+            fixed_w(f64::from(t.pressure_kpa), 1, 5),
+            fixed_w(f64::from(t.servo_deg[0]), 1, 5),
+            fixed_w(f64::from(t.servo_deg[1]), 1, 5),
+            fixed_w(f64::from(t.servo_deg[2]), 1, 5),
             if t.inlet_open { "open  " } else { "closed" },
             if t.exhaust_open { "open  " } else { "closed" },
             mode.map_or(String::new(), |m| format!("  {m}"))

@@ -1,5 +1,5 @@
-//! Output files of the fabrication commands: every one is opened before the work starts, so
-//! a typo in a path fails at once (usage error) instead of after the work.
+//! Output files: every one is opened before the work starts, so a typo in a path fails at once
+//! (usage error) instead of after the work; `-` is stdout (for one output at a time).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
@@ -8,12 +8,22 @@ use std::path::{Path, PathBuf};
 use crate::failure::Failure;
 
 /// An output file opened for writing (not yet truncated: an existing file keeps its contents
-/// until [`Output::write`] replaces them).
+/// until [`Output::write`] replaces them), or stdout (`-`).
 pub struct Output {
     flag: &'static str,
     path: PathBuf,
-    file: File,
+    file: Option<File>,
     created: bool,
+}
+
+/// Whether `path` means stdout.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Opens one output (`-`: stdout) before the work, as [`open_all`].
+pub fn open_one(flag: &'static str, path: &Path) -> Result<Output, Failure> {
+    Ok(open_all(&[(flag, path)])?.remove(0))
 }
 
 /// Opens every `(flag, path)` for writing; on the first failure removes the files this call
@@ -29,6 +39,15 @@ pub fn open_all(list: &[(&'static str, &Path)]) -> Result<Vec<Output>, Failure> 
     }
     let mut out: Vec<Output> = Vec::new();
     for (flag, path) in list {
+        if is_stdout(path) {
+            out.push(Output {
+                flag,
+                path: path.to_path_buf(),
+                file: None,
+                created: false,
+            });
+            continue;
+        }
         let existed = path.exists();
         if path.is_dir() {
             discard(out);
@@ -46,7 +65,7 @@ pub fn open_all(list: &[(&'static str, &Path)]) -> Result<Vec<Output>, Failure> 
             Ok(file) => out.push(Output {
                 flag,
                 path: path.to_path_buf(),
-                file,
+                file: Some(file),
                 created: !existed,
             }),
             Err(e) => {
@@ -89,8 +108,14 @@ impl Output {
                 self.path.display()
             ))
         };
-        self.file.set_len(0).map_err(fail)?;
-        let mut w = BufWriter::new(&self.file);
+        let Some(file) = &self.file else {
+            let mut w = BufWriter::new(std::io::stdout().lock());
+            // A closed stdout (`| head`) ends the output quietly.
+            let _ = fill(&mut w).and_then(|()| w.flush());
+            return Ok(());
+        };
+        file.set_len(0).map_err(fail)?;
+        let mut w = BufWriter::new(file);
         fill(&mut w).map_err(fail)?;
         w.flush().map_err(fail)?;
         Ok(())

@@ -28,7 +28,7 @@ pub enum Action {
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout.
-        #[arg(long)]
+        #[arg(short = 'j', long)]
         json: bool,
     },
     /// Change one parameter (checked against its range before anything is sent).
@@ -45,31 +45,19 @@ pub enum Action {
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout.
-        #[arg(long)]
+        #[arg(short = 'j', long)]
         json: bool,
     },
 }
 
-/// A parameter's command-line name (kebab-case).
-pub fn param_name(id: ParamId) -> &'static str {
-    match id {
-        ParamId::PressureLimitKpa => "pressure-limit-kpa",
-        ParamId::ServoMinDeg => "servo-min-deg",
-        ParamId::ServoMaxDeg => "servo-max-deg",
-        ParamId::ServoSlewDegPerS => "servo-slew-deg-per-s",
-        ParamId::TelemetryHz => "telemetry-hz",
-        ParamId::LinkTimeoutMs => "link-timeout-ms",
-    }
-}
+pub use host::text::{param_name, param_unit};
 
-/// A parameter's unit, for people.
-pub fn param_unit(id: ParamId) -> &'static str {
-    match id {
-        ParamId::PressureLimitKpa => "kPa",
-        ParamId::ServoMinDeg | ParamId::ServoMaxDeg => "deg",
-        ParamId::ServoSlewDegPerS => "deg/s",
-        ParamId::TelemetryHz => "Hz",
-        ParamId::LinkTimeoutMs => "ms",
+impl Args {
+    /// Whether JSON was asked for.
+    pub fn json(&self) -> bool {
+        match &self.action {
+            Action::Get { json, .. } | Action::Set { json, .. } => *json,
+        }
     }
 }
 
@@ -94,8 +82,9 @@ pub fn parse_value(id: ParamId, value: &str) -> Result<f32, Failure> {
     let (lo, hi) = id.range();
     let out_of_range = || {
         Failure::usage(format!(
-            "invalid value '{value}' for {}: it must be a number from {} to {} {}",
+            "invalid value '{value}' for {}: it must be a {}number from {} to {} {}",
             param_name(id),
+            if id.is_integer() { "whole " } else { "" },
             lo,
             hi,
             param_unit(id)
@@ -124,13 +113,16 @@ fn device_failure(id: ParamId, err: SessionError) -> Failure {
         (
             SessionError::Rejected {
                 reason: RejectReason::OutOfRange,
+                refusal: None,
                 ..
             },
             ParamId::ServoMinDeg | ParamId::ServoMaxDeg,
         ) => " (servo-min-deg must not exceed servo-max-deg)",
         _ => "",
     };
-    Failure::Runtime(anyhow::anyhow!("{} {err}{hint}", param_name(id)))
+    let mut e = crate::cli::DeviceError::session(&format!("{}: ", param_name(id)), &err);
+    e.message += hint;
+    Failure::Runtime(anyhow::Error::new(e))
 }
 
 /// The device, or the server that holds it.
@@ -220,7 +212,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             conn.close();
             if json {
                 let params: Vec<Value> = values.iter().map(|&(id, v)| param_json(id, v)).collect();
-                crate::out!("{}", json!({ "params": params }));
+                crate::cli::print_json(json!({ "params": params }));
             } else {
                 for (id, v) in values {
                     crate::out!("{}", param_line(id, v));
@@ -250,7 +242,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             if json {
                 let mut v = param_json(id, now);
                 v["previous"] = json_f32(previous);
-                crate::out!("{v}");
+                crate::cli::print_json(v);
             } else {
                 crate::out!(
                     "{} set: {} {} (was {} {})",
@@ -301,6 +293,7 @@ mod tests {
         let err = SessionError::Rejected {
             request: "SetParam",
             reason: RejectReason::OutOfRange,
+            refusal: None,
         };
         let Failure::Runtime(e) = device_failure(ParamId::ServoMinDeg, err) else {
             panic!("a refusal is exit 1")
@@ -308,6 +301,25 @@ mod tests {
         let msg = format!("{e:#}");
         assert!(msg.contains("a value is out of range"), "{msg}");
         assert!(msg.contains("must not exceed servo-max-deg"), "{msg}");
+        // A device that names the field: its value and the limit are in the message.
+        let err = SessionError::Rejected {
+            request: "SetParam",
+            reason: RejectReason::OutOfRange,
+            refusal: Some(protocol::Refusal {
+                step: None,
+                field: protocol::RefusedField::Param(ParamId::ServoMinDeg),
+                value: 120.0,
+                limit: 100.0,
+            }),
+        };
+        let Failure::Runtime(e) = device_failure(ParamId::ServoMinDeg, err) else {
+            panic!("a refusal is exit 1")
+        };
+        let msg = format!("{e:#}");
+        assert!(
+            msg.contains("servo-min-deg 120 deg would pass servo-max-deg = 100 deg"),
+            "{msg}"
+        );
     }
 
     #[test]

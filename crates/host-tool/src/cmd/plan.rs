@@ -36,7 +36,7 @@ pub struct Args {
     #[arg(long, value_name = "STATE", requires = "dry_run")]
     pub from: Option<String>,
     /// Print one JSON object on stdout instead of a summary.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
     /// Record the session to this MCAP file (telemetry at 50 Hz during the run, events,
     /// requests and responses, the plan; the ground truth with --sim). `host-tool log` reads it.
@@ -249,6 +249,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     step: None,
                     fault: None,
                     reject: None,
+                    refusal: None,
                     message: e.to_string(),
                 }),
                 ..Outcome::default()
@@ -319,11 +320,12 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
         }
         if let Some(outcome) = v.get("outcome") {
             if args.json {
-                crate::out!("{outcome}");
+                crate::cli::print_json(outcome.clone());
             }
             return if v["ok"] == true {
                 if !args.json {
-                    crate::say!("reached {target}");
+                    let steps = outcome["steps"].as_array().map_or(0, Vec::len);
+                    crate::say!("{}", reached(target, steps, 0));
                 }
                 Ok(())
             } else {
@@ -341,26 +343,9 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
 /// Prints the outcome (JSON or a summary) and turns it into the exit status.
 fn finish(cfg: &Config, out: &Outcome, truth: Option<SimTruth>) -> Result<(), Failure> {
     if cfg.json {
-        crate::out!("{}", outcome_json(out, truth.as_ref()));
-    } else if out.ok() && out.steps.is_empty() {
-        crate::say!("already at {}", cfg.target);
+        crate::cli::print_json(outcome_json(out, truth.as_ref()));
     } else if out.ok() {
-        let steps = out.steps.len();
-        crate::say!(
-            "reached {} ({} step{}{})",
-            cfg.target,
-            steps,
-            if steps == 1 { "" } else { "s" },
-            if out.replans > 0 {
-                format!(
-                    ", {} replan{}",
-                    out.replans,
-                    if out.replans == 1 { "" } else { "s" }
-                )
-            } else {
-                String::new()
-            }
-        );
+        crate::say!("{}", reached(cfg.target, out.steps.len(), out.replans));
     }
     if let Some(t) = &truth {
         if !cfg.json {
@@ -383,6 +368,26 @@ fn finish(cfg: &Config, out: &Outcome, truth: Option<SimTruth>) -> Result<(), Fa
     }
 }
 
+/// The summary of a successful run: `already at D&F` when nothing had to move, else
+/// `reached D&F (2 steps, 1 replan)`.
+fn reached(target: TrunkState, steps: usize, replans: u32) -> String {
+    if steps == 0 {
+        return format!("already at {target}");
+    }
+    let replans = if replans > 0 {
+        format!(
+            ", {}",
+            crate::num::plural(replans as usize, "replan", "replans")
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "reached {target} ({}{replans})",
+        crate::num::plural(steps, "step", "steps")
+    )
+}
+
 /// The `plan --json` object: `ok, from, target, final_state, state_confirmed, steps, error,
 /// failure (kind, step, fault_code, fault), sim`. `final_state` is the last state the device
 /// reported; `state_confirmed` says whether the device had confirmed it then — after a lost
@@ -402,6 +407,7 @@ pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
             "fault_code": f.fault.map(text::fault_code),
             "fault": f.fault.map(text::fault_name),
             "reject": f.reject.map(text::reject_name),
+            "refused": f.refusal.as_ref().map(crate::cli::refusal_json),
             "message": f.message,
         })
     });
@@ -483,18 +489,15 @@ fn dry_run(cfg: &Config) -> Result<(), Failure> {
                 })
             })
             .collect();
-        crate::out!(
-            "{}",
-            json!({
-                "dry_run": true,
-                "from": from.name(),
-                "target": cfg.target.name(),
-                "expected_s": plan.cost_s(),
-                "steps": steps,
-            })
-        );
+        crate::cli::print_json(json!({
+            "dry_run": true,
+            "from": from.name(),
+            "target": cfg.target.name(),
+            "expected_s": plan.cost_s(),
+            "steps": steps,
+        }));
     } else {
-        crate::out_raw!("{plan}");
+        crate::out_raw!("{}", crate::cli::wrap(&plan.to_string()));
         crate::out!("(dry run: nothing was sent to the device)");
     }
     Ok(())

@@ -15,7 +15,7 @@ pub struct Args {
     #[arg(long, allow_hyphen_values = true)]
     pub beta: String,
     /// Print JSON instead of a table.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
 }
 
@@ -94,7 +94,7 @@ pub fn ordered_object(entries: &[(&str, String)]) -> String {
 }
 
 fn num(x: f64) -> String {
-    Value::from(x).to_string()
+    crate::num::json(x).to_string()
 }
 
 fn opt_num(x: Option<f64>) -> String {
@@ -142,7 +142,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             ("beta_out_deg", opt_num(beta_out)),
             ("states", format!("[{}]", states.join(","))),
         ]);
-        crate::out!("{json}");
+        crate::cli::print_json_text(&json);
         return Ok(());
     }
     crate::out_raw!("{}", table(&design, &infos, beta_in, beta_out));

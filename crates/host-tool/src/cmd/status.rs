@@ -6,6 +6,7 @@ use serde_json::{json, Value};
 
 use crate::device::DeviceArgs;
 use crate::failure::Failure;
+use crate::num::fixed;
 use crate::sim::SimTruth;
 use host::text::fault_list;
 
@@ -15,7 +16,7 @@ pub struct Args {
     #[command(flatten)]
     pub device: DeviceArgs,
     /// Print one JSON object on stdout.
-    #[arg(long)]
+    #[arg(short = 'j', long)]
     pub json: bool,
 }
 
@@ -43,9 +44,12 @@ pub fn snapshot(device: &DeviceArgs, request: Option<RequestBody>) -> Result<Sna
     if let Some(request) = request {
         conn.session
             .command(request)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+            .map_err(|e| anyhow::Error::new(crate::cli::DeviceError::session("", &e)))?;
     }
-    let status = conn.session.status().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let status = conn
+        .session
+        .status()
+        .map_err(|e| anyhow::Error::new(crate::cli::DeviceError::session("", &e)))?;
     let info = conn.info.clone();
     Ok(Snapshot {
         status,
@@ -64,14 +68,14 @@ pub fn run(args: Args) -> Result<(), Failure> {
         ..
     } = snapshot(&args.device, None)?;
     if args.json {
-        crate::out!("{}", status_json(&status, &info, truth.as_ref()));
+        crate::cli::print_json(status_json(&status, &info, truth.as_ref()));
     } else {
         crate::out_raw!("{}", status_text(&status, &info));
         if let Some(t) = truth {
             crate::out!(
-                "simulator:    true state {}, max pressure {:.1} kPa",
+                "simulator:    true state {}, max pressure {} kPa",
                 t.true_state.map_or("between states", |s| s.name()),
-                t.max_pressure_kpa
+                fixed(f64::from(t.max_pressure_kpa), 1)
             );
         }
     }
@@ -101,30 +105,45 @@ pub fn belief_text(s: &Status) -> String {
     )
 }
 
+/// Whether the device speaks this host's protocol version and schema.
+fn versions_match(info: &DeviceInfo) -> bool {
+    info.protocol_version == protocol::PROTOCOL_VERSION && info.schema_id == protocol::SCHEMA_ID
+}
+
 fn status_text(s: &Status, info: &DeviceInfo) -> String {
     let v = info.firmware_version;
     let mut t = format!(
-        "device:       {} (firmware {}.{}.{}, protocol {})\n",
+        "device:       {} (firmware {}.{}.{}, protocol {}, schema {:#010x})\n",
         text::board(info.board),
         v[0],
         v[1],
         v[2],
-        info.protocol_version
+        info.protocol_version,
+        info.schema_id
+    );
+    t += &format!(
+        "host:         host-tool {}; {}\n",
+        crate::cli::version(),
+        if versions_match(info) {
+            "the same protocol and schema as the device"
+        } else {
+            "the protocol or schema DIFFERS from the device's"
+        }
     );
     t += &format!("state:        {}\n", crate::cmd::status::belief_text(s));
     t += &format!("mode:         {}\n", text::mode(s.mode));
     t += &format!(
-        "pressure:     {:.1} kPa (limit {:.1}); inlet {}, exhaust {}\n",
-        s.pressure_kpa,
-        info.trunk.pressure_limit_kpa,
+        "pressure:     {} kPa (limit {}); inlet {}, exhaust {}\n",
+        fixed(f64::from(s.pressure_kpa), 1),
+        crate::num::widen(info.trunk.pressure_limit_kpa),
         if s.inlet_open { "open" } else { "closed" },
         if s.exhaust_open { "open" } else { "closed" }
     );
     t += &format!(
-        "servos:       {:.1}° {:.1}° {:.1}°; gripper {}\n",
-        s.servo_deg[0],
-        s.servo_deg[1],
-        s.servo_deg[2],
+        "servos:       {}° {}° {}°; gripper {}\n",
+        fixed(f64::from(s.servo_deg[0]), 1),
+        fixed(f64::from(s.servo_deg[1]), 1),
+        fixed(f64::from(s.servo_deg[2]), 1),
         if s.gripper_closed { "closed" } else { "open" }
     );
     t += &format!(
@@ -186,6 +205,13 @@ pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> V
             "schema_id": info.schema_id,
             "pressure_limit_kpa": info.trunk.pressure_limit_kpa,
         },
+        "host": {
+            "version": env!("CARGO_PKG_VERSION"),
+            "protocol_version": protocol::PROTOCOL_VERSION,
+            "schema_id": protocol::SCHEMA_ID,
+            "commit": crate::cli::GIT_COMMIT,
+        },
+        "versions_match": versions_match(info),
         "sim": truth.map(SimTruth::to_json),
     })
 }

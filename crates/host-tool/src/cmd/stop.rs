@@ -19,18 +19,21 @@ pub fn run(args: Args) -> Result<(), Failure> {
         abort_latency_ms,
     } = snapshot(&args.device, Some(RequestBody::Abort))?;
     let safe = !status.inlet_open;
+    const STILL_OPEN: &str = "the device still reports its inlet valve open after the abort";
     if args.json {
         let mut v = status_json(&status, &info, truth.as_ref());
         v["aborted"] = json!(true);
         v["safe"] = json!(safe);
+        v["ok"] = json!(safe);
+        v["error"] = json!((!safe).then_some(STILL_OPEN));
         if let Some(ms) = abort_latency_ms {
             v["abort_latency_ms"] = json!(ms);
         }
-        crate::out!("{v}");
+        crate::cli::print_json(v);
     } else {
         crate::out!(
-            "aborted: the device is in mode {} at {}; inlet {}, exhaust {}, pressure {:.1} kPa, \
-             servos {} {:.1}° {:.1}° {:.1}°",
+            "aborted: the device is in mode {} at {}; inlet {}, exhaust {}, pressure {} kPa, \
+             servos {} {}° {}° {}°",
             text::mode(status.mode),
             status.state,
             if status.inlet_open { "OPEN" } else { "closed" },
@@ -39,23 +42,21 @@ pub fn run(args: Args) -> Result<(), Failure> {
             } else {
                 "closed"
             },
-            status.pressure_kpa,
+            crate::num::fixed(f64::from(status.pressure_kpa), 1),
             // The safe state stops the servo pulses; the status then reports the last command.
             if matches!(status.mode, Mode::Safe | Mode::EStop) {
                 "off (limp), last commanded"
             } else {
                 "at"
             },
-            status.servo_deg[0],
-            status.servo_deg[1],
-            status.servo_deg[2]
+            crate::num::fixed(f64::from(status.servo_deg[0]), 1),
+            crate::num::fixed(f64::from(status.servo_deg[1]), 1),
+            crate::num::fixed(f64::from(status.servo_deg[2]), 1)
         );
     }
     if safe {
         Ok(())
     } else {
-        Err(Failure::Runtime(anyhow::anyhow!(
-            "the device still reports its inlet valve open after the abort"
-        )))
+        Err(Failure::Runtime(anyhow::anyhow!("{STILL_OPEN}")))
     }
 }

@@ -18,7 +18,7 @@ use crate::samples::{largest_request, st, status_response};
 /// field, variant or type; not a comment): update this one constant deliberately, together with
 /// the golden bytes if the wire form changed (old builds will refuse the new ones at the
 /// handshake).
-const EXPECTED_SCHEMA_ID: u32 = 0xc40e_e04f;
+const EXPECTED_SCHEMA_ID: u32 = 0x5b06_d509;
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
@@ -503,6 +503,7 @@ fn response_index(b: &ResponseBody) -> usize {
         ResponseBody::Hello(_) => 1,
         ResponseBody::Status(_) => 2,
         ResponseBody::Param { .. } => 3,
+        ResponseBody::Refused(_) => 4,
     }
 }
 
@@ -552,6 +553,18 @@ fn responses() {
             ),
             "00820200030500803b45",
         ),
+        (
+            resp(
+                ResultCode::Rejected(RejectReason::OutOfRange),
+                ResponseBody::Refused(Refusal {
+                    step: Some(1),
+                    field: RefusedField::Param(ParamId::TelemetryHz),
+                    value: 16.0,
+                    limit: 10.0,
+                }),
+            ),
+            "008202010704010105040000804100002041",
+        ),
     ];
     check("DeviceMessage::Response", &cases);
     covers(
@@ -560,7 +573,7 @@ fn responses() {
             DeviceMessage::Response { body, .. } => response_index(body),
             DeviceMessage::Event(_) => unreachable!(),
         }),
-        4,
+        5,
     );
 }
 

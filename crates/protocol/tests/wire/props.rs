@@ -269,6 +269,14 @@ fn response_body() -> impl Strategy<Value = ResponseBody> {
         device_info().prop_map(ResponseBody::Hello),
         status().prop_map(ResponseBody::Status),
         (param_id(), f()).prop_map(|(id, value)| ResponseBody::Param { id, value }),
+        (proptest::option::of(any::<u8>()), param_id(), f(), f()).prop_map(
+            |(step, id, value, limit)| ResponseBody::Refused(Refusal {
+                step,
+                field: RefusedField::Param(id),
+                value,
+                limit,
+            })
+        ),
     ]
 }
 

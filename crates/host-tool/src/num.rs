@@ -1,0 +1,163 @@
+//! Numbers as people and parsers read them: the shortest decimal that round-trips, without the
+//! artefacts of arithmetic (`12.100000000000001`), of a sign on zero (`-0.0`) or of an `f32`
+//! widened to `f64` (`30.100000381469727`); and the command line's integer and number
+//! arguments, refused with what is expected.
+
+use serde_json::Value;
+
+/// Significant digits kept of a computed `f64`: 15, the most that every `f64` holds exactly, so
+/// the noise of the last bits (`0.1 + 0.2`) goes and every measured digit stays.
+const F64_DIGITS: usize = 15;
+
+/// `x` without the noise of its last bits and without a negative zero.
+pub fn tidy(x: f64) -> f64 {
+    if !x.is_finite() {
+        return x;
+    }
+    let y: f64 = format!("{:.*e}", F64_DIGITS - 1, x).parse().unwrap_or(x);
+    if y == 0.0 {
+        0.0
+    } else {
+        y
+    }
+}
+
+/// An `f32` as the `f64` of its shortest decimal (30.1, not 30.100000381469727).
+pub fn widen(x: f32) -> f64 {
+    if x == 0.0 {
+        return 0.0;
+    }
+    x.to_string().parse().unwrap_or(f64::from(x))
+}
+
+/// A JSON number for `x` (tidied), `null` when not finite.
+pub fn json(x: f64) -> Value {
+    serde_json::Number::from_f64(tidy(x)).map_or(Value::Null, Value::Number)
+}
+
+/// A JSON number for an `f32` in its shortest decimal, `null` when not finite.
+pub fn json32(x: f32) -> Value {
+    serde_json::Number::from_f64(widen(x)).map_or(Value::Null, Value::Number)
+}
+
+/// Every floating-point number in `v` tidied; one that is exactly an `f32` (a device's value
+/// widened on its way into JSON) gets that `f32`'s shortest decimal.
+pub fn clean(v: Value) -> Value {
+    match v {
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or(f64::NAN);
+            let narrow = x as f32;
+            if f64::from(narrow) == x && narrow.is_finite() {
+                json32(narrow)
+            } else {
+                json(x)
+            }
+        }
+        Value::Array(a) => Value::Array(a.into_iter().map(clean).collect()),
+        Value::Object(o) => Value::Object(o.into_iter().map(|(k, v)| (k, clean(v))).collect()),
+        other => other,
+    }
+}
+
+/// `x` in fixed notation with `decimals` digits, never `-0.0` (a value that rounds to zero is
+/// printed without its sign).
+pub fn fixed(x: f64, decimals: usize) -> String {
+    let s = format!("{x:.decimals$}");
+    if s.starts_with('-') && s[1..].bytes().all(|b| b == b'0' || b == b'.') {
+        s[1..].to_string()
+    } else {
+        s
+    }
+}
+
+/// As [`fixed`], right-aligned in `width` columns.
+pub fn fixed_w(x: f64, decimals: usize, width: usize) -> String {
+    format!("{:>width$}", fixed(x, decimals))
+}
+
+/// `n thing` or `n things`.
+pub fn plural(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// A clap parser for an integer in `[lo, hi]` whose refusal says so (`1.5` is not "an
+/// invalid digit" but "not a whole number").
+pub fn int_in(lo: i64, hi: i64) -> impl Fn(&str) -> Result<u32, String> + Clone {
+    move |s: &str| {
+        let expected = format!("expected a whole number from {lo} to {hi}");
+        let t = s.trim();
+        match t.parse::<i64>() {
+            Ok(v) if (lo..=hi).contains(&v) => u32::try_from(v).map_err(|_| expected.clone()),
+            Ok(v) => Err(format!("{v} is out of range: {expected}")),
+            Err(_) if t.parse::<f64>().is_ok_and(f64::is_finite) => {
+                Err(format!("'{s}' is not a whole number: {expected}"))
+            }
+            Err(_) => Err(format!("'{s}' is not a number: {expected}")),
+        }
+    }
+}
+
+/// A clap parser for a finite number in `[lo, hi]`.
+pub fn number_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let expected = format!("expected a number from {lo} to {hi}");
+        match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
+            Ok(v) if v.is_finite() => Err(format!("{v} is out of range: {expected}")),
+            _ => Err(format!("'{s}' is not a finite number: {expected}")),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arithmetic_noise_negative_zero_and_f32_widening_are_gone() {
+        assert_eq!(json(12.100000000000001).to_string(), "12.1");
+        assert_eq!(json(0.1 + 0.2).to_string(), "0.3");
+        assert_eq!(json(-0.0).to_string(), "0.0");
+        assert_eq!(json32(30.1).to_string(), "30.1");
+        assert_eq!(json32(-0.0).to_string(), "0.0");
+        assert_eq!(json(f64::NAN), Value::Null);
+        // Measured digits stay: 15 significant digits survive.
+        assert_eq!(json(1.234_567_890_123_45).to_string(), "1.23456789012345");
+        let v = clean(serde_json::json!({"p": 30.1f32, "a": [12.100000000000001, -0.0], "n": 3}));
+        assert_eq!(v.to_string(), r#"{"a":[12.1,0.0],"n":3,"p":30.1}"#);
+    }
+
+    #[test]
+    fn fixed_notation_has_no_negative_zero() {
+        assert_eq!(fixed(-0.001, 1), "0.0");
+        assert_eq!(fixed(-0.0, 2), "0.00");
+        assert_eq!(fixed(-0.06, 1), "-0.1");
+        assert_eq!(fixed_w(-0.001, 1, 5), "  0.0");
+    }
+
+    #[test]
+    fn integers_refuse_fractions_and_say_what_is_expected() {
+        let p = int_in(1, 50);
+        assert_eq!(p("1"), Ok(1));
+        assert_eq!(p("50"), Ok(50));
+        let e = p("1.5").unwrap_err();
+        assert!(
+            e.contains("not a whole number") && e.contains("from 1 to 50"),
+            "{e}"
+        );
+        assert!(p("0").unwrap_err().contains("out of range"));
+        assert!(p("51").unwrap_err().contains("from 1 to 50"));
+        assert!(p("x").unwrap_err().contains("not a number"));
+        let f = number_in(0.1, 1000.0);
+        assert_eq!(f("0.1"), Ok(0.1));
+        assert_eq!(f("1000"), Ok(1000.0));
+        assert!(f("1000.5").unwrap_err().contains("from 0.1 to 1000"));
+        assert!(f("inf").unwrap_err().contains("finite"));
+    }
+
+    #[test]
+    fn plurals() {
+        assert_eq!(plural(1, "point", "points"), "1 point");
+        assert_eq!(plural(0, "step", "steps"), "0 steps");
+    }
+}

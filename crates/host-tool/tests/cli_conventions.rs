@@ -1,0 +1,529 @@
+//! The command line's conventions through the real binary: one JSON error object on every
+//! failure, numbers in their shortest form, integer and range messages that say what is
+//! expected, quoting hints, outputs checked before the work, `-` for stdin/stdout, exit 130 on
+//! an interrupt, `-q`/`-v`, `CRANE_PORT`, completions, the man page, `--version`, and text
+//! wrapped to the terminal's width.
+
+use std::io::{BufRead as _, BufReader, Write as _};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+fn cmd() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_host-tool"));
+    c.env_remove("CRANE_PORT").env_remove("COLUMNS");
+    c
+}
+
+fn host_tool(args: &[&str]) -> Output {
+    cmd()
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("host-tool runs")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// Stdout as exactly one JSON object.
+fn one_object(out: &Output) -> Value {
+    let s = text(&out.stdout);
+    let lines: Vec<&str> = s.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "one JSON line expected: {s}{}",
+        text(&out.stderr)
+    );
+    serde_json::from_str(lines[0]).unwrap_or_else(|e| panic!("not JSON ({e}): {s}"))
+}
+
+#[test]
+fn every_failing_command_prints_one_json_error_object_with_the_exit_codes_meaning() {
+    // (arguments, exit code): usage errors of each device command, and a runtime failure.
+    let cases: &[(&[&str], i32)] = &[
+        (&["status", "-j"], 2),
+        (&["stop", "--json"], 2),
+        (&["declare", "X&Y", "--sim", "-j"], 2),
+        (&["declare", "D&D", "-j"], 2),
+        (&["param", "get", "nope", "--sim", "-j"], 2),
+        (&["param", "set", "telemetry-hz", "99", "--sim", "-j"], 2),
+        (&["plan", "--target", "X", "--dry-run", "-j"], 2),
+        (
+            &["plan", "--target", "D&F", "--dry-run", "--from", "Q", "-j"],
+            2,
+        ),
+        (&["monitor", "--sim", "--rate", "0", "-j"], 2),
+        (&["status", "--port", "/nonexistent/tty", "-j"], 1),
+        (&["identify", "--port", "/nonexistent/tty", "-j"], 1),
+        // A clap error (an unknown flag) too.
+        (&["status", "--sim", "--bogus", "-j"], 2),
+    ];
+    for (args, code) in cases {
+        let out = host_tool(args);
+        assert_eq!(
+            out.status.code(),
+            Some(*code),
+            "{args:?}: {}",
+            text(&out.stderr)
+        );
+        let v = one_object(&out);
+        assert_eq!(v["ok"], false, "{args:?}: {v}");
+        assert_eq!(v["exit_code"], *code, "{args:?}: {v}");
+        let meaning = v["exit"].as_str().unwrap_or_default();
+        assert!(
+            meaning.starts_with(if *code == 2 {
+                "usage error"
+            } else {
+                "runtime failure"
+            }),
+            "{args:?}: {v}"
+        );
+        assert!(!v["error"].as_str().unwrap_or_default().is_empty(), "{v}");
+        for key in ["fault_code", "reject", "refused"] {
+            assert!(v.get(key).is_some(), "{key} missing: {v}");
+        }
+    }
+}
+
+/// Every number in a JSON text, as written.
+fn numbers(json: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut in_string = false;
+    for c in json.chars() {
+        if c == '"' {
+            in_string = !in_string;
+        }
+        if !in_string && (c.is_ascii_digit() || c == '.' || c == '-' || c == 'e') {
+            cur.push(c);
+        } else if !cur.is_empty() {
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    out
+}
+
+#[test]
+fn json_numbers_are_shortest_without_f32_widening_arithmetic_noise_or_negative_zero() {
+    // The dry run's expected time is a sum (5.2 + 6.9 = 12.100000000000001 in f64); a status
+    // carries the device's f32 values (servo angles, pressure).
+    for args in [
+        &["plan", "--target", "D&F", "--dry-run", "-j"][..],
+        &["status", "--sim", "--sim-initial", "D&D", "-j"][..],
+        &["stop", "--sim", "-j"][..],
+        &["param", "get", "--sim", "-j"][..],
+    ] {
+        let out = host_tool(args);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{args:?}: {}",
+            text(&out.stderr)
+        );
+        let s = text(&out.stdout);
+        for n in numbers(&s) {
+            let digits = n.trim_start_matches('-').replace('.', "");
+            let significant = digits.trim_start_matches('0').trim_end_matches('0').len();
+            assert!(
+                significant <= 10,
+                "{args:?}: {n} is not in its shortest form: {s}"
+            );
+            assert_ne!(n, "-0.0", "{args:?}: {s}");
+        }
+    }
+    let v = one_object(&host_tool(&["plan", "--target", "D&F", "--dry-run", "-j"]));
+    assert_eq!(v["expected_s"].to_string(), "12.1", "{v}");
+}
+
+#[test]
+fn a_negative_seed_is_a_seed() {
+    let out = host_tool(&["status", "--sim", "--seed", "-3", "-j"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert_eq!(one_object(&out)["state"], "F&P");
+    let out = host_tool(&["status", "--sim", "--seed", "1.5"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("not a whole number"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn integer_options_refuse_fractions_saying_what_is_expected() {
+    let out = host_tool(&["monitor", "--sim", "--rate", "1.5", "--duration", "0.1"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("'1.5' is not a whole number") && err.contains("from 1 to 50"),
+        "{err}"
+    );
+    assert!(!err.contains("invalid digit"), "{err}");
+    // An integer parameter: refused, not truncated to 1000.
+    let out = host_tool(&["param", "set", "link-timeout-ms", "1000.5", "--sim"]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stdout));
+    assert!(text(&out.stderr).contains("whole number from 200 to 60000 ms"));
+    // Its edges are accepted.
+    for v in ["200", "60000"] {
+        let out = host_tool(&["param", "set", "link-timeout-ms", v, "--sim", "-j"]);
+        assert_eq!(out.status.code(), Some(0), "{v}: {}", text(&out.stderr));
+        let got = one_object(&out)["value"].as_f64();
+        assert_eq!(got, v.parse::<f64>().ok(), "{v}");
+    }
+}
+
+#[test]
+fn range_messages_agree_with_each_other_and_with_the_help() {
+    let base = ["ik", "--n", "6", "--beta", "35", "--target", "helix"];
+    for m in ["0", "100000", "-1", "2.5"] {
+        let mut a = base.to_vec();
+        a.extend(["--modules", m]);
+        let out = host_tool(&a);
+        assert_eq!(out.status.code(), Some(2), "{m}");
+        let err = text(&out.stderr);
+        assert!(
+            err.contains("--modules must be an integer in [1, 10000]"),
+            "{m}: {err}"
+        );
+    }
+    let help = text(&host_tool(&["ik", "--help"]).stdout);
+    assert!(help.contains("[1, 10000]"), "{help}");
+    let help = text(&host_tool(&["plan", "--help"]).stdout);
+    assert!(help.contains("0.1–1000"), "{help}");
+    assert!(help.contains("[default: 1]"), "the seed's default: {help}");
+    let help = text(&host_tool(&["monitor", "--help"]).stdout);
+    assert!(
+        help.contains("1–50") && help.contains("[default: 10]"),
+        "{help}"
+    );
+}
+
+#[test]
+fn help_examples_are_quoted_and_an_unquoted_ampersand_gets_a_hint() {
+    let help = text(&host_tool(&["--help"]).stdout);
+    assert!(help.contains("--target 'D&F'"), "{help}");
+    assert!(!help.contains("--target D&F"), "{help}");
+    // `host-tool plan --target D&F --sim` unquoted: the shell runs `host-tool plan --target D`.
+    let out = host_tool(&["plan", "--target", "D"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("Quote state names, e.g. --target 'D&F'"),
+        "{err}"
+    );
+    let out = host_tool(&["declare", "F", "--sim"]);
+    assert!(
+        text(&out.stderr).contains("did you mean 'F&…'"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+/// A solve that takes its whole time limit (exact, n = 4, m = 30: far from proven in 5 s).
+const IK: [&str; 11] = [
+    "ik",
+    "--n",
+    "4",
+    "--beta",
+    "35",
+    "--modules",
+    "30",
+    "--target",
+    "helix:radius=1,pitch=4,turns=1",
+    "--all-states",
+    "--time-limit",
+];
+
+#[test]
+fn an_output_file_is_checked_before_the_solve_and_dash_is_stdout() {
+    let start = Instant::now();
+    let mut a = IK.to_vec();
+    a.extend(["5", "--svg", "/nonexistent/x.svg"]);
+    let out = host_tool(&a);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+    assert!(text(&out.stderr).contains("cannot write --svg /nonexistent/x.svg"));
+    // Refused up front: not after the 5 s solve.
+    assert!(
+        start.elapsed() < Duration::from_secs(3),
+        "{:?}",
+        start.elapsed()
+    );
+
+    let out = host_tool(&[
+        "ik",
+        "--n",
+        "4",
+        "--beta",
+        "35",
+        "--modules",
+        "3",
+        "--target",
+        "helix",
+        "--svg",
+        "-",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let svg = text(&out.stdout);
+    assert!(
+        svg.contains("<svg") && svg.trim_end().ends_with("</svg>"),
+        "{svg}"
+    );
+    let out = host_tool(&[
+        "ik",
+        "--n",
+        "4",
+        "--beta",
+        "35",
+        "--modules",
+        "3",
+        "--target",
+        "helix",
+        "--svg",
+        "-",
+        "--json",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn a_target_file_dash_reads_stdin_and_one_point_is_one_point() {
+    let mut child = cmd()
+        .args([
+            "ik",
+            "--n",
+            "4",
+            "--beta",
+            "35",
+            "--modules",
+            "2",
+            "--target-file",
+            "-",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("host-tool runs");
+    child
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(b"x,y,z\n0,0,1\n0,0,2\n")
+        .expect("write stdin");
+    let out = child.wait_with_output().expect("host-tool ends");
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("(2 points,"),
+        "{}",
+        text(&out.stdout)
+    );
+
+    let mut child = cmd()
+        .args([
+            "ik",
+            "--n",
+            "4",
+            "--beta",
+            "35",
+            "--modules",
+            "1",
+            "--target-file",
+            "-",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("host-tool runs");
+    child
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(b"0,0,1\n")
+        .expect("write stdin");
+    let out = child.wait_with_output().expect("host-tool ends");
+    let table = text(&out.stdout);
+    if out.status.code() == Some(0) {
+        assert!(table.contains("(1 point,"), "{table}");
+    } else {
+        // A single point may be refused as unfittable; then the message says why.
+        assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+    }
+}
+
+#[test]
+fn ctrl_c_during_a_solve_prints_the_best_boom_and_exits_130() {
+    let mut a = IK.to_vec();
+    a.extend(["600", "--json"]);
+    let mut child = cmd()
+        .args(&a[..])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("host-tool runs");
+    // The progress line comes after a second of solving: then it is interrupted.
+    let mut err = BufReader::new(child.stderr.take().expect("stderr"));
+    let mut line = String::new();
+    while err.read_line(&mut line).expect("stderr") > 0 && !line.contains("evaluated") {
+        line.clear();
+    }
+    let pid = nix::unistd::Pid::from_raw(child.id() as i32);
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).expect("SIGINT");
+    let out = child.wait_with_output().expect("host-tool ends");
+    assert_eq!(out.status.code(), Some(130));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("the best boom as JSON");
+    assert_eq!(v["stop"], "interrupted", "{v}");
+    assert_eq!(v["states"].as_array().map(Vec::len), Some(30), "{v}");
+}
+
+#[test]
+fn quiet_says_nothing_but_errors_and_verbose_shows_frames_and_timings() {
+    let out = host_tool(&["plan", "--target", "D&F", "--sim", "-q"]);
+    assert_eq!(out.status.code(), Some(0));
+    assert_eq!(text(&out.stderr), "");
+    let out = host_tool(&["plan", "--target", "X", "--sim", "-q"]);
+    assert!(text(&out.stderr).contains("error: invalid target"));
+    let out = host_tool(&["status", "--sim", "-v"]);
+    assert_eq!(out.status.code(), Some(0));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains(" ms → ") && err.contains(" ms ← "),
+        "frames: {err}"
+    );
+    assert!(err.contains("handshake with the simulator:"), "{err}");
+    assert!(
+        err.contains("requests,") && err.contains("retried"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_port_comes_from_crane_port_and_p_is_port() {
+    let out = cmd()
+        .args(["status", "-j"])
+        .env("CRANE_PORT", "/nonexistent/crane")
+        .stdin(Stdio::null())
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stderr));
+    assert!(one_object(&out)["error"]
+        .as_str()
+        .unwrap_or_default()
+        .contains("/nonexistent/crane"));
+    // --sim wins over the environment.
+    let out = cmd()
+        .args(["status", "--sim", "-j"])
+        .env("CRANE_PORT", "/nonexistent/crane")
+        .stdin(Stdio::null())
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let out = host_tool(&["status", "-p", "/nonexistent/p"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("cannot open serial port /nonexistent/p"));
+    // No port, no board: the usage error says every way to give one.
+    let out = host_tool(&["status"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("CRANE_PORT") && err.contains("--sim") && err.contains("--port"),
+        "{err}"
+    );
+}
+
+#[test]
+fn completions_and_the_man_page() {
+    for (shell, mark) in [
+        ("bash", "complete -F"),
+        ("zsh", "#compdef host-tool"),
+        ("fish", "complete -c host-tool"),
+    ] {
+        let out = host_tool(&["completions", shell]);
+        assert_eq!(out.status.code(), Some(0), "{shell}");
+        let s = text(&out.stdout);
+        assert!(s.contains(mark), "{shell}: {}", &s[..s.len().min(300)]);
+        assert!(s.contains("monitor") && s.contains("sim-speed"), "{shell}");
+    }
+    assert_eq!(host_tool(&["completions", "tcsh"]).status.code(), Some(2));
+    let man = text(&host_tool(&["man"]).stdout);
+    assert!(
+        man.contains(".TH host-tool"),
+        "{}",
+        &man[..man.len().min(300)]
+    );
+    assert!(
+        man.contains("completions") && man.contains("protocol 2"),
+        "man"
+    );
+}
+
+#[test]
+fn version_names_the_protocol_the_schema_and_the_commit_and_status_compares_them() {
+    let v = text(&host_tool(&["--version"]).stdout);
+    let schema = format!("schema {:#010x}", protocol::SCHEMA_ID);
+    assert!(
+        v.contains(&format!("protocol {}", protocol::PROTOCOL_VERSION)),
+        "{v}"
+    );
+    assert!(v.contains(&schema) && v.contains("commit "), "{v}");
+    let s = text(&host_tool(&["status", "--sim"]).stdout);
+    assert!(s.contains(&schema), "{s}");
+    assert!(
+        s.contains("the same protocol and schema as the device"),
+        "{s}"
+    );
+    let j = one_object(&host_tool(&["status", "--sim", "-j"]));
+    assert_eq!(j["versions_match"], true);
+    assert_eq!(j["host"]["schema_id"], j["device"]["schema_id"]);
+}
+
+#[test]
+fn long_lines_wrap_to_the_terminal_width() {
+    let out = cmd()
+        .args(["plan", "--target", "D&D", "--dry-run"])
+        .env("COLUMNS", "60")
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(0));
+    let s = text(&out.stdout);
+    assert!(s.contains("why:"), "{s}");
+    for line in s.lines() {
+        assert!(
+            line.chars().count() <= 60,
+            "{} columns: {line}",
+            line.chars().count()
+        );
+    }
+    // Without a width (a pipe), lines are whole.
+    let whole = text(&host_tool(&["plan", "--target", "D&D", "--dry-run"]).stdout);
+    assert!(whole.lines().any(|l| l.chars().count() > 60), "{whole}");
+}
+
+#[test]
+fn monitor_prints_a_header_a_readable_rate_and_no_two_samples_at_one_time() {
+    let out = host_tool(&["monitor", "--sim", "--duration", "1.5", "--rate", "4"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let s = text(&out.stdout);
+    let mut lines = s.lines();
+    let header = lines.next().unwrap_or_default();
+    assert!(
+        header.contains("device time") && header.contains("pressure"),
+        "{s}"
+    );
+    let times: Vec<&str> = lines
+        .filter(|l| l.contains(" kPa "))
+        .map(|l| l.split_whitespace().next().unwrap_or_default())
+        .collect();
+    assert!(times.len() >= 3, "{s}");
+    // 1.5 s at 4 lines per second (+1 for the first).
+    assert!(times.len() <= 7, "{} lines: {s}", times.len());
+    let mut seen = std::collections::HashSet::new();
+    for t in &times {
+        assert!(seen.insert(*t), "two samples at {t} s: {s}");
+    }
+}

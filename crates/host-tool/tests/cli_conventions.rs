@@ -28,6 +28,14 @@ fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
 
+/// A help text with its line breaks (wrapped to the terminal's width) as single spaces.
+fn help(args: &[&str]) -> String {
+    text(&host_tool(args).stdout)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// Stdout as exactly one JSON object.
 fn one_object(out: &Output) -> Value {
     let s = text(&out.stdout);
@@ -190,23 +198,20 @@ fn range_messages_agree_with_each_other_and_with_the_help() {
             "{m}: {err}"
         );
     }
-    let help = text(&host_tool(&["ik", "--help"]).stdout);
-    assert!(help.contains("[1, 10000]"), "{help}");
-    let help = text(&host_tool(&["plan", "--help"]).stdout);
-    assert!(help.contains("0.1–1000"), "{help}");
-    assert!(help.contains("[default: 1]"), "the seed's default: {help}");
-    let help = text(&host_tool(&["monitor", "--help"]).stdout);
-    assert!(
-        help.contains("1–50") && help.contains("[default: 10]"),
-        "{help}"
-    );
+    let h = help(&["ik", "--help"]);
+    assert!(h.contains("[1, 10000]"), "{h}");
+    let h = help(&["plan", "--help"]);
+    assert!(h.contains("0.1–1000"), "{h}");
+    assert!(h.contains("[default: 1]"), "the seed's default: {h}");
+    let h = help(&["monitor", "--help"]);
+    assert!(h.contains("1–50") && h.contains("[default: 10]"), "{h}");
 }
 
 #[test]
 fn help_examples_are_quoted_and_an_unquoted_ampersand_gets_a_hint() {
-    let help = text(&host_tool(&["--help"]).stdout);
-    assert!(help.contains("--target 'D&F'"), "{help}");
-    assert!(!help.contains("--target D&F"), "{help}");
+    let h = help(&["--help"]);
+    assert!(h.contains("--target 'D&F'"), "{h}");
+    assert!(!h.contains("--target D&F"), "{h}");
     // `host-tool plan --target D&F --sim` unquoted: the shell runs `host-tool plan --target D`.
     let out = host_tool(&["plan", "--target", "D"]);
     assert_eq!(out.status.code(), Some(2));

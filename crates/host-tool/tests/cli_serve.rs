@@ -216,8 +216,9 @@ fn the_socket_is_the_users_only_and_param_goes_through_the_server() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
+    // The device names the field and the limit it passes, through the server too.
     assert!(
-        err.contains("servo-min-deg must not exceed servo-max-deg"),
+        err.contains("servo-min-deg 10 deg would pass servo-max-deg = 0 deg"),
         "{err}"
     );
     // A second server for the same device is refused.

@@ -48,11 +48,11 @@ pub fn detect() -> Result<String, Failure> {
         })
         .collect();
     let terminal = std::io::stdin().is_terminal() && std::io::stderr().is_terminal();
-    choose(
-        &found,
-        terminal.then_some(&mut ask as &mut dyn FnMut(&str) -> Option<String>),
-    )
+    choose(&found, terminal.then_some(&mut ask as &mut Ask<'_>))
 }
+
+/// Asks the operator with a prompt; the answer, if any.
+pub type Ask<'a> = dyn FnMut(&str) -> Option<String> + 'a;
 
 /// Reads the operator's choice after showing `prompt`.
 fn ask(prompt: &str) -> Option<String> {
@@ -64,10 +64,7 @@ fn ask(prompt: &str) -> Option<String> {
 
 /// [`detect`]'s rule over the UNO R4 ports found: one → it; several → `ask` (a number or a
 /// path) when there is a terminal, else an error listing them; none → the usage error.
-pub fn choose(
-    found: &[(String, &str)],
-    ask: Option<&mut dyn FnMut(&str) -> Option<String>>,
-) -> Result<String, Failure> {
+pub fn choose(found: &[(String, &str)], ask: Option<&mut Ask<'_>>) -> Result<String, Failure> {
     let listing = || {
         found
             .iter()

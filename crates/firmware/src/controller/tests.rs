@@ -1854,6 +1854,46 @@ fn display_shows_pressure_on_request() {
 }
 
 #[test]
+fn tendon_direction_table_is_the_geometry_crates() {
+    for ((sin_i, cos_i), phi) in TENDON_DIRECTIONS
+        .iter()
+        .zip(geometry::tendon::TENDON_ANGLES)
+    {
+        assert!((f64::from(*sin_i) - phi.sin()).abs() < 1e-7, "{phi}");
+        assert!((f64::from(*cos_i) - phi.cos()).abs() < 1e-7, "{phi}");
+    }
+}
+
+/// A `Bend`'s tendon shortenings in `f32` (`bend_lengths`: the direction reduced in degrees,
+/// then the Cephes kernels of `mathf`) against `geometry::tendon`'s `f64` law, around D&D (no
+/// take-up), over every whole degree of direction, several turns either way and far out.
+#[test]
+fn bend_lengths_match_the_geometry_crate_for_any_direction() {
+    let r = Rig::connected(DD);
+    let tg = geometry::tendon::TendonGeometry::new(r.cfg.tendon_radius_mm as f64).unwrap();
+    let mut worst: f64 = 0.0;
+    let far = [1.0e6f32, -3.6e7 + 45.0, 3.0e38];
+    for dir in (-1080..=1080).map(|d| d as f32).chain(far) {
+        for angle_deg in [1.0f32, 10.0, 30.0] {
+            let got = r.ctl.bend_lengths(dir, angle_deg.to_radians()).unwrap();
+            let reduced = f64::from(dir % 360.0).to_radians();
+            let bend = geometry::tendon::Bend {
+                direction: reduced.rem_euclid(std::f64::consts::TAU),
+                angle: f64::from(angle_deg).to_radians(),
+            };
+            let dl = tg.length_changes(bend);
+            for k in 0..3 {
+                // Shortening = −Δl, never below 0 (a tendon cannot push).
+                let want = (-dl[k]).max(0.0);
+                worst = worst.max((f64::from(got[k]) - want).abs());
+            }
+        }
+    }
+    assert!(worst < 1e-4, "{worst} mm");
+    assert_eq!(r.ctl.bend_lengths(f32::NAN, 0.1), None);
+}
+
+#[test]
 fn joystick_twin_matches_the_geometry_crate() {
     let cfg = CraneConfig::default();
     let jc = cfg.joystick;

@@ -72,13 +72,36 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
 /// (`%` and the ±360° are exact in floating point), so the radian argument is within ±π and
 /// only its one rounding (≤ 1.2e-7 rad) adds to the kernels' error. NaN for a non-finite angle.
 pub fn sin_cos_deg(deg: f32) -> (f32, f32) {
-    let mut r = deg % 360.0;
+    if !deg.is_finite() {
+        return (f32::NAN, f32::NAN);
+    }
+    let mut r = rem_360(deg);
     if r > 180.0 {
         r -= 360.0;
     } else if r < -180.0 {
         r += 360.0;
     }
     sin_cos(r.to_radians())
+}
+
+/// `x` modulo 360 with the sign of `x` (as `x % 360.0`), exact, for finite `x`.
+///
+/// Why not `%`: on the board it links `fmodf` with a 64-bit software division (1.5 KiB). Here
+/// each step subtracts 360·2^k with 360·2^k ≤ r < 360·2^(k+1), which is exact (Sterbenz), the
+/// power of two taken from the exponents: at most one step per binade, ≤ 128 for any `f32`.
+pub fn rem_360(x: f32) -> f32 {
+    const M: f32 = 360.0;
+    let mut r = x.abs();
+    while r >= M {
+        // 360·2^(e_r − e_360), halved if it overshoots r.
+        let shift = (r.to_bits() >> 23) - (M.to_bits() >> 23);
+        let mut m = f32::from_bits(M.to_bits() + (shift << 23));
+        if m > r {
+            m *= 0.5;
+        }
+        r -= m;
+    }
+    r.copysign(x)
 }
 
 /// tan x for |x| ≤ [`MAX_ARG`] (±∞ never: the nearest `f32` to an odd multiple of π/2 is not
@@ -225,6 +248,30 @@ mod tests {
         }
         let (s, c) = sin_cos_deg(90.0);
         assert!((s - 1.0).abs() < 1e-7 && c.abs() < 1e-7);
+    }
+
+    #[test]
+    fn rem_360_is_fmod_exactly() {
+        let mut x = 1e-3f32;
+        while x < 3.4e38 {
+            for v in [x, -x, x.next_up(), (x * 360.0).min(f32::MAX)] {
+                let want = v % 360.0;
+                assert_eq!(rem_360(v).to_bits(), want.to_bits(), "{v}");
+            }
+            x *= 1.37;
+        }
+        for v in [
+            0.0f32,
+            -0.0,
+            360.0,
+            -360.0,
+            720.0,
+            359.999_97,
+            f32::MAX,
+            -f32::MAX,
+        ] {
+            assert_eq!(rem_360(v).to_bits(), (v % 360.0).to_bits(), "{v}");
+        }
     }
 
     #[test]

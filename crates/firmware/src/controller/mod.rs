@@ -112,7 +112,7 @@ pub struct Outputs {
     pub inlet_open: bool,
     /// Exhaust valve open.
     pub exhaust_open: bool,
-    /// Gripper closed.
+    /// Gripper closed (the boot state: fail-closed, `docs/hardware.md`).
     pub gripper_closed: bool,
     /// Servo pulses on. Off in the safe state: the servos go limp (duty 0, no pulse), so a
     /// servo that stalled short of its command stops pushing, and the origami holds its state
@@ -362,14 +362,17 @@ impl Controller {
             servos_enabled: faults == 0,
             take_up_mm,
             max_bend_deg,
-            gripper_closed: false,
+            // Fail-closed: the controller boots holding (a reset while it carries a load must
+            // not drop it; the GPIO set-up already drives the pin closed): it opens only when
+            // told to (the gripper button, a `Gripper` primitive).
+            gripper_closed: true,
             want_inlet: false,
             want_exhaust: false,
             outputs: Outputs {
                 servo_deg,
                 inlet_open: false,
                 exhaust_open: false,
-                gripper_closed: false,
+                gripper_closed: true,
                 servos_enabled: faults == 0,
             },
             uploaded: None,

@@ -448,7 +448,8 @@ fn boot_empty_store_is_f_and_p_confirmed() {
     assert_eq!(c.poll_display(), display::text("F-P "));
     assert_eq!(c.poll_store(), None);
     let o = c.poll_outputs();
-    assert!(!o.inlet_open && !o.exhaust_open && !o.gripper_closed);
+    // Fail-closed: the gripper boots holding.
+    assert!(!o.inlet_open && !o.exhaust_open && o.gripper_closed);
     assert_eq!(o.servo_deg, [0.0; 3]);
 }
 
@@ -1827,10 +1828,32 @@ fn joystick_bends_only_flexible_states() {
 #[test]
 fn gripper_button_toggles_when_idle() {
     let mut r = Rig::new(FF);
-    r.press(|b, v| b.gripper = v);
-    assert!(r.ctl.poll_outputs().gripper_closed);
+    assert!(r.ctl.poll_outputs().gripper_closed, "boots closed");
     r.press(|b, v| b.gripper = v);
     assert!(!r.ctl.poll_outputs().gripper_closed);
+    r.press(|b, v| b.gripper = v);
+    assert!(r.ctl.poll_outputs().gripper_closed);
+}
+
+/// A reset of a crane that holds a load (watchdog, brown-out: any boot, whatever the record)
+/// boots with the gripper closed, and it stays closed through the first passes.
+#[test]
+fn the_gripper_boots_closed_from_any_record() {
+    let cfg = CraneConfig::default();
+    for boot in [
+        BootRecord::Empty,
+        BootRecord::Corrupt,
+        BootRecord::Stored(StoredState::confirmed(DF)),
+    ] {
+        let mut c = Controller::new(cfg, boot, 0);
+        c.report_watchdog_reset();
+        let rest = Inputs::at_rest(&cfg);
+        for now in 0..200 {
+            c.handle_inputs(&rest, now);
+            c.handle_time(now);
+            assert!(c.poll_outputs().gripper_closed, "{boot:?} at {now} ms");
+        }
+    }
 }
 
 #[test]

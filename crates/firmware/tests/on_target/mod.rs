@@ -62,11 +62,12 @@ pub fn ms() -> u32 {
     board::time::ticks_ms()
 }
 
-/// Busy-waits `ms` milliseconds on the time base (SysTick), feeding nothing.
+/// Waits `ms` milliseconds on the time base, asleep between SysTicks (as the board's loop
+/// does), feeding nothing.
 pub fn wait_ms(ms: u32) {
     let t0 = board::time::ticks_ms();
     while board::time::ticks_ms().wrapping_sub(t0) < ms {
-        core::hint::spin_loop();
+        cortex_m::asm::wfi();
     }
 }
 

@@ -290,6 +290,25 @@ fn run_case(elf: &[u8], case: &Case, settings: Settings) -> Result<(), Failed> {
     }
 }
 
+/// The libtest trial of one case: a case in a `bench_only` module is ignored with the kind
+/// `bench only` (and fails, saying why, if run anyway with `--ignored`).
+fn trial(case: Case, elf: Arc<Vec<u8>>, settings: Settings) -> Trial {
+    let name = case.name.clone();
+    if case.name.split("::").any(|m| m == "bench_only") {
+        return Trial::test(name, || {
+            Err(
+                "bench only: the emulator does not model what this test needs; \
+                 run it on a board (docs/flashing.md)"
+                    .into(),
+            )
+        })
+        .with_ignored_flag(true)
+        .with_kind("bench only");
+    }
+    let ignored = case.ignored;
+    Trial::test(name, move || run_case(&elf, &case, settings)).with_ignored_flag(ignored)
+}
+
 /// Runs the cases of `elf` as `probe-rs run` would, with libtest arguments `args` (those
 /// cargo passes after the ELF); the process exit code.
 pub fn run(elf: Vec<u8>, cases: Vec<Case>, settings: Settings, args: &[String]) -> u8 {
@@ -299,28 +318,52 @@ pub fn run(elf: Vec<u8>, cases: Vec<Case>, settings: Settings, args: &[String]) 
     let elf = Arc::new(elf);
     let trials = cases
         .into_iter()
-        .map(|case| {
-            let bench_only = case.name.split("::").any(|m| m == "bench_only");
-            let name = case.name.clone();
-            if bench_only {
-                return Trial::test(name, || {
-                    Err(
-                        "bench only: the emulator does not model what this test needs; \
-                         run it on a board (docs/flashing.md)"
-                            .into(),
-                    )
-                })
-                .with_ignored_flag(true)
-                .with_kind("bench only");
-            }
-            let elf = Arc::clone(&elf);
-            let ignored = case.ignored;
-            Trial::test(name, move || run_case(&elf, &case, settings)).with_ignored_flag(ignored)
-        })
+        .map(|case| trial(case, Arc::clone(&elf), settings))
         .collect();
     if libtest_mimic::run(&libtest_args, trials).has_failed() {
         101
     } else {
         0
+    }
+}
+
+#[cfg(test)]
+mod unit {
+    use super::*;
+
+    fn case(name: &str, ignored: bool) -> Case {
+        Case {
+            name: name.into(),
+            address: 0x4001,
+            ignored,
+            should_panic: false,
+            timeout_s: None,
+        }
+    }
+
+    #[test]
+    fn bench_only_cases_are_ignored_and_marked_and_the_others_keep_their_flag() {
+        let s = Settings {
+            board: Board::Wifi,
+            fixture: None,
+        };
+        let elf = Arc::new(Vec::new());
+        let t = trial(
+            case("tests::bench_only::adc_ref", false),
+            Arc::clone(&elf),
+            s,
+        );
+        assert!(t.has_ignored_flag());
+        assert_eq!(t.kind(), "bench only");
+        let t = trial(case("tests::gpt", false), Arc::clone(&elf), s);
+        assert!(!t.has_ignored_flag());
+        assert_eq!(t.kind(), "");
+        let t = trial(case("tests::slow", true), elf, s);
+        assert!(t.has_ignored_flag());
+    }
+
+    #[test]
+    fn a_file_that_is_not_an_elf_is_refused() {
+        assert!(cases(b"not an elf").is_err());
     }
 }

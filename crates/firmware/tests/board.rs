@@ -15,13 +15,6 @@
 mod board;
 mod on_target;
 
-use defmt_rtt as _;
-
-#[embedded_test::setup]
-fn setup() {
-    on_target::resume_if_set();
-}
-
 #[cfg(test)]
 #[embedded_test::tests]
 mod tests {

@@ -23,6 +23,13 @@ use crate::board;
 use crate::board::gpio::{pfs, PortPin};
 use crate::board::pins;
 use crate::board::regs::{pac, rd, wr};
+use defmt_rtt as _;
+
+/// Runs before each test asks for its command: a pending continuation first.
+#[embedded_test::setup]
+fn setup() {
+    resume_if_set();
+}
 
 /// What every test starts from: the board binary's bring-up (interrupt hand-over, clocks,
 /// modules, the 1 ms time base), interrupts on. The reset flags of the start are cleared, so

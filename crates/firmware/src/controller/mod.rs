@@ -112,7 +112,7 @@ pub struct Outputs {
     pub inlet_open: bool,
     /// Exhaust valve open.
     pub exhaust_open: bool,
-    /// Gripper closed.
+    /// Gripper closed (the boot state: fail-closed, `docs/hardware.md`).
     pub gripper_closed: bool,
     /// Servo pulses on. Off in the safe state: the servos go limp (duty 0, no pulse), so a
     /// servo that stalled short of its command stops pushing, and the origami holds its state
@@ -265,6 +265,8 @@ pub struct Controller {
     /// [`TrunkState::index`]: computed once here (a plan's upload check needs the take-up of
     /// every step's `from`).
     take_up_mm: [f32; 6],
+    /// The shortenings every servo reaches alike ([`equal_pull_range`]), when the limits change.
+    pull_range_mm: (f32, f32),
     /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
     /// change.
     max_bend_deg: f32,
@@ -361,15 +363,19 @@ impl Controller {
             servo_target_deg: servo_deg,
             servos_enabled: faults == 0,
             take_up_mm,
+            pull_range_mm: equal_pull_range(&cfg),
             max_bend_deg,
-            gripper_closed: false,
+            // Fail-closed: the controller boots holding (a reset while it carries a load must
+            // not drop it; the GPIO set-up already drives the pin closed): it opens only when
+            // told to (the gripper button, a `Gripper` primitive).
+            gripper_closed: true,
             want_inlet: false,
             want_exhaust: false,
             outputs: Outputs {
                 servo_deg,
                 inlet_open: false,
                 exhaust_open: false,
-                gripper_closed: false,
+                gripper_closed: true,
                 servos_enabled: faults == 0,
             },
             uploaded: None,
@@ -1082,26 +1088,23 @@ impl Controller {
 
     /// The servo angles of a set of tendon shortenings, or `None` if one is outside the limits.
     fn angles_for(&self, length_mm: [f32; 3]) -> Option<[f32; 3]> {
-        let sc = &self.cfg.servo;
-        let deg_per_mm = 1.0 / sc.mm_per_deg();
-        let mut a = [0.0; 3];
-        for (i, l) in length_mm.iter().enumerate() {
-            if !(l.is_finite() && *l >= 0.0 && *l <= self.cfg.max_tendon_mm) {
-                return None;
-            }
-            a[i] = sc.slack_deg[i] + sc.pull_sign[i] * l * deg_per_mm;
-            if !sc.allows(a[i]) {
-                return None;
-            }
-        }
-        Some(a)
+        angles_for(&self.cfg, length_mm)
+    }
+
+    /// Whether all three tendons can be at `length_mm` (the same on each) within the servo
+    /// limits: exactly `angles_for([length_mm; 3]).is_some()`, in two comparisons (a plan's
+    /// upload checks every tendon primitive and `Bend` this way, all in one loop pass).
+    fn equal_pull_allowed(&self, length_mm: f32) -> bool {
+        let (lo, hi) = self.pull_range_mm;
+        lo <= length_mm && length_mm <= hi
     }
 
     /// Tendon shortenings for a constant-curvature bend around the state's taken-up slack: the
     /// tendon on the inside of the bend is reeled in by r_t·θ·cos(φ − φ_i) more, the others pay
     /// out (a tendon cannot push: never below 0). `geometry::tendon`'s law, in `f32` (as the
-    /// joystick's): its `f64` costs the board binary software double precision.
-    fn bend_lengths(&self, direction_rad: f32, angle_rad: f32) -> Option<[f32; 3]> {
+    /// joystick's): its `f64` costs the board binary software double precision. The direction
+    /// is reduced in degrees (exactly) before any trigonometry, so every finite one works.
+    fn bend_lengths(&self, direction_deg: f32, angle_rad: f32) -> Option<[f32; 3]> {
         let take_up_mm = self.take_up_for(self.state());
         if stiff_bend_limit_rad(&self.cfg, take_up_mm, self.max_bend_deg)
             .is_some_and(|limit_rad| libm::fabsf(angle_rad) > limit_rad)
@@ -1109,9 +1112,14 @@ impl Controller {
             return None;
         }
         let k = self.cfg.tendon_radius_mm * angle_rad;
+        let (sin_d, cos_d) = crate::mathf::sin_cos_deg(direction_deg);
+        if !(sin_d.is_finite() && k.is_finite()) {
+            return None;
+        }
         let mut out = [0.0; 3];
-        for (o, phi_i) in out.iter_mut().zip(geometry::tendon::TENDON_ANGLES) {
-            *o = (take_up_mm + k * libm::cosf(direction_rad - phi_i as f32)).max(0.0);
+        for (o, (sin_i, cos_i)) in out.iter_mut().zip(TENDON_DIRECTIONS) {
+            // cos(φ − φ_i) = cos φ cos φ_i + sin φ sin φ_i
+            *o = (take_up_mm + k * (cos_d * cos_i + sin_d * sin_i)).max(0.0);
         }
         Some(out)
     }
@@ -1134,7 +1142,7 @@ impl Controller {
         let jc = self.cfg.joystick;
         let x = (raw[0] as f32 - jc.center_raw[0] as f32) / jc.half_range_raw;
         let y = (raw[1] as f32 - jc.center_raw[1] as f32) / jc.half_range_raw;
-        let m = libm::hypotf(x, y);
+        let m = crate::mathf::hypot(x, y);
         if m > jc.dead_zone {
             // The joystick takes the servos only once it has been moved: entering standalone
             // (after a plan or an abort) never moves the tendons by itself.
@@ -1305,19 +1313,103 @@ pub fn joystick_lengths_f32(
         return [0.0; 3];
     }
     let (x, y) = (crate::clampf(x, -1.0, 1.0), crate::clampf(y, -1.0, 1.0));
-    let m = libm::hypotf(x, y).min(1.0);
+    let r = crate::mathf::hypot(x, y);
+    let m = r.min(1.0);
     let dz = crate::clampf(jc.dead_zone, 0.0, 0.99);
     if m <= dz {
         return [0.0; 3];
     }
     let angle_rad = jc.max_bend_deg.to_radians() * (m - dz) / (1.0 - dz);
-    let direction_rad = libm::atan2f(y, x);
     let k = tendon_radius_mm * angle_rad;
+    // The bend's direction φ is the deflection's: cos(φ − φ_i) = (x cos φ_i + y sin φ_i) / r,
+    // no angle needed (r > the dead zone ≥ 0 here).
+    let (cx, cy) = (x / r, y / r);
     let mut out = [0.0; 3];
-    for (o, phi_i) in out.iter_mut().zip(geometry::tendon::TENDON_ANGLES) {
-        *o = k * libm::cosf(direction_rad - phi_i as f32);
+    for (o, (sin_i, cos_i)) in out.iter_mut().zip(TENDON_DIRECTIONS) {
+        *o = k * (cx * cos_i + cy * sin_i);
     }
     out
+}
+
+/// `(sin φ_i, cos φ_i)` of the three tendons' angles (`geometry::tendon::TENDON_ANGLES`: 0°,
+/// 120°, 240°; a test holds them to the geometry crate's).
+const TENDON_DIRECTIONS: [(f32, f32); 3] = [(0.0, 1.0), (0.866_025_4, -0.5), (-0.866_025_4, -0.5)];
+
+/// The servo angles of a set of tendon shortenings, or `None` if one is outside the limits.
+fn angles_for(cfg: &CraneConfig, length_mm: [f32; 3]) -> Option<[f32; 3]> {
+    let sc = &cfg.servo;
+    let deg_per_mm = 1.0 / sc.mm_per_deg();
+    let mut a = [0.0; 3];
+    for (i, l) in length_mm.iter().enumerate() {
+        if !(l.is_finite() && *l >= 0.0 && *l <= cfg.max_tendon_mm) {
+            return None;
+        }
+        a[i] = sc.slack_deg[i] + sc.pull_sign[i] * l * deg_per_mm;
+        if !sc.allows(a[i]) {
+            return None;
+        }
+    }
+    Some(a)
+}
+
+/// The shortenings `l` with `angles_for(cfg, [l; 3]).is_some()`, as `(lo, hi)` (`lo > hi`:
+/// none), found exactly: that set is an interval of the floats, because each angle is a
+/// monotone function of `l` (a product with the fixed sign, one with the fixed degrees per
+/// mm, a sum with the fixed slack angle: every rounding step is monotone) and each test
+/// (finite, within the limits, within `0..=max_tendon_mm`) keeps an interval. So: a point of
+/// it from the closed form, then each end by bisection over the floats' bit patterns (in
+/// order for non-negative floats), ≤ 2 × 32 evaluations when the limits change.
+fn equal_pull_range(cfg: &CraneConfig) -> (f32, f32) {
+    const EMPTY: (f32, f32) = (1.0, 0.0);
+    let ok = |l: f32| angles_for(cfg, [l; 3]).is_some();
+    let sc = &cfg.servo;
+    let top = cfg.max_tendon_mm;
+    let mm_per_deg = sc.mm_per_deg();
+    let (mut lo, mut hi) = (0.0f32, top);
+    for i in 0..3 {
+        let a = (sc.min_deg - sc.slack_deg[i]) * mm_per_deg * sc.pull_sign[i];
+        let b = (sc.max_deg - sc.slack_deg[i]) * mm_per_deg * sc.pull_sign[i];
+        lo = lo.max(a.min(b));
+        hi = hi.min(a.max(b));
+    }
+    let Some(inside) = [(lo + hi) * 0.5, lo, hi, 0.0, top]
+        .into_iter()
+        .find(|&l| l >= 0.0 && ok(l))
+    else {
+        return EMPTY;
+    };
+    let f = f32::from_bits;
+    // Smallest: ok at `b`, not at `a` (or a is 0 and ok).
+    let low = if ok(0.0) {
+        0.0
+    } else {
+        let (mut a, mut b) = (0u32, inside.to_bits());
+        while b - a > 1 {
+            let m = a + (b - a) / 2;
+            if ok(f(m)) {
+                b = m;
+            } else {
+                a = m;
+            }
+        }
+        f(b)
+    };
+    // Largest: ok at `a`, not at `b` (or `top` is ok).
+    let high = if ok(top) {
+        top
+    } else {
+        let (mut a, mut b) = (inside.to_bits(), top.to_bits());
+        while b - a > 1 {
+            let m = a + (b - a) / 2;
+            if ok(f(m)) {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        f(a)
+    };
+    (low, high)
 }
 
 /// Every servo at its slack angle (zero shortening), within the limits.

@@ -317,12 +317,14 @@ impl Controller {
 
     /// A tendon length (the same on all three) against the travel and the servo limits.
     fn tendon_in_range(&self, length_mm: f32) -> Result<(), Passed> {
+        // The fast check first (two comparisons: the upload of a whole plan fits one loop
+        // pass); the field is worked out only for a refusal.
+        if self.equal_pull_allowed(length_mm) {
+            return Ok(());
+        }
         let max = self.cfg.max_tendon_mm;
         if !(length_mm.is_finite() && length_mm >= 0.0 && length_mm <= max) {
             return Err((RefusedField::TendonLength, length_mm, max));
-        }
-        if self.angles_for([length_mm; 3]).is_some() {
-            return Ok(());
         }
         let sc = &self.cfg.servo;
         let deg = (0..3)
@@ -378,15 +380,14 @@ impl Controller {
                 // r_t·θ, whatever the direction.
                 let take_up_mm = self.take_up_for(from);
                 let worst_mm = take_up_mm + self.cfg.tendon_radius_mm * angle_deg.to_radians();
-                let stiff =
-                    stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
-                        .map_or(180.0, f32::to_degrees)
-                        .min(180.0);
+                let stiff_rad =
+                    stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from));
                 if !(direction_deg.is_finite()
                     && angle_deg.is_finite()
-                    && angle_deg >= 0.0
-                    && angle_deg <= stiff)
+                    && (0.0..=180.0).contains(&angle_deg)
+                    && !stiff_rad.is_some_and(|limit_rad| angle_deg.to_radians() > limit_rad))
                 {
+                    let stiff = stiff_rad.map_or(180.0, f32::to_degrees).min(180.0);
                     return Err((RefusedField::BendAngle, angle_deg, stiff));
                 }
                 self.tendon_in_range(worst_mm)
@@ -505,12 +506,14 @@ impl Controller {
                     return passes(self.cfg.servo.max_deg);
                 }
                 self.cfg.servo.min_deg = value;
+                self.pull_range_mm = super::equal_pull_range(&self.cfg);
             }
             ParamId::ServoMaxDeg => {
                 if value < self.cfg.servo.min_deg {
                     return passes(self.cfg.servo.min_deg);
                 }
                 self.cfg.servo.max_deg = value;
+                self.pull_range_mm = super::equal_pull_range(&self.cfg);
             }
             ParamId::ServoSlewDegPerS => self.cfg.servo.slew_deg_per_s = value,
             ParamId::TelemetryHz => {

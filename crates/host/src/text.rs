@@ -104,7 +104,6 @@ pub const fn refused_field_name(field: RefusedField) -> &'static str {
     match field {
         RefusedField::Pressure => "pressure",
         RefusedField::TendonLength => "tendon-length",
-        RefusedField::ServoAngle => "servo-angle",
         RefusedField::BendAngle => "bend-angle",
         RefusedField::Duration => "duration",
         RefusedField::Param(id) => param_name(id),
@@ -129,20 +128,9 @@ pub fn refusal(reason: RejectReason, detail: Option<&Refusal>) -> String {
             protocol::HARD_MAX_PRESSURE_KPA
         ),
         RefusedField::TendonLength => format!(
-            "it needs a tendon length of {v} mm, beyond the tendons' travel of {lim} mm (a \
-             limit of the build, in the firmware's calibration)"
+            "it needs a tendon length of {v} mm, beyond the tendons' reach of {lim} mm (their \
+             travel within servo-min-deg and servo-max-deg: `host-tool param get` shows them)"
         ),
-        RefusedField::ServoAngle => {
-            let name = if v < lim {
-                "servo-min-deg"
-            } else {
-                "servo-max-deg"
-            };
-            format!(
-                "it needs a servo angle of {v}°, beyond {name} = {lim}°; change it with \
-                 `host-tool param set {name} {v}` if the servo can reach it"
-            )
-        }
         RefusedField::BendAngle => format!(
             "it bends {v}°, more than the {lim}° that fit from its state (the tendons' travel \
              and the stiffness of the state); bend less or from a more deployed state"

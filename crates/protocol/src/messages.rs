@@ -553,11 +553,9 @@ pub struct Refusal {
 pub enum RefusedField {
     /// A step's pressure (kPa) against the pressure limit ([`ParamId::PressureLimitKpa`]).
     Pressure,
-    /// A tendon length (mm) against the tendons' travel.
-    TendonLength,
-    /// A servo angle (deg) a tendon length needs against the servo limits
+    /// A tendon length (mm) against the tendons' reach: their travel within the servo limits
     /// ([`ParamId::ServoMinDeg`], [`ParamId::ServoMaxDeg`]).
-    ServoAngle,
+    TendonLength,
     /// A bend angle (deg) against the largest bend that fits from the step's state.
     BendAngle,
     /// A step's time limit or a hold (ms) against the longest accepted.

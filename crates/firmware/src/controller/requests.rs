@@ -27,6 +27,17 @@ fn reject(r: RejectReason) -> Answer {
     (ResultCode::Rejected(r), ResponseBody::None)
 }
 
+/// A refusal, naming its field when it is about one.
+type Refused = (RejectReason, Option<Refusal>);
+
+/// The answer to a refused request.
+fn refused((r, detail): Refused) -> Answer {
+    (
+        ResultCode::Rejected(r),
+        detail.map_or(ResponseBody::None, ResponseBody::Refused),
+    )
+}
+
 /// A refusal naming its field: `value` asked for, `limit` passed.
 fn refuse(
     r: RejectReason,
@@ -34,10 +45,10 @@ fn refuse(
     field: RefusedField,
     value: f32,
     limit: f32,
-) -> Answer {
+) -> Refused {
     (
-        ResultCode::Rejected(r),
-        ResponseBody::Refused(Refusal {
+        r,
+        Some(Refusal {
             step,
             field,
             value,
@@ -263,7 +274,7 @@ impl Controller {
 
     /// Checks a plan's shape and values; `Err` is the rejection (naming the step and the
     /// field where a value is refused).
-    fn validate(&self, steps: &[Step]) -> Result<(), Answer> {
+    fn validate(&self, steps: &[Step]) -> Result<(), Refused> {
         let shape = |i: usize| {
             refuse(
                 RejectReason::InvalidPlan,
@@ -307,10 +318,10 @@ impl Controller {
             }
         }
         if !self.confirmed() {
-            return Err(reject(RejectReason::Unconfirmed));
+            return Err((RejectReason::Unconfirmed, None));
         }
         if steps[0].from != self.state() {
-            return Err(reject(RejectReason::WrongState));
+            return Err((RejectReason::WrongState, None));
         }
         Ok(())
     }
@@ -322,21 +333,10 @@ impl Controller {
         if self.equal_pull_allowed(length_mm) {
             return Ok(());
         }
-        let max = self.cfg.max_tendon_mm;
-        if !(length_mm.is_finite() && length_mm >= 0.0 && length_mm <= max) {
-            return Err((RefusedField::TendonLength, length_mm, max));
-        }
-        let sc = &self.cfg.servo;
-        let deg = (0..3)
-            .map(|i| sc.slack_deg[i] + sc.pull_sign[i] * length_mm / sc.mm_per_deg())
-            .find(|a| !sc.allows(*a))
-            .unwrap_or(f32::NAN);
-        let limit = if deg < sc.min_deg {
-            sc.min_deg
-        } else {
-            sc.max_deg
-        };
-        Err((RefusedField::ServoAngle, deg, limit))
+        // The reach: the travel within the servo limits.
+        let (lo, hi) = self.pull_range_mm;
+        let limit = if length_mm < lo { lo } else { hi };
+        Err((RefusedField::TendonLength, length_mm, limit))
     }
 
     /// Whether `p`'s values fit, for a step that starts in `from`; `Err` names the field.
@@ -403,7 +403,7 @@ impl Controller {
             return reject(RejectReason::InvalidPlan);
         }
         if let Err(r) = self.validate(&plan.steps) {
-            return r;
+            return refused(r);
         }
         self.plan_status = Some(PlanStatus {
             plan_id: plan.plan_id,
@@ -424,7 +424,7 @@ impl Controller {
         };
         // The state may have changed since the upload (a button step, a declared state).
         if let Err(r) = self.validate(&plan.steps) {
-            return r;
+            return refused(r);
         }
         let plan = plan.clone();
         self.start_exec(plan, Origin::Host);
@@ -457,7 +457,7 @@ impl Controller {
             return b;
         }
         if let Err(r) = self.validate(core::slice::from_ref(step)) {
-            return r;
+            return refused(r);
         }
         let mut steps = Vec::new();
         let _ = steps.push(step.clone());
@@ -478,13 +478,13 @@ impl Controller {
 
     fn set_param(&mut self, id: ParamId, value: f32) -> Answer {
         let passes = |limit: f32| {
-            refuse(
+            refused(refuse(
                 RejectReason::OutOfRange,
                 None,
                 RefusedField::Param(id),
                 value,
                 limit,
-            )
+            ))
         };
         if !id.accepts(value) {
             let (lo, hi) = id.range();

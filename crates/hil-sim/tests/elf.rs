@@ -175,15 +175,7 @@ fn a_power_cut_mid_step_boots_the_elf_into_a_truthful_report() {
                 let _ = host.send(&mut sim, protocol::RequestBody::Heartbeat);
                 host.poll(&mut sim);
             }
-            sim.power_cycle();
-            sim.run_for(100);
-            let mut host = SimHost::new();
-            host.hello(&mut sim).expect("handshake after the cut");
-            let Ok((_, ResponseBody::Status(st))) =
-                host.request(&mut sim, protocol::RequestBody::GetStatus, 1_000)
-            else {
-                panic!("no status after the cut")
-            };
+            let st = status_after_a_power_cut(&mut sim);
             // Truthful: a confirmed state is the true one; an unconfirmed report names the
             // step that was cut and its candidates hold the truth.
             let truth = sim
@@ -345,6 +337,18 @@ fn actuating(sim: &Sim, rest: [f32; 3]) -> bool {
     valve || servo.iter().zip(rest).any(|(a, b)| (a - b).abs() > 0.5)
 }
 
+/// Cuts the power, boots, and asks a new host's status.
+fn status_after_a_power_cut(sim: &mut Sim) -> protocol::messages::Status {
+    sim.power_cycle();
+    sim.run_for(100);
+    let mut host = SimHost::new();
+    host.hello(sim).expect("handshake after the cut");
+    match host.request(sim, protocol::RequestBody::GetStatus, 1_000) {
+        Ok((_, ResponseBody::Status(st))) => st,
+        other => panic!("no status after the cut: {other:?}"),
+    }
+}
+
 /// Uploads and starts the plan F&P → D&F on a fresh board (the ELF, or the host-built
 /// controller); returns the sim, its host and the step that starts (its journal record is
 /// what the board writes first).
@@ -424,15 +428,7 @@ fn a_step_actuates_only_after_its_journal_is_in_flash_and_a_cut_before_boots_tru
             sim.step();
             moved |= actuating(&sim, rest);
         }
-        sim.power_cycle();
-        sim.run_for(100);
-        let mut host = SimHost::new();
-        host.hello(&mut sim).expect("handshake after the cut");
-        let Ok((_, ResponseBody::Status(st))) =
-            host.request(&mut sim, protocol::RequestBody::GetStatus, 1_000)
-        else {
-            panic!("no status after the cut at {cut_ms} ms")
-        };
+        let st = status_after_a_power_cut(&mut sim);
         let truth = sim.ground_truth().true_state.expect("at rest");
         if st.state_confirmed {
             assert!(

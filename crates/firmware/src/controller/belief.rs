@@ -12,7 +12,7 @@
 //! them to the calibrated trunk. Each is the *lowest* actuation at which the edge's snap was seen;
 //! [`reach`] adds a margin above the step's largest actuation, [`untouched`] one below.
 
-use geometry::TrunkState;
+use geometry::{BottomState, TopState, TrunkState};
 use protocol::{Primitive, StateSet, Step, StepKind, Transition};
 
 /// Pressure at which each pneumatic edge snaps, kPa (gauge).
@@ -95,9 +95,19 @@ fn actuation(step: &Step) -> (f32, f32) {
 /// Every state an interrupted `step` may have left the trunk in: `from`, `to`, and every state
 /// further along the same actuation that its largest inflation or longest pull could reach
 /// (overshoots: a pull from `D&D` to `F&D` whose snap went unseen goes on to buckle the bottom,
-/// `F&F`). A manual step: `from` or `to` (a person folds one module).
+/// `F&F`). A manual step: `from`, `to`, or what any one hand task makes of `from` (a person
+/// may fold the wrong module: fold the top, fold or pack the bottom).
 pub fn reach(step: &Step) -> StateSet {
     let mut set = StateSet::single(step.from).with(step.to);
+    let by_hand = step.kind == StepKind::Manual
+        || step.primitives.iter().any(|p| matches!(p, Primitive::Manual(_)));
+    if by_hand {
+        let (top, bottom) = (step.from.top, step.from.bottom);
+        set = set
+            .with(TrunkState::new(TopState::Folded, bottom))
+            .with(TrunkState::new(top, BottomState::Folded))
+            .with(TrunkState::new(top, BottomState::Packed));
+    }
     if step.kind == StepKind::Manual {
         return set;
     }
@@ -248,7 +258,8 @@ mod tests {
             ("D&P", "F&P", &["D&P", "F&P"]),
             ("F&D", "F&F", &["F&D", "F&F"]),
             ("F&F", "F&P", &["F&F", "F&P"]),
-            ("D&F", "D&P", &["D&F", "D&P"]),
+            // By hand: the task asked, or any other one by mistake (fold the top: F&F).
+            ("D&F", "D&P", &["D&F", "D&P", "F&F"]),
         ];
         for (from, to, want) in cases {
             assert_eq!(reach(&nominal(from, to)), set(want), "{from} -> {to}");

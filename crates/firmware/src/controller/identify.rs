@@ -40,6 +40,33 @@ pub const RATE_TOLERANCE: f32 = 0.05;
 /// D&D): the mean over seeds 1–3 through this probe on the simulator's calibrated trunk.
 pub const PROBE_SIGNATURES: [f32; 6] = [11.71, 10.81, 10.24, 14.08, 12.94, 12.82];
 
+/// Measured fill rate (kPa/s) of a trunk resting between named states, through this probe on
+/// the same trunk: the bottom half-packed (one layer of two, a stable well of its own) under the
+/// folded top (`F&P½`, seeds 1–3: 10.95, 11.09, 11.10) and under the deployed top (`D&P½`:
+/// 13.23, 13.18, 13.20). Where the candidates hold both neighbours of one (`F&P` and `F&F`,
+/// `D&P` and `D&F`: a step between them may have stopped half-way) and the rate is within
+/// [`RATE_TOLERANCE`] of it, the trunk may be between states, so the probe confirms nothing
+/// (F&F and F&P½ are 2 % apart, D&F and D&P½ 2 %, F&P and F&P½ 6 %).
+pub const BETWEEN_SIGNATURES: [f32; 2] = [11.05, 13.20];
+
+/// The probe's primitives: vent, settle sealed, fill, hold sealed (the measurement), vent.
+/// The identification plan runs them as two steps; a manual step runs them after the person's
+/// confirm (`docs/firmware.md`, "Manual steps: the check").
+pub const PROBE: [Primitive; 5] = [
+    Primitive::Vent { pressure_kpa: 0.0 },
+    Primitive::Hold {
+        duration_ms: SETTLE_MS,
+    },
+    Primitive::Inflate {
+        pressure_kpa: PROBE_KPA,
+        snaps: 0,
+    },
+    Primitive::Hold {
+        duration_ms: HOLD_MS,
+    },
+    Primitive::Vent { pressure_kpa: 0.0 },
+];
+
 /// The probe, as a plan within `state` (steps within one state change no belief): vent,
 /// settle, fill, hold; then vent.
 pub fn probe_plan(state: TrunkState) -> Plan {
@@ -50,23 +77,9 @@ pub fn probe_plan(state: TrunkState) -> Plan {
         primitives: prims.iter().copied().collect(),
         timeout_ms: 20_000,
     };
-    let measure = step(&[
-        Primitive::Vent { pressure_kpa: 0.0 },
-        Primitive::Hold {
-            duration_ms: SETTLE_MS,
-        },
-        Primitive::Inflate {
-            pressure_kpa: PROBE_KPA,
-            snaps: 0,
-        },
-        Primitive::Hold {
-            duration_ms: HOLD_MS,
-        },
-    ]);
-    let vent = step(&[Primitive::Vent { pressure_kpa: 0.0 }]);
     Plan {
         plan_id: IDENTIFY_PLAN_ID,
-        steps: [measure, vent].into_iter().collect(),
+        steps: [step(&PROBE[..4]), step(&PROBE[4..])].into_iter().collect(),
     }
 }
 
@@ -142,6 +155,25 @@ impl ProbeLog {
         Some(first - last > LEAK_DROP_KPA || self.filled_kpa - last > LEAK_DROP_KPA)
     }
 
+    /// Whether the measurement may narrow `candidates` (by [`ProbeLog::verdict`]): it is
+    /// complete, tight, and not also the rate of a trunk half-way between two of them
+    /// ([`BETWEEN_SIGNATURES`]; such a reading narrows nothing).
+    pub fn decisive(&self, candidates: StateSet) -> bool {
+        use geometry::{BottomState, TopState};
+        let tight = self.leaking() == Some(false);
+        self.rate_kpa_per_s().filter(|_| tight).is_some_and(|rate| {
+            [TopState::Folded, TopState::Deployed]
+                .into_iter()
+                .zip(BETWEEN_SIGNATURES)
+                .all(|(top, want)| {
+                    let both = [BottomState::Packed, BottomState::Folded]
+                        .iter()
+                        .all(|b| candidates.contains(TrunkState::new(top, *b)));
+                    !both || (rate - want).abs() > RATE_TOLERANCE * want
+                })
+        })
+    }
+
     /// The states consistent with the measurement (every state when it is incomplete or the
     /// trunk leaks).
     pub fn verdict(&self) -> StateSet {
@@ -204,6 +236,13 @@ mod tests {
         // A leaking trunk (1 kPa/s at 4 kPa) fills slower than its volume says: no verdict.
         assert_eq!(log_leaking(11.71, 1.0).verdict(), StateSet::ALL);
         assert_eq!(log_leaking(11.71, 0.1).verdict(), set(&["F&P"]));
+        // A half-packed bottom reads as F&F or D&F would: not decisive where it may be.
+        let all = StateSet::ALL;
+        assert!(!log(10.81).decisive(all));
+        assert!(!log(12.94).decisive(all));
+        assert!(log(11.71).decisive(all) && log(14.08).decisive(all));
+        assert!(log(10.81).decisive(set(&["F&F", "D&F", "D&P"])));
+        assert!(!log(12.94).decisive(set(&["F&F", "D&F", "D&P"])));
         // Nothing fills this slowly.
         assert!(log(8.0).verdict().is_empty());
         // An incomplete probe says nothing.

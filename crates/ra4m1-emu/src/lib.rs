@@ -108,6 +108,8 @@ pub struct Emulator {
     flash_image: Vec<u8>,
     resets: Vec<ResetKind>,
     symbols: std::collections::HashMap<String, u32>,
+    /// Function symbols `(start, size, name)` sorted by start (Thumb bit cleared).
+    functions: Vec<(u32, u32, String)>,
 }
 
 impl std::fmt::Debug for Emulator {
@@ -135,6 +137,62 @@ fn elf_symbols(elf: &[u8]) -> std::collections::HashMap<String, u32> {
     file.symbols()
         .filter_map(|s| Some((s.name().ok()?.to_string(), s.address() as u32)))
         .collect()
+}
+
+/// The ELF's function symbols `(start, size, name)`, sorted by start, Thumb bit cleared.
+fn elf_functions(elf: &[u8]) -> Vec<(u32, u32, String)> {
+    use object::{Object, ObjectSymbol, SymbolKind};
+    let Ok(file) = object::read::elf::ElfFile32::<object::Endianness>::parse(elf) else {
+        return Vec::new();
+    };
+    let mut f: Vec<(u32, u32, String)> = file
+        .symbols()
+        .filter(|s| s.kind() == SymbolKind::Text)
+        .filter_map(|s| {
+            let name = demangle(s.name().ok()?);
+            Some((s.address() as u32 & !1, s.size() as u32, name))
+        })
+        .collect();
+    f.sort();
+    f
+}
+
+/// A legacy-mangled Rust symbol (`_ZN…E`) as a path without its hash (`a::b::c`); any other
+/// name as it is. Enough to read a profile, not a full demangler.
+fn demangle(name: &str) -> String {
+    let Some(mut rest) = name.strip_prefix("_ZN") else {
+        return name.to_string();
+    };
+    let mut parts = Vec::new();
+    while let Some(len_end) = rest.find(|c: char| !c.is_ascii_digit()) {
+        let Ok(len) = rest[..len_end].parse::<usize>() else {
+            break;
+        };
+        let Some(part) = rest.get(len_end..len_end + len) else {
+            break;
+        };
+        parts.push(part);
+        rest = &rest[len_end + len..];
+    }
+    if parts
+        .last()
+        .is_some_and(|h| h.len() == 17 && h.starts_with('h'))
+    {
+        parts.pop();
+    }
+    let path = parts.join("::");
+    [
+        ("$LT$", "<"),
+        ("$GT$", ">"),
+        ("$u20$", " "),
+        ("$C$", ","),
+        ("$RF$", "&"),
+        ("$u7b$", "{"),
+        ("$u7d$", "}"),
+        ("..", "::"),
+    ]
+    .iter()
+    .fold(path, |s, (from, to)| s.replace(from, to))
 }
 
 /// Loads the PT_LOAD segments of a 32-bit ARM ELF into a code-flash image.
@@ -226,6 +284,7 @@ impl Emulator {
             wake_start_cycles: 0,
             max_awake_cycles: 0,
             max_awake_at: 0,
+            profile: None,
             semihost_out: Vec::new(),
             exit_code: None,
         };
@@ -338,6 +397,7 @@ impl Emulator {
             flash_image: image,
             resets: Vec::new(),
             symbols: elf_symbols(elf),
+            functions: elf_functions(elf),
         };
         emu.m().flash.timing = options.flash_timing;
         emu.reset(ResetKind::PowerOn)?;
@@ -457,7 +517,39 @@ impl Emulator {
 
     /// Forgets the longest awake stretch so far (to measure from now on).
     pub fn clear_max_awake(&mut self) {
-        self.m().max_awake_cycles = 0;
+        let m = self.m();
+        m.max_awake_cycles = 0;
+        if let Some(p) = m.profile.as_mut() {
+            p.longest.clear();
+        }
+    }
+
+    /// Starts (or stops) recording where the cycles of each awake stretch go, to read the
+    /// longest one's with [`Emulator::longest_pass_profile`].
+    pub fn profile_passes(&mut self, on: bool) {
+        self.m().profile = on.then(Default::default);
+    }
+
+    /// The longest awake stretch's cycles per function of the ELF (the symbol covering each
+    /// executed block; what the compiler inlined counts in its caller), largest first.
+    pub fn longest_pass_profile(&self) -> Vec<(String, u64)> {
+        let Some(p) = self.machine().profile.as_ref() else {
+            return Vec::new();
+        };
+        let mut per: std::collections::HashMap<&str, u64> = Default::default();
+        for (&addr, &cycles) in &p.longest {
+            let i = self.functions.partition_point(|f| f.0 <= addr);
+            let name = i
+                .checked_sub(1)
+                .map(|i| &self.functions[i])
+                .filter(|f| addr < f.0 + f.1.max(1))
+                .map_or("?", |f| f.2.as_str());
+            *per.entry(name).or_default() += cycles;
+        }
+        let mut out: Vec<(String, u64)> =
+            per.into_iter().map(|(n, c)| (n.to_string(), c)).collect();
+        out.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        out
     }
 
     /// Sets the supply voltage (mV): below an armed voltage monitor 1 level, the chip resets
@@ -707,6 +799,9 @@ impl Emulator {
                 if stretch > m.max_awake_cycles {
                     m.max_awake_cycles = stretch;
                     m.max_awake_at = m.now;
+                    if let Some(p) = m.profile.as_mut() {
+                        p.longest = std::mem::take(&mut p.current);
+                    }
                 }
             }
         }
@@ -718,6 +813,9 @@ impl Emulator {
             m.asleep = false;
             m.wakes += 1;
             m.wake_start_cycles = m.awake_cycles;
+            if let Some(p) = m.profile.as_mut() {
+                p.current.clear();
+            }
         }
     }
 
@@ -894,6 +992,9 @@ fn block_hook(uc: &mut Unicorn<'_, Machine>, addr: u64, size: u32) {
     m.block_pc = addr;
     m.instructions += u64::from(cost.instructions);
     m.awake_cycles += cycles;
+    if let Some(p) = m.profile.as_mut() {
+        *p.current.entry(addr).or_default() += cycles;
+    }
     m.now += cycles * clock::ticks_per(m.clocks.iclk);
 }
 

@@ -65,6 +65,15 @@ pub struct Wiring {
     pub tm1637: Option<((usize, usize), (usize, usize))>,
 }
 
+/// Where the cycles of a loop pass went: cycles per block start address.
+#[derive(Debug, Clone, Default)]
+pub struct PassProfile {
+    /// The stretch running now.
+    pub current: HashMap<u32, u64>,
+    /// The longest stretch so far.
+    pub longest: HashMap<u32, u64>,
+}
+
 /// The chip outside the CPU core.
 #[derive(Debug)]
 pub struct Machine {
@@ -134,6 +143,9 @@ pub struct Machine {
     pub max_awake_cycles: u64,
     /// When the longest awake stretch ended, ticks.
     pub max_awake_at: u64,
+    /// Cycles per executed block of the current and of the longest awake stretch, when
+    /// profiling ([`crate::Emulator::profile_passes`]).
+    pub profile: Option<PassProfile>,
     /// Bytes the program wrote through semihosting (SYS_WRITEC/WRITE0/WRITE).
     pub semihost_out: Vec<u8>,
     /// The exit code the program gave through semihosting (SYS_EXIT/SYS_EXIT_EXTENDED).

@@ -14,8 +14,8 @@ use std::collections::VecDeque;
 use geometry::TrunkState;
 use planner::graph::{kind_name, Graph, Plan};
 use protocol::{
-    Event, FaultCode, ManualTask, Mode, PlanPhase, RejectReason, RequestBody,
-    ResponseBody, Status, StepKind,
+    Event, FaultCode, ManualTask, Mode, PlanPhase, RejectReason, RequestBody, ResponseBody, Status,
+    StepKind,
 };
 
 use crate::session::{RequestId, Session, SessionError, SessionEvent};
@@ -1226,4 +1226,3 @@ pub fn after_abort_text(st: &Status) -> String {
     }
     t
 }
-

@@ -12,7 +12,7 @@
 //! them to the calibrated trunk. Each is the *lowest* actuation at which the edge's snap was seen;
 //! [`reach`] adds a margin above the step's largest actuation, [`untouched`] one below.
 
-use geometry::{BottomState, TopState, TrunkState};
+use geometry::TrunkState;
 use protocol::{Primitive, StateSet, Step, StepKind, Transition};
 
 /// Pressure at which each pneumatic edge snaps, kPa (gauge).
@@ -33,6 +33,12 @@ pub const TENDON_SNAP_MM: [(usize, usize, f32); 5] = [
     (FD, FF, 92.0),
     (FF, FP, 138.0),
 ];
+
+/// What one hand task (fold the top, fold the bottom, pack the bottom) makes of each state, by
+/// [`TrunkState::index`] (bit per index: F&P, F&F, F&D, D&P, D&F, D&D), the state itself
+/// included: F&P {F&P, F&F}, F&F {F&F, F&P}, F&D {F&D, F&F, F&P}, D&P {D&P, F&P, D&F},
+/// D&F {D&F, F&F, D&P}, D&D {D&D, F&D, D&F, D&P} (a unit test derives it).
+pub const HAND_REACH: [u8; 6] = [0b000011, 0b000011, 0b000111, 0b011001, 0b011010, 0b111100];
 
 /// Margin above a step's largest inflation within which a further snap counts as possible
 /// (the regulator's hysteresis, sensor noise and the spread of the thresholds with load).
@@ -100,13 +106,12 @@ fn actuation(step: &Step) -> (f32, f32) {
 pub fn reach(step: &Step) -> StateSet {
     let mut set = StateSet::single(step.from).with(step.to);
     let by_hand = step.kind == StepKind::Manual
-        || step.primitives.iter().any(|p| matches!(p, Primitive::Manual(_)));
+        || step
+            .primitives
+            .iter()
+            .any(|p| matches!(p, Primitive::Manual(_)));
     if by_hand {
-        let (top, bottom) = (step.from.top, step.from.bottom);
-        set = set
-            .with(TrunkState::new(TopState::Folded, bottom))
-            .with(TrunkState::new(top, BottomState::Folded))
-            .with(TrunkState::new(top, BottomState::Packed));
+        set = set.union(StateSet(HAND_REACH[step.from.index()]));
     }
     if step.kind == StepKind::Manual {
         return set;
@@ -263,6 +268,22 @@ mod tests {
         ];
         for (from, to, want) in cases {
             assert_eq!(reach(&nominal(from, to)), set(want), "{from} -> {to}");
+        }
+    }
+
+    #[test]
+    fn the_hand_reach_is_what_one_hand_task_makes_of_each_state() {
+        use geometry::{BottomState, TopState};
+        for from in TrunkState::ALL {
+            let want = [
+                from,
+                TrunkState::new(TopState::Folded, from.bottom),
+                TrunkState::new(from.top, BottomState::Folded),
+                TrunkState::new(from.top, BottomState::Packed),
+            ]
+            .into_iter()
+            .fold(StateSet::EMPTY, StateSet::with);
+            assert_eq!(StateSet(HAND_REACH[from.index()]), want, "{from}");
         }
     }
 

@@ -364,9 +364,7 @@ impl Controller {
             return;
         }
         let mut b = self.belief;
-        if log.decisive(b.candidates()) {
-            b.narrow(log.verdict());
-        }
+        b.narrow(log.verdict(b.candidates()));
         self.set_belief(b);
         if !b.is_confirmed() {
             self.ask_operator();
@@ -402,8 +400,8 @@ impl Controller {
             // A person's hands leave no trace in the actuation: what the check's probe
             // measured (if it ran) narrows the step's reach, nothing else.
             let mut b = Belief::unconfirmed(step.from, belief::reach(step), pending);
-            if let Some(log) = self.ident.probe.filter(|l| l.decisive(b.candidates())) {
-                b.narrow(log.verdict());
+            if let Some(log) = self.ident.probe {
+                b.narrow(log.verdict(b.candidates()));
             }
             return Some(b);
         }

@@ -155,37 +155,25 @@ impl ProbeLog {
         Some(first - last > LEAK_DROP_KPA || self.filled_kpa - last > LEAK_DROP_KPA)
     }
 
-    /// Whether the measurement may narrow `candidates` (by [`ProbeLog::verdict`]): it is
-    /// complete, tight, and not also the rate of a trunk half-way between two of them
-    /// ([`BETWEEN_SIGNATURES`]; such a reading narrows nothing).
-    pub fn decisive(&self, candidates: StateSet) -> bool {
-        use geometry::{BottomState, TopState};
-        let tight = self.leaking() == Some(false);
-        self.rate_kpa_per_s().filter(|_| tight).is_some_and(|rate| {
-            [TopState::Folded, TopState::Deployed]
-                .into_iter()
-                .zip(BETWEEN_SIGNATURES)
-                .all(|(top, want)| {
-                    let both = [BottomState::Packed, BottomState::Folded]
-                        .iter()
-                        .all(|b| candidates.contains(TrunkState::new(top, *b)));
-                    !both || (rate - want).abs() > RATE_TOLERANCE * want
-                })
-        })
-    }
-
-    /// The states consistent with the measurement (every state when it is incomplete or the
-    /// trunk leaks).
-    pub fn verdict(&self) -> StateSet {
+    /// The states consistent with the measurement, for narrowing `candidates`: every state
+    /// when it is incomplete, the trunk leaks, or the rate is also that of a trunk half-way
+    /// between two of the candidates ([`BETWEEN_SIGNATURES`]: such a reading narrows nothing).
+    pub fn verdict(&self, candidates: StateSet) -> StateSet {
         let (Some(rate), Some(false)) = (self.rate_kpa_per_s(), self.leaking()) else {
             return StateSet::ALL;
         };
+        let near = |want: f32| libm::fabsf(rate - want) <= RATE_TOLERANCE * want;
+        // F&P and F&F (bits 0, 1) around F&P½; D&P and D&F (bits 3, 4) around D&P½.
+        let between = [0b00011, 0b11000]
+            .into_iter()
+            .zip(BETWEEN_SIGNATURES)
+            .any(|(both, want)| candidates.0 & both == both && near(want));
+        if between {
+            return StateSet::ALL;
+        }
         TrunkState::ALL
             .iter()
-            .filter(|s| {
-                let want = PROBE_SIGNATURES[s.index()];
-                (rate - want).abs() <= RATE_TOLERANCE * want
-            })
+            .filter(|s| near(PROBE_SIGNATURES[s.index()]))
             .fold(StateSet::EMPTY, |set, s| set.with(*s))
     }
 }
@@ -223,31 +211,39 @@ mod tests {
     fn the_signatures_tell_what_they_can_and_no_more() {
         // Each state's own signature keeps it.
         for s in TrunkState::ALL {
-            let v = log(PROBE_SIGNATURES[s.index()]).verdict();
+            let v = log(PROBE_SIGNATURES[s.index()]).verdict(StateSet::EMPTY);
             assert!(v.contains(s), "{s}: {v:?}");
         }
-        assert_eq!(log(11.71).verdict(), set(&["F&P"]));
-        assert_eq!(log(14.08).verdict(), set(&["D&P"]));
+        assert_eq!(log(11.71).verdict(StateSet::EMPTY), set(&["F&P"]));
+        assert_eq!(log(14.08).verdict(StateSet::EMPTY), set(&["D&P"]));
         // D&F and D&D differ by 1 %: never told apart.
-        assert_eq!(log(12.9).verdict(), set(&["D&F", "D&D"]));
+        assert_eq!(log(12.9).verdict(StateSet::EMPTY), set(&["D&F", "D&D"]));
         // F&F and F&D: apart at their signatures, together where the windows touch.
-        assert_eq!(log(10.81).verdict(), set(&["F&F"]));
-        assert_eq!(log(10.5).verdict(), set(&["F&F", "F&D"]));
+        assert_eq!(log(10.81).verdict(StateSet::EMPTY), set(&["F&F"]));
+        assert_eq!(log(10.5).verdict(StateSet::EMPTY), set(&["F&F", "F&D"]));
         // A leaking trunk (1 kPa/s at 4 kPa) fills slower than its volume says: no verdict.
-        assert_eq!(log_leaking(11.71, 1.0).verdict(), StateSet::ALL);
-        assert_eq!(log_leaking(11.71, 0.1).verdict(), set(&["F&P"]));
+        assert_eq!(
+            log_leaking(11.71, 1.0).verdict(StateSet::EMPTY),
+            StateSet::ALL
+        );
+        assert_eq!(
+            log_leaking(11.71, 0.1).verdict(StateSet::EMPTY),
+            set(&["F&P"])
+        );
         // A half-packed bottom reads as F&F or D&F would: not decisive where it may be.
         let all = StateSet::ALL;
-        assert!(!log(10.81).decisive(all));
-        assert!(!log(12.94).decisive(all));
-        assert!(log(11.71).decisive(all) && log(14.08).decisive(all));
-        assert!(log(10.81).decisive(set(&["F&F", "D&F", "D&P"])));
-        assert!(!log(12.94).decisive(set(&["F&F", "D&F", "D&P"])));
+        assert_eq!(log(10.81).verdict(all), all);
+        assert_eq!(log(12.94).verdict(all), all);
+        assert_eq!(log(11.71).verdict(all), set(&["F&P"]));
+        assert_eq!(log(14.08).verdict(all), set(&["D&P"]));
+        let hand = set(&["F&F", "D&F", "D&P"]);
+        assert_eq!(log(10.81).verdict(hand), set(&["F&F"]));
+        assert_eq!(log(12.94).verdict(hand), all);
         // Nothing fills this slowly.
-        assert!(log(8.0).verdict().is_empty());
+        assert!(log(8.0).verdict(StateSet::EMPTY).is_empty());
         // An incomplete probe says nothing.
         let mut l = ProbeLog::default();
         l.sample(1, 0, 200, 0.0);
-        assert_eq!(l.verdict(), StateSet::ALL);
+        assert_eq!(l.verdict(StateSet::EMPTY), StateSet::ALL);
     }
 }

@@ -287,6 +287,9 @@ impl Emulator {
             profile: None,
             semihost_out: Vec::new(),
             exit_code: None,
+            semihost_cmdline: None,
+            cmdline_requests: 0,
+            dbgstopcr: 3,
         };
         let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, machine)
             .map_err(|e| cpu_err(e, 0))?;
@@ -344,7 +347,27 @@ impl Emulator {
         uc.add_intr_hook(intr_hook).map_err(|e| cpu_err(e, 0))?;
         // An undefined instruction (UDF, a bad encoding): UsageFault UNDEFINSTR, escalated to
         // HardFault (no separate UsageFault handler is enabled), faulting PC stacked.
+        // The hint instructions this Unicorn build raises as invalid on M-profile: YIELD
+        // (`core::hint::spin_loop`), WFE and SEV, reported with the PC after them (an undefined
+        // instruction is reported at itself). On the M4 they are NOPs here (WFE may return at
+        // once architecturally): execution goes on, unless a UDF follows the hint.
         uc.add_insn_invalid_hook(|uc| {
+            let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
+            let half = |uc: &Unicorn<'_, Machine>, a: u32| {
+                let mut op = [0u8; 2];
+                uc.mem_read(u64::from(a), &mut op)
+                    .ok()
+                    .map(|()| u16::from_le_bytes(op))
+            };
+            let after_hint = matches!(half(uc, pc.wrapping_sub(2)), Some(0xBF10 | 0xBF20 | 0xBF40));
+            let udf = half(uc, pc).is_some_and(|h| h & 0xFF00 == 0xDE00);
+            if after_hint && !udf {
+                let _ = uc.reg_write(RegisterARM::PC, u64::from(pc | 1));
+                let m = uc.get_data_mut();
+                m.stopped = true;
+                let _ = uc.emu_stop();
+                return true;
+            }
             let m = uc.get_data_mut();
             m.scs.cfsr |= 1 << 16;
             m.scs.hfsr |= 1 << 30;
@@ -442,6 +465,7 @@ impl Emulator {
             m.scs.pending = 0b1100;
         }
         m.wdt = Default::default();
+        m.dbgstopcr = 3;
         m.flash.reset(now);
         m.asleep = false;
         m.reset_due = None;
@@ -633,6 +657,18 @@ impl Emulator {
     /// stops there).
     pub fn exit_code(&self) -> Option<i32> {
         self.machine().exit_code
+    }
+
+    /// The command line the program's next SYS_GET_CMDLINE gets (once; a later call fails
+    /// with -1, as a test runner answers only the first request of a test).
+    pub fn set_semihost_cmdline(&mut self, cmdline: &str) {
+        self.m().semihost_cmdline = Some(cmdline.to_string());
+    }
+
+    /// How often the program asked for its command line (SYS_GET_CMDLINE): a test program
+    /// asks once per boot, so more than one means it reset.
+    pub fn cmdline_requests(&self) -> u32 {
+        self.machine().cmdline_requests
     }
 
     /// Takes what the program wrote through semihosting.
@@ -1067,8 +1103,10 @@ fn exception_return(uc: &mut Unicorn<'_, Machine>, exc_return: u32) -> Result<()
 }
 
 /// ARM semihosting (`BKPT 0xAB`, op in r0, argument in r1), the subset test harnesses use:
-/// SYS_WRITEC (3), SYS_WRITE0 (4), SYS_WRITE (5) to the host's output, SYS_EXIT (0x18, r1 the
-/// reason: ADP_Stopped_ApplicationExit 0x2_0026 is success) and SYS_EXIT_EXTENDED (0x20, r1 →
+/// SYS_WRITEC (3), SYS_WRITE0 (4), SYS_WRITE (5) to the host's output, SYS_ERRNO (0x13: EIO),
+/// SYS_GET_CMDLINE (0x15, r1 → [buffer, size]: the command line set by
+/// [`Emulator::set_semihost_cmdline`], once), SYS_EXIT (0x18, r1 the reason:
+/// ADP_Stopped_ApplicationExit 0x2_0026 is success) and SYS_EXIT_EXTENDED (0x20, r1 →
 /// [reason, code]). Execution goes on after the BKPT (or stops at an exit).
 fn semihosting(uc: &mut Unicorn<'_, Machine>, pc: u32) -> Result<(), EmuError> {
     let reg =
@@ -1110,6 +1148,36 @@ fn semihosting(uc: &mut Unicorn<'_, Machine>, pc: u32) -> Result<(), EmuError> {
             let data = read(uc, ptr, len.min(64 * 1024) as usize)?;
             uc.get_data_mut().semihost_out.extend(data);
             uc.reg_write(RegisterARM::R0, 0)
+                .map_err(|e| cpu_err(e, pc))?;
+        }
+        0x13 => {
+            const EIO: u64 = 5;
+            uc.reg_write(RegisterARM::R0, EIO)
+                .map_err(|e| cpu_err(e, pc))?;
+        }
+        0x15 => {
+            let block = read(uc, arg, 8)?;
+            let (ptr, size) = (word(&block, 0), word(&block, 1));
+            let m = uc.get_data_mut();
+            m.cmdline_requests += 1;
+            let ok = match m.semihost_cmdline.take() {
+                Some(line) if (line.len() as u32) < size => {
+                    let mut bytes = line.into_bytes();
+                    let n = bytes.len() as u32;
+                    bytes.push(0);
+                    uc.mem_write(ptr.into(), &bytes).map_err(|_| {
+                        bad(format!(
+                            "semihosting: command line buffer at {ptr:#010x} unwritable"
+                        ))
+                    })?;
+                    uc.mem_write(u64::from(arg + 4), &n.to_le_bytes())
+                        .map_err(|_| bad("semihosting: parameter block unwritable".into()))?;
+                    true
+                }
+                _ => false,
+            };
+            let r0: u32 = if ok { 0 } else { u32::MAX };
+            uc.reg_write(RegisterARM::R0, r0.into())
                 .map_err(|e| cpu_err(e, pc))?;
         }
         0x18 | 0x20 => {

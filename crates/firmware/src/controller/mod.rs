@@ -494,8 +494,8 @@ impl Controller {
     }
 
     /// The display content now, in priority order: the pressure while show-pressure is held;
-    /// `E-xx` for the most recent active fault; `SAFE` after an abort; `HAnd` while a manual step
-    /// waits; otherwise the trunk state (`F-P ` …), with the last decimal point lit while a
+    /// `E-xx` for the most recent active fault; `SAFE` after an abort; the task while a manual
+    /// step waits (`H-Pb`, [`display::task`](crate::display::task)); otherwise the trunk state (`F-P ` …), with the last decimal point lit while a
     /// plan runs and the first one lit while the state is unconfirmed.
     pub fn poll_display(&self) -> [u8; 4] {
         use crate::display;
@@ -517,8 +517,8 @@ impl Controller {
         if self.safe || self.estop_latched {
             return display::text("SAFE");
         }
-        if self.exec.as_ref().is_some_and(|e| e.waiting_manual) {
-            return display::text("HAnd");
+        if let Some(t) = self.exec.as_ref().and_then(|e| e.waiting_task()) {
+            return display::task(t);
         }
         if let Some(s) = self.ident.asking {
             // "Is it this one?": the candidate with every decimal point lit.
@@ -605,6 +605,7 @@ impl Controller {
             gripper_closed: self.outputs.gripper_closed,
             estop: self.estop_latched,
             plan: self.plan_status,
+            manual_task: self.exec.as_ref().and_then(|e| e.waiting_task()),
             faults: self.faults,
             frames_rx: stats.frames_ok,
             frames_dropped: stats.frames_dropped,

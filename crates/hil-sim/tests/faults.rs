@@ -19,7 +19,11 @@ fn fnv(s: &str) -> u64 {
 /// The trace (every 20 ms, every snap and event) of a plan from `from` to `to` with `fault`
 /// given from the start (`onset: None`) or injected at `onset` ms.
 fn trace(fault: Fault, onset: Option<u64>, from: &str, to: &str, seed: u64) -> String {
-    let faults = if onset.is_none() { vec![fault] } else { Vec::new() };
+    let faults = if onset.is_none() {
+        vec![fault]
+    } else {
+        Vec::new()
+    };
     let mut p = pair(SimOptions {
         initial: from.parse().unwrap(),
         seed,
@@ -52,30 +56,135 @@ fn trace(fault: Fault, onset: Option<u64>, from: &str, to: &str, seed: u64) -> S
 /// start on a pneumatic and a tendon plan, and injected 700 ms in (before the plan starts).
 type Case = (Fault, Option<u64>, &'static str, &'static str, u64, u64);
 const CASES: [Case; 24] = [
-    (Fault::ValveStuckClosed, None, "F&P", "D&D", 3, 0x19b6ed2fe77cbbaa),
-    (Fault::ValveStuckClosed, None, "D&D", "F&P", 3, 0xbc96f15ce9ef84a9),
-    (Fault::ValveStuckClosed, Some(700), "F&F", "D&F", 3, 0x1fc63c6898428ba0),
-    (Fault::ValveStuckOpen, None, "F&P", "D&D", 3, 0xf18e4510a4eac78b),
-    (Fault::ValveStuckOpen, None, "D&D", "F&P", 3, 0x0cd2210a02b218f9),
-    (Fault::ValveStuckOpen, Some(700), "F&F", "D&F", 3, 0x52bfe926cf6fb4dd),
+    (
+        Fault::ValveStuckClosed,
+        None,
+        "F&P",
+        "D&D",
+        3,
+        0x19b6ed2fe77cbbaa,
+    ),
+    (
+        Fault::ValveStuckClosed,
+        None,
+        "D&D",
+        "F&P",
+        3,
+        0xbc96f15ce9ef84a9,
+    ),
+    (
+        Fault::ValveStuckClosed,
+        Some(700),
+        "F&F",
+        "D&F",
+        3,
+        0x1fc63c6898428ba0,
+    ),
+    (
+        Fault::ValveStuckOpen,
+        None,
+        "F&P",
+        "D&D",
+        3,
+        0xf18e4510a4eac78b,
+    ),
+    (
+        Fault::ValveStuckOpen,
+        None,
+        "D&D",
+        "F&P",
+        3,
+        0x0cd2210a02b218f9,
+    ),
+    (
+        Fault::ValveStuckOpen,
+        Some(700),
+        "F&F",
+        "D&F",
+        3,
+        0x52bfe926cf6fb4dd,
+    ),
     (Fault::Leak, None, "F&P", "D&D", 3, 0x7b0708332f81a312),
     (Fault::Leak, None, "D&D", "F&P", 3, 0xe739e6d85a47f137),
     (Fault::Leak, Some(700), "F&F", "D&F", 3, 0xbe0f90d9daa84224),
     (Fault::ServoStall, None, "F&P", "D&D", 3, 0x2ab6b51814cc75b5),
     (Fault::ServoStall, None, "D&D", "F&P", 3, 0xcd83c9c1e81ade95),
-    (Fault::ServoStall, Some(700), "F&F", "D&F", 3, 0xef74747981a873a4),
-    (Fault::TendonBreak, None, "F&P", "D&D", 3, 0x925d0cddd777bfdb),
-    (Fault::TendonBreak, None, "D&D", "F&P", 3, 0xdc4fead70f2d3a1b),
-    (Fault::TendonBreak, Some(700), "F&F", "D&F", 3, 0xe9ae3afacbc00d94),
-    (Fault::SensorDropout, None, "F&P", "D&D", 3, 0x9b547e2bedbf204f),
-    (Fault::SensorDropout, None, "D&D", "F&P", 3, 0x6815193aa306210c),
-    (Fault::SensorDropout, Some(700), "F&F", "D&F", 3, 0x27a5a62f3191145b),
+    (
+        Fault::ServoStall,
+        Some(700),
+        "F&F",
+        "D&F",
+        3,
+        0xef74747981a873a4,
+    ),
+    (
+        Fault::TendonBreak,
+        None,
+        "F&P",
+        "D&D",
+        3,
+        0x925d0cddd777bfdb,
+    ),
+    (
+        Fault::TendonBreak,
+        None,
+        "D&D",
+        "F&P",
+        3,
+        0xdc4fead70f2d3a1b,
+    ),
+    (
+        Fault::TendonBreak,
+        Some(700),
+        "F&F",
+        "D&F",
+        3,
+        0xe9ae3afacbc00d94,
+    ),
+    (
+        Fault::SensorDropout,
+        None,
+        "F&P",
+        "D&D",
+        3,
+        0x9b547e2bedbf204f,
+    ),
+    (
+        Fault::SensorDropout,
+        None,
+        "D&D",
+        "F&P",
+        3,
+        0x6815193aa306210c,
+    ),
+    (
+        Fault::SensorDropout,
+        Some(700),
+        "F&F",
+        "D&F",
+        3,
+        0x27a5a62f3191145b,
+    ),
     (Fault::LinkDrop, None, "F&P", "D&D", 3, 0x96f4c90c5903c9dd),
     (Fault::LinkDrop, None, "D&D", "F&P", 3, 0x1e81177cd777058d),
-    (Fault::LinkDrop, Some(700), "F&F", "D&F", 3, 0x2f64fc3d304292f3),
+    (
+        Fault::LinkDrop,
+        Some(700),
+        "F&F",
+        "D&F",
+        3,
+        0x2f64fc3d304292f3,
+    ),
     (Fault::LineNoise, None, "F&P", "D&D", 3, 0xed1fc89ccae19071),
     (Fault::LineNoise, None, "D&D", "F&P", 3, 0x58dd1cb4ca3e8e83),
-    (Fault::LineNoise, Some(700), "F&F", "D&F", 3, 0xc261fa19e6064fc2),
+    (
+        Fault::LineNoise,
+        Some(700),
+        "F&F",
+        "D&F",
+        3,
+        0xc261fa19e6064fc2,
+    ),
 ];
 
 #[test]

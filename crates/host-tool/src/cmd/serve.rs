@@ -128,14 +128,17 @@ pub fn run(args: Args) -> Result<(), Failure> {
             PathBuf::from(format!("host-tool-serve-{t}.mcap"))
         }))
     };
+    // The live view first: a port in use stops here, before a file is created.
+    let live = foxglove
+        .map(|addr| crate::live::Live::start(addr, "host-tool serve"))
+        .transpose()
+        .map_err(Failure::Runtime)?;
+    let live_addr = live.as_ref().map(|l| l.addr());
     let mut recording = record
         .as_deref()
         .map(|p| crate::record::start(p, "serve", &device))
         .transpose()?;
-    let mut live_addr = None;
-    if let Some(addr) = foxglove {
-        let live = crate::live::Live::start(addr, "host-tool serve").map_err(Failure::Runtime)?;
-        live_addr = Some(live.addr());
+    if let Some(live) = live {
         match recording.as_mut() {
             Some(r) => r.attach_live(live),
             None => recording = Some(crate::record::Recording::live_only(live)),

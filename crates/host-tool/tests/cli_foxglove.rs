@@ -134,6 +134,8 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
     // Protobuf schemas are base64 FileDescriptorSets; non-trivial.
     assert!(c.channels["/scene"].schema.len() > 1000);
 
+    check_layout(&c);
+
     c.subscribe(&["/telemetry", "/scene", "/tf", "/state", "/log"])
         .unwrap();
     // Something arrives before any plan: telemetry at 50 Hz while serving.
@@ -274,6 +276,72 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
     assert!(logs
         .iter()
         .any(|l| l["message"] == "outcome: target reached"));
+}
+
+/// The layout in docs/foxglove: every panel of the tree is configured, of a Foxglove panel
+/// type, and every topic and field it shows is one the server advertises (a field of the
+/// channel's JSON schema); the 3D panel draws `/scene` in the scene's frame.
+fn check_layout(c: &Client) {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/foxglove/crane-layout.json");
+    let layout: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let config = layout["configById"].as_object().unwrap();
+    fn leaves(node: &Value, out: &mut Vec<String>) {
+        match node {
+            Value::String(id) => out.push(id.clone()),
+            Value::Object(o) => {
+                assert!(["row", "column"].contains(&o["direction"].as_str().unwrap()));
+                let pct = o["splitPercentage"].as_f64().unwrap();
+                assert!((0.0..=100.0).contains(&pct));
+                leaves(&o["first"], out);
+                leaves(&o["second"], out);
+            }
+            v => panic!("not a layout node: {v}"),
+        }
+    }
+    let mut ids = Vec::new();
+    leaves(&layout["layout"], &mut ids);
+    let mut ids_sorted = ids.clone();
+    ids_sorted.sort();
+    let mut configured: Vec<String> = config.keys().cloned().collect();
+    configured.sort();
+    assert_eq!(ids_sorted, configured, "every panel placed once and configured");
+    let mut panel_types: Vec<&str> = ids.iter().map(|i| i.split('!').next().unwrap()).collect();
+    panel_types.sort();
+    panel_types.dedup();
+    assert_eq!(panel_types, ["3D", "Log", "Plot", "RawMessages", "StateTransitions"]);
+    let field_of = |path: &str| {
+        // "/topic.field[0]" → ("/topic", "field")
+        let (topic, rest) = path.split_once('.').unwrap_or((path, ""));
+        let field = rest.split(['[', '.']).next().unwrap();
+        let ch = c.channels.get(topic).unwrap_or_else(|| panic!("{topic} not advertised"));
+        if !field.is_empty() {
+            let schema: Value = serde_json::from_str(&ch.schema).unwrap();
+            assert!(
+                schema["properties"].get(field).is_some(),
+                "{field} is not a field of {topic}"
+            );
+        }
+    };
+    let mut n = 0;
+    for (id, cfg) in config {
+        for p in cfg["paths"].as_array().into_iter().flatten() {
+            field_of(p["value"].as_str().unwrap());
+            n += 1;
+        }
+        for key in ["topicPath", "topicToRender"] {
+            if let Some(t) = cfg[key].as_str() {
+                field_of(t);
+                n += 1;
+            }
+        }
+        if id.starts_with("3D!") {
+            assert_eq!(cfg["followTf"], "base");
+            for t in cfg["topics"].as_object().unwrap().keys() {
+                assert_eq!(c.channels[t].schema_name, "foxglove.SceneUpdate");
+            }
+        }
+    }
+    assert!(n >= 12, "{n} paths checked");
 }
 
 #[test]

@@ -28,7 +28,7 @@ pub const FLUSH_PERIOD_MS: u64 = 1000;
 const CHUNK_SIZE: u64 = 256 * 1024;
 /// Ground-truth samples per second (simulator only).
 pub const TRUTH_HZ: u64 = 50;
-/// Shortest host time between two scenes (when the trunk's look changed): 20 Hz.
+/// Shortest host time between two scenes while the bend or the pressure moves: 20 Hz.
 pub const SCENE_PERIOD_MS: u64 = 50;
 /// Longest host time between two scenes (a viewer that joins sees the trunk within it).
 pub const SCENE_KEEPALIVE_MS: u64 = 1000;
@@ -537,8 +537,9 @@ impl Recording {
         self.last_scene = None;
     }
 
-    /// The scene and the tip's frame for a telemetry sample: when what it shows changed (at
-    /// most every [`SCENE_PERIOD_MS`]), and at least every [`SCENE_KEEPALIVE_MS`].
+    /// The scene and the tip's frame for a telemetry sample: at once when the state (or its
+    /// confidence) changed; when the bend or the pressure moved, at most every
+    /// [`SCENE_PERIOD_MS`]; and at least every [`SCENE_KEEPALIVE_MS`].
     fn draw(&mut self, host_ms: u64, t: &Telemetry) {
         let sample = crate::scene::Sample {
             state: t.state,
@@ -549,11 +550,13 @@ impl Recording {
         let due = match self.last_scene {
             None => true,
             Some((last, at)) => {
-                let changed = last.state != sample.state
-                    || last.confirmed != sample.confirmed
-                    || (0..3).any(|i| (last.servo_deg[i] - sample.servo_deg[i]).abs() >= 0.25)
+                let new_state = last.state != sample.state || last.confirmed != sample.confirmed;
+                let moved = (0..3)
+                    .any(|i| (last.servo_deg[i] - sample.servo_deg[i]).abs() >= 0.25)
                     || (last.pressure_kpa - sample.pressure_kpa).abs() >= 0.25;
-                (changed && host_ms >= at + SCENE_PERIOD_MS) || host_ms >= at + SCENE_KEEPALIVE_MS
+                new_state
+                    || (moved && host_ms >= at + SCENE_PERIOD_MS)
+                    || host_ms >= at + SCENE_KEEPALIVE_MS
             }
         };
         if !due || !(self.wanted(Topic::Scene) || self.wanted(Topic::Transforms)) {

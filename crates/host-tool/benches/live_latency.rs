@@ -144,11 +144,7 @@ fn main() -> anyhow::Result<()> {
     }
     println!(
         "serve ({}): {cpu}",
-        if record {
-            "recording"
-        } else {
-            "--no-record"
-        }
+        if record { "recording" } else { "--no-record" }
     );
     Ok(())
 }

@@ -38,9 +38,9 @@ pub fn parse_addr(text: &str) -> Result<LiveAddr, String> {
     let Some((host, port)) = t.rsplit_once(':') else {
         return Err(format!("invalid --foxglove '{text}': no port; {expected}"));
     };
-    let port: u16 = port
-        .parse()
-        .map_err(|_| format!("invalid --foxglove '{text}': port '{port}' is not 0–65535; {expected}"))?;
+    let port: u16 = port.parse().map_err(|_| {
+        format!("invalid --foxglove '{text}': port '{port}' is not 0–65535; {expected}")
+    })?;
     let ip = if host.eq_ignore_ascii_case("localhost") {
         IpAddr::V4(Ipv4Addr::LOCALHOST)
     } else if host.is_empty() {
@@ -67,7 +67,9 @@ pub struct Live {
 
 impl std::fmt::Debug for Live {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Live").field("addr", &self.addr).finish_non_exhaustive()
+        f.debug_struct("Live")
+            .field("addr", &self.addr)
+            .finish_non_exhaustive()
     }
 }
 
@@ -98,9 +100,7 @@ impl Live {
             .capabilities([Capability::Time])
             .start_blocking()
             .map_err(|e| match e {
-                foxglove::FoxgloveError::Bind(io)
-                    if io.kind() == std::io::ErrorKind::AddrInUse =>
-                {
+                foxglove::FoxgloveError::Bind(io) if io.kind() == std::io::ErrorKind::AddrInUse => {
                     anyhow::anyhow!(
                         "--foxglove {addr}: the port is in use (another server listens there; \
                          pick another port, or 0 for any free one)"
@@ -132,7 +132,8 @@ impl Live {
 
     /// Sends one message on `topic` to its subscribers, stamped `log_time_ns`.
     pub fn log(&self, topic: Topic, data: &[u8], log_time_ns: u64) {
-        self.channels[topic as usize].log_with_meta(data, PartialMetadata::with_log_time(log_time_ns));
+        self.channels[topic as usize]
+            .log_with_meta(data, PartialMetadata::with_log_time(log_time_ns));
         if topic == Topic::Telemetry {
             if let Some(s) = &self.server {
                 s.broadcast_time(log_time_ns);

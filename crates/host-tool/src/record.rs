@@ -551,8 +551,7 @@ impl Recording {
             None => true,
             Some((last, at)) => {
                 let new_state = last.state != sample.state || last.confirmed != sample.confirmed;
-                let moved = (0..3)
-                    .any(|i| (last.servo_deg[i] - sample.servo_deg[i]).abs() >= 0.25)
+                let moved = (0..3).any(|i| (last.servo_deg[i] - sample.servo_deg[i]).abs() >= 0.25)
                     || (last.pressure_kpa - sample.pressure_kpa).abs() >= 0.25;
                 new_state
                     || (moved && host_ms >= at + SCENE_PERIOD_MS)

@@ -423,7 +423,10 @@ mod tests {
         let mm = 10.0 * 60.0 * std::f64::consts::PI / 180.0;
         let want = (2.0 / 3.0) * mm / 60.0;
         assert!((bend.angle - want).abs() < 1e-6, "{} vs {want}", bend.angle);
-        assert!(bend.direction.abs() < 1e-9 || (bend.direction - 2.0 * std::f64::consts::PI).abs() < 1e-9);
+        assert!(
+            bend.direction.abs() < 1e-9
+                || (bend.direction - 2.0 * std::f64::consts::PI).abs() < 1e-9
+        );
         let (_, tf) = s.build(&sample("D&D", [10.0, 0.0, 0.0], 0.0), 0).unwrap();
         let t = tf.transforms[0].translation.unwrap();
         assert!(t.x > 0.001 && t.y.abs() < 1e-9, "{t:?}");
@@ -459,11 +462,29 @@ mod tests {
     #[test]
     fn pressure_colour_ends_and_out_of_range() {
         let near = |a: [f32; 4], b: [f32; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
-        assert!(near(pressure_colour(0.0, 40.0, true), [0.55, 0.70, 0.90, 1.0]));
-        assert!(near(pressure_colour(20.0, 40.0, true), [0.725, 0.41, 0.50, 1.0]));
-        assert!(near(pressure_colour(40.0, 40.0, true), [0.90, 0.12, 0.10, 1.0]));
-        assert!(near(pressure_colour(99.0, 40.0, false), [0.90, 0.12, 0.10, 0.5]));
-        assert!(near(pressure_colour(-3.0, 40.0, true), [0.55, 0.70, 0.90, 1.0]));
-        assert!(near(pressure_colour(f32::NAN, 40.0, true), [0.55, 0.70, 0.90, 1.0]));
+        assert!(near(
+            pressure_colour(0.0, 40.0, true),
+            [0.55, 0.70, 0.90, 1.0]
+        ));
+        assert!(near(
+            pressure_colour(20.0, 40.0, true),
+            [0.725, 0.41, 0.50, 1.0]
+        ));
+        assert!(near(
+            pressure_colour(40.0, 40.0, true),
+            [0.90, 0.12, 0.10, 1.0]
+        ));
+        assert!(near(
+            pressure_colour(99.0, 40.0, false),
+            [0.90, 0.12, 0.10, 0.5]
+        ));
+        assert!(near(
+            pressure_colour(-3.0, 40.0, true),
+            [0.55, 0.70, 0.90, 1.0]
+        ));
+        assert!(near(
+            pressure_colour(f32::NAN, 40.0, true),
+            [0.55, 0.70, 0.90, 1.0]
+        ));
     }
 }

@@ -100,7 +100,12 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
     let (_server, url) = serve(&dir, &["--record", rec.to_str().unwrap()]);
     let topics: Vec<&str> = expected_channels().keys().copied().collect();
     // A client that knows the protocol only by its old name is refused (the SDK's rule).
-    let old = Client::connect(&url, "foxglove.websocket.v1", &topics, Duration::from_secs(20));
+    let old = Client::connect(
+        &url,
+        "foxglove.websocket.v1",
+        &topics,
+        Duration::from_secs(20),
+    );
     assert!(old.err().is_some_and(|e| e.contains("400")));
     let mut c = Client::connect(
         &url,
@@ -187,9 +192,11 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
             "/state" => states.push(serde_json::from_slice(&m.payload).unwrap()),
             t => panic!("unsubscribed topic {t}"),
         }
-        let done = logs
-            .iter()
-            .any(|l| l["message"].as_str().is_some_and(|s| s.starts_with("outcome:")));
+        let done = logs.iter().any(|l| {
+            l["message"]
+                .as_str()
+                .is_some_and(|s| s.starts_with("outcome:"))
+        });
         if done && tel.last().is_some_and(|t| t["state"] == "D&D") && scenes.len() >= 2 {
             let last = &scenes.last().unwrap().1;
             if last.entities[1].texts[0].text.starts_with("D&D") {
@@ -212,8 +219,14 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
         assert!(STATES.contains(&t["state"].as_str().unwrap()), "{t}");
         assert_eq!(t["servo_deg"].as_array().unwrap().len(), 3);
     }
-    assert!(tel_ts.windows(2).all(|w| w[1] > w[0]), "device time goes forward");
-    let gaps: Vec<u64> = tel_ts.windows(2).map(|w| (w[1] - w[0]) / 1_000_000).collect();
+    assert!(
+        tel_ts.windows(2).all(|w| w[1] > w[0]),
+        "device time goes forward"
+    );
+    let gaps: Vec<u64> = tel_ts
+        .windows(2)
+        .map(|w| (w[1] - w[0]) / 1_000_000)
+        .collect();
     let median_gap = {
         let mut g = gaps.clone();
         g.sort();
@@ -255,7 +268,10 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
         }
     }
     let label = |u: &SceneUpdate| u.entities[1].texts[0].text.clone();
-    let first_fp = scenes.iter().find(|(_, u)| label(u).starts_with("F&P")).unwrap();
+    let first_fp = scenes
+        .iter()
+        .find(|(_, u)| label(u).starts_with("F&P"))
+        .unwrap();
     let last_dd = scenes.last().unwrap();
     let (h0, h1) = (height(&first_fp.1), height(&last_dd.1));
     assert!(h1 > h0 + 0.1, "D&D {h1} m vs F&P {h0} m");
@@ -266,13 +282,18 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
     let (lo, hi) = reds
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), &r| (a.min(r), b.max(r)));
-    assert!(hi - lo > 0.1, "the colour follows the pressure: red {lo}..{hi}");
+    assert!(
+        hi - lo > 0.1,
+        "the colour follows the pressure: red {lo}..{hi}"
+    );
 
     // State and log lines: valid names, the outcome reported.
     assert!(states
         .iter()
         .all(|s| STATES.contains(&s["state"].as_str().unwrap())));
-    assert!(logs.iter().all(|l| (1..=5).contains(&l["level"].as_u64().unwrap())));
+    assert!(logs
+        .iter()
+        .all(|l| (1..=5).contains(&l["level"].as_u64().unwrap())));
     assert!(logs
         .iter()
         .any(|l| l["message"] == "outcome: target reached"));
@@ -282,7 +303,10 @@ fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
 /// type, and every topic and field it shows is one the server advertises (a field of the
 /// channel's JSON schema); the 3D panel draws `/scene` in the scene's frame.
 fn check_layout(c: &Client) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/foxglove/crane-layout.json");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../docs/foxglove/crane-layout.json"
+    );
     let layout: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     let config = layout["configById"].as_object().unwrap();
     fn leaves(node: &Value, out: &mut Vec<String>) {
@@ -304,16 +328,25 @@ fn check_layout(c: &Client) {
     ids_sorted.sort();
     let mut configured: Vec<String> = config.keys().cloned().collect();
     configured.sort();
-    assert_eq!(ids_sorted, configured, "every panel placed once and configured");
+    assert_eq!(
+        ids_sorted, configured,
+        "every panel placed once and configured"
+    );
     let mut panel_types: Vec<&str> = ids.iter().map(|i| i.split('!').next().unwrap()).collect();
     panel_types.sort();
     panel_types.dedup();
-    assert_eq!(panel_types, ["3D", "Log", "Plot", "RawMessages", "StateTransitions"]);
+    assert_eq!(
+        panel_types,
+        ["3D", "Log", "Plot", "RawMessages", "StateTransitions"]
+    );
     let field_of = |path: &str| {
         // "/topic.field[0]" → ("/topic", "field")
         let (topic, rest) = path.split_once('.').unwrap_or((path, ""));
         let field = rest.split(['[', '.']).next().unwrap();
-        let ch = c.channels.get(topic).unwrap_or_else(|| panic!("{topic} not advertised"));
+        let ch = c
+            .channels
+            .get(topic)
+            .unwrap_or_else(|| panic!("{topic} not advertised"));
         if !field.is_empty() {
             let schema: Value = serde_json::from_str(&ch.schema).unwrap();
             assert!(

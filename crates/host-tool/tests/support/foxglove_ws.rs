@@ -67,7 +67,9 @@ impl Client {
         );
         let addr = url.trim_start_matches("ws://").trim_end_matches('/');
         let stream = TcpStream::connect(addr).map_err(|e| format!("connect {addr}: {e}"))?;
-        stream.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+        stream
+            .set_read_timeout(Some(Duration::from_millis(200)))
+            .unwrap();
         let (ws, resp) = tungstenite::client(req, stream).map_err(|e| e.to_string())?;
         let proto = resp
             .headers()
@@ -144,10 +146,7 @@ impl Client {
                                 topic: ch["topic"].as_str().unwrap_or("").into(),
                                 encoding: ch["encoding"].as_str().unwrap_or("").into(),
                                 schema_name: ch["schemaName"].as_str().unwrap_or("").into(),
-                                schema_encoding: ch["schemaEncoding"]
-                                    .as_str()
-                                    .unwrap_or("")
-                                    .into(),
+                                schema_encoding: ch["schemaEncoding"].as_str().unwrap_or("").into(),
                                 schema: ch["schema"].as_str().unwrap_or("").into(),
                             };
                             self.channels.insert(c.topic.clone(), c);

@@ -68,9 +68,11 @@ impl Scene {
     /// length, pressure cap); the servo winches and the tendon radius are the firmware's
     /// defaults (the device does not report them).
     pub fn new(trunk: &protocol::TrunkConfig) -> anyhow::Result<Self> {
-        let mut cfg = CraneConfig::default();
-        cfg.trunk = *trunk;
-        cfg.pressure_limit_kpa = trunk.pressure_limit_kpa;
+        let cfg = CraneConfig {
+            trunk: *trunk,
+            pressure_limit_kpa: trunk.pressure_limit_kpa,
+            ..CraneConfig::default()
+        };
         let module = |m: &protocol::ModuleConfig| -> anyhow::Result<Module> {
             let design = ModuleDesign::new(u32::from(m.n), f64::from(m.beta_deg))
                 .map_err(|e| anyhow::anyhow!("the trunk's module design: {e:?}"))?;

@@ -328,9 +328,23 @@ impl Recording {
             metadata,
         })?;
         w.flush()?;
-        Ok(Self {
-            path: path.to_path_buf(),
-            writer: Some(w),
+        Ok(Self::new(path.to_path_buf(), Some(w), channels, None))
+    }
+
+    /// No file: the messages go to the live view only.
+    pub fn live_only(live: crate::live::Live) -> Self {
+        Self::new(PathBuf::new(), None, [0; TOPICS.len()], Some(live))
+    }
+
+    fn new(
+        path: PathBuf,
+        writer: Option<mcap::Writer<BufWriter<File>>>,
+        channels: [u16; TOPICS.len()],
+        live: Option<crate::live::Live>,
+    ) -> Self {
+        Self {
+            path,
+            writer,
             channels,
             sequence: 0,
             counts: [0; TOPICS.len()],
@@ -338,25 +352,7 @@ impl Recording {
             last_log_ns: 0,
             last_flush_ms: 0,
             failed: None,
-            live: None,
-            scene: None,
-            last_scene: None,
-        })
-    }
-
-    /// No file: the messages go to the live view only.
-    pub fn live_only(live: crate::live::Live) -> Self {
-        Self {
-            path: PathBuf::new(),
-            writer: None,
-            channels: [0; TOPICS.len()],
-            sequence: 0,
-            counts: [0; TOPICS.len()],
-            offset_ms: None,
-            last_log_ns: 0,
-            last_flush_ms: 0,
-            failed: None,
-            live: Some(live),
+            live,
             scene: None,
             last_scene: None,
         }
@@ -392,7 +388,7 @@ impl Recording {
             .unwrap_or_else(|| (host_ms as i64 + self.offset_ms.unwrap_or(0)).max(0) as u64);
         let log_ns = (log_ms * 1_000_000).max(self.last_log_ns);
         self.last_log_ns = log_ns;
-        if let Some(live) = &self.live {
+        if let (Some(live), false) = (&self.live, data.is_empty()) {
             live.log(topic, data, log_ns);
         }
         let Some(w) = self.writer.as_mut() else {

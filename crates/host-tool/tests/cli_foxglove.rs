@@ -4,36 +4,23 @@
 //! receives telemetry, state, log lines and the trunk's scene while a plan runs through the
 //! server. Bad addresses are refused up front; a port in use is a clear error.
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/foxglove_ws.rs"]
 mod foxglove_ws;
 
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::Path;
+use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
+use cli::cmd;
 use foxglove::messages::{FrameTransforms, SceneUpdate};
 use foxglove::Decode;
 use foxglove_ws::Client;
 use serde_json::Value;
 
 const STATES: [&str; 6] = ["F&P", "F&F", "F&D", "D&P", "D&F", "D&D"];
-
-fn cmd(dir: &Path, args: &[&str]) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_host-tool"));
-    c.args(args)
-        .env("XDG_RUNTIME_DIR", dir)
-        .stdin(Stdio::null());
-    c
-}
-
-fn temp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("cli-foxglove-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 struct Server(Child);
 
@@ -58,10 +45,7 @@ fn serve(dir: &Path, extra: &[&str]) -> (Server, String) {
         "127.0.0.1:0",
     ];
     args.extend_from_slice(extra);
-    let mut child = cmd(dir, &args).stderr(Stdio::piped()).spawn().unwrap();
-    let mut err = BufReader::new(child.stderr.take().unwrap());
-    let mut line = String::new();
-    err.read_line(&mut line).unwrap();
+    let (child, line) = cli::serve(dir, &args);
     assert!(line.starts_with("serving the simulator on "), "{line}");
     let url = line
         .split("live view for Foxglove on ")
@@ -69,7 +53,6 @@ fn serve(dir: &Path, extra: &[&str]) -> (Server, String) {
         .unwrap_or_else(|| panic!("no live view address in: {line}"))
         .trim()
         .to_string();
-    std::thread::spawn(move || for _ in err.lines() {});
     (Server(child), url)
 }
 
@@ -95,7 +78,7 @@ fn expected_channels() -> BTreeMap<&'static str, (&'static str, &'static str, &'
 
 #[test]
 fn a_foxglove_client_sees_the_channels_and_watches_a_plan_run() {
-    let dir = temp("watch");
+    let dir = cli::temp("foxglove-watch");
     let rec = dir.join("serve.mcap");
     let (_server, url) = serve(&dir, &["--record", rec.to_str().unwrap()]);
     let topics: Vec<&str> = expected_channels().keys().copied().collect();
@@ -379,7 +362,7 @@ fn check_layout(c: &Client) {
 
 #[test]
 fn bad_addresses_are_refused_up_front_and_a_port_in_use_is_named() {
-    let dir = temp("refuse");
+    let dir = cli::temp("foxglove-refuse");
     for (addr, why) in [
         ("127.0.0.1", "no port"),
         ("127.0.0.1:70000", "not 0–65535"),

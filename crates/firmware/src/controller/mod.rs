@@ -1379,37 +1379,21 @@ fn equal_pull_range(cfg: &CraneConfig) -> (f32, f32) {
     else {
         return EMPTY;
     };
-    let f = f32::from_bits;
-    // Smallest: ok at `b`, not at `a` (or a is 0 and ok).
-    let low = if ok(0.0) {
-        0.0
-    } else {
-        let (mut a, mut b) = (0u32, inside.to_bits());
-        while b - a > 1 {
-            let m = a + (b - a) / 2;
-            if ok(f(m)) {
-                b = m;
-            } else {
-                a = m;
-            }
-        }
-        f(b)
-    };
-    // Largest: ok at `a`, not at `b` (or `top` is ok).
-    let high = if ok(top) {
-        top
-    } else {
-        let (mut a, mut b) = (inside.to_bits(), top.to_bits());
-        while b - a > 1 {
-            let m = a + (b - a) / 2;
-            if ok(f(m)) {
+    // The last float still `ok` walking from `inside` toward `outside` (bit patterns).
+    let edge = |inside: f32, outside: f32| {
+        let (mut a, mut b) = (inside.to_bits(), outside.to_bits());
+        while a.abs_diff(b) > 1 {
+            let m = a / 2 + b / 2 + (a & b & 1);
+            if ok(f32::from_bits(m)) {
                 a = m;
             } else {
                 b = m;
             }
         }
-        f(a)
+        f32::from_bits(a)
     };
+    let low = if ok(0.0) { 0.0 } else { edge(inside, 0.0) };
+    let high = if ok(top) { top } else { edge(inside, top) };
     (low, high)
 }
 

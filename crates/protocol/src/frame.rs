@@ -478,7 +478,11 @@ mod tests {
         let mut r = CRC_INIT;
         for i in 0..100_000u32 {
             let b = (i.wrapping_mul(2_654_435_761) >> 13) as u8;
-            assert_eq!(crc_step_nibblewise(r, b), crc_step_bytewise(r, b), "{r:#x} {b}");
+            assert_eq!(
+                crc_step_nibblewise(r, b),
+                crc_step_bytewise(r, b),
+                "{r:#x} {b}"
+            );
             r = crc_step_bytewise(r, b) ^ i;
         }
     }

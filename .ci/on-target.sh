@@ -12,12 +12,18 @@ cargo build --release --locked -p ra4m1-emu --bin ra4m1-run
 target_dir="${CARGO_TARGET_DIR:-target}"
 case "$target_dir" in /*) ;; *) target_dir="$PWD/$target_dir" ;; esac
 
+run="$target_dir/release/ra4m1-run"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
+# As on a bench: the bare-board suite on a board with nothing attached (--bare), the stimulus
+# suite with the fixture fitted (ra4m1-run fits it).
 set +e
-CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="$target_dir/release/ra4m1-run" \
-  cargo test-board --locked --no-fail-fast 2>&1 | tee "$log"
+CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="$run --bare" \
+  cargo test-board-bare --locked --no-fail-fast 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
+CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="$run" \
+  cargo test-board-fixture --locked --no-fail-fast 2>&1 | tee -a "$log"
+status=$((status | PIPESTATUS[0]))
 set -e
 
 results="$(grep -E '^test result: ' "$log" || true)"

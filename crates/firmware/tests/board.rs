@@ -3,8 +3,8 @@
 //! input buffers, its reset flags). Run on a bare UNO R4 with a probe, or in the emulator:
 //!
 //! ```text
-//! cargo test-board --test board                                          # probe-rs
-//! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER=ra4m1-run cargo test-board --test board
+//! cargo test-board-bare                                         # probe-rs
+//! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER=ra4m1-run cargo test-board-bare
 //! ```
 //! The tests that need a stimulus (a jumper, a known voltage) are in `tests/board_fixture.rs`.
 #![no_std]

@@ -303,11 +303,13 @@ mod tests {
     }
 
     /// A panic drives every actuator line to its safe level (valves closed, servos limp and
-    /// driven low), then the watchdog restarts the board and the next boot says so.
+    /// driven low) while the gripper keeps holding (closed), then the watchdog restarts the
+    /// board and the next boot says so.
     #[test]
     fn a_panic_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
         on_target::actuate(&b);
         assert_eq!(on_target::unsafe_lines(), 0b1_1111, "all lines actuated");
+        assert!(on_target::gripper_closed(), "the gripper holding");
         on_target::expect_fault(on_target::after_fault);
         panic!("deliberate panic (on-target test)");
     }
@@ -317,6 +319,7 @@ mod tests {
     fn a_hard_fault_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
         on_target::actuate(&b);
         assert_eq!(on_target::unsafe_lines(), 0b1_1111, "all lines actuated");
+        assert!(on_target::gripper_closed(), "the gripper holding");
         on_target::expect_fault(on_target::after_fault);
         cortex_m::asm::udf();
     }

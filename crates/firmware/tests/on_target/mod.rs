@@ -176,6 +176,8 @@ pub const OBSERVED: usize = 7;
 pub const OBSERVED_MAGIC: u32 = 0x5AFE_0B5D;
 /// Carry word of the unsafe-line mask.
 pub const UNSAFE_LINES: usize = 6;
+/// Carry word: the gripper line still drives closed (1) after the fault.
+pub const GRIPPER_HELD: usize = 5;
 
 /// The next fault is the test's: observe the safe state, then the watchdog, then `then`.
 pub fn expect_fault(then: fn() -> !) {
@@ -211,11 +213,18 @@ pub fn unsafe_lines() -> u32 {
     mask
 }
 
+/// Whether the gripper line drives its closed level (high: GPIO output, PODR = 1, reads high).
+pub fn gripper_closed() -> bool {
+    let f = pfs_of(pins::GRIPPER);
+    f & pfs::PMR == 0 && f & pfs::PDR != 0 && f & pfs::PODR != 0 && f & (1 << 1) != 0
+}
+
 /// Every actuator line out of its safe state: both valves open, the three servos pulsing at
-/// 1.5 ms, and the watchdog running (so a halted board restarts).
+/// 1.5 ms; the gripper holding (closed); the watchdog running (so a halted board restarts).
 pub fn actuate(b: &Board) {
     use embedded_hal::digital::OutputPin as _;
     use embedded_hal::pwm::SetDutyCycle as _;
+    let _ = board::gpio::Output::new_high(pins::GRIPPER);
     let _ = board::gpio::Output::new(pins::INLET).set_high();
     let _ = board::gpio::Output::new(pins::EXHAUST).set_high();
     let gpt7 = board::pwm::Timer::start(pac::GPT167, b.clocks.pclkd_hz);
@@ -233,6 +242,7 @@ pub fn actuate(b: &Board) {
 
 fn observe() {
     put(UNSAFE_LINES, unsafe_lines());
+    put(GRIPPER_HELD, u32::from(gripper_closed()));
     put(OBSERVED, OBSERVED_MAGIC);
 }
 
@@ -250,6 +260,7 @@ pub fn after_fault() -> ! {
         0,
         "lines not safe after the fault (bit 0 inlet, 1 exhaust, 2..4 servos)"
     );
+    assert_eq!(get(GRIPPER_HELD), 1, "the gripper let go in the fault");
     assert_eq!(cause, protocol::messages::ResetCause::Watchdog);
     pass()
 }

@@ -141,10 +141,10 @@ impl Fixture {
         emu.set_analog(1, 16383);
     }
 
-    fn step(self, emu: &mut Emulator) -> Vec<u8> {
+    /// The loopback: what SCI9 sent comes back on its receive line, at the line rate.
+    fn step(self, emu: &mut Emulator) {
         let tx = emu.host_take();
         emu.host_send(&tx);
-        tx
     }
 }
 
@@ -248,12 +248,8 @@ fn run_case(elf: &[u8], case: &Case, settings: Settings) -> Result<(), Failed> {
             log.print(d.as_mut(), &mut out);
         }
         match settings.fixture {
-            Some(f) => {
-                f.step(&mut emu);
-            }
-            None => {
-                emu.host_take();
-            }
+            Some(f) => f.step(&mut emu),
+            None => drop(emu.host_take()),
         }
         if let Err(e) = r {
             break Err(format!(

@@ -1876,6 +1876,81 @@ fn display_shows_pressure_on_request() {
     assert_eq!(r.ctl.poll_display(), display::text("F-P "));
 }
 
+/// The upload check's two comparisons (`equal_pull_range`) accept exactly the shortenings
+/// `angles_for` accepts on all three servos, at and around both ends (every float within 4 ulp)
+/// and across the range, for servos mounted either way, narrow, single-angle and unreachable
+/// limits.
+#[test]
+fn the_equal_pull_range_is_exactly_where_angles_for_succeeds() {
+    let mut cfgs = StdVec::<CraneConfig>::new();
+    let base = CraneConfig::default();
+    cfgs.push(base);
+    let mut c = base;
+    c.servo.pull_sign = [-1.0, 1.0, -1.0];
+    c.servo.slack_deg = [180.0, 0.0, 175.0];
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.min_deg = 10.0;
+    c.servo.max_deg = 20.0;
+    c.servo.slack_deg = [12.0, 11.0, 15.0];
+    cfgs.push(c);
+    // Tendon 1 needs ≥ 10.5 mm to reach 10°, tendon 0 allows ≤ 8.4 mm: nothing.
+    c.servo.slack_deg = [12.0, 0.0, 15.0];
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.min_deg = 90.0;
+    c.servo.max_deg = 90.0;
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.min_deg = 170.0;
+    c.servo.max_deg = 180.0;
+    c.max_tendon_mm = 20.0;
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.spool_radius_mm = 7.3;
+    c.servo.slack_deg = [3.3, 41.0, 0.7];
+    cfgs.push(c);
+    for (k, cfg) in cfgs.iter().enumerate() {
+        let cfg = cfg.validated();
+        let (lo, hi) = equal_pull_range(&cfg);
+        let check = |l: f32| {
+            let want = angles_for(&cfg, [l; 3]).is_some();
+            assert_eq!(
+                lo <= l && l <= hi,
+                want,
+                "config {k}: {l} (range {lo}..={hi})"
+            );
+        };
+        let near = |x: f32| {
+            let mut v = x;
+            for _ in 0..4 {
+                v = v.next_down();
+            }
+            for _ in 0..9 {
+                check(v);
+                v = v.next_up();
+            }
+        };
+        for x in [lo, hi, 0.0, -0.0, cfg.max_tendon_mm] {
+            if x.is_finite() {
+                near(x);
+            }
+        }
+        for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0, 1e30] {
+            check(x);
+        }
+        for i in 0..=20_000 {
+            check(-5.0 + (cfg.max_tendon_mm + 10.0) * i as f32 / 20_000.0);
+        }
+        if k == 5 {
+            assert!(lo > hi, "config {k}: nothing reachable, {lo}..={hi}");
+        } else if k != 3 {
+            // (3: a single angle, 90°, may be hit by no float at all.)
+            assert!(lo <= hi, "config {k}: {lo}..={hi}");
+        }
+    }
+}
+
 #[test]
 fn tendon_direction_table_is_the_geometry_crates() {
     for ((sin_i, cos_i), phi) in TENDON_DIRECTIONS

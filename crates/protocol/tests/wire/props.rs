@@ -48,7 +48,7 @@ fn primitive() -> impl Strategy<Value = Primitive> {
     ]
 }
 
-fn step() -> impl Strategy<Value = Step> {
+pub fn step() -> impl Strategy<Value = Step> {
     (
         prop_oneof![
             Just(StepKind::Pneumatic),

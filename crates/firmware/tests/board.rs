@@ -307,20 +307,12 @@ mod tests {
     /// board and the next boot says so.
     #[test]
     fn a_panic_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
-        on_target::actuate(&b);
-        assert_eq!(on_target::unsafe_lines(), 0b1_1111, "all lines actuated");
-        assert!(on_target::gripper_closed(), "the gripper holding");
-        on_target::expect_fault(on_target::after_fault);
-        panic!("deliberate panic (on-target test)");
+        on_target::provoke_fault(&b, || panic!("deliberate panic (on-target test)"));
     }
 
     /// The same for a HardFault (an undefined instruction).
     #[test]
     fn a_hard_fault_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
-        on_target::actuate(&b);
-        assert_eq!(on_target::unsafe_lines(), 0b1_1111, "all lines actuated");
-        assert!(on_target::gripper_closed(), "the gripper holding");
-        on_target::expect_fault(on_target::after_fault);
-        cortex_m::asm::udf();
+        on_target::provoke_fault(&b, cortex_m::asm::udf);
     }
 }

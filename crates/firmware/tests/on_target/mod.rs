@@ -240,6 +240,16 @@ pub fn actuate(b: &Board) {
     board::wdt::start(b.clocks.pclkb_hz);
 }
 
+/// The fault tests: every line actuated (checked), the fault expected, then `fault` (a panic,
+/// an undefined instruction); [`after_fault`] checks the rest after the watchdog's reset.
+pub fn provoke_fault(b: &Board, fault: fn() -> !) -> ! {
+    actuate(b);
+    assert_eq!(unsafe_lines(), 0b1_1111, "all lines actuated");
+    assert!(gripper_closed(), "the gripper holding");
+    expect_fault(after_fault);
+    fault()
+}
+
 fn observe() {
     put(UNSAFE_LINES, unsafe_lines());
     put(GRIPPER_HELD, u32::from(gripper_closed()));

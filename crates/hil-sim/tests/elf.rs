@@ -165,52 +165,17 @@ fn storage_never_stretches_a_loop_pass_beyond_1_ms_even_with_a_broken_flash() {
 /// candidates that include the truth.
 #[test]
 fn a_power_cut_mid_step_boots_the_elf_into_a_truthful_report() {
-    let from: TrunkState = "F&P".parse().unwrap();
-    let to: TrunkState = "D&F".parse().unwrap();
-    let plan = planner::graph::Graph::nominal().plan(from, to).unwrap();
-    let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
     for cut_ms in (200u64..=6_000).step_by(400) {
         let mut reports = Vec::new();
         for elf_mode in [false, true] {
-            let mut sim = Sim::try_new(SimOptions {
-                initial: from,
-                firmware_elf: elf_mode.then(elf),
-                ..SimOptions::default()
-            })
-            .unwrap();
-            sim.run_for(50);
-            let mut host = SimHost::new();
-            host.hello(&mut sim).unwrap();
-            let mut p = protocol::messages::Plan {
-                plan_id: 5,
-                steps: heapless::Vec::new(),
-            };
-            for s in &steps {
-                p.steps.push(s.clone()).unwrap();
-            }
-            host.request_ok(&mut sim, protocol::RequestBody::UploadPlan(p), 1_000)
-                .unwrap();
-            host.request_ok(
-                &mut sim,
-                protocol::RequestBody::StartPlan { plan_id: 5 },
-                1_000,
-            )
-            .unwrap();
+            let (mut sim, mut host, _) = started_plan(elf_mode);
             let t0 = sim.now_ms();
             while sim.now_ms() < t0 + cut_ms {
                 sim.run_for(50);
                 let _ = host.send(&mut sim, protocol::RequestBody::Heartbeat);
                 host.poll(&mut sim);
             }
-            sim.power_cycle();
-            sim.run_for(100);
-            let mut host = SimHost::new();
-            host.hello(&mut sim).expect("handshake after the cut");
-            let Ok((_, ResponseBody::Status(st))) =
-                host.request(&mut sim, protocol::RequestBody::GetStatus, 1_000)
-            else {
-                panic!("no status after the cut")
-            };
+            let st = status_after_a_power_cut(&mut sim);
             // Truthful: a confirmed state is the true one; an unconfirmed report names the
             // step that was cut and its candidates hold the truth.
             let truth = sim
@@ -372,9 +337,22 @@ fn actuating(sim: &Sim, rest: [f32; 3]) -> bool {
     valve || servo.iter().zip(rest).any(|(a, b)| (a - b).abs() > 0.5)
 }
 
-/// Uploads and starts the plan F&P → D&F on a fresh ELF board; returns the sim, its host and
-/// the step that starts (its journal record is what the board writes first).
-fn started_plan() -> (Sim, SimHost, Step) {
+/// Cuts the power, boots, and asks a new host's status.
+fn status_after_a_power_cut(sim: &mut Sim) -> protocol::messages::Status {
+    sim.power_cycle();
+    sim.run_for(100);
+    let mut host = SimHost::new();
+    host.hello(sim).expect("handshake after the cut");
+    match host.request(sim, protocol::RequestBody::GetStatus, 1_000) {
+        Ok((_, ResponseBody::Status(st))) => st,
+        other => panic!("no status after the cut: {other:?}"),
+    }
+}
+
+/// Uploads and starts the plan F&P → D&F on a fresh board (the ELF, or the host-built
+/// controller); returns the sim, its host and the step that starts (its journal record is
+/// what the board writes first).
+fn started_plan(elf_mode: bool) -> (Sim, SimHost, Step) {
     let from: TrunkState = "F&P".parse().unwrap();
     let plan = planner::graph::Graph::nominal()
         .plan(from, "D&F".parse().unwrap())
@@ -382,7 +360,7 @@ fn started_plan() -> (Sim, SimHost, Step) {
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
     let mut sim = Sim::try_new(SimOptions {
         initial: from,
-        firmware_elf: Some(elf()),
+        firmware_elf: elf_mode.then(elf),
         ..SimOptions::default()
     })
     .unwrap();
@@ -411,7 +389,7 @@ fn started_plan() -> (Sim, SimHost, Step) {
 /// the interrupted step and candidates that hold the truth.
 #[test]
 fn a_step_actuates_only_after_its_journal_is_in_flash_and_a_cut_before_boots_truthful() {
-    let (mut sim, _host, first) = started_plan();
+    let (mut sim, _host, first) = started_plan(true);
     let journal = protocol::Transition {
         from: first.from,
         to: first.to,
@@ -442,7 +420,7 @@ fn a_step_actuates_only_after_its_journal_is_in_flash_and_a_cut_before_boots_tru
     eprintln!("journal in flash {recorded} ms after the start, first actuation at {actuated} ms");
 
     for cut_ms in 0..=actuated + 5 {
-        let (mut sim, _host, _) = started_plan();
+        let (mut sim, _host, _) = started_plan(true);
         let t0 = sim.now_ms();
         let rest = sim.ground_truth().servo_deg;
         let mut moved = false;
@@ -450,15 +428,7 @@ fn a_step_actuates_only_after_its_journal_is_in_flash_and_a_cut_before_boots_tru
             sim.step();
             moved |= actuating(&sim, rest);
         }
-        sim.power_cycle();
-        sim.run_for(100);
-        let mut host = SimHost::new();
-        host.hello(&mut sim).expect("handshake after the cut");
-        let Ok((_, ResponseBody::Status(st))) =
-            host.request(&mut sim, protocol::RequestBody::GetStatus, 1_000)
-        else {
-            panic!("no status after the cut at {cut_ms} ms")
-        };
+        let st = status_after_a_power_cut(&mut sim);
         let truth = sim.ground_truth().true_state.expect("at rest");
         if st.state_confirmed {
             assert!(

@@ -710,6 +710,8 @@ pub struct Status {
     pub estop: bool,
     /// The active (or last) plan.
     pub plan: Option<PlanStatus>,
+    /// The task a manual step waits for a person to do (`None` when none waits).
+    pub manual_task: Option<ManualTask>,
     /// Active faults, one bit per [`FaultCode`] (`1 << code as u16`).
     pub faults: u16,
     /// Frames received and decoded.

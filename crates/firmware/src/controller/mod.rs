@@ -494,8 +494,8 @@ impl Controller {
     }
 
     /// The display content now, in priority order: the pressure while show-pressure is held;
-    /// `E-xx` for the most recent active fault; `SAFE` after an abort; `HAnd` while a manual step
-    /// waits; otherwise the trunk state (`F-P ` …), with the last decimal point lit while a
+    /// `E-xx` for the most recent active fault; `SAFE` after an abort; the task while a manual
+    /// step waits (`H-Pb`, [`display::task`](crate::display::task)); otherwise the trunk state (`F-P ` …), with the last decimal point lit while a
     /// plan runs and the first one lit while the state is unconfirmed.
     pub fn poll_display(&self) -> [u8; 4] {
         use crate::display;
@@ -517,8 +517,8 @@ impl Controller {
         if self.safe || self.estop_latched {
             return display::text("SAFE");
         }
-        if self.exec.as_ref().is_some_and(|e| e.waiting_manual) {
-            return display::text("HAnd");
+        if let Some(t) = self.exec.as_ref().and_then(|e| e.waiting_task()) {
+            return display::task(t);
         }
         if let Some(s) = self.ident.asking {
             // "Is it this one?": the candidate with every decimal point lit.
@@ -605,6 +605,7 @@ impl Controller {
             gripper_closed: self.outputs.gripper_closed,
             estop: self.estop_latched,
             plan: self.plan_status,
+            manual_task: self.exec.as_ref().and_then(|e| e.waiting_task()),
             faults: self.faults,
             frames_rx: stats.frames_ok,
             frames_dropped: stats.frames_dropped,
@@ -1378,37 +1379,21 @@ fn equal_pull_range(cfg: &CraneConfig) -> (f32, f32) {
     else {
         return EMPTY;
     };
-    let f = f32::from_bits;
-    // Smallest: ok at `b`, not at `a` (or a is 0 and ok).
-    let low = if ok(0.0) {
-        0.0
-    } else {
-        let (mut a, mut b) = (0u32, inside.to_bits());
-        while b - a > 1 {
-            let m = a + (b - a) / 2;
-            if ok(f(m)) {
-                b = m;
-            } else {
-                a = m;
-            }
-        }
-        f(b)
-    };
-    // Largest: ok at `a`, not at `b` (or `top` is ok).
-    let high = if ok(top) {
-        top
-    } else {
-        let (mut a, mut b) = (inside.to_bits(), top.to_bits());
-        while b - a > 1 {
-            let m = a + (b - a) / 2;
-            if ok(f(m)) {
+    // The last float still `ok` walking from `inside` toward `outside` (bit patterns).
+    let edge = |inside: f32, outside: f32| {
+        let (mut a, mut b) = (inside.to_bits(), outside.to_bits());
+        while a.abs_diff(b) > 1 {
+            let m = a / 2 + b / 2 + (a & b & 1);
+            if ok(f32::from_bits(m)) {
                 a = m;
             } else {
                 b = m;
             }
         }
-        f(a)
+        f32::from_bits(a)
     };
+    let low = if ok(0.0) { 0.0 } else { edge(inside, 0.0) };
+    let high = if ok(top) { top } else { edge(inside, top) };
     (low, high)
 }
 

@@ -48,8 +48,10 @@ mod client;
 mod cmd;
 mod device;
 mod failure;
+mod live;
 mod progress;
 mod record;
+mod scene;
 mod sim;
 mod transport;
 

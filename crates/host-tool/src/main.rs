@@ -67,9 +67,11 @@ mod client;
 mod cmd;
 mod device;
 mod failure;
+mod live;
 mod num;
 mod progress;
 mod record;
+mod scene;
 mod sim;
 mod transport;
 

@@ -48,6 +48,7 @@ mod client;
 mod cmd;
 mod device;
 mod failure;
+mod figure;
 mod progress;
 mod record;
 mod sim;

@@ -3,7 +3,8 @@
 //! With feature `board-uno-r4` on an ARM target: copies the workspace's `memory.x` (the RA4M1
 //! map that keeps the Arduino bootloader) into OUT_DIR for cortex-m-rt's `link.x`, and passes
 //! the linker scripts to the binaries only (`-Tlink.x`, `-Tdefmt.x`), so libraries built for
-//! thumbv7em (geometry, protocol) are untouched.
+//! thumbv7em (geometry, protocol) are untouched. The on-target test binaries (`tests/board*.rs`)
+//! get the same scripts and embedded-test's `embedded-test.x`.
 
 use std::env;
 use std::fs;
@@ -11,6 +12,8 @@ use std::path::PathBuf;
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    // embedded-test's `#[tests]` expands to a `cfg(rust_analyzer)` check.
+    println!("cargo::rustc-check-cfg=cfg(rust_analyzer)");
     let board = env::var_os("CARGO_FEATURE_BOARD_UNO_R4").is_some();
     let target = env::var("TARGET").unwrap_or_default();
     if !board || !target.starts_with("thumbv7em-") {
@@ -25,4 +28,10 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=--nmagic");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    // The on-target test binaries (tests/board*.rs, embedded-test): the same scripts, plus
+    // embedded-test's, which keeps the test-case symbols probe-rs and ra4m1-run read.
+    println!("cargo:rustc-link-arg-tests=--nmagic");
+    println!("cargo:rustc-link-arg-tests=-Tlink.x");
+    println!("cargo:rustc-link-arg-tests=-Tdefmt.x");
+    println!("cargo:rustc-link-arg-tests=-Tembedded-test.x");
 }

@@ -376,14 +376,14 @@ impl CraneConfig {
                     if !(valid_n && m.beta_deg > 0.0 && m.beta_deg < 90.0) {
                         return None;
                     }
-                    let w = libm::tanf(m.beta_deg.to_radians());
+                    let w = crate::mathf::tan(m.beta_deg.to_radians());
                     let slant = match s {
                         ShapeState::Folded => {
-                            let t = libm::tanf(core::f32::consts::PI / (2.0 * m.n as f32));
+                            let t = crate::mathf::tan(core::f32::consts::PI / (2.0 * m.n as f32));
                             if w < t {
                                 0.0
                             } else {
-                                libm::sqrtf((w - t) * (w + t))
+                                crate::mathf::sqrt((w - t) * (w + t))
                             }
                         }
                         _ => w,

@@ -63,6 +63,7 @@ pub mod config;
 pub mod controller;
 pub mod display;
 pub mod hw;
+pub mod mathf;
 pub mod store;
 
 pub use config::CraneConfig;

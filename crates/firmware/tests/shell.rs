@@ -286,7 +286,9 @@ fn shell_boots_talks_and_drives_the_pins() {
     );
     // Servos at 0°: 500 µs of a 20 ms period = 2.5 % of 40 000.
     assert!(b.servo.iter().all(|s| s.0.get() == 1_000));
-    assert!(b.valves.iter().all(|v| !v.0.get()));
+    // Valves closed; the gripper pin high: closed (it boots holding, fail-closed).
+    assert!(!b.valves[0].0.get() && !b.valves[1].0.get());
+    assert!(b.valves[2].0.get(), "gripper closed");
 
     // Step up (pin pulled low): the inlet valve pin goes high.
     b.buttons[0].0.set(false);

@@ -45,22 +45,27 @@ fn clear(sim: &mut Sim) {
 }
 
 fn main() {
-    // 1. Boot to first answer: the host sends Hello from power-on, every 5 ms.
+    // 1. Boot to first answer: a Hello frame every 5 ms from power-on, straight onto the line.
     let wall = Instant::now();
     let mut s = sim("F&P");
-    let mut host = SimHost::new();
+    let hello = protocol::messages::Request {
+        seq: 1,
+        session: 0,
+        body: RequestBody::hello(),
+    };
+    let mut frame = [0u8; protocol::MAX_FRAME_LEN];
+    let n = protocol::encode(&hello, &mut frame).unwrap();
+    let mut decoder = protocol::FrameDecoder::new();
     let mut answered = None;
     while s.now_ms() < 2_000 && answered.is_none() {
         if s.now_ms() % 5 == 0 {
-            let _ = host.send(&mut s, RequestBody::hello());
+            s.write_host_bytes(&frame[..n]);
         }
         s.step();
-        if host
-            .poll(&mut s)
-            .iter()
-            .any(|m| matches!(m, DeviceMessage::Response { .. }))
-        {
-            answered = Some(s.now_ms());
+        for b in s.read_device_bytes() {
+            if let Some(Ok(DeviceMessage::Response { .. })) = decoder.push::<DeviceMessage>(b) {
+                answered = Some(s.now_ms());
+            }
         }
     }
     let boot_wall = wall.elapsed();
@@ -93,6 +98,9 @@ fn main() {
 
     // 3. The largest plan's upload pass (refused or stored), then a real plan running.
     clear(&mut s);
+    if let Some(b) = s.elf_board_mut() {
+        b.emu.profile_passes(true);
+    }
     let _ = host.request(
         &mut s,
         RequestBody::UploadPlan(firmware::bench::largest_plan(9)),
@@ -104,6 +112,10 @@ fn main() {
         protocol::MAX_PLAN_STEPS,
         max_pass(&s)
     );
+    let profile = s.elf_board().unwrap().emu.longest_pass_profile();
+    for (f, c) in profile.iter().take(16) {
+        println!("  {c:>7} cycles  {}", &f[..f.len().min(100)]);
+    }
     let plan = planner::graph::Graph::nominal()
         .plan("F&P".parse().unwrap(), "D&D".parse().unwrap())
         .unwrap();

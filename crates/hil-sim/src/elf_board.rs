@@ -8,7 +8,8 @@
 //! pin until pressed); host bytes into SCI9's RXD9 at 115 200 Bd. Out come the servo pulses
 //! from the GPT pins (a pin the timer does not drive — output disabled, 0 % duty — gives no
 //! pulse: the servo is limp), the valve and gripper gates from their port pins (a released
-//! gate is held low by the driver's gate pull-down), the four digits the firmware clocked into
+//! valve gate is held low by the driver's gate pull-down, a released gripper input high by
+//! its fail-closed pull-up), the four digits the firmware clocked into
 //! the emulated TM1637, and SCI9's transmitted bytes.
 
 use std::path::Path;
@@ -175,7 +176,11 @@ impl ElfBoard {
         let high = |emu: &Emulator, p: (usize, usize)| emu.pin_drive(p.0, p.1) == PinDrive::High;
         shell.outputs.inlet.high = high(emu, pin::INLET);
         shell.outputs.exhaust.high = high(emu, pin::EXHAUST);
-        shell.outputs.gripper.high = high(emu, pin::GRIPPER);
+        // Fail-closed wiring (docs/hardware.md): a released gripper pin is pulled up, closed.
+        shell.outputs.gripper.high = matches!(
+            emu.pin_drive(pin::GRIPPER.0, pin::GRIPPER.1),
+            PinDrive::High | PinDrive::Released { .. }
+        );
         let period_us = 1e6 / f64::from(SERVO_PWM_HZ);
         let duty = |line: Line| -> u16 {
             match line {

@@ -250,7 +250,7 @@ fn a_power_cut_mid_step_boots_the_elf_into_a_truthful_report() {
 
 /// The display decoded from the TM1637 pins and the buttons read from the port pins: the ELF
 /// shows what the host-built controller shows, and a press of the gripper button (a switch to
-/// ground on P107) closes the gripper (P100 high).
+/// ground on P107) opens the gripper, which boots closed (P100 high: fail-closed).
 #[test]
 fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
     for initial in ["F&P", "D&F", "D&D"] {
@@ -265,7 +265,7 @@ fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
             sim.run_for(500);
             shown.push(sim.ground_truth().display);
             if elf_mode {
-                assert!(!sim.ground_truth().gripper_closed);
+                assert!(sim.ground_truth().gripper_closed, "{initial}: boots closed");
                 sim.set_buttons(firmware::Buttons {
                     gripper: true,
                     ..Default::default()
@@ -274,8 +274,8 @@ fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
                 sim.set_buttons(firmware::Buttons::default());
                 sim.run_for(500);
                 assert!(
-                    sim.ground_truth().gripper_closed,
-                    "{initial}: the button closes the gripper"
+                    !sim.ground_truth().gripper_closed,
+                    "{initial}: the button opens the gripper"
                 );
             }
         }

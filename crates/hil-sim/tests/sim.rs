@@ -550,7 +550,7 @@ fn a_power_cycle_boots_from_the_emulated_flash() {
 }
 
 #[test]
-fn the_gripper_button_closes_the_gripper_and_the_e_stop_latches() {
+fn the_gripper_button_toggles_the_gripper_and_the_e_stop_latches() {
     let mut sim = Sim::new(SimOptions::default());
     sim.run_for(100);
     let press = |sim: &mut Sim, held: Buttons| {
@@ -559,13 +559,15 @@ fn the_gripper_button_closes_the_gripper_and_the_e_stop_latches() {
         sim.set_buttons(Buttons::default());
         sim.run_for(500);
     };
-    press(
-        &mut sim,
-        Buttons {
-            gripper: true,
-            ..Default::default()
-        },
-    );
+    // Fail-closed: it boots closed; the button opens it, and closes it again.
+    assert!(sim.ground_truth().gripper_closed);
+    let gripper = Buttons {
+        gripper: true,
+        ..Default::default()
+    };
+    press(&mut sim, gripper);
+    assert!(!sim.ground_truth().gripper_closed);
+    press(&mut sim, gripper);
     assert!(sim.ground_truth().gripper_closed);
     press(
         &mut sim,

@@ -41,8 +41,10 @@ const LEGACY_CRC: crc::Crc<u16, crc::NoTable> =
 
 // The streaming decoder keeps the CRC register itself (one table look-up per byte, no
 // indirection through a `crc::Digest`'s pointer to the algorithm), with the `crc` crate's own
-// table. Its update step below is the one for reflected CRCs, as CRC-32/ISO-HDLC is; the
-// one-shot path (`encode`, `decode`) uses the crate's `checksum`, and the tests compare the two.
+// table. Its update step below is the one for reflected CRCs, as CRC-32/ISO-HDLC is. The
+// one-shot path (`encode`, `decode`) runs the same step over the same table ([`crc32`]: the
+// crate's `checksum` would link a second copy of the 1 KiB table into the board binary); a
+// test compares it with the crate's `checksum`.
 const _: () = assert!(CRC_ALGORITHM.refin && CRC_ALGORITHM.refout && CRC_ALGORITHM.width == 32);
 /// The reflected CRC's 256-entry table (1 KiB of flash).
 static CRC_TABLE: [u32; 256] = CRC.table()[0];
@@ -53,6 +55,11 @@ const CRC_INIT: u32 = CRC_ALGORITHM.init.reverse_bits();
 #[inline(always)]
 fn crc_step(register: u32, byte: u8) -> u32 {
     CRC_TABLE[usize::from(register as u8 ^ byte)] ^ (register >> 8)
+}
+
+/// CRC-32/ISO-HDLC of `bytes` (as `crc::Crc::<u32>::checksum`).
+fn crc32(bytes: &[u8]) -> u32 {
+    bytes.iter().fold(CRC_INIT, |r, &b| crc_step(r, b)) ^ CRC_ALGORITHM.xorout
 }
 
 /// Why a frame could not be encoded or decoded.
@@ -83,7 +90,7 @@ pub fn encode<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, FrameError
     let used = postcard::to_slice(msg, &mut raw[..MAX_RAW_LEN - CRC_LEN])
         .map_err(|_| FrameError::TooLong)?
         .len();
-    let crc = CRC.checksum(&raw[..used]).to_le_bytes();
+    let crc = crc32(&raw[..used]).to_le_bytes();
     raw[used..used + CRC_LEN].copy_from_slice(&crc);
     let raw_len = used + CRC_LEN;
     // `try_encode` bounds-checks every write (`cobs::encode` would panic on a short buffer);
@@ -127,7 +134,7 @@ fn decode_stuffed<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError
     let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
     let raw = frame.get(..n).ok_or(FrameError::Cobs)?;
     let crc = match raw.split_last_chunk::<CRC_LEN>() {
-        Some((payload, _)) => CRC.checksum(payload),
+        Some((payload, _)) => crc32(payload),
         None => 0,
     };
     check_and_deserialize(raw, crc)
@@ -406,5 +413,26 @@ impl<T: DeserializeOwned> Iterator for Feed<'_, '_, T> {
             }
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_shot_crc_is_the_crates_checksum() {
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926); // the catalogue's check value
+        let mut bytes = [0u8; 600];
+        let mut x = 0x1234_5678u32;
+        for b in bytes.iter_mut() {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            *b = x as u8;
+        }
+        for n in [0, 1, 2, 3, 4, 63, 64, 255, 511, 600] {
+            assert_eq!(crc32(&bytes[..n]), CRC.checksum(&bytes[..n]), "{n} bytes");
+        }
     }
 }

@@ -108,6 +108,8 @@ pub struct Emulator {
     flash_image: Vec<u8>,
     resets: Vec<ResetKind>,
     symbols: std::collections::HashMap<String, u32>,
+    /// Function symbols `(start, size, name)` sorted by start (Thumb bit cleared).
+    functions: Vec<(u32, u32, String)>,
 }
 
 impl std::fmt::Debug for Emulator {
@@ -135,6 +137,62 @@ fn elf_symbols(elf: &[u8]) -> std::collections::HashMap<String, u32> {
     file.symbols()
         .filter_map(|s| Some((s.name().ok()?.to_string(), s.address() as u32)))
         .collect()
+}
+
+/// The ELF's function symbols `(start, size, name)`, sorted by start, Thumb bit cleared.
+fn elf_functions(elf: &[u8]) -> Vec<(u32, u32, String)> {
+    use object::{Object, ObjectSymbol, SymbolKind};
+    let Ok(file) = object::read::elf::ElfFile32::<object::Endianness>::parse(elf) else {
+        return Vec::new();
+    };
+    let mut f: Vec<(u32, u32, String)> = file
+        .symbols()
+        .filter(|s| s.kind() == SymbolKind::Text)
+        .filter_map(|s| {
+            let name = demangle(s.name().ok()?);
+            Some((s.address() as u32 & !1, s.size() as u32, name))
+        })
+        .collect();
+    f.sort();
+    f
+}
+
+/// A legacy-mangled Rust symbol (`_ZN…E`) as a path without its hash (`a::b::c`); any other
+/// name as it is. Enough to read a profile, not a full demangler.
+fn demangle(name: &str) -> String {
+    let Some(mut rest) = name.strip_prefix("_ZN") else {
+        return name.to_string();
+    };
+    let mut parts = Vec::new();
+    while let Some(len_end) = rest.find(|c: char| !c.is_ascii_digit()) {
+        let Ok(len) = rest[..len_end].parse::<usize>() else {
+            break;
+        };
+        let Some(part) = rest.get(len_end..len_end + len) else {
+            break;
+        };
+        parts.push(part);
+        rest = &rest[len_end + len..];
+    }
+    if parts
+        .last()
+        .is_some_and(|h| h.len() == 17 && h.starts_with('h'))
+    {
+        parts.pop();
+    }
+    let path = parts.join("::");
+    [
+        ("$LT$", "<"),
+        ("$GT$", ">"),
+        ("$u20$", " "),
+        ("$C$", ","),
+        ("$RF$", "&"),
+        ("$u7b$", "{"),
+        ("$u7d$", "}"),
+        ("..", "::"),
+    ]
+    .iter()
+    .fold(path, |s, (from, to)| s.replace(from, to))
 }
 
 /// Loads the PT_LOAD segments of a 32-bit ARM ELF into a code-flash image.
@@ -226,8 +284,12 @@ impl Emulator {
             wake_start_cycles: 0,
             max_awake_cycles: 0,
             max_awake_at: 0,
+            profile: None,
             semihost_out: Vec::new(),
             exit_code: None,
+            semihost_cmdline: None,
+            cmdline_requests: 0,
+            dbgstopcr: 3,
         };
         let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, machine)
             .map_err(|e| cpu_err(e, 0))?;
@@ -285,7 +347,27 @@ impl Emulator {
         uc.add_intr_hook(intr_hook).map_err(|e| cpu_err(e, 0))?;
         // An undefined instruction (UDF, a bad encoding): UsageFault UNDEFINSTR, escalated to
         // HardFault (no separate UsageFault handler is enabled), faulting PC stacked.
+        // The hint instructions this Unicorn build raises as invalid on M-profile: YIELD
+        // (`core::hint::spin_loop`), WFE and SEV, reported with the PC after them (an undefined
+        // instruction is reported at itself). On the M4 they are NOPs here (WFE may return at
+        // once architecturally): execution goes on, unless a UDF follows the hint.
         uc.add_insn_invalid_hook(|uc| {
+            let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
+            let half = |uc: &Unicorn<'_, Machine>, a: u32| {
+                let mut op = [0u8; 2];
+                uc.mem_read(u64::from(a), &mut op)
+                    .ok()
+                    .map(|()| u16::from_le_bytes(op))
+            };
+            let after_hint = matches!(half(uc, pc.wrapping_sub(2)), Some(0xBF10 | 0xBF20 | 0xBF40));
+            let udf = half(uc, pc).is_some_and(|h| h & 0xFF00 == 0xDE00);
+            if after_hint && !udf {
+                let _ = uc.reg_write(RegisterARM::PC, u64::from(pc | 1));
+                let m = uc.get_data_mut();
+                m.stopped = true;
+                let _ = uc.emu_stop();
+                return true;
+            }
             let m = uc.get_data_mut();
             m.scs.cfsr |= 1 << 16;
             m.scs.hfsr |= 1 << 30;
@@ -338,6 +420,7 @@ impl Emulator {
             flash_image: image,
             resets: Vec::new(),
             symbols: elf_symbols(elf),
+            functions: elf_functions(elf),
         };
         emu.m().flash.timing = options.flash_timing;
         emu.reset(ResetKind::PowerOn)?;
@@ -382,6 +465,7 @@ impl Emulator {
             m.scs.pending = 0b1100;
         }
         m.wdt = Default::default();
+        m.dbgstopcr = 3;
         m.flash.reset(now);
         m.asleep = false;
         m.reset_due = None;
@@ -457,7 +541,39 @@ impl Emulator {
 
     /// Forgets the longest awake stretch so far (to measure from now on).
     pub fn clear_max_awake(&mut self) {
-        self.m().max_awake_cycles = 0;
+        let m = self.m();
+        m.max_awake_cycles = 0;
+        if let Some(p) = m.profile.as_mut() {
+            p.longest.clear();
+        }
+    }
+
+    /// Starts (or stops) recording where the cycles of each awake stretch go, to read the
+    /// longest one's with [`Emulator::longest_pass_profile`].
+    pub fn profile_passes(&mut self, on: bool) {
+        self.m().profile = on.then(Default::default);
+    }
+
+    /// The longest awake stretch's cycles per function of the ELF (the symbol covering each
+    /// executed block; what the compiler inlined counts in its caller), largest first.
+    pub fn longest_pass_profile(&self) -> Vec<(String, u64)> {
+        let Some(p) = self.machine().profile.as_ref() else {
+            return Vec::new();
+        };
+        let mut per: std::collections::HashMap<&str, u64> = Default::default();
+        for (&addr, &cycles) in &p.longest {
+            let i = self.functions.partition_point(|f| f.0 <= addr);
+            let name = i
+                .checked_sub(1)
+                .map(|i| &self.functions[i])
+                .filter(|f| addr < f.0 + f.1.max(1))
+                .map_or("?", |f| f.2.as_str());
+            *per.entry(name).or_default() += cycles;
+        }
+        let mut out: Vec<(String, u64)> =
+            per.into_iter().map(|(n, c)| (n.to_string(), c)).collect();
+        out.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        out
     }
 
     /// Sets the supply voltage (mV): below an armed voltage monitor 1 level, the chip resets
@@ -541,6 +657,18 @@ impl Emulator {
     /// stops there).
     pub fn exit_code(&self) -> Option<i32> {
         self.machine().exit_code
+    }
+
+    /// The command line the program's next SYS_GET_CMDLINE gets (once; a later call fails
+    /// with -1, as a test runner answers only the first request of a test).
+    pub fn set_semihost_cmdline(&mut self, cmdline: &str) {
+        self.m().semihost_cmdline = Some(cmdline.to_string());
+    }
+
+    /// How often the program asked for its command line (SYS_GET_CMDLINE): a test program
+    /// asks once per boot, so more than one means it reset.
+    pub fn cmdline_requests(&self) -> u32 {
+        self.machine().cmdline_requests
     }
 
     /// Takes what the program wrote through semihosting.
@@ -707,6 +835,9 @@ impl Emulator {
                 if stretch > m.max_awake_cycles {
                     m.max_awake_cycles = stretch;
                     m.max_awake_at = m.now;
+                    if let Some(p) = m.profile.as_mut() {
+                        p.longest = std::mem::take(&mut p.current);
+                    }
                 }
             }
         }
@@ -718,6 +849,9 @@ impl Emulator {
             m.asleep = false;
             m.wakes += 1;
             m.wake_start_cycles = m.awake_cycles;
+            if let Some(p) = m.profile.as_mut() {
+                p.current.clear();
+            }
         }
     }
 
@@ -894,6 +1028,9 @@ fn block_hook(uc: &mut Unicorn<'_, Machine>, addr: u64, size: u32) {
     m.block_pc = addr;
     m.instructions += u64::from(cost.instructions);
     m.awake_cycles += cycles;
+    if let Some(p) = m.profile.as_mut() {
+        *p.current.entry(addr).or_default() += cycles;
+    }
     m.now += cycles * clock::ticks_per(m.clocks.iclk);
 }
 
@@ -966,8 +1103,10 @@ fn exception_return(uc: &mut Unicorn<'_, Machine>, exc_return: u32) -> Result<()
 }
 
 /// ARM semihosting (`BKPT 0xAB`, op in r0, argument in r1), the subset test harnesses use:
-/// SYS_WRITEC (3), SYS_WRITE0 (4), SYS_WRITE (5) to the host's output, SYS_EXIT (0x18, r1 the
-/// reason: ADP_Stopped_ApplicationExit 0x2_0026 is success) and SYS_EXIT_EXTENDED (0x20, r1 →
+/// SYS_WRITEC (3), SYS_WRITE0 (4), SYS_WRITE (5) to the host's output, SYS_ERRNO (0x13: EIO),
+/// SYS_GET_CMDLINE (0x15, r1 → [buffer, size]: the command line set by
+/// [`Emulator::set_semihost_cmdline`], once), SYS_EXIT (0x18, r1 the reason:
+/// ADP_Stopped_ApplicationExit 0x2_0026 is success) and SYS_EXIT_EXTENDED (0x20, r1 →
 /// [reason, code]). Execution goes on after the BKPT (or stops at an exit).
 fn semihosting(uc: &mut Unicorn<'_, Machine>, pc: u32) -> Result<(), EmuError> {
     let reg =
@@ -1009,6 +1148,36 @@ fn semihosting(uc: &mut Unicorn<'_, Machine>, pc: u32) -> Result<(), EmuError> {
             let data = read(uc, ptr, len.min(64 * 1024) as usize)?;
             uc.get_data_mut().semihost_out.extend(data);
             uc.reg_write(RegisterARM::R0, 0)
+                .map_err(|e| cpu_err(e, pc))?;
+        }
+        0x13 => {
+            const EIO: u64 = 5;
+            uc.reg_write(RegisterARM::R0, EIO)
+                .map_err(|e| cpu_err(e, pc))?;
+        }
+        0x15 => {
+            let block = read(uc, arg, 8)?;
+            let (ptr, size) = (word(&block, 0), word(&block, 1));
+            let m = uc.get_data_mut();
+            m.cmdline_requests += 1;
+            let ok = match m.semihost_cmdline.take() {
+                Some(line) if (line.len() as u32) < size => {
+                    let mut bytes = line.into_bytes();
+                    let n = bytes.len() as u32;
+                    bytes.push(0);
+                    uc.mem_write(ptr.into(), &bytes).map_err(|_| {
+                        bad(format!(
+                            "semihosting: command line buffer at {ptr:#010x} unwritable"
+                        ))
+                    })?;
+                    uc.mem_write(u64::from(arg + 4), &n.to_le_bytes())
+                        .map_err(|_| bad("semihosting: parameter block unwritable".into()))?;
+                    true
+                }
+                _ => false,
+            };
+            let r0: u32 = if ok { 0 } else { u32::MAX };
+            uc.reg_write(RegisterARM::R0, r0.into())
                 .map_err(|e| cpu_err(e, pc))?;
         }
         0x18 | 0x20 => {

@@ -39,7 +39,15 @@ pub enum Page {
     Dwt,
     /// System control space (NVIC, SCB, SysTick, DCB).
     Scs,
+    /// DBG: DBGSTR, DBGSTOPCR (no debugger is attached to the emulated chip).
+    Dbg,
 }
+
+/// The GTIOC pins of the board's timer channels: (port, pin, GPT channel, output B). A read of
+/// PIDR (PCNTR2 or PmnPFS) of one of them in its GPT function sees the timer's waveform at
+/// that instant.
+pub const GTIOC_PINS: [(usize, usize, usize, bool); 3] =
+    [(3, 4, 7, false), (3, 3, 7, true), (1, 1, 5, false)];
 
 /// Every mapped page: (base, size, model).
 pub const PAGES: &[(u32, u32, Page)] = &[
@@ -56,6 +64,7 @@ pub const PAGES: &[(u32, u32, Page)] = &[
     (periph::flash::FENTRY_PAGE, 0x1000, Page::FaciEntry),
     (0xE000_1000, 0x1000, Page::Dwt),
     (0xE000_E000, 0x1000, Page::Scs),
+    (0x4001_B000, 0x1000, Page::Dbg),
 ];
 
 /// How the board around the chip is wired for the emulator's parts.
@@ -63,6 +72,15 @@ pub const PAGES: &[(u32, u32, Page)] = &[
 pub struct Wiring {
     /// TM1637 CLK and DIO pins, `(port, pin)`.
     pub tm1637: Option<((usize, usize), (usize, usize))>,
+}
+
+/// Where the cycles of a loop pass went: cycles per block start address.
+#[derive(Debug, Clone, Default)]
+pub struct PassProfile {
+    /// The stretch running now.
+    pub current: HashMap<u32, u64>,
+    /// The longest stretch so far.
+    pub longest: HashMap<u32, u64>,
 }
 
 /// The chip outside the CPU core.
@@ -134,10 +152,21 @@ pub struct Machine {
     pub max_awake_cycles: u64,
     /// When the longest awake stretch ended, ticks.
     pub max_awake_at: u64,
+    /// Cycles per executed block of the current and of the longest awake stretch, when
+    /// profiling ([`crate::Emulator::profile_passes`]).
+    pub profile: Option<PassProfile>,
     /// Bytes the program wrote through semihosting (SYS_WRITEC/WRITE0/WRITE).
     pub semihost_out: Vec<u8>,
     /// The exit code the program gave through semihosting (SYS_EXIT/SYS_EXIT_EXTENDED).
     pub exit_code: Option<i32>,
+    /// The command line SYS_GET_CMDLINE answers once (then it fails, as after a reset a test
+    /// runner has no second command for the same test).
+    pub semihost_cmdline: Option<String>,
+    /// SYS_GET_CMDLINE calls so far.
+    pub cmdline_requests: u32,
+    /// DBGSTOPCR (reset value 3: WDT and IWDT resets masked in on-chip-debug mode, which the
+    /// emulated chip never is in).
+    pub dbgstopcr: u32,
 }
 
 fn mstp_check(sys: &System, x: usize, bit: u32, name: &str) -> Result<(), Why> {
@@ -159,7 +188,10 @@ impl Machine {
         let v = match page {
             Page::Icu => self.icu.read(off, size),
             Page::System => self.sys.read(off, size),
-            Page::Port => self.port.read(off, size),
+            Page::Port => {
+                self.sync_gpt_pins();
+                self.port.read(off, size)
+            }
             Page::Wdt => match off {
                 0x200..=0x2FF => self.wdt.read(off - 0x200, size, self.clocks.pclkb),
                 0x400 => Ok(0xFF),
@@ -201,6 +233,11 @@ impl Machine {
             Page::Faci => self.flash.read(base, off, size, now),
             Page::FaciEntry => self.flash.read(base, off, size, now),
             Page::Dwt => self.scs.dwt_read(off, size, self.awake_cycles),
+            Page::Dbg => match (off, size) {
+                (0x00, 4) => Ok(0),
+                (0x10, 4) => Ok(self.dbgstopcr),
+                _ => Err(Why::Unmodelled),
+            },
             Page::Scs => {
                 let cvr = self.systick_cvr();
                 self.scs.read(off, size, cvr)
@@ -268,6 +305,10 @@ impl Machine {
             }
             Page::Faci | Page::FaciEntry => self.flash.write(base, off, size, v, now)?,
             Page::Dwt => self.scs.dwt_write(off, size, v, self.awake_cycles)?,
+            Page::Dbg => match (off, size) {
+                (0x10, 4) => self.dbgstopcr = v & 0x0307_0003,
+                _ => return Err(Why::Unmodelled),
+            },
             Page::Scs => {
                 use periph::scs::SystickChange;
                 let change = self.scs.write(off, size, v)?;
@@ -287,6 +328,21 @@ impl Machine {
             }
         }
         Ok(())
+    }
+
+    /// Puts the timers' output levels on their GTIOC pins for a read of the port.
+    fn sync_gpt_pins(&mut self) {
+        let (now, pclkd) = (self.now, self.clocks.pclkd);
+        for (port, pin, ch, b) in GTIOC_PINS {
+            let level = match self.port.drive_of(port, pin) {
+                periph::port::PinDrive::Peripheral { psel: 0b00011 } => {
+                    self.gpt[ch].sync(now, pclkd);
+                    self.gpt[ch].level_at(b, now, pclkd)
+                }
+                _ => None,
+            };
+            self.port.set_peripheral_level(port, pin, level);
+        }
     }
 
     /// SysTick's current value.

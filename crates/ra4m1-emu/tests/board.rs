@@ -237,3 +237,54 @@ fn a_probe_gone_in_blocking_mode_does_not_hang_the_board() {
         "the board still answers"
     );
 }
+
+/// Fail-closed gripper (P100, high = closed, `docs/hardware.md`): a board holding a load that
+/// is reset — by the watchdog after a HardFault, by a brown-out — never drives the gripper
+/// open, from the fault through the reset, the bootloader window (the pin released: the
+/// recommended pull-up holds it closed) and the boot, to well after the first loop passes.
+/// Sampled every 50 µs.
+#[test]
+fn the_gripper_never_opens_across_a_watchdog_reset_or_a_brown_out() {
+    use ra4m1_emu::PinDrive;
+    const GRIPPER: (usize, usize) = (1, 0);
+    let mut emu = board(Options::default());
+    hello_info(&mut emu);
+    assert_eq!(
+        emu.pin_drive(GRIPPER.0, GRIPPER.1),
+        PinDrive::High,
+        "boots closed"
+    );
+    let watch = |emu: &mut ra4m1_emu::Emulator, ms: u64, what: &str| {
+        let end = emu.now_ns() + ms * 1_000_000;
+        while emu.now_ns() < end {
+            let t = emu.now_ns() + 50_000;
+            emu.run_until_ns(t).unwrap();
+            let d = emu.pin_drive(GRIPPER.0, GRIPPER.1);
+            assert!(
+                matches!(d, PinDrive::High | PinDrive::Released { .. }),
+                "{what}: gripper {d:?} at {} µs",
+                emu.now_ns() / 1_000
+            );
+        }
+    };
+    // HardFault → safe state (the gripper keeps holding) → watchdog reset → boot.
+    emu.inject_hard_fault();
+    watch(&mut emu, 600, "watchdog");
+    assert_eq!(emu.resets(), &[ra4m1_emu::ResetKind::Watchdog]);
+    assert_eq!(emu.pin_drive(GRIPPER.0, GRIPPER.1), PinDrive::High);
+    // Brown-out: held in reset (pins released) while VCC is low, then the boot.
+    emu.set_vcc_mv(3_500);
+    watch(&mut emu, 20, "brown-out");
+    assert!(emu.machine().held_in_reset);
+    emu.set_vcc_mv(5_000);
+    watch(&mut emu, 300, "after the brown-out");
+    assert!(emu.resets().starts_with(&[
+        ra4m1_emu::ResetKind::Watchdog,
+        ra4m1_emu::ResetKind::BrownOut
+    ]));
+    assert_eq!(
+        emu.pin_drive(GRIPPER.0, GRIPPER.1),
+        PinDrive::High,
+        "driven closed again"
+    );
+}

@@ -571,7 +571,7 @@ impl Controller {
                 angle_deg,
             } => {
                 let l = self
-                    .bend_lengths(direction_deg.to_radians(), angle_deg.to_radians())
+                    .bend_lengths(direction_deg, angle_deg.to_radians())
                     .ok_or(FaultCode::ServoLimit)?;
                 targets = Some(self.angles_for(l).ok_or(FaultCode::ServoLimit)?);
             }

@@ -112,7 +112,7 @@ pub struct Outputs {
     pub inlet_open: bool,
     /// Exhaust valve open.
     pub exhaust_open: bool,
-    /// Gripper closed.
+    /// Gripper closed (the boot state: fail-closed, `docs/hardware.md`).
     pub gripper_closed: bool,
     /// Servo pulses on. Off in the safe state: the servos go limp (duty 0, no pulse), so a
     /// servo that stalled short of its command stops pushing, and the origami holds its state
@@ -362,14 +362,17 @@ impl Controller {
             servos_enabled: faults == 0,
             take_up_mm,
             max_bend_deg,
-            gripper_closed: false,
+            // Fail-closed: the controller boots holding (a reset while it carries a load must
+            // not drop it; the GPIO set-up already drives the pin closed): it opens only when
+            // told to (the gripper button, a `Gripper` primitive).
+            gripper_closed: true,
             want_inlet: false,
             want_exhaust: false,
             outputs: Outputs {
                 servo_deg,
                 inlet_open: false,
                 exhaust_open: false,
-                gripper_closed: false,
+                gripper_closed: true,
                 servos_enabled: faults == 0,
             },
             uploaded: None,
@@ -1100,8 +1103,9 @@ impl Controller {
     /// Tendon shortenings for a constant-curvature bend around the state's taken-up slack: the
     /// tendon on the inside of the bend is reeled in by r_t·θ·cos(φ − φ_i) more, the others pay
     /// out (a tendon cannot push: never below 0). `geometry::tendon`'s law, in `f32` (as the
-    /// joystick's): its `f64` costs the board binary software double precision.
-    fn bend_lengths(&self, direction_rad: f32, angle_rad: f32) -> Option<[f32; 3]> {
+    /// joystick's): its `f64` costs the board binary software double precision. The direction
+    /// is reduced in degrees (exactly) before any trigonometry, so every finite one works.
+    fn bend_lengths(&self, direction_deg: f32, angle_rad: f32) -> Option<[f32; 3]> {
         let take_up_mm = self.take_up_for(self.state());
         if stiff_bend_limit_rad(&self.cfg, take_up_mm, self.max_bend_deg)
             .is_some_and(|limit_rad| libm::fabsf(angle_rad) > limit_rad)
@@ -1109,9 +1113,14 @@ impl Controller {
             return None;
         }
         let k = self.cfg.tendon_radius_mm * angle_rad;
+        let (sin_d, cos_d) = crate::mathf::sin_cos_deg(direction_deg);
+        if !(sin_d.is_finite() && k.is_finite()) {
+            return None;
+        }
         let mut out = [0.0; 3];
-        for (o, phi_i) in out.iter_mut().zip(geometry::tendon::TENDON_ANGLES) {
-            *o = (take_up_mm + k * libm::cosf(direction_rad - phi_i as f32)).max(0.0);
+        for (o, (sin_i, cos_i)) in out.iter_mut().zip(TENDON_DIRECTIONS) {
+            // cos(φ − φ_i) = cos φ cos φ_i + sin φ sin φ_i
+            *o = (take_up_mm + k * (cos_d * cos_i + sin_d * sin_i)).max(0.0);
         }
         Some(out)
     }
@@ -1134,7 +1143,7 @@ impl Controller {
         let jc = self.cfg.joystick;
         let x = (raw[0] as f32 - jc.center_raw[0] as f32) / jc.half_range_raw;
         let y = (raw[1] as f32 - jc.center_raw[1] as f32) / jc.half_range_raw;
-        let m = libm::hypotf(x, y);
+        let m = crate::mathf::hypot(x, y);
         if m > jc.dead_zone {
             // The joystick takes the servos only once it has been moved: entering standalone
             // (after a plan or an abort) never moves the tendons by itself.
@@ -1305,20 +1314,27 @@ pub fn joystick_lengths_f32(
         return [0.0; 3];
     }
     let (x, y) = (crate::clampf(x, -1.0, 1.0), crate::clampf(y, -1.0, 1.0));
-    let m = libm::hypotf(x, y).min(1.0);
+    let r = crate::mathf::hypot(x, y);
+    let m = r.min(1.0);
     let dz = crate::clampf(jc.dead_zone, 0.0, 0.99);
     if m <= dz {
         return [0.0; 3];
     }
     let angle_rad = jc.max_bend_deg.to_radians() * (m - dz) / (1.0 - dz);
-    let direction_rad = libm::atan2f(y, x);
     let k = tendon_radius_mm * angle_rad;
+    // The bend's direction φ is the deflection's: cos(φ − φ_i) = (x cos φ_i + y sin φ_i) / r,
+    // no angle needed (r > the dead zone ≥ 0 here).
+    let (cx, cy) = (x / r, y / r);
     let mut out = [0.0; 3];
-    for (o, phi_i) in out.iter_mut().zip(geometry::tendon::TENDON_ANGLES) {
-        *o = k * libm::cosf(direction_rad - phi_i as f32);
+    for (o, (sin_i, cos_i)) in out.iter_mut().zip(TENDON_DIRECTIONS) {
+        *o = k * (cx * cos_i + cy * sin_i);
     }
     out
 }
+
+/// `(sin φ_i, cos φ_i)` of the three tendons' angles (`geometry::tendon::TENDON_ANGLES`: 0°,
+/// 120°, 240°; a test holds them to the geometry crate's).
+const TENDON_DIRECTIONS: [(f32, f32); 3] = [(0.0, 1.0), (0.866_025_4, -0.5), (-0.866_025_4, -0.5)];
 
 /// Every servo at its slack angle (zero shortening), within the limits.
 fn slack_angles(cfg: &CraneConfig) -> [f32; 3] {

@@ -448,7 +448,8 @@ fn boot_empty_store_is_f_and_p_confirmed() {
     assert_eq!(c.poll_display(), display::text("F-P "));
     assert_eq!(c.poll_store(), None);
     let o = c.poll_outputs();
-    assert!(!o.inlet_open && !o.exhaust_open && !o.gripper_closed);
+    // Fail-closed: the gripper boots holding.
+    assert!(!o.inlet_open && !o.exhaust_open && o.gripper_closed);
     assert_eq!(o.servo_deg, [0.0; 3]);
 }
 
@@ -1827,10 +1828,32 @@ fn joystick_bends_only_flexible_states() {
 #[test]
 fn gripper_button_toggles_when_idle() {
     let mut r = Rig::new(FF);
-    r.press(|b, v| b.gripper = v);
-    assert!(r.ctl.poll_outputs().gripper_closed);
+    assert!(r.ctl.poll_outputs().gripper_closed, "boots closed");
     r.press(|b, v| b.gripper = v);
     assert!(!r.ctl.poll_outputs().gripper_closed);
+    r.press(|b, v| b.gripper = v);
+    assert!(r.ctl.poll_outputs().gripper_closed);
+}
+
+/// A reset of a crane that holds a load (watchdog, brown-out: any boot, whatever the record)
+/// boots with the gripper closed, and it stays closed through the first passes.
+#[test]
+fn the_gripper_boots_closed_from_any_record() {
+    let cfg = CraneConfig::default();
+    for boot in [
+        BootRecord::Empty,
+        BootRecord::Corrupt,
+        BootRecord::Stored(StoredState::confirmed(DF)),
+    ] {
+        let mut c = Controller::new(cfg, boot, 0);
+        c.report_watchdog_reset();
+        let rest = Inputs::at_rest(&cfg);
+        for now in 0..200 {
+            c.handle_inputs(&rest, now);
+            c.handle_time(now);
+            assert!(c.poll_outputs().gripper_closed, "{boot:?} at {now} ms");
+        }
+    }
 }
 
 #[test]
@@ -1851,6 +1874,46 @@ fn display_shows_pressure_on_request() {
     r.buttons.show_pressure = false;
     r.run(1);
     assert_eq!(r.ctl.poll_display(), display::text("F-P "));
+}
+
+#[test]
+fn tendon_direction_table_is_the_geometry_crates() {
+    for ((sin_i, cos_i), phi) in TENDON_DIRECTIONS
+        .iter()
+        .zip(geometry::tendon::TENDON_ANGLES)
+    {
+        assert!((f64::from(*sin_i) - phi.sin()).abs() < 1e-7, "{phi}");
+        assert!((f64::from(*cos_i) - phi.cos()).abs() < 1e-7, "{phi}");
+    }
+}
+
+/// A `Bend`'s tendon shortenings in `f32` (`bend_lengths`: the direction reduced in degrees,
+/// then the Cephes kernels of `mathf`) against `geometry::tendon`'s `f64` law, around D&D (no
+/// take-up), over every whole degree of direction, several turns either way and far out.
+#[test]
+fn bend_lengths_match_the_geometry_crate_for_any_direction() {
+    let r = Rig::connected(DD);
+    let tg = geometry::tendon::TendonGeometry::new(r.cfg.tendon_radius_mm as f64).unwrap();
+    let mut worst: f64 = 0.0;
+    let far = [1.0e6f32, -3.6e7 + 45.0, 3.0e38];
+    for dir in (-1080..=1080).map(|d| d as f32).chain(far) {
+        for angle_deg in [1.0f32, 10.0, 30.0] {
+            let got = r.ctl.bend_lengths(dir, angle_deg.to_radians()).unwrap();
+            let reduced = f64::from(dir % 360.0).to_radians();
+            let bend = geometry::tendon::Bend {
+                direction: reduced.rem_euclid(std::f64::consts::TAU),
+                angle: f64::from(angle_deg).to_radians(),
+            };
+            let dl = tg.length_changes(bend);
+            for k in 0..3 {
+                // Shortening = −Δl, never below 0 (a tendon cannot push).
+                let want = (-dl[k]).max(0.0);
+                worst = worst.max((f64::from(got[k]) - want).abs());
+            }
+        }
+    }
+    assert!(worst < 1e-4, "{worst} mm");
+    assert_eq!(r.ctl.bend_lengths(f32::NAN, 0.1), None);
 }
 
 #[test]

@@ -162,6 +162,17 @@ impl Gpt {
         }
     }
 
+    /// The level output A (`b = false`) or B drives at `now` (`None`: released), as the pin's
+    /// input buffer (PIDR) reads it: in saw-wave PWM high from the cycle end to the compare
+    /// match. Call [`Gpt::sync`] first so the buffered compare value is in place.
+    pub fn level_at(&self, b: bool, now: u64, pclkd: u32) -> Option<bool> {
+        match self.line(b, pclkd) {
+            Line::Released => None,
+            Line::Level(l) => Some(l),
+            Line::Pulses { .. } => Some(self.cnt(now, pclkd) < self.gtccr[usize::from(b)]),
+        }
+    }
+
     fn protected(&self, name: &str) -> R<()> {
         if self.gtwp & 1 != 0 {
             refuse(format!("{name} written while GTWP.WP = 1"))

@@ -63,6 +63,8 @@ pub struct Port {
     /// Outside drive of each pin (`None`: open).
     ext: [[Option<bool>; 16]; PORTS],
     pwpr: u8,
+    /// The level a peripheral function drives on a pin (GTIOC outputs), as last synced.
+    periph: [[Option<bool>; 16]; PORTS],
     /// A pin's level changed by an MCU write since the board last looked.
     pub changed: bool,
 }
@@ -73,6 +75,7 @@ impl Default for Port {
             pfs: [[0; 16]; PORTS],
             ext: [[None; 16]; PORTS],
             pwpr: 0x80,
+            periph: [[None; 16]; PORTS],
             changed: false,
         }
     }
@@ -122,11 +125,17 @@ impl Port {
         match self.drive_of(port, pin) {
             PinDrive::High => true,
             PinDrive::Low => false,
-            PinDrive::Released { .. } | PinDrive::Peripheral { .. } => {
-                self.ext[port][pin].unwrap_or(pull_up)
-            }
+            PinDrive::Peripheral { .. } => self.periph[port][pin]
+                .or(self.ext[port][pin])
+                .unwrap_or(pull_up),
+            PinDrive::Released { .. } => self.ext[port][pin].unwrap_or(pull_up),
             PinDrive::Analog => false,
         }
+    }
+
+    /// Sets the level the pin's peripheral function drives (`None`: it does not drive it).
+    pub fn set_peripheral_level(&mut self, port: usize, pin: usize, level: Option<bool>) {
+        self.periph[port][pin] = level;
     }
 
     /// Drives a pin from outside (`None`: leave it open).

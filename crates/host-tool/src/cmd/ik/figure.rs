@@ -117,7 +117,7 @@ fn boom_line(algorithm: &str, designs: &[ModuleDesign], width: f64) -> Vec<Strin
     }
     let list: Vec<String> = designs.iter().map(|d| format!("{}°", d.beta_deg())).collect();
     let lines = wrap(
-        &format!("{head} β = {} (bottom first)", list.join(", ")),
+        &format!("{head} β = {} (bottom\u{a0}first)", list.join(", ")),
         SIZE_TITLE,
         width,
     );
@@ -142,9 +142,10 @@ const FRONT_VIEW: (usize, usize, &str) = (0, 2, "front view (x–z)");
 const SIDE_VIEW: (usize, usize, &str) = (1, 2, "side view (y–z)");
 const AXIS: [&str; 3] = ["x (l)", "y (l)", "z (l)"];
 
-/// Height of a view's name above it.
+/// Height of a view's name above it (its baseline 2 pt plus its descent above the frame),
+/// with 1 pt to spare.
 fn view_title_h() -> f64 {
-    LEADING * SIZE_LABEL
+    (ASCENT + DESCENT) * SIZE_LABEL + 3.0
 }
 
 /// Space between two tick labels, in pt, at least.
@@ -208,7 +209,7 @@ fn render_views(
     let status = status.replace("proven optimal", "proven\u{a0}optimal");
     title.extend(wrap(
         &format!(
-            "target {}; {}\u{a0}RMS\u{a0}=\u{a0}{:.4}\u{a0}l{status}",
+            "target\u{a0}{}; {}\u{a0}RMS\u{a0}=\u{a0}{:.4}\u{a0}l{status}",
             header.target, header.metric, header.rms
         ),
         SIZE_TITLE,
@@ -324,18 +325,23 @@ fn render_views(
         legend.height(inner) + 2.0
     };
 
-    // Tip labels in the view where most of them fit without overlapping (front on a tie).
+    // Tip labels in the view where most of them fit, crossing the fewest lines (front, then
+    // side, then top on a tie).
     let views = [front_area, side_area, top_area];
     let axes = [(0, 2), (1, 2), (0, 1)];
-    let placements: Vec<Vec<Option<(f64, f64, Anchor)>>> = views
+    let placements: Vec<(Vec<Option<(f64, f64, Anchor)>>, usize)> = views
         .iter()
         .zip(axes)
-        .map(|(area, hv)| place_labels(area, hv, s))
+        .map(|(area, hv)| place_labels(area, hv, s, &segments(area, hv, target, &b)))
         .collect();
     let best = (0..3)
-        .max_by_key(|&i| (placements[i].iter().filter(|p| p.is_some()).count(), 3 - i))
+        .min_by_key(|&i| {
+            let (spots, crossed) = &placements[i];
+            (spots.iter().filter(|p| p.is_none()).count(), *crossed, i)
+        })
         .unwrap_or(0);
-    let omitted = placements[best].iter().filter(|p| p.is_none()).count();
+    let (tip_labels, _) = &placements[best];
+    let omitted = tip_labels.iter().filter(|p| p.is_none()).count();
     let key = if omitted > 0 {
         format!(
             "{key} ({omitted} crowded label{} left out; the table lists every state)",
@@ -380,8 +386,22 @@ fn render_views(
     }
     let feasible = |i: usize| problem.catalogue.candidates(i)[s.states[i]].feasible;
     fig.begin("tip-labels");
-    for (i, p) in placements[best].iter().enumerate() {
+    let tip_area = views[best];
+    let (th, tv) = axes[best];
+    for (i, p) in tip_labels.iter().enumerate() {
         if let Some((x, y, anchor)) = p {
+            let tip = tip_area.map(s.tips[i][th], s.tips[i][tv]);
+            let r = text_box(*x, *y, SIZE_TICK, *anchor, &abbreviation(&s.names[i]));
+            // The nearest point of the label's box; a leader when it is not right beside it.
+            let near = (tip.0.clamp(r.x, r.x + r.w), tip.1.clamp(r.y, r.y + r.h));
+            if (near.0 - tip.0).hypot(near.1 - tip.1) > 3.5 {
+                let d = (near.0 - tip.0).hypot(near.1 - tip.1);
+                let from = (
+                    tip.0 + (near.0 - tip.0) * 1.5 / d,
+                    tip.1 + (near.1 - tip.1) * 1.5 / d,
+                );
+                fig.line(from, near, Stroke::solid(colour::VERMILLION, 0.4));
+            }
             let c = if feasible(i) {
                 colour::GREY
             } else {
@@ -478,23 +498,75 @@ fn draw_view(
     fig.end();
 }
 
+/// Whether the segment a–b meets the rectangle (Liang–Barsky clipping).
+fn segment_meets(a: (f64, f64), b: (f64, f64), r: &Rect) -> bool {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-dx, a.0 - r.x),
+        (dx, r.x + r.w - a.0),
+        (-dy, a.1 - r.y),
+        (dy, r.y + r.h - a.1),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return false;
+            }
+        } else {
+            let t = q / p;
+            if p < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+            if t0 > t1 {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// The line segments drawn in a view (target, side edges, rings), in canvas pt.
+fn segments(
+    area: &Area,
+    (h, v): (usize, usize),
+    target: &[Point3<f64>],
+    b: &Boom,
+) -> Vec<((f64, f64), (f64, f64))> {
+    let map = |p: &Point3<f64>| area.map(p[h], p[v]);
+    let mut out: Vec<((f64, f64), (f64, f64))> =
+        target.windows(2).map(|w| (map(&w[0]), map(&w[1]))).collect();
+    out.extend(b.edges.iter().map(|(e, _)| (map(&e[0]), map(&e[1]))));
+    for r in &b.rings {
+        for k in 0..r.len() {
+            out.push((map(&r[k]), map(&r[(k + 1) % r.len()])));
+        }
+    }
+    out
+}
+
 /// Where each tip's label goes in a view (baseline point and anchor), or `None` where no
-/// spot near the tip is free: inside the frame, clear of the other labels and the tips.
+/// spot near the tip is free: inside the frame, clear of the other labels, the tips and the
+/// origin; among the free spots the one crossing the fewest drawn lines. Also returns the
+/// lines crossed in all.
 fn place_labels(
     area: &Area,
     (h, v): (usize, usize),
     s: &Solution,
-) -> Vec<Option<(f64, f64, Anchor)>> {
+    lines: &[((f64, f64), (f64, f64))],
+) -> (Vec<Option<(f64, f64, Anchor)>>, usize) {
     let tips: Vec<(f64, f64)> = s.tips.iter().map(|p| area.map(p[h], p[v])).collect();
     let origin = area.map(0.0, 0.0);
     let dots: Vec<Rect> = tips
         .iter()
-        .chain(std::iter::once(&origin))
-        .map(|(x, y)| Rect {
-            x: x - 1.5,
-            y: y - 1.5,
-            w: 3.0,
-            h: 3.0,
+        .map(|(x, y)| (x, y, 1.5))
+        .chain(std::iter::once((&origin.0, &origin.1, 2.8)))
+        .map(|(x, y, r)| Rect {
+            x: x - r,
+            y: y - r,
+            w: 2.0 * r,
+            h: 2.0 * r,
         })
         .collect();
     let frame = Rect {
@@ -505,32 +577,46 @@ fn place_labels(
     };
     let mut placed: Vec<Rect> = Vec::new();
     let mut out = Vec::new();
+    let mut crossed = 0;
     let half_cap = 0.5 * CAP * SIZE_TICK;
     for (i, (x, y)) in tips.iter().enumerate() {
         let text = abbreviation(&s.names[i]);
-        let d = 2.5;
-        let candidates = [
-            (x + d, y + half_cap, Anchor::Start),
-            (x - d, y + half_cap, Anchor::End),
-            (*x, y - d - DESCENT * SIZE_TICK, Anchor::Middle),
-            (*x, y + d + ASCENT * SIZE_TICK, Anchor::Middle),
-            (x + d, y - d, Anchor::Start),
-            (x - d, y - d, Anchor::End),
-            (x + d, y + d + CAP * SIZE_TICK, Anchor::Start),
-            (x - d, y + d + CAP * SIZE_TICK, Anchor::End),
-        ];
-        let spot = candidates.into_iter().find(|(cx, cy, a)| {
-            let r = text_box(*cx, *cy, SIZE_TICK, *a, &text);
-            frame.contains(&r)
-                && !placed.iter().any(|p| p.overlaps(&r))
-                && !dots.iter().any(|dd| dd.overlaps(&r))
-        });
-        if let Some((cx, cy, a)) = spot {
-            placed.push(text_box(cx, cy, SIZE_TICK, a, &text));
+        let mut best: Option<((f64, f64, Anchor), usize)> = None;
+        for d in [2.5, 5.0, 9.0] {
+            let candidates = [
+                (x + d, y + half_cap, Anchor::Start),
+                (x - d, y + half_cap, Anchor::End),
+                (*x, y - d - DESCENT * SIZE_TICK, Anchor::Middle),
+                (*x, y + d + ASCENT * SIZE_TICK, Anchor::Middle),
+                (x + d, y - d, Anchor::Start),
+                (x - d, y - d, Anchor::End),
+                (x + d, y + d + CAP * SIZE_TICK, Anchor::Start),
+                (x - d, y + d + CAP * SIZE_TICK, Anchor::End),
+            ];
+            for (cx, cy, a) in candidates {
+                let r = text_box(cx, cy, SIZE_TICK, a, &text);
+                if !frame.contains(&r)
+                    || placed.iter().any(|p| p.overlaps(&r))
+                    || dots.iter().any(|dd| dd.overlaps(&r))
+                {
+                    continue;
+                }
+                // A farther spot costs as much as a crossing per step out (it gets a leader).
+                let n = lines.iter().filter(|(p, q)| segment_meets(*p, *q, &r)).count()
+                    + if d > 3.0 { 1 } else { 0 }
+                    + if d > 6.0 { 1 } else { 0 };
+                if best.as_ref().is_none_or(|(_, m)| n < *m) {
+                    best = Some(((cx, cy, a), n));
+                }
+            }
         }
-        out.push(spot);
+        if let Some(((cx, cy, a), n)) = best {
+            placed.push(text_box(cx, cy, SIZE_TICK, a, &text));
+            crossed += n;
+        }
+        out.push(best.map(|(spot, _)| spot));
     }
-    out
+    (out, crossed)
 }
 
 #[cfg(test)]
@@ -604,6 +690,9 @@ mod tests {
         assert!(lines.join(" ").contains("β from 31.72° to 35°"), "{lines:?}");
         let two = &designs[..2];
         let lines = boom_line("exact", two, 235.0);
-        assert!(lines.join(" ").contains("β = 35°, 31.72° (bottom first)"), "{lines:?}");
+        assert!(
+            lines.join(" ").replace('\u{a0}', " ").contains("β = 35°, 31.72° (bottom first)"),
+            "{lines:?}"
+        );
     }
 }

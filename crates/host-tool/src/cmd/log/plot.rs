@@ -106,7 +106,8 @@ fn thin(pts: &[(f64, f64)], res: f64) -> Vec<(f64, f64)> {
 const MARGIN: f64 = 3.0;
 const PRESSURE_H: f64 = 92.0;
 const SERVO_H: f64 = 58.0;
-const PANEL_GAP: f64 = 6.0;
+/// Between the panels: room for a tick label straddling each frame's edge.
+const PANEL_GAP: f64 = 10.0;
 
 const SERVO: [(&str, Stroke); 3] = [
     ("servo 1", Stroke::solid(colour::ORANGE, 0.9)),

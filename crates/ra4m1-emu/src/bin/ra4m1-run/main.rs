@@ -2,9 +2,13 @@
 //! binaries (or any program) without a board.
 //!
 //! ```text
-//! ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] [--rtt PATH] ELF
+//! ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] [--rtt PATH] [--bare] ELF [ARGS…]
 //! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="ra4m1-run" cargo test --target thumbv7em-none-eabihf …
 //! ```
+//! An `embedded-test` ELF (the on-target suites, `cargo test-board`) runs in test mode
+//! ([`tests`]): each case on a fresh chip, as `probe-rs run` runs it on a board, with the
+//! stimulus fixture fitted (`--bare`: without it); ARGS are libtest's (a filter, `--list`,
+//! `--exact`, `--ignored` …) and the report is probe-rs's. Any other ELF runs once:
 //! The program's semihosting output goes to stdout (SCI9's bytes too with `--uart`); the run
 //! ends with the program's semihosting exit code (SYS_EXIT / SYS_EXIT_EXTENDED), 124 when the
 //! virtual time limit passes first (default 10 s), 1 when the emulator stops on an access it
@@ -17,20 +21,27 @@ use std::process::ExitCode;
 
 use ra4m1_emu::{Board, Emulator, Options};
 
+mod tests;
+
 const USAGE: &str =
-    "usage: ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] [--rtt PATH] ELF";
+    "usage: ra4m1-run [--timeout-ms N] [--board wifi|minima] [--uart] [--rtt PATH] [--bare] ELF [ARGS...]";
 
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
     let (mut timeout_ms, mut board, mut uart, mut elf) = (10_000u64, Board::Wifi, false, None);
     let mut rtt_path: Option<String> = None;
+    let mut bare = false;
+    let mut rest: Vec<String> = Vec::new();
     while let Some(a) = args.next() {
         if elf.is_some() {
             // Cargo passes the test binary's own arguments after the ELF: they are the
             // harness's, not ours.
+            rest.push(a);
+            rest.extend(args.by_ref());
             break;
         }
         match a.as_str() {
+            "--bare" => bare = true,
             "--timeout-ms" => match args.next().and_then(|v| v.parse().ok()) {
                 Some(v) if v > 0 => timeout_ms = v,
                 _ => return usage("--timeout-ms needs a positive number of milliseconds"),
@@ -63,6 +74,20 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    match tests::cases(&bytes) {
+        Ok(Some(cases)) => {
+            let settings = tests::Settings {
+                board,
+                fixture: (!bare).then_some(tests::Fixture),
+            };
+            return ExitCode::from(tests::run(bytes, cases, settings, &rest));
+        }
+        Ok(None) => {}
+        Err(e) => {
+            eprintln!("ra4m1-run: {path}: {e}");
+            return ExitCode::from(1);
+        }
+    }
     let mut emu = match Emulator::new(
         &bytes,
         Options {

@@ -179,7 +179,10 @@ pub fn wrap(text: &str, size: f64, max: f64) -> Vec<String> {
 /// A number for a tick label: `decimals` places, a true minus sign, never "−0".
 pub fn number(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
-    let zero = s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.');
+    let zero = s
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.');
     if zero {
         s.trim_start_matches('-').to_string()
     } else if let Some(rest) = s.strip_prefix('-') {
@@ -236,7 +239,10 @@ impl Ticks {
     /// Decimal places that show the step exactly.
     pub fn decimals(&self) -> usize {
         let mut d = 0;
-        while d < 6 && ((self.step * 10f64.powi(d as i32)).round() - self.step * 10f64.powi(d as i32)).abs() > 1e-6 {
+        while d < 6
+            && ((self.step * 10f64.powi(d as i32)).round() - self.step * 10f64.powi(d as i32)).abs()
+                > 1e-6
+        {
             d += 1;
         }
         d
@@ -404,11 +410,13 @@ impl Figure {
     }
 
     /// Width in pt.
+    #[cfg(test)]
     pub fn width(&self) -> f64 {
         self.width
     }
 
     /// Height in pt.
+    #[cfg(test)]
     pub fn height(&self) -> f64 {
         self.height
     }
@@ -578,6 +586,7 @@ impl Figure {
     }
 
     /// The boxes of the texts written so far.
+    #[cfg(test)]
     pub fn text_boxes(&self) -> &[(Rect, String)] {
         &self.texts
     }
@@ -799,10 +808,18 @@ impl Legend {
 
 /// Draws lines of text from `top` (its first line's top), left-aligned at x; returns the
 /// height used.
-pub fn paragraph(fig: &mut Figure, x: f64, top: f64, size: f64, fill: &str, lines: &[String]) -> f64 {
+pub fn paragraph(
+    fig: &mut Figure,
+    x: f64,
+    top: f64,
+    size: f64,
+    fill: &str,
+    lines: &[String],
+) -> f64 {
     let line = LEADING * size;
     for (i, l) in lines.iter().enumerate() {
-        let base = top + i as f64 * line + ASCENT * size + 0.5 * (LEADING - ASCENT - DESCENT) * size;
+        let base =
+            top + i as f64 * line + ASCENT * size + 0.5 * (LEADING - ASCENT - DESCENT) * size;
         fig.text(x, base, size, Anchor::Start, fill, l);
     }
     lines.len() as f64 * line
@@ -848,7 +865,11 @@ impl Area {
             if grid {
                 fig.line((x, r.y), (x, bottom), Stroke::solid(colour::LIGHT, 0.4));
             }
-            fig.line((x, bottom), (x, bottom + tick), Stroke::solid(colour::BLACK, 0.5));
+            fig.line(
+                (x, bottom),
+                (x, bottom + tick),
+                Stroke::solid(colour::BLACK, 0.5),
+            );
             if u_title.is_some() {
                 fig.text(
                     x,
@@ -938,7 +959,10 @@ mod tests {
         for l in &lines {
             assert!(text_width(l, 8.0) <= 120.0 + 1e-9, "{l}");
         }
-        assert!(lines.iter().any(|l| l.contains('…') && l.ends_with(".csv")), "{lines:?}");
+        assert!(
+            lines.iter().any(|l| l.contains('…') && l.ends_with(".csv")),
+            "{lines:?}"
+        );
         assert_eq!(wrap("", 8.0, 100.0), vec![String::new()]);
         assert_eq!(shorten("abc", 8.0, 100.0), "abc");
     }
@@ -956,7 +980,10 @@ mod tests {
         assert_eq!(t.step, 10.0);
         assert_eq!(t.values, vec![0.0, 10.0, 20.0, 30.0, 40.0]);
         let t = Ticks::covering(-0.2, 30.0, 6);
-        assert!(t.values[0] <= -0.2 && *t.values.last().unwrap() >= 30.0, "{t:?}");
+        assert!(
+            t.values[0] <= -0.2 && *t.values.last().unwrap() >= 30.0,
+            "{t:?}"
+        );
         assert_eq!(Ticks::step_at_least(0.3), 0.5);
         assert_eq!(Ticks::step_at_least(0.5), 0.5);
         assert_eq!(Ticks::step_at_least(7.0), 10.0);
@@ -980,13 +1007,21 @@ mod tests {
     fn every_format_encodes_and_is_the_same_twice() {
         let mut f = Figure::new(COLUMN_PT, 100.0);
         let area = Area {
-            rect: Rect { x: 40.0, y: 10.0, w: 190.0, h: 60.0 },
+            rect: Rect {
+                x: 40.0,
+                y: 10.0,
+                w: 190.0,
+                h: 60.0,
+            },
             u: (0.0, 1.0),
             v: (0.0, 1.0),
         };
         let t = Ticks::within(0.0, 1.0, 0.5);
         area.axes(&mut f, &t, &t, Some("time (s)"), Some("p (kPa)"), true);
-        f.polyline(&[area.map(0.0, 0.0), area.map(1.0, 1.0)], Stroke::solid(colour::BLUE, 1.0));
+        f.polyline(
+            &[area.map(0.0, 0.0), area.map(1.0, 1.0)],
+            Stroke::solid(colour::BLUE, 1.0),
+        );
         let png = f.encode(Format::Png).unwrap();
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
         assert_eq!(png, f.encode(Format::Png).unwrap());

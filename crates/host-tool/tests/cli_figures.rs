@@ -111,7 +111,11 @@ fn check_svg(path: &Path) -> Vec<Text> {
                 && b.bbox.0 < a.bbox.2 - eps
                 && a.bbox.1 < b.bbox.3 - eps
                 && b.bbox.1 < a.bbox.3 - eps;
-            assert!(!overlap, "{:?} {:?} overlaps {:?} {:?}", a.text, a.bbox, b.text, b.bbox);
+            assert!(
+                !overlap,
+                "{:?} {:?} overlaps {:?} {:?}",
+                a.text, a.bbox, b.text, b.bbox
+            );
         }
     }
     all
@@ -146,7 +150,11 @@ fn check_png(path: &Path, colour: [u8; 3]) {
         .collect();
     let ink = px.iter().filter(|p| **p != [255, 255, 255]).count();
     let frac = ink as f64 / px.len() as f64;
-    assert!((0.01..0.5).contains(&frac), "{:.3} of the pixels inked", frac);
+    assert!(
+        (0.01..0.5).contains(&frac),
+        "{:.3} of the pixels inked",
+        frac
+    );
     let near = |p: &[u8; 3]| (0..3).all(|k| (i16::from(p[k]) - i16::from(colour[k])).abs() <= 8);
     let coloured = px.iter().filter(|p| near(p)).count();
     assert!(coloured > 2000, "{coloured} pixels of {colour:?}");
@@ -166,17 +174,28 @@ fn check_pdf(path: &Path, height_pt: f64, words: &[&str]) {
         .as_array()
         .unwrap()
         .iter()
-        .map(|o| o.as_float().map(f64::from).or_else(|_| o.as_i64().map(|i| i as f64)).unwrap())
+        .map(|o| {
+            o.as_float()
+                .map(f64::from)
+                .or_else(|_| o.as_i64().map(|i| i as f64))
+                .unwrap()
+        })
         .collect();
     assert!((media[2] - media[0] - COLUMN_PT).abs() < 0.05, "{media:?}");
-    assert!((media[3] - media[1] - height_pt).abs() < 0.05, "{media:?} vs {height_pt}");
+    assert!(
+        (media[3] - media[1] - height_pt).abs() < 0.05,
+        "{media:?} vs {height_pt}"
+    );
     let embedded = doc.objects.values().any(|o| {
         o.as_dict()
             .is_ok_and(|d| d.has(b"FontFile2") || d.has(b"FontFile3"))
     });
     assert!(embedded, "no embedded font");
     // lopdf puts every positioned glyph on a line of its own.
-    let text = doc.extract_text(&[1]).expect("text extracts").replace('\n', "");
+    let text = doc
+        .extract_text(&[1])
+        .expect("text extracts")
+        .replace('\n', "");
     for w in words {
         assert!(text.contains(w), "{w:?} not in the PDF's text:\n{text}");
     }
@@ -227,7 +246,10 @@ fn ik_figure_in_three_formats_with_axes_legend_and_tip_states() {
     }
     // Tick labels in l with a true minus sign, on every axis.
     for tick in ["0", "1", "−1"] {
-        assert!(t.iter().filter(|x| x.text == tick).count() >= 3, "tick {tick}");
+        assert!(
+            t.iter().filter(|x| x.text == tick).count() >= 3,
+            "tick {tick}"
+        );
     }
     assert!(has_part(&t, "RMS = 0.1778 l (proven optimal)"));
     assert!(has_part(&t, "tip state:"));
@@ -255,7 +277,13 @@ fn ik_titles_wrap_or_shorten_and_infeasible_states_have_their_legend() {
     let csv = deep.join("target-curve-with-a-long-name.csv");
     std::fs::write(&csv, "0,0,0\n0.3,0,0.6\n0.6,0.2,1.2\n0.8,0.5,1.6\n").unwrap();
     let betas: Vec<String> = (0..16)
-        .map(|i| if i % 2 == 0 { "35".into() } else { "31.72".into() })
+        .map(|i| {
+            if i % 2 == 0 {
+                "35".into()
+            } else {
+                "31.72".into()
+            }
+        })
         .collect();
     let svg = d.join("long.svg");
     ok(&host_tool(&[
@@ -305,7 +333,13 @@ fn log_plot_in_three_formats_by_extension_or_format() {
     ]));
     let r = rec.to_str().unwrap();
     let svg = d.join("plot.svg");
-    ok(&host_tool(&["log", "plot", r, "--out", svg.to_str().unwrap()]));
+    ok(&host_tool(&[
+        "log",
+        "plot",
+        r,
+        "--out",
+        svg.to_str().unwrap(),
+    ]));
     let t = check_svg(&svg);
     for label in [
         "pressure (kPa)",
@@ -342,7 +376,13 @@ fn log_plot_in_three_formats_by_extension_or_format() {
     assert_eq!(group("states-confirmed"), vec![3, 3]);
 
     let png = d.join("plot.png");
-    ok(&host_tool(&["log", "plot", r, "--out", png.to_str().unwrap()]));
+    ok(&host_tool(&[
+        "log",
+        "plot",
+        r,
+        "--out",
+        png.to_str().unwrap(),
+    ]));
     check_png(&png, [0x00, 0x72, 0xB2]);
     // No extension: --format says it.
     let pdf = d.join("plot-pdf");

@@ -147,7 +147,10 @@ fn target_file_per_module_beta_and_svg() {
     let text = std::fs::read_to_string(&svg).expect("svg written");
     assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"));
     assert!(text.contains("RMS\u{a0}=\u{a0}"));
-    assert!(text.contains("β = 35°, 31.72° (bottom\u{a0}first)"), "{text}");
+    assert!(
+        text.contains("β = 35°, 31.72°") && text.contains("(bottom\u{a0}first)"),
+        "{text}"
+    );
     for view in ["front view (x–z)", "side view (y–z)", "top view (x–y)"] {
         assert!(text.contains(view), "{view}");
     }
@@ -226,12 +229,19 @@ fn feasible_states_by_default_and_all_states_marks_the_infeasible() {
     let groups: Vec<usize> = text
         .split(r#"<g class="infeasible">"#)
         .skip(1)
-        .map(|g| g[..g.find("</g>").expect("group closed")].matches("<polyline").count())
+        .map(|g| {
+            g[..g.find("</g>").expect("group closed")]
+                .matches("<polyline")
+                .count()
+        })
         .collect();
     assert_eq!(groups, vec![popouts * 4; 3]);
     assert!(
-        text.contains(&format!("infeasible state ({popouts} of 10 modules, strain 0.190"))
-            || text.contains(&format!("infeasible state ({popouts} of 10 modules, strain 0.201")),
+        text.contains(&format!(
+            "infeasible state ({popouts} of 10 modules, strain 0.190"
+        )) || text.contains(&format!(
+            "infeasible state ({popouts} of 10 modules, strain 0.201"
+        )),
         "{text}"
     );
 

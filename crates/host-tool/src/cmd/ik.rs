@@ -391,8 +391,11 @@ pub fn run(args: Args) -> Result<(), Failure> {
     problem
         .check_fittable()
         .map_err(|e| Failure::usage(e.to_string()))?;
-    let figure_files: Vec<(&str, &std::path::Path)> =
-        cfg.figures.iter().map(|(f, _, p)| (*f, p.as_path())).collect();
+    let figure_files: Vec<(&str, &std::path::Path)> = cfg
+        .figures
+        .iter()
+        .map(|(f, _, p)| (*f, p.as_path()))
+        .collect();
     let figure_files = super::output::open_all(&figure_files)?;
     let mut control = Control::new();
     control.deadline = cfg.time_limit.map(|t| Instant::now() + t);
@@ -436,7 +439,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     super::model::write_ik_gltf(gltf, &cfg.designs, &solution.names)?;
     if !figure_files.is_empty() {
-        let fig = figure::render(&problem, &cfg.designs, &solution, &figure_header(&cfg, &solution));
+        let fig = figure::render(
+            &problem,
+            &cfg.designs,
+            &solution,
+            &figure_header(&cfg, &solution),
+        );
         for (out, (_, format, _)) in figure_files.into_iter().zip(&cfg.figures) {
             let bytes = fig.encode(*format).map_err(|e| {
                 Failure::Runtime(anyhow::anyhow!("cannot draw {}: {e}", out.flag()))

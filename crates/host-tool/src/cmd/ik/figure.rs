@@ -8,9 +8,8 @@ use geometry::ModuleDesign;
 use planner::ik::{Frame, Point3, Problem, Solution};
 
 use crate::figure::{
-    colour, paragraph, text_box, text_width, wrap, Anchor, Area, Figure, Legend, Rect,
-    Stroke, Swatch, Ticks, ASCENT, CAP, COLUMN_PT, DESCENT, LEADING, SIZE_LABEL, SIZE_TICK,
-    SIZE_TITLE,
+    colour, paragraph, text_box, text_width, wrap, Anchor, Area, Figure, Legend, Rect, Stroke,
+    Swatch, Ticks, ASCENT, CAP, COLUMN_PT, DESCENT, LEADING, SIZE_LABEL, SIZE_TICK, SIZE_TITLE,
 };
 
 /// What the header says about the fit.
@@ -115,7 +114,10 @@ fn boom_line(algorithm: &str, designs: &[ModuleDesign], width: f64) -> Vec<Strin
     if designs.iter().all(|d| d.beta_deg() == first) {
         return wrap(&format!("{head} β = {first}°"), SIZE_TITLE, width);
     }
-    let list: Vec<String> = designs.iter().map(|d| format!("{}°", d.beta_deg())).collect();
+    let list: Vec<String> = designs
+        .iter()
+        .map(|d| format!("{}°", d.beta_deg()))
+        .collect();
     let lines = wrap(
         &format!("{head} β = {} (bottom\u{a0}first)", list.join(", ")),
         SIZE_TITLE,
@@ -124,7 +126,10 @@ fn boom_line(algorithm: &str, designs: &[ModuleDesign], width: f64) -> Vec<Strin
     if lines.len() <= 2 {
         return lines;
     }
-    let lo = designs.iter().map(|d| d.beta_deg()).fold(f64::INFINITY, f64::min);
+    let lo = designs
+        .iter()
+        .map(|d| d.beta_deg())
+        .fold(f64::INFINITY, f64::min);
     let hi = designs
         .iter()
         .map(|d| d.beta_deg())
@@ -229,7 +234,9 @@ fn render_views(
     if !infeasible.is_empty() {
         let (a, z) = infeasible
             .iter()
-            .fold((f64::INFINITY, 0.0f64), |(a, z), (_, _, st)| (a.min(*st), z.max(*st)));
+            .fold((f64::INFINITY, 0.0f64), |(a, z), (_, _, st)| {
+                (a.min(*st), z.max(*st))
+            });
         let strain = if (z - a).abs() < 5e-4 {
             format!("{a:.3}")
         } else {
@@ -275,37 +282,21 @@ fn render_views(
     let x0 = MARGIN + left[0];
     let col1 = x0 + scale * len(0) + left[1];
     let top_y = MARGIN + title_h + view_title_h();
-    let top_area = Area {
+    // A view of axes (h, v) with its frame's top-left corner at (x, y).
+    let view = |x: f64, y: f64, h: usize, v: usize| Area {
         rect: Rect {
-            x: x0,
-            y: top_y,
-            w: scale * len(0),
-            h: scale * len(1),
+            x,
+            y,
+            w: scale * len(h),
+            h: scale * len(v),
         },
-        u: range[0],
-        v: range[1],
+        u: range[h],
+        v: range[v],
     };
+    let top_area = view(x0, top_y, 0, 1);
     let front_y = top_y + scale * len(1) + below + view_title_h();
-    let front_area = Area {
-        rect: Rect {
-            x: x0,
-            y: front_y,
-            w: scale * len(0),
-            h: scale * len(2),
-        },
-        u: range[0],
-        v: range[2],
-    };
-    let side_area = Area {
-        rect: Rect {
-            x: col1,
-            y: front_y,
-            w: scale * len(1),
-            h: scale * len(2),
-        },
-        u: range[1],
-        v: range[2],
-    };
+    let front_area = view(x0, front_y, 0, 2);
+    let side_area = view(col1, front_y, 1, 2);
     let views_bottom = front_y + scale * len(2) + below;
 
     // The legend goes into the empty quadrant right of the top view if it fits there.
@@ -329,7 +320,7 @@ fn render_views(
     // side, then top on a tie).
     let views = [front_area, side_area, top_area];
     let axes = [(0, 2), (1, 2), (0, 1)];
-    let placements: Vec<(Vec<Option<(f64, f64, Anchor)>>, usize)> = views
+    let placements: Vec<(Vec<Option<Spot>>, usize)> = views
         .iter()
         .zip(axes)
         .map(|(area, hv)| place_labels(area, hv, s, &segments(area, hv, target, &b)))
@@ -494,9 +485,18 @@ fn draw_view(
     }
     fig.end();
     fig.begin("origin");
-    fig.ring(map(&Point3::origin()), 2.2, Stroke::solid(colour::GREEN, 0.8));
+    fig.ring(
+        map(&Point3::origin()),
+        2.2,
+        Stroke::solid(colour::GREEN, 0.8),
+    );
     fig.end();
 }
+
+/// A line segment on the canvas, in pt.
+type Segment = ((f64, f64), (f64, f64));
+/// Where a tip's label goes: its baseline point and anchor.
+type Spot = (f64, f64, Anchor);
 
 /// Whether the segment a–b meets the rectangle (Liang–Barsky clipping).
 fn segment_meets(a: (f64, f64), b: (f64, f64), r: &Rect) -> bool {
@@ -528,15 +528,12 @@ fn segment_meets(a: (f64, f64), b: (f64, f64), r: &Rect) -> bool {
 }
 
 /// The line segments drawn in a view (target, side edges, rings), in canvas pt.
-fn segments(
-    area: &Area,
-    (h, v): (usize, usize),
-    target: &[Point3<f64>],
-    b: &Boom,
-) -> Vec<((f64, f64), (f64, f64))> {
+fn segments(area: &Area, (h, v): (usize, usize), target: &[Point3<f64>], b: &Boom) -> Vec<Segment> {
     let map = |p: &Point3<f64>| area.map(p[h], p[v]);
-    let mut out: Vec<((f64, f64), (f64, f64))> =
-        target.windows(2).map(|w| (map(&w[0]), map(&w[1]))).collect();
+    let mut out: Vec<Segment> = target
+        .windows(2)
+        .map(|w| (map(&w[0]), map(&w[1])))
+        .collect();
     out.extend(b.edges.iter().map(|(e, _)| (map(&e[0]), map(&e[1]))));
     for r in &b.rings {
         for k in 0..r.len() {
@@ -554,8 +551,8 @@ fn place_labels(
     area: &Area,
     (h, v): (usize, usize),
     s: &Solution,
-    lines: &[((f64, f64), (f64, f64))],
-) -> (Vec<Option<(f64, f64, Anchor)>>, usize) {
+    lines: &[Segment],
+) -> (Vec<Option<Spot>>, usize) {
     let tips: Vec<(f64, f64)> = s.tips.iter().map(|p| area.map(p[h], p[v])).collect();
     let origin = area.map(0.0, 0.0);
     let dots: Vec<Rect> = tips
@@ -581,7 +578,7 @@ fn place_labels(
     let half_cap = 0.5 * CAP * SIZE_TICK;
     for (i, (x, y)) in tips.iter().enumerate() {
         let text = abbreviation(&s.names[i]);
-        let mut best: Option<((f64, f64, Anchor), usize)> = None;
+        let mut best: Option<(Spot, usize)> = None;
         for d in [2.5, 5.0, 9.0] {
             let candidates = [
                 (x + d, y + half_cap, Anchor::Start),
@@ -602,7 +599,10 @@ fn place_labels(
                     continue;
                 }
                 // A farther spot costs as much as a crossing per step out (it gets a leader).
-                let n = lines.iter().filter(|(p, q)| segment_meets(*p, *q, &r)).count()
+                let n = lines
+                    .iter()
+                    .filter(|(p, q)| segment_meets(*p, *q, &r))
+                    .count()
                     + if d > 3.0 { 1 } else { 0 }
                     + if d > 6.0 { 1 } else { 0 };
                 if best.as_ref().is_none_or(|(_, m)| n < *m) {
@@ -660,7 +660,10 @@ mod tests {
         let k = scale(&front).0;
         for a in [&top, &front, &side] {
             let (su, sv) = scale(a);
-            assert!((su - k).abs() < 1e-9 && (sv - k).abs() < 1e-9, "{su} {sv} vs {k}");
+            assert!(
+                (su - k).abs() < 1e-9 && (sv - k).abs() < 1e-9,
+                "{su} {sv} vs {k}"
+            );
         }
         assert_eq!(top.u, front.u);
         assert_eq!((top.rect.x, top.rect.w), (front.rect.x, front.rect.w));
@@ -674,7 +677,12 @@ mod tests {
             assert!(a.rect.y > 0.0 && a.rect.y + a.rect.h < fig.height());
         }
         // Every text box the layout knows is inside the canvas.
-        let canvas = Rect { x: 0.0, y: 0.0, w: fig.width(), h: fig.height() };
+        let canvas = Rect {
+            x: 0.0,
+            y: 0.0,
+            w: fig.width(),
+            h: fig.height(),
+        };
         for (b, t) in fig.text_boxes() {
             assert!(canvas.contains(b), "{t}: {b:?}");
         }
@@ -687,11 +695,17 @@ mod tests {
             .collect();
         let lines = boom_line("exact", &designs, 200.0);
         assert!(lines.len() <= 2, "{lines:?}");
-        assert!(lines.join(" ").contains("β from 31.72° to 35°"), "{lines:?}");
+        assert!(
+            lines.join(" ").contains("β from 31.72° to 35°"),
+            "{lines:?}"
+        );
         let two = &designs[..2];
         let lines = boom_line("exact", two, 235.0);
         assert!(
-            lines.join(" ").replace('\u{a0}', " ").contains("β = 35°, 31.72° (bottom first)"),
+            lines
+                .join(" ")
+                .replace('\u{a0}', " ")
+                .contains("β = 35°, 31.72° (bottom first)"),
             "{lines:?}"
         );
     }

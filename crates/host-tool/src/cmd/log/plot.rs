@@ -6,7 +6,8 @@ use std::path::Path;
 
 use super::{secs, Log};
 use crate::figure::{
-    colour, paragraph, wrap, Anchor, Area, Figure, Legend, Rect, Stroke, Swatch, Ticks, COLUMN_PT, DESCENT, LEADING, SIZE_LABEL, SIZE_TICK, SIZE_TITLE,
+    colour, paragraph, wrap, Anchor, Area, Figure, Legend, Rect, Stroke, Swatch, Ticks, COLUMN_PT,
+    DESCENT, LEADING, SIZE_LABEL, SIZE_TICK, SIZE_TITLE,
 };
 
 /// What a recording holds for the plot.
@@ -230,13 +231,18 @@ pub fn render(t: &Traces, title: &str) -> Option<Figure> {
         v: st.range(),
     };
     let legend_top = s_area.rect.y + SERVO_H + Area::below() + 1.0;
-    let height = legend_top
-        + legend.height(inner)
-        + note_lines.len() as f64 * LEADING * SIZE_LABEL
-        + MARGIN;
+    let height =
+        legend_top + legend.height(inner) + note_lines.len() as f64 * LEADING * SIZE_LABEL + MARGIN;
     let mut fig = Figure::new(width, height);
 
-    let y = paragraph(&mut fig, MARGIN, MARGIN, SIZE_TITLE, colour::BLACK, &title_lines);
+    let y = paragraph(
+        &mut fig,
+        MARGIN,
+        MARGIN,
+        SIZE_TITLE,
+        colour::BLACK,
+        &title_lines,
+    );
     paragraph(&mut fig, MARGIN, MARGIN + y, SIZE_LABEL, colour::GREY, &sub);
 
     p_area.axes(&mut fig, &tt, &pt, None, Some("pressure (kPa)"), true);
@@ -282,38 +288,29 @@ pub fn render(t: &Traces, title: &str) -> Option<Figure> {
     fig.end();
 
     let res = 0.25 * (t1 - t0) / plot_w;
+    let mut trace = |class: &str, area: &Area, pts: Vec<(f64, f64)>, stroke: Stroke| {
+        let mapped: Vec<(f64, f64)> = thin(&pts, res)
+            .into_iter()
+            .map(|(a, b)| area.map(a, b))
+            .collect();
+        fig.begin(class);
+        fig.polyline(&mapped, stroke);
+        fig.end();
+    };
     if !t.truth.is_empty() {
-        let pts: Vec<(f64, f64)> = t
+        let pts = t
             .truth
             .iter()
             .filter(|s| s.0 >= t0 && s.0 <= t1)
             .map(|s| (s.0, s.1))
             .collect();
-        fig.begin("pressure-true");
-        let mapped: Vec<(f64, f64)> = thin(&pts, res)
-            .into_iter()
-            .map(|(a, b)| p_area.map(a, b))
-            .collect();
-        fig.polyline(&mapped, TRUE_P);
-        fig.end();
+        trace("pressure-true", &p_area, pts, TRUE_P);
     }
-    let pts: Vec<(f64, f64)> = tel.iter().map(|s| (s.0, s.1)).collect();
-    fig.begin("pressure-measured");
-    let mapped: Vec<(f64, f64)> = thin(&pts, res)
-        .into_iter()
-        .map(|(a, b)| p_area.map(a, b))
-        .collect();
-    fig.polyline(&mapped, MEASURED);
-    fig.end();
+    let pts = tel.iter().map(|s| (s.0, s.1)).collect();
+    trace("pressure-measured", &p_area, pts, MEASURED);
     for (k, (name, stroke)) in SERVO.iter().enumerate() {
-        let pts: Vec<(f64, f64)> = tel.iter().map(|s| (s.0, s.2[k])).collect();
-        fig.begin(&name.replace(' ', "-"));
-        let mapped: Vec<(f64, f64)> = thin(&pts, res)
-            .into_iter()
-            .map(|(a, b)| s_area.map(a, b))
-            .collect();
-        fig.polyline(&mapped, *stroke);
-        fig.end();
+        let pts = tel.iter().map(|s| (s.0, s.2[k])).collect();
+        trace(&name.replace(' ', "-"), &s_area, pts, *stroke);
     }
 
     legend.draw(&mut fig, MARGIN, legend_top, inner);
@@ -330,9 +327,10 @@ pub fn render(t: &Traces, title: &str) -> Option<Figure> {
 
 /// The figure's title: the file name, and the device the session recorded.
 pub fn title(path: &Path, log: &Log) -> String {
-    let name = path
-        .file_name()
-        .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
     match log.metadata.iter().find_map(|(_, m)| m.get("device")) {
         Some(d) => format!("{name} — {}", d.trim_end_matches(" faults []")),
         None => name,
@@ -346,7 +344,12 @@ mod tests {
     #[test]
     fn thinning_keeps_the_peaks_in_time_order() {
         let pts: Vec<(f64, f64)> = (0..1000)
-            .map(|i| (i as f64 * 0.001, if i == 537 { 9.0 } else { (i % 7) as f64 }))
+            .map(|i| {
+                (
+                    i as f64 * 0.001,
+                    if i == 537 { 9.0 } else { (i % 7) as f64 },
+                )
+            })
             .collect();
         let t = thin(&pts, 0.1);
         assert!(t.len() <= 4 * 10 + 4, "{}", t.len());

@@ -11,7 +11,7 @@
 //!   [`protocol::MAX_PLAN_STEPS`] steps × [`protocol::MAX_STEP_PRIMITIVES`] `Bend` primitives
 //!   (the most expensive plan to validate: each bend is checked through the tendon kinematics);
 //! - a new pressure sample (filter, over-pressure, a snap-detector slot, leak check) and a new
-//!   joystick position in a flexible state (constant-curvature kinematics in `f64`);
+//!   joystick position in a flexible state (constant-curvature kinematics in `f32`);
 //! - a heartbeat, a telemetry frame and a status response are due, and the transmit queue is
 //!   drained;
 //!

@@ -362,9 +362,10 @@ impl CraneConfig {
     /// rejects (n outside 3..=64, β outside (0°, 90°)).
     ///
     /// In `f32`, from the geometry crate's closed forms (eq 2: deployed d = w = tan β; Table 1:
-    /// folded d = √(w² − tan²(90°/n)), 0 where that is imaginary): the crate's `f64` versions
-    /// cost the board binary ~10 KiB of software double precision and trigonometry. A host
-    /// test checks them against the crate to 1e-4 relative over n = 3..12 and β = 10°..80°.
+    /// folded d = √(w² − tan²(90°/n)), 0 where that is imaginary), with [`crate::mathf`]'s
+    /// `tan` and `sqrt`: the crate's `f64` versions (and `libm`'s `tanf`, `f64` inside) cost the
+    /// board binary ~10 KiB of software double precision and trigonometry. A host test checks
+    /// them against the crate to 1e-4 relative over n = 3..12 and β = 10°..80°.
     pub fn trunk_height_mm(&self, state: TrunkState) -> Option<f32> {
         let module = |m: &ModuleConfig, s: Option<ShapeState>| -> Option<f32> {
             let layers = m.layers as f32;

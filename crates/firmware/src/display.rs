@@ -6,8 +6,10 @@
 //!
 //! What the controller shows (see [`Controller::poll_display`](crate::Controller::poll_display)):
 //! the trunk state (`F-P `, `d-F ` …, [`geometry::TrunkState::display_text`]), `E-xx` for a
-//! fault, `HAnd` while a manual step waits for a person, or the pressure while the
-//! show-pressure button is held.
+//! fault, the task while a manual step waits for a person ([`task`]: `H-Pb`, `H-Ft`, `H-Fb`),
+//! or the pressure while the show-pressure button is held.
+
+use protocol::ManualTask;
 
 /// Segment bit of the decimal point.
 pub const DP: u8 = 0x80;
@@ -55,6 +57,16 @@ pub fn text(s: &str) -> [u8; 4] {
         *o = glyph(c);
     }
     out
+}
+
+/// What a manual step asks a person to do, as a code: `H-` (by hand) and the task — `Pb` pack
+/// the bottom module, `Ft` fold the top module, `Fb` fold the bottom module.
+pub fn task(t: ManualTask) -> [u8; 4] {
+    text(match t {
+        ManualTask::PackBottomModule => "H-Pb",
+        ManualTask::FoldTopModule => "H-Ft",
+        ManualTask::FoldBottomModule => "H-Fb",
+    })
 }
 
 /// `E-xx` for a fault code (two decimal digits).
@@ -123,6 +135,22 @@ mod tests {
         }
         assert_eq!(text("F-P "), [0x71, 0x40, 0x73, 0x00]);
         assert_eq!(text("d-F "), [0x5E, 0x40, 0x71, 0x00]);
+    }
+
+    #[test]
+    fn every_task_has_its_own_drawable_code() {
+        let all = [
+            ManualTask::PackBottomModule,
+            ManualTask::FoldTopModule,
+            ManualTask::FoldBottomModule,
+        ];
+        for (i, a) in all.iter().enumerate() {
+            assert!(task(*a).iter().all(|&d| d != 0), "{a:?}");
+            for b in &all[i + 1..] {
+                assert_ne!(task(*a), task(*b));
+            }
+        }
+        assert_eq!(task(ManualTask::PackBottomModule), [0x76, 0x40, 0x73, 0x7C]);
     }
 
     #[test]

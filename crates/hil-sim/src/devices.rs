@@ -287,9 +287,9 @@ mod tests {
         let mut d = SimDisplay::default();
         d.show(firmware::display::text("d-F ")).unwrap();
         assert_eq!(d.text(), "d-F ");
-        let mut seg = firmware::display::text("HAnd");
+        let mut seg = firmware::display::task(protocol::ManualTask::PackBottomModule);
         seg[3] |= firmware::display::DP;
-        assert_eq!(segments_text(seg), "HAnd.");
+        assert_eq!(segments_text(seg), "H-Pb.");
         assert_eq!(segments_text(firmware::display::fault(8)), "E-08");
     }
 

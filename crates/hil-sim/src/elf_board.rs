@@ -142,6 +142,16 @@ impl ElfBoard {
         }
     }
 
+    /// The newest complete record in the data flash, as the firmware's own log reads it at boot
+    /// (`None` when the log holds none; a torn slot being programmed is skipped).
+    pub fn stored_record(&self) -> Option<StoredState> {
+        let mut copy = self.emu.data_flash().to_vec();
+        flash_log::FlashLog::new(DataFlashImage(&mut copy), 0)
+            .load()
+            .ok()
+            .flatten()
+    }
+
     /// Moves the parts' states in, runs the chip to `now_ms`, moves its outputs out.
     pub fn step(
         &mut self,

@@ -1,12 +1,25 @@
 //! The simulated person at the crane: does the manual step the crane asks for.
 //!
-//! They watch the display; when it shows `HAnd` (a manual step waits) they walk over, do the
-//! task the host's prompt named (the `ManualRequired` event on the link; packing the bottom if
-//! none was seen), and press the confirm button. Reaction and work take [`OPERATOR_DELAY_MS`].
+//! They watch the display; when it names a manual task (`H-Pb`, `H-Ft`, `H-Fb`: a manual step
+//! waits, [`firmware::display::task`]) they walk over, do that task, and press the confirm
+//! button. Reaction and work take [`OPERATOR_DELAY_MS`]. They read only what a person at the
+//! crane can read: the display, never the link.
 
 use protocol::messages::ManualTask;
 
-/// From `HAnd` appearing to the confirm press: walking over and folding two layers of panels.
+/// The manual task the display's segments name, if any (decimal points aside).
+pub fn task_shown(segments: [u8; 4]) -> Option<ManualTask> {
+    let seg = segments.map(|d| d & !firmware::display::DP);
+    [
+        ManualTask::PackBottomModule,
+        ManualTask::FoldTopModule,
+        ManualTask::FoldBottomModule,
+    ]
+    .into_iter()
+    .find(|t| firmware::display::task(*t) == seg)
+}
+
+/// From the task appearing to the confirm press: walking over and folding two layers of panels.
 pub const OPERATOR_DELAY_MS: u64 = 5_000;
 /// How long the confirm button is held.
 pub const CONFIRM_PRESS_MS: u64 = 200;
@@ -34,8 +47,6 @@ pub enum Mistake {
 pub struct Operator {
     /// Whether the operator is there at all.
     pub enabled: bool,
-    /// The task named by the last `ManualRequired` event seen.
-    pub prompted_task: Option<ManualTask>,
     due_ms: Option<u64>,
     release_ms: Option<u64>,
     /// Manual tasks done so far.
@@ -49,7 +60,6 @@ impl Operator {
     pub fn new(enabled: bool) -> Self {
         Self {
             enabled,
-            prompted_task: None,
             due_ms: None,
             release_ms: None,
             tasks_done: 0,
@@ -57,9 +67,9 @@ impl Operator {
         }
     }
 
-    /// One millisecond: sees whether the display asks for a hand (`wants_hand`), acts when due.
+    /// One millisecond: sees which task the display asks for (`shown`), acts when due.
     /// Returns the action and whether the confirm button is held now.
-    pub fn tick(&mut self, now_ms: u64, wants_hand: bool) -> (OperatorAction, bool) {
+    pub fn tick(&mut self, now_ms: u64, shown: Option<ManualTask>) -> (OperatorAction, bool) {
         if !self.enabled {
             return (OperatorAction::None, false);
         }
@@ -70,14 +80,10 @@ impl Operator {
             }
             return (action, self.release_ms.is_some());
         }
-        match (wants_hand, self.due_ms) {
-            (true, None) => self.due_ms = Some(now_ms + OPERATOR_DELAY_MS),
-            (false, Some(_)) => self.due_ms = None,
-            (true, Some(due)) if now_ms >= due => {
-                let asked = self
-                    .prompted_task
-                    .take()
-                    .unwrap_or(ManualTask::PackBottomModule);
+        match (shown, self.due_ms) {
+            (Some(_), None) => self.due_ms = Some(now_ms + OPERATOR_DELAY_MS),
+            (None, Some(_)) => self.due_ms = None,
+            (Some(asked), Some(due)) if now_ms >= due => {
                 let task = match self.mistake {
                     Some(Mistake::Refuse) => {
                         // Stays away; the step's time limit ends the wait.
@@ -106,37 +112,54 @@ impl Operator {
 mod tests {
     use super::*;
 
+    const TOP: Option<ManualTask> = Some(ManualTask::FoldTopModule);
+
     #[test]
     fn acts_after_the_delay_and_holds_confirm() {
         let mut o = Operator::new(true);
-        o.prompted_task = Some(ManualTask::FoldTopModule);
-        assert_eq!(o.tick(0, true), (OperatorAction::None, false));
+        assert_eq!(o.tick(0, TOP), (OperatorAction::None, false));
         assert_eq!(
-            o.tick(OPERATOR_DELAY_MS - 1, true),
+            o.tick(OPERATOR_DELAY_MS - 1, TOP),
             (OperatorAction::None, false)
         );
         assert_eq!(
-            o.tick(OPERATOR_DELAY_MS, true),
+            o.tick(OPERATOR_DELAY_MS, TOP),
             (OperatorAction::DoTask(ManualTask::FoldTopModule), true)
         );
-        assert!(o.tick(OPERATOR_DELAY_MS + 100, true).1);
-        assert!(!o.tick(OPERATOR_DELAY_MS + CONFIRM_PRESS_MS, true).1);
+        assert!(o.tick(OPERATOR_DELAY_MS + 100, TOP).1);
+        assert!(!o.tick(OPERATOR_DELAY_MS + CONFIRM_PRESS_MS, TOP).1);
         assert_eq!(o.tasks_done, 1);
+    }
+
+    #[test]
+    fn reads_each_task_from_the_display_and_nothing_else() {
+        for t in [
+            ManualTask::PackBottomModule,
+            ManualTask::FoldTopModule,
+            ManualTask::FoldBottomModule,
+        ] {
+            let mut seg = firmware::display::task(t);
+            assert_eq!(task_shown(seg), Some(t));
+            seg[3] |= firmware::display::DP;
+            assert_eq!(task_shown(seg), Some(t));
+        }
+        assert_eq!(task_shown(firmware::display::text("d-F ")), None);
+        assert_eq!(task_shown(firmware::display::text("HAnd")), None);
     }
 
     #[test]
     fn an_absent_operator_does_nothing() {
         let mut o = Operator::new(false);
         for t in 0..20_000 {
-            assert_eq!(o.tick(t, true), (OperatorAction::None, false));
+            assert_eq!(o.tick(t, TOP), (OperatorAction::None, false));
         }
     }
 
     #[test]
     fn a_prompt_that_goes_away_is_not_acted_on() {
         let mut o = Operator::new(true);
-        o.tick(0, true);
-        o.tick(10, false);
-        assert_eq!(o.tick(OPERATOR_DELAY_MS + 1, true).0, OperatorAction::None);
+        o.tick(0, TOP);
+        o.tick(10, None);
+        assert_eq!(o.tick(OPERATOR_DELAY_MS + 1, TOP).0, OperatorAction::None);
     }
 }

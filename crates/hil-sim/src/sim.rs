@@ -40,9 +40,6 @@ pub const SERVO_STALL_FAULT_TORQUE: f64 = 0.2;
 /// Delay from the first running plan to a `link-drop` or `sensor-dropout`, ms.
 pub const MID_PLAN_FAULT_DELAY_MS: u64 = 1_000;
 
-/// What the display shows while a manual step waits (decimal points aside).
-const HAND: [u8; 4] = [0x76, 0x77, 0x54, 0x5E];
-
 /// How to run the simulator.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimOptions {
@@ -575,14 +572,8 @@ impl Sim {
                 self.shell.inputs.joystick_y.raw = raw;
             }
         }
-        let wants_hand = self
-            .shell
-            .display
-            .segments
-            .iter()
-            .zip(HAND.iter())
-            .all(|(s, h)| s & !firmware::display::DP == *h);
-        let (action, confirm_held) = self.operator.tick(now, wants_hand);
+        let shown = crate::operator::task_shown(self.shell.display.segments);
+        let (action, confirm_held) = self.operator.tick(now, shown);
         if let OperatorAction::DoTask(task) = action {
             self.do_manual(task);
         }
@@ -722,9 +713,6 @@ impl Sim {
     }
 
     fn on_device_event(&mut self, ev: &Event) {
-        if let Event::ManualRequired { task, .. } = ev {
-            self.operator.prompted_task = Some(*task);
-        }
         if let Some(tr) = self.trace.as_mut() {
             let text = match ev {
                 Event::Heartbeat { .. } | Event::Telemetry(_) | Event::StepProgress { .. } => None,
@@ -736,11 +724,17 @@ impl Sim {
         }
     }
 
+    /// A person moves one module into a well of its force curve by hand (the operator's tasks;
+    /// a test's way to leave the bottom half-packed, well 1).
+    pub fn move_module_by_hand(&mut self, module: Module, well: usize) {
+        self.trunk.set_module_well(module, well);
+    }
+
     fn do_manual(&mut self, task: ManualTask) {
         match task {
-            ManualTask::PackBottomModule => self.trunk.set_module_well(Module::Bottom, 0),
-            ManualTask::FoldTopModule => self.trunk.set_module_well(Module::Top, 0),
-            ManualTask::FoldBottomModule => self.trunk.set_module_well(Module::Bottom, 2),
+            ManualTask::PackBottomModule => self.move_module_by_hand(Module::Bottom, 0),
+            ManualTask::FoldTopModule => self.move_module_by_hand(Module::Top, 0),
+            ManualTask::FoldBottomModule => self.move_module_by_hand(Module::Bottom, 2),
         }
         if let Some(tr) = self.trace.as_mut() {
             let _ = writeln!(tr.text, "{:>8} operator {task:?}", self.now_ms);
@@ -1027,11 +1021,6 @@ mod tests {
         assert_eq!(end["true_state"], "F&F");
         assert_eq!(end["believed_state"], "F&F");
         assert_eq!(end["state_confirmed"], true);
-    }
-
-    #[test]
-    fn hand_is_what_the_firmware_draws() {
-        assert_eq!(HAND, firmware::display::text("HAnd"));
     }
 
     #[test]

@@ -382,7 +382,7 @@ fn without_the_operator_a_manual_step_waits_with_hand_on_the_display() {
     assert!(r.is_err(), "{r:?}");
     let truth = sim.ground_truth();
     assert_eq!(truth.mode, Mode::WaitingManual, "{truth:?}");
-    assert!(truth.display.starts_with("HAnd"), "{truth:?}");
+    assert!(truth.display.starts_with("H-Pb"), "{truth:?}");
     assert_eq!(truth.true_state, Some(st("D&F")));
 }
 

@@ -25,6 +25,63 @@ fn the_seeds_of_fixed_bugs_hold_every_invariant() {
     }
 }
 
+/// Seeds the swarm found (10 000 from seed 1000 without the operator's mistakes) before the
+/// display named the manual task and the crane checked a person's confirm: the simulated
+/// operator, who then learned the task from the link, packed by default when the event was lost
+/// and the device took the confirm as the truth (1326: a pack against a pressurised trunk that
+/// popped back; 1538, 2135: after host crashes).
+const MANUAL_UNCHECKED: [u64; 3] = [1326, 1538, 2135];
+
+/// Seeds found with the operator's mistakes (1 000 from seed 0) before the check: a wrong fold
+/// confirmed by the operator taken as the truth.
+const WRONG_FOLD: [u64; 7] = [18, 113, 154, 212, 224, 260, 276];
+
+/// Seeds found once the check was in (2 000 and 4 000 from seed 1000, with mistakes): a bottom
+/// left half-packed after an interrupted packing confirmed as F&F by the probe (1749, 2397,
+/// 2477, 2849), and an unpacking aborted after its first layer's drop confirmed as F&F (3713).
+const HALF_PACKED: [u64; 5] = [1749, 2397, 2477, 2849, 3713];
+
+#[test]
+fn the_seeds_of_the_manual_step_and_between_state_bugs_hold_every_invariant() {
+    let scenarios = MANUAL_UNCHECKED
+        .iter()
+        .map(|&s| Scenario::generate_without_mistakes(s))
+        .chain(
+            WRONG_FOLD
+                .iter()
+                .chain(&HALF_PACKED)
+                .map(|&s| Scenario::generate(s)),
+        );
+    for s in scenarios {
+        let rep = run(&s, false);
+        assert!(
+            rep.violations.is_empty(),
+            "{}: {:?}",
+            s.describe(),
+            rep.violations
+        );
+    }
+    // The wrong folds are made: each of these scenarios has the operator's mistake.
+    for seed in WRONG_FOLD {
+        assert!(
+            matches!(
+                Scenario::generate(seed).mistake,
+                Some(hil_sim::operator::Mistake::WrongFold(_))
+            ),
+            "{seed}"
+        );
+    }
+}
+
+#[test]
+fn a_wrong_fold_is_found_by_the_check_and_the_run_goes_on_from_the_truth() {
+    // Seed 18: F&P → D&P, the operator folds the top instead of packing the bottom.
+    let rep = run(&Scenario::generate(18), true);
+    assert!(rep.violations.is_empty(), "{:?}", rep.violations);
+    assert!(rep.trace.contains("E-04"), "{}", rep.trace);
+    assert_eq!(rep.reached, rep.scenario.targets.len(), "{}", rep.trace);
+}
+
 #[test]
 fn a_scenario_replays_exactly() {
     let s = Scenario::generate(12);

@@ -292,8 +292,9 @@ fn the_sealed_pressure_probe_tells_what_the_physics_can_and_keeps_the_truth() {
             }
         }
     }
-    // F&P and D&P are told from every other state, F&F and F&D mostly.
-    assert!(decided >= 6, "{decided} of 18");
+    // With every state a candidate: D&P is told from everything, F&D mostly; F&P only where
+    // its rate is more than 5 % from a half-packed bottom's (F&P½, 6 % apart: seed 1).
+    assert!(decided >= 5, "{decided} of 18");
 }
 
 /// The whole loop on the repro: after the failed fold with a leak, the host resets the
@@ -550,6 +551,37 @@ fn a_host_killed_mid_step_over_the_pty_leaves_an_honest_status() {
                 t.to
             );
             assert_ne!(status.mode, Mode::Running, "the device stopped by itself");
+        }
+    }
+}
+
+/// A bottom left half-packed (one layer of two: a stable well between named states) under
+/// either top: the probe measures the between-state signatures the firmware carries
+/// (`identify::BETWEEN_SIGNATURES`, within 3 %), and confirms nothing, though the rate is
+/// within a named state's window (F&F's, D&F's): the trunk is between states.
+#[test]
+fn a_half_packed_bottom_is_never_confirmed_as_a_named_state() {
+    use firmware::controller::identify::BETWEEN_SIGNATURES;
+    use hil_sim::physics::trunk::Module;
+    for seed in [1, 2, 3] {
+        for (s, want) in [
+            ("F&F", BETWEEN_SIGNATURES[0]),
+            ("D&F", BETWEEN_SIGNATURES[1]),
+        ] {
+            let (mut sim, mut host) = booted_unknowing(st(s), seed);
+            sim.move_module_by_hand(Module::Bottom, 1);
+            sim.run_for(500);
+            assert_eq!(sim.trunk().state(), None, "half-packed is between states");
+            let (status, log) = identify(&mut sim, &mut host);
+            let rate = log.rate_kpa_per_s().expect("fill measured");
+            println!("half-packed under {s}, seed {seed}: {rate:.2} kPa/s");
+            assert!((rate - want).abs() < 0.03 * want, "{s}: {rate} vs {want}");
+            assert_eq!(
+                log.verdict(protocol::StateSet::ALL),
+                protocol::StateSet::ALL
+            );
+            assert!(!status.state_confirmed, "{s} seed {seed}: {status:?}");
+            assert_eq!(sim.trunk().state(), None, "the probe moved the trunk");
         }
     }
 }

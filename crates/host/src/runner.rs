@@ -14,8 +14,8 @@ use std::collections::VecDeque;
 use geometry::TrunkState;
 use planner::graph::{kind_name, Graph, Plan};
 use protocol::{
-    Event, FaultCode, ManualTask, Mode, PlanPhase, Primitive, RejectReason, RequestBody,
-    ResponseBody, Status, StepKind,
+    Event, FaultCode, ManualTask, Mode, PlanPhase, RejectReason, RequestBody, ResponseBody, Status,
+    StepKind,
 };
 
 use crate::session::{RequestId, Session, SessionError, SessionEvent};
@@ -1093,10 +1093,10 @@ impl PlanRunner {
                 if ps.phase == PlanPhase::Running {
                     return;
                 }
+                // The task the device says it waits for (its status names it).
                 let f = self.following.as_mut().expect("checked");
-                if !f.prompted[current] {
+                if let (false, Some(task)) = (f.prompted[current], st.manual_task) {
                     f.prompted[current] = true;
-                    let task = manual_task(edge.transition.primitives);
                     self.events.push_back(RunEvent::ManualPrompt {
                         index: current,
                         task,
@@ -1225,15 +1225,4 @@ pub fn after_abort_text(st: &Status) -> String {
         );
     }
     t
-}
-
-/// The manual task of a step's primitives (the catalogue has exactly one per manual step).
-fn manual_task(primitives: &[Primitive]) -> ManualTask {
-    primitives
-        .iter()
-        .find_map(|p| match p {
-            Primitive::Manual(task) => Some(*task),
-            _ => None,
-        })
-        .unwrap_or(ManualTask::PackBottomModule)
 }

@@ -104,7 +104,9 @@ pub enum RequestBody {
 }
 
 /// A plan: steps executed in order, each a transition between trunk states.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
+///
+/// `Deserialize` is written out ([`in_place`]), with the derive's wire form.
+#[derive(Debug, Clone, PartialEq, Serialize, Schema)]
 pub struct Plan {
     /// Identifier chosen by the host (non-zero; 0 is reserved for [`RequestBody::RunStep`]).
     pub plan_id: u16,
@@ -113,7 +115,9 @@ pub struct Plan {
 }
 
 /// One step of a plan: a transition `from` → `to` made by a short sequence of primitives.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Schema)]
+///
+/// `Deserialize` is written out ([`in_place`]), with the derive's wire form.
+#[derive(Debug, Clone, PartialEq, Serialize, Schema)]
 pub struct Step {
     /// How the transition is actuated (for people and for reports).
     pub kind: StepKind,
@@ -125,6 +129,187 @@ pub struct Step {
     pub primitives: Vec<Primitive, MAX_STEP_PRIMITIVES>,
     /// Time limit for the whole step; the device faults with [`FaultCode::StepTimeout`] after it.
     pub timeout_ms: u32,
+}
+
+/// `Deserialize` for [`Plan`] and [`Step`] that builds the steps where they will lie.
+///
+/// Why not the derive: its visitors return every `Step` (~64 bytes) and the steps' `Vec`
+/// (~520 bytes) by value through several `Result`/`Option` layers, which the compiler lays out
+/// at odd offsets; on the board's Cortex-M4 those unaligned moves were a third of the ≈ 90 000
+/// cycles of the loop pass that receives the largest plan (the emulator's pass profile,
+/// BENCHMARKS.md). Here each step is deserialised into its slot of the plan's `Vec`, and its
+/// primitives (12 bytes each) into its own.
+///
+/// The wire form is the derive's (a struct is its fields in declaration order, a `heapless::Vec`
+/// its length then its elements; a sequence longer than the capacity is an error, as
+/// heapless's own `Deserialize` makes it): `tests/wire/in_place.rs` holds it to a derived twin
+/// of both types byte for byte, on valid, truncated and mutated input. Only the sequence form
+/// is read (postcard's; a self-describing format's map form is refused), which is the only
+/// form the protocol uses.
+pub mod in_place {
+    use super::{Plan, Primitive, Step, StepKind, MAX_PLAN_STEPS, MAX_STEP_PRIMITIVES};
+    use core::fmt;
+    use geometry::{BottomState, TopState, TrunkState};
+    use heapless::Vec;
+    use serde::de::{self, DeserializeSeed, Deserializer, SeqAccess, Visitor};
+    use serde::Deserialize;
+
+    const PLAN_FIELDS: &[&str] = &["plan_id", "steps"];
+    const STEP_FIELDS: &[&str] = &["kind", "from", "to", "primitives", "timeout_ms"];
+
+    /// A slot's content before its step is read in.
+    const BLANK: Step = Step {
+        kind: StepKind::Manual,
+        from: TrunkState::new(TopState::Folded, BottomState::Packed),
+        to: TrunkState::new(TopState::Folded, BottomState::Packed),
+        primitives: Vec::new(),
+        timeout_ms: 0,
+    };
+
+    /// The next field of a struct read as a sequence, or the derive's error for a short one.
+    fn field<'de, A: SeqAccess<'de>, T: Deserialize<'de>>(
+        seq: &mut A,
+        index: usize,
+        what: &'static str,
+    ) -> Result<T, A::Error> {
+        seq.next_element()?
+            .ok_or_else(|| de::Error::invalid_length(index, &what))
+    }
+
+    impl<'de> Deserialize<'de> for Plan {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            let mut plan = Plan {
+                plan_id: 0,
+                steps: Vec::new(),
+            };
+            d.deserialize_struct("Plan", PLAN_FIELDS, PlanVisitor(&mut plan))?;
+            Ok(plan)
+        }
+    }
+
+    struct PlanVisitor<'a>(&'a mut Plan);
+
+    impl<'de> Visitor<'de> for PlanVisitor<'_> {
+        type Value = ();
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("struct Plan")
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+            const WHAT: &str = "struct Plan with 2 elements";
+            self.0.plan_id = field(&mut seq, 0, WHAT)?;
+            seq.next_element_seed(StepsSeed(&mut self.0.steps))?
+                .ok_or_else(|| de::Error::invalid_length(1, &WHAT))
+        }
+    }
+
+    /// The plan's steps, each read into its slot.
+    struct StepsSeed<'a>(&'a mut Vec<Step, MAX_PLAN_STEPS>);
+
+    impl<'de> DeserializeSeed<'de> for StepsSeed<'_> {
+        type Value = ();
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+            d.deserialize_seq(self)
+        }
+    }
+
+    impl<'de> Visitor<'de> for StepsSeed<'_> {
+        type Value = ();
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("a sequence")
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+            let steps = self.0;
+            steps.clear();
+            loop {
+                if steps.is_full() {
+                    // One more is an error, once it has been read (as heapless's visitor).
+                    return match seq.next_element::<Step>()? {
+                        None => Ok(()),
+                        Some(_) => Err(de::Error::invalid_length(
+                            MAX_PLAN_STEPS + 1,
+                            &"fewer elements in sequence",
+                        )),
+                    };
+                }
+                // Cannot fail: not full.
+                let _ = steps.push(BLANK);
+                let read = match steps.last_mut() {
+                    Some(slot) => seq.next_element_seed(StepSeed(slot))?,
+                    None => None,
+                };
+                if read.is_none() {
+                    steps.pop();
+                    return Ok(());
+                }
+            }
+        }
+    }
+
+    impl<'de> Deserialize<'de> for Step {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            let mut step = BLANK;
+            StepSeed(&mut step).deserialize(d)?;
+            Ok(step)
+        }
+    }
+
+    /// One step, read into `self.0`.
+    struct StepSeed<'a>(&'a mut Step);
+
+    impl<'de> DeserializeSeed<'de> for StepSeed<'_> {
+        type Value = ();
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+            d.deserialize_struct("Step", STEP_FIELDS, self)
+        }
+    }
+
+    impl<'de> Visitor<'de> for StepSeed<'_> {
+        type Value = ();
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("struct Step")
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+            const WHAT: &str = "struct Step with 5 elements";
+            let step = self.0;
+            step.kind = field(&mut seq, 0, WHAT)?;
+            step.from = field(&mut seq, 1, WHAT)?;
+            step.to = field(&mut seq, 2, WHAT)?;
+            seq.next_element_seed(PrimitivesSeed(&mut step.primitives))?
+                .ok_or_else(|| de::Error::invalid_length(3, &WHAT))?;
+            step.timeout_ms = field(&mut seq, 4, WHAT)?;
+            Ok(())
+        }
+    }
+
+    /// A step's primitives (small and `Copy`: pushed by value).
+    struct PrimitivesSeed<'a>(&'a mut Vec<Primitive, MAX_STEP_PRIMITIVES>);
+
+    impl<'de> DeserializeSeed<'de> for PrimitivesSeed<'_> {
+        type Value = ();
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+            d.deserialize_seq(self)
+        }
+    }
+
+    impl<'de> Visitor<'de> for PrimitivesSeed<'_> {
+        type Value = ();
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("a sequence")
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+            let prims = self.0;
+            prims.clear();
+            while let Some(p) = seq.next_element::<Primitive>()? {
+                if prims.push(p).is_err() {
+                    return Err(de::Error::invalid_length(
+                        MAX_STEP_PRIMITIVES + 1,
+                        &"fewer elements in sequence",
+                    ));
+                }
+            }
+            Ok(())
+        }
+    }
 }
 
 /// How a step is actuated.
@@ -525,6 +710,8 @@ pub struct Status {
     pub estop: bool,
     /// The active (or last) plan.
     pub plan: Option<PlanStatus>,
+    /// The task a manual step waits for a person to do (`None` when none waits).
+    pub manual_task: Option<ManualTask>,
     /// Active faults, one bit per [`FaultCode`] (`1 << code as u16`).
     pub faults: u16,
     /// Frames received and decoded.

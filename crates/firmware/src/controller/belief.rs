@@ -34,6 +34,12 @@ pub const TENDON_SNAP_MM: [(usize, usize, f32); 5] = [
     (FF, FP, 138.0),
 ];
 
+/// What one hand task (fold the top, fold the bottom, pack the bottom) makes of each state, by
+/// [`TrunkState::index`] (bit per index: F&P, F&F, F&D, D&P, D&F, D&D), the state itself
+/// included: F&P {F&P, F&F}, F&F {F&F, F&P}, F&D {F&D, F&F, F&P}, D&P {D&P, F&P, D&F},
+/// D&F {D&F, F&F, D&P}, D&D {D&D, F&D, D&F, D&P} (a unit test derives it).
+pub const HAND_REACH: [u8; 6] = [0b000011, 0b000011, 0b000111, 0b011001, 0b011010, 0b111100];
+
 /// Margin above a step's largest inflation within which a further snap counts as possible
 /// (the regulator's hysteresis, sensor noise and the spread of the thresholds with load).
 pub const REACH_MARGIN_KPA: f32 = 3.0;
@@ -95,9 +101,18 @@ fn actuation(step: &Step) -> (f32, f32) {
 /// Every state an interrupted `step` may have left the trunk in: `from`, `to`, and every state
 /// further along the same actuation that its largest inflation or longest pull could reach
 /// (overshoots: a pull from `D&D` to `F&D` whose snap went unseen goes on to buckle the bottom,
-/// `F&F`). A manual step: `from` or `to` (a person folds one module).
+/// `F&F`). A manual step: `from`, `to`, or what any one hand task makes of `from` (a person
+/// may fold the wrong module: fold the top, fold or pack the bottom).
 pub fn reach(step: &Step) -> StateSet {
     let mut set = StateSet::single(step.from).with(step.to);
+    let by_hand = step.kind == StepKind::Manual
+        || step
+            .primitives
+            .iter()
+            .any(|p| matches!(p, Primitive::Manual(_)));
+    if by_hand {
+        set = set.union(StateSet(HAND_REACH[step.from.index()]));
+    }
     if step.kind == StepKind::Manual {
         return set;
     }
@@ -248,10 +263,27 @@ mod tests {
             ("D&P", "F&P", &["D&P", "F&P"]),
             ("F&D", "F&F", &["F&D", "F&F"]),
             ("F&F", "F&P", &["F&F", "F&P"]),
-            ("D&F", "D&P", &["D&F", "D&P"]),
+            // By hand: the task asked, or any other one by mistake (fold the top: F&F).
+            ("D&F", "D&P", &["D&F", "D&P", "F&F"]),
         ];
         for (from, to, want) in cases {
             assert_eq!(reach(&nominal(from, to)), set(want), "{from} -> {to}");
+        }
+    }
+
+    #[test]
+    fn the_hand_reach_is_what_one_hand_task_makes_of_each_state() {
+        use geometry::{BottomState, TopState};
+        for from in TrunkState::ALL {
+            let want = [
+                from,
+                TrunkState::new(TopState::Folded, from.bottom),
+                TrunkState::new(from.top, BottomState::Folded),
+                TrunkState::new(from.top, BottomState::Packed),
+            ]
+            .into_iter()
+            .fold(StateSet::EMPTY, StateSet::with);
+            assert_eq!(StateSet(HAND_REACH[from.index()]), want, "{from}");
         }
     }
 

@@ -6,6 +6,7 @@ use protocol::{
 };
 
 use super::belief::{self, Belief};
+use super::identify::{ProbeLog, PROBE};
 use super::snap::SnapSign;
 use super::Controller;
 use crate::store::StoredState;
@@ -210,6 +211,12 @@ pub(super) struct Exec {
     pre_release: bool,
     pub(super) waiting_manual: bool,
     pub(super) manual_confirmed: bool,
+    /// A person worked on the trunk in this step (a `Manual` primitive began): only the
+    /// check's probe, never the actuation's peaks, tells where it is.
+    by_hand: bool,
+    /// After a person's confirm: the check's [`PROBE`] primitive running, in place of the
+    /// step's own (`docs/firmware.md`, "Manual steps: the check").
+    check: Option<u8>,
     /// The step's journal record (`None`: a step within one state needs none) and whether it
     /// is persisted; nothing actuates before.
     journal: Option<u32>,
@@ -231,7 +238,28 @@ enum Progress {
 impl Exec {
     fn current(&self) -> Option<(&Step, Option<Primitive>)> {
         let step = self.plan.steps.get(self.step as usize)?;
-        Some((step, step.primitives.get(self.prim as usize).copied()))
+        let prim = match self.check {
+            Some(i) => PROBE.get(i as usize),
+            None => step.primitives.get(self.prim as usize),
+        };
+        Some((step, prim.copied()))
+    }
+
+    /// The probe primitive running (its index in [`PROBE`]): the identification plan's, or a
+    /// manual step's check.
+    fn probe_index(&self) -> Option<u8> {
+        match self.origin {
+            Origin::Identify => Some(self.prim),
+            _ => self.check,
+        }
+    }
+
+    /// The task a manual step waits for (what the display and the status name).
+    pub(super) fn waiting_task(&self) -> Option<protocol::ManualTask> {
+        match self.current() {
+            Some((_, Some(Primitive::Manual(t)))) if self.waiting_manual => Some(t),
+            _ => None,
+        }
     }
 
     /// Counts a snap if the current primitive waits for one of this sign; returns whether it did.
@@ -291,6 +319,8 @@ impl Controller {
             pre_release,
             waiting_manual: false,
             manual_confirmed: false,
+            by_hand: false,
+            check: None,
             journal,
             journaled: journal.is_none(),
             peak_kpa: 0.0,
@@ -334,7 +364,7 @@ impl Controller {
             return;
         }
         let mut b = self.belief;
-        b.narrow(log.verdict());
+        b.narrow(log.verdict(b.candidates()));
         self.set_belief(b);
         if !b.is_confirmed() {
             self.ask_operator();
@@ -362,9 +392,26 @@ impl Controller {
         if step.from == step.to {
             return None;
         }
-        if e.evidence {
-            // Already confirmed (its snaps, the sealed release or a person) before a later
-            // primitive of it failed: the trunk is there.
+        let pending = Some(protocol::Transition {
+            from: step.from,
+            to: step.to,
+        });
+        if e.by_hand {
+            // A person's hands leave no trace in the actuation: what the check's probe
+            // measured (if it ran) narrows the step's reach, nothing else.
+            let mut b = Belief::unconfirmed(step.from, belief::reach(step), pending);
+            if let Some(log) = self.ident.probe {
+                b.narrow(log.verdict(b.candidates()));
+            }
+            return Some(b);
+        }
+        // Unpacking passes the half-packed well (one layer of two): its drop may have been the
+        // first layer's, the second's still to come when the step stopped.
+        let half_way = step.from.bottom == geometry::BottomState::Packed
+            && step.to.bottom != geometry::BottomState::Packed;
+        if e.evidence && !half_way {
+            // Already confirmed (its snaps or the sealed release) before a later primitive of
+            // it failed: the trunk is there.
             return Some(Belief::confirmed(step.to));
         }
         if !e.journaled
@@ -373,14 +420,7 @@ impl Controller {
             // Nothing moved, or nothing came near a snap: still where it started.
             return Some(Belief::confirmed(step.from));
         }
-        Some(Belief::unconfirmed(
-            step.from,
-            belief::reach(step),
-            Some(protocol::Transition {
-                from: step.from,
-                to: step.to,
-            }),
-        ))
+        Some(Belief::unconfirmed(step.from, belief::reach(step), pending))
     }
 
     /// Ends the running plan (if any) with `phase`, reporting the step and the plan.
@@ -407,6 +447,8 @@ impl Controller {
                 self.set_belief(b);
             }
         }
+        // A manual step's check ends with its plan.
+        self.ident.last = self.ident.probe.take().or(self.ident.last);
         if !ok {
             self.emit(Event::StepDone {
                 plan_id: e.plan.plan_id,
@@ -481,10 +523,10 @@ impl Controller {
         let Some(e) = self.exec.as_ref() else {
             return false;
         };
-        if let (Some(log), Origin::Identify, false) =
-            (self.ident.probe.as_mut(), e.origin, e.pre_release)
+        if let (Some(log), Some(i), false) =
+            (self.ident.probe.as_mut(), e.probe_index(), e.pre_release)
         {
-            log.sample(e.prim, e.prim_start_ms, now, p);
+            log.sample(i, e.prim_start_ms, now, p);
         }
         if e.pre_release {
             return self.pre_release();
@@ -506,14 +548,24 @@ impl Controller {
                 false
             }
             Progress::Done { evidence } => {
-                if let (Some(log), Some(e)) = (self.ident.probe.as_mut(), self.exec.as_ref()) {
-                    if e.origin == Origin::Identify {
-                        log.primitive_done(e.prim, now, self.pressure.filt_kpa);
-                    }
+                let p = self.pressure.filt_kpa;
+                let at = self.exec.as_ref().and_then(Exec::probe_index);
+                if let (Some(log), Some(i)) = (self.ident.probe.as_mut(), at) {
+                    log.primitive_done(i, now, p);
                 }
                 if let Some(e) = self.exec.as_mut() {
                     e.evidence |= evidence;
-                    e.prim = e.prim.saturating_add(1);
+                    // A person's confirm is checked by the probe before the step goes on.
+                    e.check = match (prim, e.check) {
+                        (Primitive::Manual(_), None) => Some(0),
+                        (_, Some(i)) if (i as usize) + 1 < PROBE.len() => Some(i + 1),
+                        _ => None,
+                    };
+                    if e.check == Some(0) {
+                        self.ident.probe = Some(ProbeLog::default());
+                    } else if e.check.is_none() {
+                        e.prim = e.prim.saturating_add(1);
+                    }
                     e.prim_started = false;
                     e.snaps = 0;
                     e.reached_ms = None;
@@ -613,6 +665,7 @@ impl Controller {
             _ => {}
         }
         if let Some(task) = manual {
+            e.by_hand = true;
             e.waiting_manual = true;
             e.manual_confirmed = false;
             let (plan_id, step) = (e.plan.plan_id, e.step);
@@ -804,7 +857,8 @@ impl Controller {
             }
             Primitive::Manual(_) => {
                 if e.manual_confirmed {
-                    Progress::Done { evidence: true }
+                    // The person's word alone is no evidence: the check follows.
+                    Progress::Done { evidence: false }
                 } else {
                     Progress::Running
                 }
@@ -855,7 +909,16 @@ impl Controller {
         let (plan_id, idx, evidence) = (e.plan.plan_id, e.step, e.evidence);
         let duration_ms = now.saturating_sub(e.step_start_ms) as u32;
         let n_steps = e.plan.steps.len();
-        if from != to {
+        if from != to && e.by_hand {
+            if self.interrupted_belief(e) != Some(Belief::confirmed(to)) {
+                // The check did not find the trunk where the person said: what it found (or
+                // the candidates) stands, and the plan stops here.
+                self.raise(FaultCode::TransitionNotConfirmed);
+                return;
+            }
+            self.ident.last = self.ident.probe.take();
+            self.confirm_state(to);
+        } else if from != to {
             // Confirmed when a primitive completed on its snaps or a person's confirmation;
             // a step with neither is assumed, not confirmed: its target is the guess.
             if evidence {
@@ -912,6 +975,7 @@ impl Controller {
             e.rise.reset();
             e.relieving = false;
             e.pull = None;
+            e.by_hand = false;
         }
         let pre_release =
             self.pre_release_needed(self.exec.as_ref().and_then(|e| e.plan.steps.get(next)));

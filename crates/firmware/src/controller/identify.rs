@@ -40,6 +40,33 @@ pub const RATE_TOLERANCE: f32 = 0.05;
 /// D&D): the mean over seeds 1–3 through this probe on the simulator's calibrated trunk.
 pub const PROBE_SIGNATURES: [f32; 6] = [11.71, 10.81, 10.24, 14.08, 12.94, 12.82];
 
+/// Measured fill rate (kPa/s) of a trunk resting between named states, through this probe on
+/// the same trunk: the bottom half-packed (one layer of two, a stable well of its own) under the
+/// folded top (`F&P½`, seeds 1–3: 10.95, 11.09, 11.10) and under the deployed top (`D&P½`:
+/// 13.23, 13.18, 13.20). Where the candidates hold both neighbours of one (`F&P` and `F&F`,
+/// `D&P` and `D&F`: a step between them may have stopped half-way) and the rate is within
+/// [`RATE_TOLERANCE`] of it, the trunk may be between states, so the probe confirms nothing
+/// (F&F and F&P½ are 2 % apart, D&F and D&P½ 2 %, F&P and F&P½ 6 %).
+pub const BETWEEN_SIGNATURES: [f32; 2] = [11.05, 13.20];
+
+/// The probe's primitives: vent, settle sealed, fill, hold sealed (the measurement), vent.
+/// The identification plan runs them as two steps; a manual step runs them after the person's
+/// confirm (`docs/firmware.md`, "Manual steps: the check").
+pub const PROBE: [Primitive; 5] = [
+    Primitive::Vent { pressure_kpa: 0.0 },
+    Primitive::Hold {
+        duration_ms: SETTLE_MS,
+    },
+    Primitive::Inflate {
+        pressure_kpa: PROBE_KPA,
+        snaps: 0,
+    },
+    Primitive::Hold {
+        duration_ms: HOLD_MS,
+    },
+    Primitive::Vent { pressure_kpa: 0.0 },
+];
+
 /// The probe, as a plan within `state` (steps within one state change no belief): vent,
 /// settle, fill, hold; then vent.
 pub fn probe_plan(state: TrunkState) -> Plan {
@@ -50,23 +77,9 @@ pub fn probe_plan(state: TrunkState) -> Plan {
         primitives: prims.iter().copied().collect(),
         timeout_ms: 20_000,
     };
-    let measure = step(&[
-        Primitive::Vent { pressure_kpa: 0.0 },
-        Primitive::Hold {
-            duration_ms: SETTLE_MS,
-        },
-        Primitive::Inflate {
-            pressure_kpa: PROBE_KPA,
-            snaps: 0,
-        },
-        Primitive::Hold {
-            duration_ms: HOLD_MS,
-        },
-    ]);
-    let vent = step(&[Primitive::Vent { pressure_kpa: 0.0 }]);
     Plan {
         plan_id: IDENTIFY_PLAN_ID,
-        steps: [measure, vent].into_iter().collect(),
+        steps: [step(&PROBE[..4]), step(&PROBE[4..])].into_iter().collect(),
     }
 }
 
@@ -142,18 +155,25 @@ impl ProbeLog {
         Some(first - last > LEAK_DROP_KPA || self.filled_kpa - last > LEAK_DROP_KPA)
     }
 
-    /// The states consistent with the measurement (every state when it is incomplete or the
-    /// trunk leaks).
-    pub fn verdict(&self) -> StateSet {
+    /// The states consistent with the measurement, for narrowing `candidates`: every state
+    /// when it is incomplete, the trunk leaks, or the rate is also that of a trunk half-way
+    /// between two of the candidates ([`BETWEEN_SIGNATURES`]: such a reading narrows nothing).
+    pub fn verdict(&self, candidates: StateSet) -> StateSet {
         let (Some(rate), Some(false)) = (self.rate_kpa_per_s(), self.leaking()) else {
             return StateSet::ALL;
         };
+        let near = |want: f32| libm::fabsf(rate - want) <= RATE_TOLERANCE * want;
+        // F&P and F&F (bits 0, 1) around F&P½; D&P and D&F (bits 3, 4) around D&P½.
+        let between = [0b00011, 0b11000]
+            .into_iter()
+            .zip(BETWEEN_SIGNATURES)
+            .any(|(both, want)| candidates.0 & both == both && near(want));
+        if between {
+            return StateSet::ALL;
+        }
         TrunkState::ALL
             .iter()
-            .filter(|s| {
-                let want = PROBE_SIGNATURES[s.index()];
-                (rate - want).abs() <= RATE_TOLERANCE * want
-            })
+            .filter(|s| near(PROBE_SIGNATURES[s.index()]))
             .fold(StateSet::EMPTY, |set, s| set.with(*s))
     }
 }
@@ -191,24 +211,39 @@ mod tests {
     fn the_signatures_tell_what_they_can_and_no_more() {
         // Each state's own signature keeps it.
         for s in TrunkState::ALL {
-            let v = log(PROBE_SIGNATURES[s.index()]).verdict();
+            let v = log(PROBE_SIGNATURES[s.index()]).verdict(StateSet::EMPTY);
             assert!(v.contains(s), "{s}: {v:?}");
         }
-        assert_eq!(log(11.71).verdict(), set(&["F&P"]));
-        assert_eq!(log(14.08).verdict(), set(&["D&P"]));
+        assert_eq!(log(11.71).verdict(StateSet::EMPTY), set(&["F&P"]));
+        assert_eq!(log(14.08).verdict(StateSet::EMPTY), set(&["D&P"]));
         // D&F and D&D differ by 1 %: never told apart.
-        assert_eq!(log(12.9).verdict(), set(&["D&F", "D&D"]));
+        assert_eq!(log(12.9).verdict(StateSet::EMPTY), set(&["D&F", "D&D"]));
         // F&F and F&D: apart at their signatures, together where the windows touch.
-        assert_eq!(log(10.81).verdict(), set(&["F&F"]));
-        assert_eq!(log(10.5).verdict(), set(&["F&F", "F&D"]));
+        assert_eq!(log(10.81).verdict(StateSet::EMPTY), set(&["F&F"]));
+        assert_eq!(log(10.5).verdict(StateSet::EMPTY), set(&["F&F", "F&D"]));
         // A leaking trunk (1 kPa/s at 4 kPa) fills slower than its volume says: no verdict.
-        assert_eq!(log_leaking(11.71, 1.0).verdict(), StateSet::ALL);
-        assert_eq!(log_leaking(11.71, 0.1).verdict(), set(&["F&P"]));
+        assert_eq!(
+            log_leaking(11.71, 1.0).verdict(StateSet::EMPTY),
+            StateSet::ALL
+        );
+        assert_eq!(
+            log_leaking(11.71, 0.1).verdict(StateSet::EMPTY),
+            set(&["F&P"])
+        );
+        // A half-packed bottom reads as F&F or D&F would: not decisive where it may be.
+        let all = StateSet::ALL;
+        assert_eq!(log(10.81).verdict(all), all);
+        assert_eq!(log(12.94).verdict(all), all);
+        assert_eq!(log(11.71).verdict(all), set(&["F&P"]));
+        assert_eq!(log(14.08).verdict(all), set(&["D&P"]));
+        let hand = set(&["F&F", "D&F", "D&P"]);
+        assert_eq!(log(10.81).verdict(hand), set(&["F&F"]));
+        assert_eq!(log(12.94).verdict(hand), all);
         // Nothing fills this slowly.
-        assert!(log(8.0).verdict().is_empty());
+        assert!(log(8.0).verdict(StateSet::EMPTY).is_empty());
         // An incomplete probe says nothing.
         let mut l = ProbeLog::default();
         l.sample(1, 0, 200, 0.0);
-        assert_eq!(l.verdict(), StateSet::ALL);
+        assert_eq!(l.verdict(StateSet::EMPTY), StateSet::ALL);
     }
 }

@@ -265,6 +265,8 @@ pub struct Controller {
     /// [`TrunkState::index`]: computed once here (a plan's upload check needs the take-up of
     /// every step's `from`).
     take_up_mm: [f32; 6],
+    /// The shortenings every servo reaches alike ([`equal_pull_range`]), when the limits change.
+    pull_range_mm: (f32, f32),
     /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
     /// change.
     max_bend_deg: f32,
@@ -361,6 +363,7 @@ impl Controller {
             servo_target_deg: servo_deg,
             servos_enabled: faults == 0,
             take_up_mm,
+            pull_range_mm: equal_pull_range(&cfg),
             max_bend_deg,
             // Fail-closed: the controller boots holding (a reset while it carries a load must
             // not drop it; the GPIO set-up already drives the pin closed): it opens only when
@@ -491,8 +494,8 @@ impl Controller {
     }
 
     /// The display content now, in priority order: the pressure while show-pressure is held;
-    /// `E-xx` for the most recent active fault; `SAFE` after an abort; `HAnd` while a manual step
-    /// waits; otherwise the trunk state (`F-P ` …), with the last decimal point lit while a
+    /// `E-xx` for the most recent active fault; `SAFE` after an abort; the task while a manual
+    /// step waits (`H-Pb`, [`display::task`](crate::display::task)); otherwise the trunk state (`F-P ` …), with the last decimal point lit while a
     /// plan runs and the first one lit while the state is unconfirmed.
     pub fn poll_display(&self) -> [u8; 4] {
         use crate::display;
@@ -514,8 +517,8 @@ impl Controller {
         if self.safe || self.estop_latched {
             return display::text("SAFE");
         }
-        if self.exec.as_ref().is_some_and(|e| e.waiting_manual) {
-            return display::text("HAnd");
+        if let Some(t) = self.exec.as_ref().and_then(|e| e.waiting_task()) {
+            return display::task(t);
         }
         if let Some(s) = self.ident.asking {
             // "Is it this one?": the candidate with every decimal point lit.
@@ -602,6 +605,7 @@ impl Controller {
             gripper_closed: self.outputs.gripper_closed,
             estop: self.estop_latched,
             plan: self.plan_status,
+            manual_task: self.exec.as_ref().and_then(|e| e.waiting_task()),
             faults: self.faults,
             frames_rx: stats.frames_ok,
             frames_dropped: stats.frames_dropped,
@@ -1085,19 +1089,15 @@ impl Controller {
 
     /// The servo angles of a set of tendon shortenings, or `None` if one is outside the limits.
     fn angles_for(&self, length_mm: [f32; 3]) -> Option<[f32; 3]> {
-        let sc = &self.cfg.servo;
-        let deg_per_mm = 1.0 / sc.mm_per_deg();
-        let mut a = [0.0; 3];
-        for (i, l) in length_mm.iter().enumerate() {
-            if !(l.is_finite() && *l >= 0.0 && *l <= self.cfg.max_tendon_mm) {
-                return None;
-            }
-            a[i] = sc.slack_deg[i] + sc.pull_sign[i] * l * deg_per_mm;
-            if !sc.allows(a[i]) {
-                return None;
-            }
-        }
-        Some(a)
+        angles_for(&self.cfg, length_mm)
+    }
+
+    /// Whether all three tendons can be at `length_mm` (the same on each) within the servo
+    /// limits: exactly `angles_for([length_mm; 3]).is_some()`, in two comparisons (a plan's
+    /// upload checks every tendon primitive and `Bend` this way, all in one loop pass).
+    fn equal_pull_allowed(&self, length_mm: f32) -> bool {
+        let (lo, hi) = self.pull_range_mm;
+        lo <= length_mm && length_mm <= hi
     }
 
     /// Tendon shortenings for a constant-curvature bend around the state's taken-up slack: the
@@ -1335,6 +1335,67 @@ pub fn joystick_lengths_f32(
 /// `(sin φ_i, cos φ_i)` of the three tendons' angles (`geometry::tendon::TENDON_ANGLES`: 0°,
 /// 120°, 240°; a test holds them to the geometry crate's).
 const TENDON_DIRECTIONS: [(f32, f32); 3] = [(0.0, 1.0), (0.866_025_4, -0.5), (-0.866_025_4, -0.5)];
+
+/// The servo angles of a set of tendon shortenings, or `None` if one is outside the limits.
+fn angles_for(cfg: &CraneConfig, length_mm: [f32; 3]) -> Option<[f32; 3]> {
+    let sc = &cfg.servo;
+    let deg_per_mm = 1.0 / sc.mm_per_deg();
+    let mut a = [0.0; 3];
+    for (i, l) in length_mm.iter().enumerate() {
+        if !(l.is_finite() && *l >= 0.0 && *l <= cfg.max_tendon_mm) {
+            return None;
+        }
+        a[i] = sc.slack_deg[i] + sc.pull_sign[i] * l * deg_per_mm;
+        if !sc.allows(a[i]) {
+            return None;
+        }
+    }
+    Some(a)
+}
+
+/// The shortenings `l` with `angles_for(cfg, [l; 3]).is_some()`, as `(lo, hi)` (`lo > hi`:
+/// none), found exactly: that set is an interval of the floats, because each angle is a
+/// monotone function of `l` (a product with the fixed sign, one with the fixed degrees per
+/// mm, a sum with the fixed slack angle: every rounding step is monotone) and each test
+/// (finite, within the limits, within `0..=max_tendon_mm`) keeps an interval. So: a point of
+/// it from the closed form, then each end by bisection over the floats' bit patterns (in
+/// order for non-negative floats), ≤ 2 × 32 evaluations when the limits change.
+fn equal_pull_range(cfg: &CraneConfig) -> (f32, f32) {
+    const EMPTY: (f32, f32) = (1.0, 0.0);
+    let ok = |l: f32| angles_for(cfg, [l; 3]).is_some();
+    let sc = &cfg.servo;
+    let top = cfg.max_tendon_mm;
+    let mm_per_deg = sc.mm_per_deg();
+    let (mut lo, mut hi) = (0.0f32, top);
+    for i in 0..3 {
+        let a = (sc.min_deg - sc.slack_deg[i]) * mm_per_deg * sc.pull_sign[i];
+        let b = (sc.max_deg - sc.slack_deg[i]) * mm_per_deg * sc.pull_sign[i];
+        lo = lo.max(a.min(b));
+        hi = hi.min(a.max(b));
+    }
+    let Some(inside) = [(lo + hi) * 0.5, lo, hi, 0.0, top]
+        .into_iter()
+        .find(|&l| l >= 0.0 && ok(l))
+    else {
+        return EMPTY;
+    };
+    // The last float still `ok` walking from `inside` toward `outside` (bit patterns).
+    let edge = |inside: f32, outside: f32| {
+        let (mut a, mut b) = (inside.to_bits(), outside.to_bits());
+        while a.abs_diff(b) > 1 {
+            let m = a / 2 + b / 2 + (a & b & 1);
+            if ok(f32::from_bits(m)) {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        f32::from_bits(a)
+    };
+    let low = if ok(0.0) { 0.0 } else { edge(inside, 0.0) };
+    let high = if ok(top) { top } else { edge(inside, top) };
+    (low, high)
+}
 
 /// Every servo at its slack angle (zero shortening), within the limits.
 fn slack_angles(cfg: &CraneConfig) -> [f32; 3] {

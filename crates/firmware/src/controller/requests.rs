@@ -279,7 +279,7 @@ impl Controller {
             Primitive::Inflate { pressure_kpa, .. } => pressure_ok(pressure_kpa),
             Primitive::Vent { pressure_kpa } => pressure_ok(pressure_kpa),
             Primitive::TendonPull { length_mm, .. } | Primitive::TendonRelease { length_mm } => {
-                self.angles_for([length_mm; 3]).is_some()
+                self.equal_pull_allowed(length_mm)
             }
             Primitive::Hold { duration_ms } => duration_ms <= MAX_STEP_TIMEOUT_MS,
             Primitive::WaitSnap { timeout_ms } => {
@@ -302,7 +302,7 @@ impl Controller {
                     && (0.0..=180.0).contains(&angle_deg)
                     && !stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from))
                         .is_some_and(|limit_rad| angle_deg.to_radians() > limit_rad)
-                    && self.angles_for([worst_mm; 3]).is_some()
+                    && self.equal_pull_allowed(worst_mm)
             }
         }
     }
@@ -402,12 +402,14 @@ impl Controller {
                     return reject(RejectReason::OutOfRange);
                 }
                 self.cfg.servo.min_deg = value;
+                self.pull_range_mm = super::equal_pull_range(&self.cfg);
             }
             ParamId::ServoMaxDeg => {
                 if value < self.cfg.servo.min_deg {
                     return reject(RejectReason::OutOfRange);
                 }
                 self.cfg.servo.max_deg = value;
+                self.pull_range_mm = super::equal_pull_range(&self.cfg);
             }
             ParamId::ServoSlewDegPerS => self.cfg.servo.slew_deg_per_s = value,
             ParamId::TelemetryHz => {

@@ -30,7 +30,9 @@ const KPA_PER_MM: f32 = 0.12;
 /// A tendon snap's visible spike (the tendons stretch and the trunk jumps shorter).
 const TENDON_SPIKE_KPA: f32 = 2.0;
 
-/// A crude trunk: a pressure node filled by the inlet at 10 kPa/s, emptied by the exhaust
+/// A crude trunk: a pressure node filled by the inlet at 10 kPa/s (or, with `volume_fill`, below
+/// 5 kPa at the state's probe signature: a smaller gas volume fills faster, as in the
+/// simulator), emptied by the exhaust
 /// (time constant 200 ms); the sealed gas changes with the trunk's height (0.12 kPa/mm); the
 /// tendons pin the height once taut; snaps at fixed thresholds between the nominal
 /// catalogue's pressures and lengths.
@@ -45,6 +47,8 @@ struct Plant {
     hole_per_s: f32,
     /// What the open inlet adds per second.
     inlet_kpa_per_s: f32,
+    /// Below 5 kPa the inlet fills at the state's probe signature.
+    volume_fill: bool,
     /// The inlet never opens (stuck closed, or the supply is off).
     inlet_blocked: bool,
     /// Snaps disabled (a trunk that does not move).
@@ -71,6 +75,7 @@ impl Plant {
             leak_kpa_per_s: 0.0,
             hole_per_s: 0.0,
             inlet_kpa_per_s: 10.0,
+            volume_fill: false,
             inlet_blocked: false,
             stuck: false,
             tendon_spike: true,
@@ -113,6 +118,13 @@ impl Plant {
         self.height_mm = h;
     }
 
+    /// A person folds the trunk into `state` by hand.
+    fn by_hand(&mut self, state: TrunkState) {
+        self.state = state;
+        self.pack_snaps = 0;
+        self.settle_volume();
+    }
+
     fn pressure_threshold(state: TrunkState) -> Option<f32> {
         // Between the catalogue's inflate targets: unpack 14, pop top 22, deploy bottom 34.
         match (state.top, state.bottom) {
@@ -129,7 +141,13 @@ impl Plant {
             self.inlet_stuck_open = true;
         }
         if (out.inlet_open && !self.inlet_blocked) || self.inlet_stuck_open {
-            self.p_kpa += self.inlet_kpa_per_s * dt;
+            let rate = if self.volume_fill && self.p_kpa < 5.0 {
+                // 4 % over: the 8 ms filter's lag slows the fill the probe measures by ≈ 3 %.
+                identify::PROBE_SIGNATURES[self.state.index()] * 1.04
+            } else {
+                self.inlet_kpa_per_s
+            };
+            self.p_kpa += rate * dt;
         }
         self.p_kpa -= self.p_kpa * self.hole_per_s * dt;
         if out.exhaust_open {
@@ -1097,7 +1115,14 @@ fn manual_step_waits_for_the_button_or_the_host() {
         r.run(100);
         assert_eq!(r.ctl.mode(), Mode::WaitingManual);
         assert_eq!(r.ctl.status().plan.unwrap().phase, PlanPhase::WaitingManual);
-        assert_eq!(r.ctl.poll_display(), display::text("HAnd"));
+        assert_eq!(
+            r.ctl.poll_display(),
+            display::task(ManualTask::PackBottomModule)
+        );
+        assert_eq!(
+            r.ctl.status().manual_task,
+            Some(ManualTask::PackBottomModule)
+        );
         assert!(r.events().any(|e| *e
             == Event::ManualRequired {
                 plan_id: 4,
@@ -1106,16 +1131,66 @@ fn manual_step_waits_for_the_button_or_the_host() {
             }));
         r.run(5_000);
         assert_eq!(r.ctl.mode(), Mode::WaitingManual);
+        r.plant.volume_fill = true;
+        r.plant.by_hand(DP);
+        r.run(100);
         if by_button {
             r.press(|b, v| b.confirm = v);
         } else {
             assert_eq!(r.request(RequestBody::ConfirmManual).0, ResultCode::Ok);
         }
+        // The person's word is checked: the probe finds the trunk packed.
         r.run(20);
+        assert_eq!(r.ctl.mode(), Mode::Running);
+        assert_eq!(r.ctl.status().manual_task, None);
+        r.run_until(5_000, |r| r.plan_done().is_some());
         assert_eq!(r.plan_done(), Some((true, DP)));
         assert_eq!(r.ctl.status().state, DP);
         assert!(r.ctl.status().state_confirmed);
     }
+}
+
+#[test]
+fn a_persons_confirm_is_checked_and_never_taken_for_the_truth() {
+    // Asked to pack the bottom (D&F → D&P), the person does nothing, or folds the top by
+    // mistake, and confirms: the probe finds the trunk where it is, the step fails (E-04). It
+    // confirms F&F; not D&F, which fills as a half-packed bottom under the top would (2 %
+    // apart), and a person packing by hand may have stopped half-way: that reading narrows
+    // nothing.
+    let hand = protocol::StateSet::EMPTY.with(DF).with(DP).with(FF);
+    for (done, found, left) in [(DF, DF, hand), (FF, FF, protocol::StateSet::single(FF))] {
+        let mut r = Rig::connected(DF);
+        r.heartbeat_every_ms = 250;
+        r.upload_and_start(Rig::plan(4, &[DF, DP]));
+        r.run(1_000);
+        r.plant.volume_fill = true;
+        r.plant.by_hand(done);
+        r.run(100);
+        assert_eq!(r.request(RequestBody::ConfirmManual).0, ResultCode::Ok);
+        r.run_until(5_000, |r| r.plan_done().is_some());
+        assert_eq!(r.plan_done(), Some((false, found)), "{done}");
+        assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+        let st = r.ctl.status();
+        assert_eq!((st.state, st.candidates), (found, left), "{done}");
+        assert_eq!(st.state_confirmed, left.only().is_some(), "{done}");
+        // The probe vented what it put in.
+        assert!(r.plant.p_kpa < 1.0, "{}", r.plant.p_kpa);
+    }
+    // A leaking trunk voids the probe: unconfirmed among what a hand can make of D&F.
+    let mut r = Rig::connected(DF);
+    r.heartbeat_every_ms = 250;
+    r.upload_and_start(Rig::plan(4, &[DF, DP]));
+    r.run(1_000);
+    r.plant.volume_fill = true;
+    r.plant.by_hand(DP);
+    r.plant.hole_per_s = 2.0;
+    r.run(100);
+    assert_eq!(r.request(RequestBody::ConfirmManual).0, ResultCode::Ok);
+    r.run_until(20_000, |r| r.plan_done().is_some());
+    assert_eq!(r.plan_done().map(|d| d.0), Some(false));
+    let st = r.ctl.status();
+    assert!(!st.state_confirmed);
+    assert_eq!(st.candidates, hand, "{st:?}");
 }
 
 #[test]
@@ -1874,6 +1949,81 @@ fn display_shows_pressure_on_request() {
     r.buttons.show_pressure = false;
     r.run(1);
     assert_eq!(r.ctl.poll_display(), display::text("F-P "));
+}
+
+/// The upload check's two comparisons (`equal_pull_range`) accept exactly the shortenings
+/// `angles_for` accepts on all three servos, at and around both ends (every float within 4 ulp)
+/// and across the range, for servos mounted either way, narrow, single-angle and unreachable
+/// limits.
+#[test]
+fn the_equal_pull_range_is_exactly_where_angles_for_succeeds() {
+    let mut cfgs = StdVec::<CraneConfig>::new();
+    let base = CraneConfig::default();
+    cfgs.push(base);
+    let mut c = base;
+    c.servo.pull_sign = [-1.0, 1.0, -1.0];
+    c.servo.slack_deg = [180.0, 0.0, 175.0];
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.min_deg = 10.0;
+    c.servo.max_deg = 20.0;
+    c.servo.slack_deg = [12.0, 11.0, 15.0];
+    cfgs.push(c);
+    // Tendon 1 needs ≥ 10.5 mm to reach 10°, tendon 0 allows ≤ 8.4 mm: nothing.
+    c.servo.slack_deg = [12.0, 0.0, 15.0];
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.min_deg = 90.0;
+    c.servo.max_deg = 90.0;
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.min_deg = 170.0;
+    c.servo.max_deg = 180.0;
+    c.max_tendon_mm = 20.0;
+    cfgs.push(c);
+    let mut c = base;
+    c.servo.spool_radius_mm = 7.3;
+    c.servo.slack_deg = [3.3, 41.0, 0.7];
+    cfgs.push(c);
+    for (k, cfg) in cfgs.iter().enumerate() {
+        let cfg = cfg.validated();
+        let (lo, hi) = equal_pull_range(&cfg);
+        let check = |l: f32| {
+            let want = angles_for(&cfg, [l; 3]).is_some();
+            assert_eq!(
+                lo <= l && l <= hi,
+                want,
+                "config {k}: {l} (range {lo}..={hi})"
+            );
+        };
+        let near = |x: f32| {
+            let mut v = x;
+            for _ in 0..4 {
+                v = v.next_down();
+            }
+            for _ in 0..9 {
+                check(v);
+                v = v.next_up();
+            }
+        };
+        for x in [lo, hi, 0.0, -0.0, cfg.max_tendon_mm] {
+            if x.is_finite() {
+                near(x);
+            }
+        }
+        for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0, 1e30] {
+            check(x);
+        }
+        for i in 0..=20_000 {
+            check(-5.0 + (cfg.max_tendon_mm + 10.0) * i as f32 / 20_000.0);
+        }
+        if k == 5 {
+            assert!(lo > hi, "config {k}: nothing reachable, {lo}..={hi}");
+        } else if k != 3 {
+            // (3: a single angle, 90°, may be hit by no float at all.)
+            assert!(lo <= hi, "config {k}: {lo}..={hi}");
+        }
+    }
 }
 
 #[test]

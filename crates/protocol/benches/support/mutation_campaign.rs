@@ -84,6 +84,7 @@ pub fn samples() -> Vec<Sample> {
             steps: 2,
             phase: PlanPhase::Aborted,
         }),
+        manual_task: None,
         faults: FaultCode::Leak.bit(),
         frames_rx: 12_345,
         frames_dropped: 3,

@@ -48,7 +48,7 @@ fn primitive() -> impl Strategy<Value = Primitive> {
     ]
 }
 
-fn step() -> impl Strategy<Value = Step> {
+pub fn step() -> impl Strategy<Value = Step> {
     (
         prop_oneof![
             Just(StepKind::Pneumatic),
@@ -233,7 +233,11 @@ fn status() -> impl Strategy<Value = Status> {
             ),
         ),
         (any::<u16>(), any::<u32>(), any::<u32>(), any::<u32>()),
-        (any::<u8>(), proptest::option::of(transition())),
+        (
+            any::<u8>(),
+            proptest::option::of(transition()),
+            proptest::option::of(manual_task()),
+        ),
     )
         .prop_map(
             |(
@@ -241,7 +245,7 @@ fn status() -> impl Strategy<Value = Status> {
                 [inlet_open, exhaust_open, gripper_closed, estop],
                 plan,
                 (faults, frames_rx, frames_dropped, uptime_ms),
-                (candidates, interrupted),
+                (candidates, interrupted, manual_task),
             )| Status {
                 state,
                 state_confirmed,
@@ -255,6 +259,7 @@ fn status() -> impl Strategy<Value = Status> {
                 gripper_closed,
                 estop,
                 plan,
+                manual_task,
                 faults,
                 frames_rx,
                 frames_dropped,

@@ -62,6 +62,7 @@ pub fn status_response() -> DeviceMessage {
                 steps: 8,
                 phase: PlanPhase::Failed(FaultCode::StateStorage),
             }),
+            manual_task: Some(ManualTask::FoldBottomModule),
             faults: u16::MAX,
             frames_rx: u32::MAX,
             frames_dropped: u32::MAX,

@@ -194,6 +194,8 @@ pub fn render(t: &Traces, title: &str) -> Option<Figure> {
             "All three servo commands stay at {}° throughout.",
             crate::figure::number(v, 1)
         ));
+    } else if tel.iter().all(|s| s.2[0] == s.2[1] && s.2[1] == s.2[2]) {
+        notes.push("The three servo commands are equal throughout (one trace).".to_string());
     }
     let note_lines: Vec<String> = notes
         .iter()

@@ -12,6 +12,7 @@ import sys
 
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader, make_reader
+from mcap_protobuf.decoder import DecoderFactory
 
 TOPICS = {
     "/telemetry": "crane.Telemetry",
@@ -25,7 +26,11 @@ TOPICS = {
     "/plan": "crane.Plan",
     "/run": "crane.RunEvent",
     "/sim/truth": "crane.GroundTruth",
+    "/scene": "foxglove.SceneUpdate",
+    "/tf": "foxglove.FrameTransforms",
 }
+# Foxglove's well-known scene types are protobuf (their schema: the FileDescriptorSet).
+PROTOBUF = {"/scene", "/tf"}
 
 passed = 0
 failed = 0
@@ -46,10 +51,17 @@ def read_all(path):
     with open(path, "rb") as f:
         r = make_reader(f)
         summary = r.get_summary()
-        msgs = [
-            (ch.topic, sch.name if sch else None, m.log_time, json.loads(m.data))
-            for sch, ch, m in r.iter_messages(log_time_order=False)
-        ]
+        protobuf = DecoderFactory()
+        decoders = {}
+        msgs = []
+        for sch, ch, m in r.iter_messages(log_time_order=False):
+            if ch.topic in PROTOBUF:
+                if ch.id not in decoders:
+                    decoders[ch.id] = protobuf.decoder_for(ch.message_encoding, sch)
+                data = decoders[ch.id](m.data)
+            else:
+                data = json.loads(m.data)
+            msgs.append((ch.topic, sch.name if sch else None, m.log_time, data))
     return summary, msgs
 
 
@@ -57,10 +69,18 @@ def common(path):
     summary, msgs = read_all(path)
     topics = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
     check(topics == TOPICS, f"{path}: channels and schemas {sorted(topics)}")
-    encodings = {summary.schemas[c.schema_id].encoding for c in summary.channels.values()}
-    check(encodings == {"jsonschema"}, f"jsonschema schemas ({encodings})")
-    for s in summary.schemas.values():
-        json.loads(s.data)  # every schema is JSON
+    encodings = {
+        c.topic: (summary.schemas[c.schema_id].encoding, c.message_encoding)
+        for c in summary.channels.values()
+    }
+    check(
+        all(e == (("protobuf", "protobuf") if t in PROTOBUF else ("jsonschema", "json"))
+            for t, e in encodings.items()),
+        "JSON schemas and messages; protobuf for the scene types",
+    )
+    for c in summary.channels.values():
+        if c.topic not in PROTOBUF:
+            json.loads(summary.schemas[c.schema_id].data)  # every JSON schema is JSON
     counts = {}
     for t, *_ in msgs:
         counts[t] = counts.get(t, 0) + 1
@@ -121,6 +141,32 @@ def plan(path, plan_json):
     outcome = [d for t, _, _, d in msgs if t == "/run" and d["kind"] == "outcome"]
     check(len(outcome) == 1 and outcome[0]["detail"]["ok"] is True, "the outcome is recorded")
     check(counts.get("/faults", 0) == 0, "no faults")
+    scene(msgs, out["final_state"])
+
+
+def scene(msgs, final_state):
+    """The trunk's scene, decoded from its protobuf with the schema in the file."""
+    scenes = [(lt, d) for t, _, lt, d in msgs if t == "/scene"]
+    tfs = [(lt, d) for t, _, lt, d in msgs if t == "/tf"]
+    tel_times = {lt for t, _, lt, _ in msgs if t == "/telemetry"}
+    check(len(scenes) >= 10 and len(tfs) == len(scenes),
+          f"{len(scenes)} scenes, {len(tfs)} tip transforms")
+    check(all(lt in tel_times for lt, _ in scenes), "each scene stamped with its sample's time")
+    ok = True
+    for lt, u in scenes:
+        ok &= [e.id for e in u.entities] == ["module-0", "module-1"]
+        for e in u.entities:
+            ok &= e.frame_id == "base"
+            ok &= e.timestamp.seconds * 1_000_000_000 + e.timestamp.nanos == lt
+            tri = e.triangles[0]
+            ok &= len(tri.indices) % 3 == 0 and max(tri.indices) < len(tri.points)
+    check(ok, "two module entities in frame base, valid triangle lists, device-time stamps")
+    top = lambda u: max(p.z for e in u.entities for p in e.triangles[0].points)
+    check(top(scenes[-1][1]) > top(scenes[0][1]) + 0.1,
+          f"the trunk grows: {top(scenes[0][1]):.3f} m → {top(scenes[-1][1]):.3f} m")
+    label = scenes[-1][1].entities[1].texts[0].text
+    check(label.startswith(final_state), f"last scene's label: {label}")
+    check(all(t.transforms[0].child_frame_id == "tip" for _, t in tfs), "tip frames")
 
 
 def monitor(path, printed):

@@ -63,6 +63,7 @@ pub struct PtySim {
     stop: Arc<AtomicBool>,
     truth: Arc<Mutex<Option<GroundTruth>>>,
     thread: Option<JoinHandle<()>>,
+    clock: (Instant, u64),
 }
 
 impl PtySim {
@@ -96,7 +97,7 @@ impl PtySim {
         // first ground truth, or why it could not start, comes back over a channel.
         let truth = Arc::new(Mutex::new(None::<GroundTruth>));
         let stop = Arc::new(AtomicBool::new(false));
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(), String>>(1);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Instant, u64), String>>(1);
         let thread = {
             let (truth, stop) = (Arc::clone(&truth), Arc::clone(&stop));
             std::thread::Builder::new()
@@ -105,8 +106,9 @@ impl PtySim {
                     match Sim::try_new(opts).map(|s| s.with_link_timeout_ms(link_timeout_ms)) {
                         Ok(sim) => {
                             *lock(&truth) = Some(sim.ground_truth());
-                            let _ = tx.send(Ok(()));
-                            serve(sim, pty.master, pty.slave, &stop, &truth, log);
+                            let clock = (Instant::now(), sim.now_ms());
+                            let _ = tx.send(Ok(clock));
+                            serve(sim, clock, pty.master, pty.slave, &stop, &truth, log);
                         }
                         Err(e) => {
                             let _ = tx.send(Err(e.to_string()));
@@ -115,20 +117,28 @@ impl PtySim {
                 })
                 .context("starting the simulator thread")?
         };
-        match rx.recv() {
-            Ok(Ok(())) => {}
+        let clock = match rx.recv() {
+            Ok(Ok(clock)) => clock,
             Ok(Err(e)) => {
                 let _ = thread.join();
                 anyhow::bail!("{e}");
             }
             Err(_) => anyhow::bail!("the simulator thread died while starting"),
-        }
+        };
         Ok(PtySim {
             path,
             stop,
             truth,
             thread: Some(thread),
+            clock,
         })
+    }
+
+    /// The wall instant at which the simulator's clock read `virt0`, `(instant, virt0)`:
+    /// virtual time `v` is reached at `instant + (v − virt0) / speed` (within one loop pass),
+    /// so an outside client can map the device's time to its own clock.
+    pub fn clock(&self) -> (Instant, u64) {
+        self.clock
     }
 
     /// The device path a serial client opens (e.g. `/dev/pts/7`).
@@ -172,6 +182,7 @@ fn lock(m: &Mutex<Option<GroundTruth>>) -> std::sync::MutexGuard<'_, Option<Grou
 /// The simulator thread: moves bytes between the pty and the sim, and runs the sim.
 fn serve(
     mut sim: Sim,
+    (start, v0): (Instant, u64),
     master: OwnedFd,
     // Held open so the pty stays usable while no client has it open.
     _slave: OwnedFd,
@@ -191,8 +202,6 @@ fn serve(
         }
     }
     let speed = sim.options().speed;
-    let start = Instant::now();
-    let v0 = sim.now_ms();
     let mut pending: Vec<u8> = Vec::new();
     let mut buf = [0u8; 4096];
     let mut last_truth = Instant::now();

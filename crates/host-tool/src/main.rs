@@ -49,8 +49,10 @@ mod cmd;
 mod device;
 mod failure;
 mod figure;
+mod live;
 mod progress;
 mod record;
+mod scene;
 mod sim;
 mod transport;
 

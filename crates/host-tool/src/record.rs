@@ -28,6 +28,10 @@ pub const FLUSH_PERIOD_MS: u64 = 1000;
 const CHUNK_SIZE: u64 = 256 * 1024;
 /// Ground-truth samples per second (simulator only).
 pub const TRUTH_HZ: u64 = 50;
+/// Shortest host time between two scenes while the bend or the pressure moves: 20 Hz.
+pub const SCENE_PERIOD_MS: u64 = 50;
+/// Longest host time between two scenes (a viewer that joins sees the trunk within it).
+pub const SCENE_KEEPALIVE_MS: u64 = 1000;
 
 /// The recording's channels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,10 +58,14 @@ pub enum Topic {
     Run,
     /// The simulator's ground truth.
     Truth,
+    /// The trunk's 3D shape (`foxglove.SceneUpdate`, protobuf).
+    Scene,
+    /// The tip's frame (`foxglove.FrameTransforms`, protobuf).
+    Transforms,
 }
 
 /// Every topic, in channel-id order.
-pub const TOPICS: [Topic; 11] = [
+pub const TOPICS: [Topic; 13] = [
     Topic::Telemetry,
     Topic::Events,
     Topic::Faults,
@@ -69,6 +77,8 @@ pub const TOPICS: [Topic; 11] = [
     Topic::Plan,
     Topic::Run,
     Topic::Truth,
+    Topic::Scene,
+    Topic::Transforms,
 ];
 
 impl Topic {
@@ -86,6 +96,8 @@ impl Topic {
             Topic::Plan => "/plan",
             Topic::Run => "/run",
             Topic::Truth => "/sim/truth",
+            Topic::Scene => "/scene",
+            Topic::Transforms => "/tf",
         }
     }
 
@@ -103,6 +115,33 @@ impl Topic {
             Topic::Plan => "crane.Plan",
             Topic::Run => "crane.RunEvent",
             Topic::Truth => "crane.GroundTruth",
+            Topic::Scene => "foxglove.SceneUpdate",
+            Topic::Transforms => "foxglove.FrameTransforms",
+        }
+    }
+
+    /// How its messages are encoded: `json`, or `protobuf` for Foxglove's scene types.
+    pub const fn message_encoding(self) -> &'static str {
+        match self {
+            Topic::Scene | Topic::Transforms => "protobuf",
+            _ => "json",
+        }
+    }
+
+    /// The schema as written to the file and advertised live: (encoding, data).
+    pub fn schema_record(self) -> (&'static str, Vec<u8>) {
+        use foxglove::Encode as _;
+        let sdk = match self {
+            Topic::Scene => foxglove::messages::SceneUpdate::get_schema(),
+            Topic::Transforms => foxglove::messages::FrameTransforms::get_schema(),
+            _ => None,
+        };
+        match sdk {
+            Some(s) => ("protobuf", s.data.into_owned()),
+            None => (
+                "jsonschema",
+                serde_json::to_vec(&self.schema()).expect("a JSON value serialises"),
+            ),
         }
     }
 
@@ -156,6 +195,8 @@ impl Topic {
                 ],
             ),
             Topic::Log => return foxglove_log_schema(),
+            // Protobuf: their schema is the SDK's descriptor ([`Topic::schema_record`]).
+            Topic::Scene | Topic::Transforms => return json!({}),
             Topic::Requests => (
                 "A request sent to the device (decoded)",
                 json!({"host_ms": int, "seq": int, "session": int, "name": string, "body": any}),
@@ -245,6 +286,12 @@ pub struct Recording {
     last_log_ns: u64,
     last_flush_ms: u64,
     failed: Option<String>,
+    /// The live view, if one is served: every message goes there too.
+    live: Option<crate::live::Live>,
+    /// The trunk's scene builder (from the device's handshake).
+    scene: Option<crate::scene::Scene>,
+    /// The last sample drawn, and when (host ms).
+    last_scene: Option<(crate::scene::Sample, u64)>,
 }
 
 impl std::fmt::Debug for Recording {
@@ -272,18 +319,32 @@ impl Recording {
             .with_context(|| format!("cannot write the recording {}", path.display()))?;
         let mut channels = [0u16; TOPICS.len()];
         for (i, t) in TOPICS.iter().enumerate() {
-            let schema = serde_json::to_vec(&t.schema()).expect("a JSON value serialises");
-            let sid = w.add_schema(t.schema_name(), "jsonschema", &schema)?;
-            channels[i] = w.add_channel(sid, t.name(), "json", &BTreeMap::new())?;
+            let (encoding, schema) = t.schema_record();
+            let sid = w.add_schema(t.schema_name(), encoding, &schema)?;
+            channels[i] = w.add_channel(sid, t.name(), t.message_encoding(), &BTreeMap::new())?;
         }
         w.write_metadata(&mcap::records::Metadata {
             name: "session".into(),
             metadata,
         })?;
         w.flush()?;
-        Ok(Self {
-            path: path.to_path_buf(),
-            writer: Some(w),
+        Ok(Self::new(path.to_path_buf(), Some(w), channels, None))
+    }
+
+    /// No file: the messages go to the live view only.
+    pub fn live_only(live: crate::live::Live) -> Self {
+        Self::new(PathBuf::new(), None, [0; TOPICS.len()], Some(live))
+    }
+
+    fn new(
+        path: PathBuf,
+        writer: Option<mcap::Writer<BufWriter<File>>>,
+        channels: [u16; TOPICS.len()],
+        live: Option<crate::live::Live>,
+    ) -> Self {
+        Self {
+            path,
+            writer,
             channels,
             sequence: 0,
             counts: [0; TOPICS.len()],
@@ -291,14 +352,35 @@ impl Recording {
             last_log_ns: 0,
             last_flush_ms: 0,
             failed: None,
-        })
+            live,
+            scene: None,
+            last_scene: None,
+        }
+    }
+
+    /// Serves every message live too.
+    pub fn attach_live(&mut self, live: crate::live::Live) {
+        self.live = Some(live);
+    }
+
+    /// Whether a message on `topic` goes anywhere (a file, or a live subscriber).
+    fn wanted(&self, topic: Topic) -> bool {
+        self.writer.is_some() || self.live.as_ref().is_some_and(|l| l.wanted(topic))
     }
 
     /// Writes one message. `device_ms`: the device's time if the message carries it.
     pub fn write(&mut self, topic: Topic, host_ms: u64, device_ms: Option<u64>, msg: &Value) {
-        let Some(w) = self.writer.as_mut() else {
-            return;
+        let data = if self.wanted(topic) {
+            serde_json::to_vec(msg).expect("a JSON value serialises")
+        } else {
+            Vec::new()
         };
+        self.write_bytes(topic, host_ms, device_ms, &data);
+    }
+
+    /// Writes one encoded message (the log time as [`Recording::write`]); the file's copy and
+    /// the live one are the same bytes.
+    pub fn write_bytes(&mut self, topic: Topic, host_ms: u64, device_ms: Option<u64>, data: &[u8]) {
         if let Some(d) = device_ms {
             self.offset_ms = Some(d as i64 - host_ms as i64);
         }
@@ -306,15 +388,20 @@ impl Recording {
             .unwrap_or_else(|| (host_ms as i64 + self.offset_ms.unwrap_or(0)).max(0) as u64);
         let log_ns = (log_ms * 1_000_000).max(self.last_log_ns);
         self.last_log_ns = log_ns;
+        if let (Some(live), false) = (&self.live, data.is_empty()) {
+            live.log(topic, data, log_ns);
+        }
+        let Some(w) = self.writer.as_mut() else {
+            return;
+        };
         self.sequence = self.sequence.wrapping_add(1);
-        let data = serde_json::to_vec(msg).expect("a JSON value serialises");
         let header = mcap::records::MessageHeader {
             channel_id: self.channels[topic as usize],
             sequence: self.sequence,
             log_time: log_ns,
             publish_time: host_ms * 1_000_000,
         };
-        let mut result = w.write_to_known_channel(&header, &data);
+        let mut result = w.write_to_known_channel(&header, data);
         if result.is_ok() && host_ms >= self.last_flush_ms + FLUSH_PERIOD_MS {
             self.last_flush_ms = host_ms;
             result = w.flush();
@@ -390,6 +477,9 @@ impl Recording {
         self.raw(host_ms, "rx", frame, decoded.is_ok(), device_ms);
         match decoded {
             Ok(DeviceMessage::Response { seq, result, body }) => {
+                if let ResponseBody::Hello(info) = &body {
+                    self.set_trunk(&info.trunk);
+                }
                 let v = json!({
                     "host_ms": host_ms,
                     "seq": seq,
@@ -431,6 +521,64 @@ impl Recording {
         self.write(Topic::Frames, host_ms, device_ms, &v);
     }
 
+    /// The trunk the device reported: the scene is built for it.
+    fn set_trunk(&mut self, trunk: &protocol::TrunkConfig) {
+        match crate::scene::Scene::new(trunk) {
+            Ok(s) => self.scene = Some(s),
+            Err(e) => {
+                self.scene = None;
+                crate::say!("no 3D scene for the device's trunk: {e}");
+            }
+        }
+        self.last_scene = None;
+    }
+
+    /// The scene and the tip's frame for a telemetry sample: at once when the state (or its
+    /// confidence) changed; when the bend or the pressure moved, at most every
+    /// [`SCENE_PERIOD_MS`]; and at least every [`SCENE_KEEPALIVE_MS`].
+    fn draw(&mut self, host_ms: u64, t: &Telemetry) {
+        let sample = crate::scene::Sample {
+            state: t.state,
+            confirmed: t.state_confirmed,
+            servo_deg: t.servo_deg,
+            pressure_kpa: t.pressure_kpa,
+        };
+        let due = match self.last_scene {
+            None => true,
+            Some((last, at)) => {
+                let new_state = last.state != sample.state || last.confirmed != sample.confirmed;
+                let moved = (0..3).any(|i| (last.servo_deg[i] - sample.servo_deg[i]).abs() >= 0.25)
+                    || (last.pressure_kpa - sample.pressure_kpa).abs() >= 0.25;
+                new_state
+                    || (moved && host_ms >= at + SCENE_PERIOD_MS)
+                    || host_ms >= at + SCENE_KEEPALIVE_MS
+            }
+        };
+        if !due || !(self.wanted(Topic::Scene) || self.wanted(Topic::Transforms)) {
+            return;
+        }
+        let Some(scene) = self.scene.as_mut() else {
+            return;
+        };
+        let device_ms = u64::from(t.uptime_ms);
+        match scene.build(&sample, device_ms * 1_000_000) {
+            Ok((update, tf)) => {
+                use foxglove::Encode as _;
+                let mut buf = Vec::new();
+                let _ = update.encode(&mut buf);
+                self.write_bytes(Topic::Scene, host_ms, Some(device_ms), &buf);
+                buf.clear();
+                let _ = tf.encode(&mut buf);
+                self.write_bytes(Topic::Transforms, host_ms, Some(device_ms), &buf);
+            }
+            Err(e) => {
+                crate::say!("no 3D scene for {}: {e}", sample.state);
+                self.scene = None;
+            }
+        }
+        self.last_scene = Some((sample, host_ms));
+    }
+
     fn event(&mut self, host_ms: u64, ev: &Event) {
         if let Event::Telemetry(t) = ev {
             self.write(
@@ -439,6 +587,7 @@ impl Recording {
                 Some(u64::from(t.uptime_ms)),
                 &telemetry_json(t, host_ms),
             );
+            self.draw(host_ms, t);
             return;
         }
         let device_ms = match ev {

@@ -55,6 +55,10 @@ fn a_recorded_plan_survives_a_writer_cut_short() {
     assert!((500..=530).contains(&count(&text, "/sim/truth")), "{text}");
     assert_eq!(count(&text, "/plan"), 1);
     assert_eq!(count(&text, "/faults"), 0);
+    // The trunk's scene: at every state change, at most 20 Hz while it moves, ≥ 1 Hz.
+    let scenes = count(&text, "/scene");
+    assert!((10..=210).contains(&scenes), "{text}");
+    assert_eq!(count(&text, "/tf"), scenes);
     let requests = count(&text, "/link/requests");
     let responses = count(&text, "/link/responses");
     // Every request is answered but the last `Close`, which is not waited for.

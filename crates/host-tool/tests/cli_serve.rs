@@ -3,36 +3,21 @@
 //! third prints samples; a server that dies is reported by its clients. Each test has its own
 //! socket directory (XDG_RUNTIME_DIR).
 
+#[path = "support/cli.rs"]
+mod cli;
+
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
-fn cmd(dir: &Path, args: &[&str]) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_host-tool"));
-    c.args(args)
-        .env("XDG_RUNTIME_DIR", dir)
-        .stdin(Stdio::null());
-    c
-}
+use cli::cmd;
 
-fn temp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("cli-serve-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Starts `serve` and waits for its "serving" line (it listens from then on).
+/// Starts `serve` on the simulator and waits for its "serving" line (it listens from then on).
 fn serve(dir: &Path, extra: &[&str]) -> Child {
     let mut args = vec!["serve", "--sim", "--seed", "7", "--sim-speed", "2"];
     args.extend_from_slice(extra);
-    let mut child = cmd(dir, &args).stderr(Stdio::piped()).spawn().unwrap();
-    let mut err = BufReader::new(child.stderr.take().unwrap());
-    let mut line = String::new();
-    err.read_line(&mut line).unwrap();
+    let (child, line) = cli::serve(dir, &args);
     assert!(line.starts_with("serving the simulator on "), "{line}");
-    // Keep draining its stderr so it never blocks on a full pipe.
-    std::thread::spawn(move || for _ in err.lines() {});
     child
 }
 
@@ -64,7 +49,7 @@ fn wait_for(err: &mut BufReader<std::process::ChildStderr>, what: &str) -> Strin
 
 #[test]
 fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
-    let dir = temp("stop");
+    let dir = cli::temp("serve-stop");
     let rec = dir.join("serve.mcap");
     let mut server = serve(&dir, &["--record", rec.to_str().unwrap()]);
     let (mut planner, mut progress) = plan(&dir);
@@ -153,7 +138,7 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
 
 #[test]
 fn clients_say_the_server_went_away_when_it_dies() {
-    let dir = temp("gone");
+    let dir = cli::temp("serve-gone");
     let mut server = serve(&dir, &["--no-record"]);
     let (mut planner, mut progress) = plan(&dir);
     wait_for(&mut progress, "step 1/3 started");
@@ -171,7 +156,7 @@ fn clients_say_the_server_went_away_when_it_dies() {
 #[test]
 fn the_socket_is_the_users_only_and_param_goes_through_the_server() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = temp("perm");
+    let dir = cli::temp("serve-perm");
     let mut server = serve(&dir, &["--no-record"]);
     let sock_dir = dir.join("host-tool");
     let mode = std::fs::metadata(&sock_dir).unwrap().permissions().mode();

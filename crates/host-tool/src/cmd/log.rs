@@ -194,7 +194,7 @@ fn summary(path: &Path) -> Result<(), Failure> {
         span
     );
     crate::out!(
-        "{:<18} {:<20} {:>9} {:>10}",
+        "{:<18} {:<24} {:>9} {:>10}",
         "channel",
         "schema",
         "messages",
@@ -207,7 +207,7 @@ fn summary(path: &Path) -> Result<(), Failure> {
         } else {
             "-".into()
         };
-        crate::out!("{topic:<18} {schema:<20} {n:>9} {rate:>10}");
+        crate::out!("{topic:<18} {schema:<24} {n:>9} {rate:>10}");
     }
     Ok(())
 }
@@ -254,7 +254,11 @@ fn export(path: &Path, dir: &Path) -> Result<(), Failure> {
             path.display()
         );
     }
-    for (id, (topic, ..)) in &log.channels {
+    for (id, (topic, _, _, _, msg_enc)) in &log.channels {
+        if msg_enc != "json" {
+            crate::say!("{topic}: {msg_enc} messages (the 3D scene) are not exported to CSV");
+            continue;
+        }
         let rows: Vec<(&Msg, Vec<(String, String)>)> = log
             .messages
             .iter()

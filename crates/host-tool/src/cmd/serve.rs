@@ -46,6 +46,10 @@ pub struct Args {
     /// Telemetry rate while serving, 1–50 Hz.
     #[arg(long, value_name = "HZ", default_value_t = 50)]
     pub rate: u32,
+    /// Serve the live view to Foxglove (WebSocket, foxglove.websocket.v1) on HOST:PORT, e.g.
+    /// 127.0.0.1:8765 (PORT 0: any free port; the address is printed).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub foxglove: Option<String>,
 }
 
 struct Conn {
@@ -95,6 +99,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
             args.rate
         )));
     }
+    let foxglove = args
+        .foxglove
+        .as_deref()
+        .map(crate::live::parse_addr)
+        .transpose()
+        .map_err(Failure::usage)?;
     let dir = crate::client::socket_dir_create().map_err(Failure::Runtime)?;
     let port = match &device {
         DeviceConfig::Port(p) => Some(p.as_str()),
@@ -118,10 +128,22 @@ pub fn run(args: Args) -> Result<(), Failure> {
             PathBuf::from(format!("host-tool-serve-{t}.mcap"))
         }))
     };
-    let recording = record
+    // The live view first: a port in use stops here, before a file is created.
+    let live = foxglove
+        .map(|addr| crate::live::Live::start(addr, "host-tool serve"))
+        .transpose()
+        .map_err(Failure::Runtime)?;
+    let live_addr = live.as_ref().map(|l| l.addr());
+    let mut recording = record
         .as_deref()
         .map(|p| crate::record::start(p, "serve", &device))
         .transpose()?;
+    if let Some(live) = live {
+        match recording.as_mut() {
+            Some(r) => r.attach_live(live),
+            None => recording = Some(crate::record::Recording::live_only(live)),
+        }
+    }
     let interrupted = crate::cmd::plan::interrupt_flag();
     let mut conn = device.connect_recorded(recording)?;
     let _ = conn.session.command(RequestBody::SetParam {
@@ -138,12 +160,15 @@ pub fn run(args: Args) -> Result<(), Failure> {
         l
     };
     crate::say!(
-        "serving {} on {}{}",
+        "serving {} on {}{}{}",
         port.unwrap_or("the simulator"),
         sock.display(),
         record
             .as_ref()
-            .map_or(String::new(), |r| format!(", recording to {}", r.display()))
+            .map_or(String::new(), |r| format!(", recording to {}", r.display())),
+        live_addr.map_or(String::new(), |a| format!(
+            ", live view for Foxglove on ws://{a}"
+        ))
     );
     let mut server = Server {
         sim: matches!(conn.session.io.inner, AnyIo::Sim(_)),

@@ -12,12 +12,22 @@ cargo build --release --locked -p ra4m1-emu --bin ra4m1-run
 target_dir="${CARGO_TARGET_DIR:-target}"
 case "$target_dir" in /*) ;; *) target_dir="$PWD/$target_dir" ;; esac
 
+run="$target_dir/release/ra4m1-run"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
+# As on a bench: the bare-board suite on a board with nothing attached (--bare), on the WiFi
+# and on the Minima (the bootloaders leave SCI9 differently), then the stimulus suite with the
+# fixture fitted (ra4m1-run fits it).
 set +e
-CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="$target_dir/release/ra4m1-run" \
-  cargo test-board --locked --no-fail-fast 2>&1 | tee "$log"
+CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="$run --bare" \
+  cargo test-board-bare --locked --no-fail-fast 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
+CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="$run --bare --board minima" \
+  cargo test-board-bare --locked --no-fail-fast 2>&1 | tee -a "$log"
+status=$((status | PIPESTATUS[0]))
+CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="$run" \
+  cargo test-board-fixture --locked --no-fail-fast 2>&1 | tee -a "$log"
+status=$((status | PIPESTATUS[0]))
 set -e
 
 results="$(grep -E '^test result: ' "$log" || true)"
@@ -26,7 +36,7 @@ failed=$(printf '%s\n' "$results" | grep -oE '[0-9]+ failed' | awk '{s += $1} EN
 ignored=$(printf '%s\n' "$results" | grep -oE '[0-9]+ ignored' | awk '{s += $1} END {print s + 0}')
 suites=$(printf '%s\n' "$results" | grep -c . || true)
 echo
-echo "on-target suites in the emulator: $suites test binaries; $ignored ignored (bench only)"
+echo "on-target suites in the emulator: $suites runs (bare suite on the WiFi and the Minima, fixture suite); $ignored ignored (bench only)"
 echo "on-target: $passed passed, $failed failed"
 if [ "$status" -ne 0 ] || [ "$failed" -ne 0 ]; then
   echo "on-target: FAILED (cargo test-board exit $status)" >&2

@@ -3,8 +3,8 @@
 //! input buffers, its reset flags). Run on a bare UNO R4 with a probe, or in the emulator:
 //!
 //! ```text
-//! cargo test-board --test board                                          # probe-rs
-//! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER=ra4m1-run cargo test-board --test board
+//! cargo test-board-bare                                         # probe-rs
+//! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER=ra4m1-run cargo test-board-bare
 //! ```
 //! The tests that need a stimulus (a jumper, a known voltage) are in `tests/board_fixture.rs`.
 #![no_std]
@@ -26,7 +26,7 @@ mod tests {
     use crate::board::gpio::PortPin;
     use crate::board::regs::pac;
     use crate::board::{dataflash::DataFlash, pins, pwm, time, uart, wdt};
-    use crate::on_target::{self, get, put, Board, Expect};
+    use crate::on_target::{self, get, put, Board};
     use firmware::hw::StateStore as _;
     use firmware::StoredState;
     use geometry::TrunkState;
@@ -185,7 +185,7 @@ mod tests {
             on_target::wait_ms(5);
         }
         // Still here: it did not reset while fed. Now starve it.
-        on_target::resume_after_reset(Expect::Watchdog, after_starving);
+        on_target::resume_after_reset(after_starving);
         wdt::feed();
         let t1 = on_target::ms();
         loop {
@@ -207,7 +207,7 @@ mod tests {
     /// with no reset in between, says `Unknown`).
     #[test]
     fn the_reset_cause_is_reported_once(_b: Board) {
-        on_target::resume_after_reset(Expect::Software, after_software_reset);
+        on_target::resume_after_reset(after_software_reset);
         cortex_m::peripheral::SCB::sys_reset();
     }
 
@@ -254,7 +254,7 @@ mod tests {
         let mut log = fresh_log();
         assert_eq!(log.load(), Ok(None), "erased");
         assert_eq!(done(|| log.save(&record(3))), Ok(()));
-        on_target::resume_after_reset(Expect::Software, after_save);
+        on_target::resume_after_reset(after_save);
         cortex_m::peripheral::SCB::sys_reset();
     }
 
@@ -276,7 +276,7 @@ mod tests {
             assert_eq!(log.save(&record(4)), Err(FlashError::Busy));
             time::delay_us(1_000);
         }
-        on_target::resume_after_reset(Expect::Software, after_torn_write);
+        on_target::resume_after_reset(after_torn_write);
         cortex_m::peripheral::SCB::sys_reset();
     }
 
@@ -303,21 +303,16 @@ mod tests {
     }
 
     /// A panic drives every actuator line to its safe level (valves closed, servos limp and
-    /// driven low), then the watchdog restarts the board and the next boot says so.
+    /// driven low) while the gripper keeps holding (closed), then the watchdog restarts the
+    /// board and the next boot says so.
     #[test]
     fn a_panic_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
-        on_target::actuate(&b);
-        assert_eq!(on_target::unsafe_lines(), 0b1_1111, "all lines actuated");
-        on_target::expect_fault(on_target::after_fault);
-        panic!("deliberate panic (on-target test)");
+        on_target::provoke_fault(&b, || panic!("deliberate panic (on-target test)"));
     }
 
     /// The same for a HardFault (an undefined instruction).
     #[test]
     fn a_hard_fault_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
-        on_target::actuate(&b);
-        assert_eq!(on_target::unsafe_lines(), 0b1_1111, "all lines actuated");
-        on_target::expect_fault(on_target::after_fault);
-        cortex_m::asm::udf();
+        on_target::provoke_fault(&b, cortex_m::asm::udf);
     }
 }

@@ -7,10 +7,11 @@
 //! | A0 (P014, AN009) at 0 V | jumper A0–GND | jumper A0–GND |
 //! | A1 (P000, AN000) at 3.3 V | jumper A1–3V3 | jumper A1–3V3 |
 //! | A2 (P001, AN001) at 5 V | jumper A2–5V | jumper A2–5V |
+//! | a TM1637 display module | CLK to D0 (P301), DIO to D1 (P302), VCC 5V, GND | the same |
 //!
 //! ```text
-//! cargo test-board --test board_fixture                                          # probe-rs
-//! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER=ra4m1-run cargo test-board --test board_fixture
+//! cargo test-board-fixture                                      # probe-rs
+//! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER=ra4m1-run cargo test-board-fixture
 //! ```
 //! Everything that needs nothing attached is in `tests/board.rs`.
 #![no_std]
@@ -29,8 +30,10 @@ mod tests {
     use protocol::messages::RequestBody;
     use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN};
 
-    use crate::board::{adc, pins, uart};
+    use crate::board::gpio::{OpenDrain, Output};
+    use crate::board::{adc, pins, tm1637, uart};
     use crate::on_target::{self, Board};
+    use firmware::hw::SegmentDisplay as _;
 
     #[init]
     fn init() -> Board {
@@ -106,5 +109,27 @@ mod tests {
             "A1 = {a1}: is it jumpered to 3V3?"
         );
         assert!(a2 >= fs * 98 / 100, "A2 = {a2}: is it jumpered to 5V?");
+    }
+
+    /// Needs a TM1637 display module on D0/D1. A redraw goes out one byte per poll (seven:
+    /// data command, address, four digits, display control) and the chip acknowledges every
+    /// byte; the display then shows "8.8.8.8." at brightness 4 (look at it on a bench).
+    #[test]
+    fn the_tm1637_acknowledges_every_byte_of_a_redraw(_b: Board) {
+        let mut d = tm1637::Tm1637::new(Output::new(pins::TM_CLK), OpenDrain::new(pins::TM_DIO), 4);
+        assert_eq!(d.show([0xFF; 4]), Ok(()));
+        for _ in 0..7 {
+            d.poll();
+        }
+        assert_eq!(
+            d.missed_acks, 0,
+            "bytes not acknowledged: is the display on D0 (CLK) / D1 (DIO) with 5 V?"
+        );
+        // A second redraw: the bus was left idle.
+        assert_eq!(d.show([0x3F, 0x06, 0x5B, 0x4F]), Ok(()));
+        for _ in 0..7 {
+            d.poll();
+        }
+        assert_eq!(d.missed_acks, 0, "second redraw");
     }
 }

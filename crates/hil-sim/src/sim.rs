@@ -15,7 +15,7 @@ use crate::devices::{
     segments_text, SimAnalog, SimDisplay, SimFlash, SimInputPin, SimOutputPin, SimPwm, SimSerial,
 };
 use crate::elf_board::{ElfBoard, ElfBoardError};
-use crate::fault::Fault;
+use crate::fault::{Fault, FaultInjector};
 use crate::operator::{Operator, OperatorAction};
 use crate::physics::params::{
     BOTTOM_BETA_DEG, BOTTOM_LAYERS, EDGE_MM, N_SIDES, PACKED_LAYER_MM, TOP_BETA_DEG, TOP_LAYERS,
@@ -31,14 +31,9 @@ pub const STEP_MS: u64 = 1;
 pub const SENSOR_NOISE_KPA: f64 = 0.15;
 /// Joystick ADC noise, counts (1σ).
 pub const JOYSTICK_NOISE_RAW: f64 = 3.0;
-/// Probability that a byte on the link is corrupted under `line-noise`.
-pub const LINE_NOISE_RATE: f64 = 0.01;
-/// Tension at which tendon 0 snaps under `tendon-break`, N.
-pub const TENDON_BREAK_N: f64 = 15.0;
-/// Fraction of the stall torque left under `servo-stall`.
-pub const SERVO_STALL_FAULT_TORQUE: f64 = 0.2;
-/// Delay from the first running plan to a `link-drop` or `sensor-dropout`, ms.
-pub const MID_PLAN_FAULT_DELAY_MS: u64 = 1_000;
+pub use crate::fault::{
+    LINE_NOISE_RATE, MID_PLAN_FAULT_DELAY_MS, SERVO_STALL_FAULT_TORQUE, TENDON_BREAK_N,
+};
 
 /// How to run the simulator.
 #[derive(Debug, Clone, PartialEq)]
@@ -197,17 +192,11 @@ pub struct Sim {
     sniffer: FrameDecoder,
     max_pressure_kpa: f64,
     snaps: u32,
-    inlet_stuck_open: bool,
-    tendon_broken: bool,
-    first_running_ms: Option<u64>,
-    link_dropped: bool,
-    sensor_lost: bool,
+    /// Every fault, applied where a signal crosses between the shell and the parts.
+    faults: FaultInjector,
     trace: Option<Trace>,
     payload_n: f64,
     spare_gauss: Option<f64>,
-    /// Byte corruption probability set at run time (`None`: [`LINE_NOISE_RATE`] under the
-    /// `line-noise` fault, else none).
-    line_noise_rate: Option<f64>,
     /// The board ELF in the emulator (processor in the loop), when it runs instead of `ctl`.
     board: Option<Box<ElfBoard>>,
     board_error: Option<String>,
@@ -257,12 +246,11 @@ impl Sim {
         params.tendon_radius_mm = cfg.tendon_radius_mm as f64;
         let trunk = Trunk::new(params, opts.initial);
         let spec = ServoSpec::default();
+        let faults = FaultInjector::new(&opts.faults);
         let mut servos: [Servo; 3] =
             core::array::from_fn(|i| Servo::new(spec, cfg.servo.slack_deg[i] as f64));
-        if opts.faults.contains(&Fault::ServoStall) {
-            for s in &mut servos {
-                s.spec.stall_torque_n_m *= SERVO_STALL_FAULT_TORQUE;
-            }
+        for s in &mut servos {
+            s.spec.stall_torque_n_m *= faults.stall_torque_factor();
         }
         let center = cfg.joystick.center_raw;
         let inputs = PinInputs {
@@ -320,15 +308,10 @@ impl Sim {
             sniffer: FrameDecoder::default(),
             max_pressure_kpa: 0.0,
             snaps: 0,
-            inlet_stuck_open: false,
-            tendon_broken: false,
-            first_running_ms: None,
-            link_dropped: false,
-            sensor_lost: false,
+            faults,
             trace: None,
             payload_n: 0.0,
             spare_gauss: None,
-            line_noise_rate: None,
             board,
             board_error: None,
         })
@@ -357,15 +340,10 @@ impl Sim {
             sniffer: self.sniffer.clone(),
             max_pressure_kpa: self.max_pressure_kpa,
             snaps: self.snaps,
-            inlet_stuck_open: self.inlet_stuck_open,
-            tendon_broken: self.tendon_broken,
-            first_running_ms: self.first_running_ms,
-            link_dropped: self.link_dropped,
-            sensor_lost: self.sensor_lost,
+            faults: self.faults.clone(),
             trace: self.trace.clone(),
             payload_n: self.payload_n,
             spare_gauss: self.spare_gauss,
-            line_noise_rate: self.line_noise_rate,
             board: None,
             board_error: self.board_error.clone(),
         })
@@ -455,13 +433,10 @@ impl Sim {
 
     /// Bytes from the host to the device (through the line's faults).
     pub fn write_host_bytes(&mut self, bytes: &[u8]) {
-        if self.link_dropped {
-            return;
-        }
-        let noise = self.noisy();
         for &b in bytes {
-            let b = if noise { self.corrupt(b) } else { b };
-            self.shell.link.rx.push_back(b);
+            if let Some(b) = self.faults.link_byte(b, &mut self.rng) {
+                self.shell.link.rx.push_back(b);
+            }
         }
     }
 
@@ -475,50 +450,34 @@ impl Sim {
         !self.to_host.is_empty()
     }
 
-    fn noisy(&self) -> bool {
-        self.line_noise_rate.is_some_and(|r| r > 0.0)
-            || self.opts.faults.contains(&Fault::LineNoise)
-    }
-
     /// Corrupts each byte on the link (both ways) with probability `rate` (0–1) from now on.
     pub fn set_line_noise_rate(&mut self, rate: f64) {
-        self.line_noise_rate = Some(rate.clamp(0.0, 1.0));
+        self.faults.set_line_noise_rate(rate);
     }
 
     /// Injects `fault` now (a fault with an onset, for the swarm tester): from this step on the
     /// simulator behaves as if it had been given from the start; `link-drop` and
     /// `sensor-dropout` act at once.
     pub fn inject_fault(&mut self, fault: Fault) {
-        if self.opts.faults.contains(&fault) {
+        if !self.faults.inject(fault) {
             return;
         }
         self.opts.faults.push(fault);
-        match fault {
-            Fault::ServoStall => {
-                for s in &mut self.servos {
-                    s.spec.stall_torque_n_m *= SERVO_STALL_FAULT_TORQUE;
-                }
+        if fault == Fault::ServoStall {
+            for s in &mut self.servos {
+                s.spec.stall_torque_n_m *= SERVO_STALL_FAULT_TORQUE;
             }
-            Fault::LinkDrop => self.link_dropped = true,
-            Fault::SensorDropout => self.sensor_lost = true,
-            _ => {}
         }
+    }
+
+    /// The fault layer (what is given, what struck).
+    pub fn fault_injector(&self) -> &FaultInjector {
+        &self.faults
     }
 
     /// The simulated operator (to script mistakes).
     pub fn operator_mut(&mut self) -> &mut Operator {
         &mut self.operator
-    }
-
-    fn corrupt(&mut self, b: u8) -> u8 {
-        if self
-            .rng
-            .gen_bool(self.line_noise_rate.unwrap_or(LINE_NOISE_RATE))
-        {
-            b ^ self.rng.gen_range(1..=255u8)
-        } else {
-            b
-        }
     }
 
     fn gauss(&mut self) -> f64 {
@@ -538,24 +497,16 @@ impl Sim {
     pub fn step(&mut self) {
         self.now_ms += STEP_MS;
         let now = self.now_ms;
-        let faults = &self.opts.faults;
 
         // Mid-plan faults start a while after the first plan runs.
-        if self.first_running_ms.is_none() && self.mode() == Mode::Running {
-            self.first_running_ms = Some(now);
-        }
-        if let Some(t0) = self.first_running_ms {
-            if now >= t0 + MID_PLAN_FAULT_DELAY_MS {
-                self.link_dropped |= faults.contains(&Fault::LinkDrop);
-                self.sensor_lost |= faults.contains(&Fault::SensorDropout);
-            }
-        }
+        let running = self.mode() == Mode::Running;
+        self.faults.tick(now, running);
 
         // Sensors.
         let p_kpa = self.trunk.pressure_kpa() + SENSOR_NOISE_KPA * self.gauss();
         let raw = self.cfg.pressure_sensor.raw(p_kpa as f32);
         let sensor = &mut self.shell.inputs.pressure;
-        sensor.raw = if self.sensor_lost { 0 } else { raw };
+        sensor.raw = self.faults.pressure_raw(raw);
         sensor.failed = false;
         let half = self.cfg.joystick.half_range_raw as f64;
         for axis in 0..2 {
@@ -609,11 +560,9 @@ impl Sim {
                 if let Some(Ok(DeviceMessage::Event(ev))) = self.sniffer.push::<DeviceMessage>(b) {
                     self.on_device_event(&ev);
                 }
-                if self.link_dropped {
-                    continue;
+                if let Some(b) = self.faults.link_byte(b, &mut self.rng) {
+                    self.to_host.push_back(b);
                 }
-                let b = if self.noisy() { self.corrupt(b) } else { b };
-                self.to_host.push_back(b);
             }
         }
 
@@ -624,13 +573,8 @@ impl Sim {
             out.servos.1.inner().pulse_us(),
             out.servos.2.inner().pulse_us(),
         ];
-        let inlet_cmd = out.inlet.high;
         let exhaust_cmd = out.exhaust.high;
-        if inlet_cmd && self.opts.faults.contains(&Fault::ValveStuckOpen) {
-            self.inlet_stuck_open = true;
-        }
-        let inlet_open = (inlet_cmd || self.inlet_stuck_open)
-            && !self.opts.faults.contains(&Fault::ValveStuckClosed);
+        let inlet_open = self.faults.inlet(out.inlet.high);
         let dt_s = STEP_MS as f64 * 1e-3;
         let spool_m = self.cfg.servo.spool_radius_mm as f64 * 1e-3;
         let tensions = self.trunk.tensions_n();
@@ -642,15 +586,12 @@ impl Sim {
             servo.step(dt_s, sign * tensions[i] * spool_m);
             pay_in_mm[i] = self.cfg.servo.length_for_angle(i, servo.angle_deg as f32) as f64;
         }
-        if self.opts.faults.contains(&Fault::TendonBreak) && tensions[0] > TENDON_BREAK_N {
-            self.tendon_broken = true;
-        }
         let act = Actuation {
             pay_in_mm,
             inlet_open,
             exhaust_open: exhaust_cmd,
-            fault_leak: self.opts.faults.contains(&Fault::Leak),
-            tendon_broken: [self.tendon_broken, false, false],
+            fault_leak: self.faults.leak(),
+            tendon_broken: self.faults.tendons_broken(tensions[0]),
             payload_n: if self.shell.outputs.gripper.high {
                 self.payload_n
             } else {
@@ -834,7 +775,7 @@ impl Sim {
             mode,
             snaps: self.snaps,
             manual_tasks: self.operator.tasks_done,
-            faults: self.opts.faults.clone(),
+            faults: self.faults.given().to_vec(),
         }
     }
 }
@@ -887,8 +828,7 @@ impl Sim {
     }
 
     fn inlet_passes(&self) -> bool {
-        (self.shell.outputs.inlet.high || self.inlet_stuck_open)
-            && !self.opts.faults.contains(&Fault::ValveStuckClosed)
+        self.faults.inlet_passes(self.shell.outputs.inlet.high)
     }
 
     fn servos_still(&self) -> bool {
@@ -904,18 +844,7 @@ impl Sim {
 
     /// The injected faults in effect now (the mid-plan ones once they struck).
     pub fn faults_in_effect(&self) -> Vec<Fault> {
-        self.opts
-            .faults
-            .iter()
-            .copied()
-            .filter(|f| match f {
-                Fault::LinkDrop => self.link_dropped,
-                Fault::SensorDropout => self.sensor_lost,
-                Fault::ValveStuckOpen => self.inlet_stuck_open,
-                Fault::TendonBreak => self.tendon_broken,
-                _ => true,
-            })
-            .collect()
+        self.faults.in_effect()
     }
 
     /// The controller's active faults (none known from an emulated board).

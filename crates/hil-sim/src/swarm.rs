@@ -74,8 +74,7 @@ pub struct Scenario {
 }
 
 impl Scenario {
-    /// The scenario of `seed` without the operator's mistake (the one class of scenario the
-    /// crane cannot yet hold the truth through: docs/simulator.md).
+    /// The scenario of `seed` without the operator's mistake (`--no-operator-mistakes`).
     pub fn generate_without_mistakes(seed: u64) -> Self {
         Self {
             mistake: None,

@@ -11,17 +11,22 @@ use hil_sim::swarm::{run, Scenario};
 /// any bound (24), a stuck inlet behind a dead sensor (58).
 const FIXED: [u64; 11] = [7, 12, 13, 15, 22, 24, 27, 58, 67, 107, 424];
 
+/// `s` plays without breaking an invariant.
+fn holds(s: &Scenario) {
+    let rep = run(s, false);
+    assert!(
+        rep.violations.is_empty(),
+        "{}: {:?}",
+        s.describe(),
+        rep.violations
+    );
+}
+
 #[test]
 fn the_seeds_of_fixed_bugs_hold_every_invariant() {
     for seed in FIXED {
         let s = Scenario::generate_without_mistakes(seed);
-        let rep = run(&s, false);
-        assert!(
-            rep.violations.is_empty(),
-            "{}: {:?}",
-            s.describe(),
-            rep.violations
-        );
+        holds(&s);
     }
 }
 
@@ -53,13 +58,7 @@ fn the_seeds_of_the_manual_step_and_between_state_bugs_hold_every_invariant() {
                 .map(|&s| Scenario::generate(s)),
         );
     for s in scenarios {
-        let rep = run(&s, false);
-        assert!(
-            rep.violations.is_empty(),
-            "{}: {:?}",
-            s.describe(),
-            rep.violations
-        );
+        holds(&s);
     }
     // The wrong folds are made: each of these scenarios has the operator's mistake.
     for seed in WRONG_FOLD {

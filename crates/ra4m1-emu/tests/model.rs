@@ -1,7 +1,8 @@
 //! The model's refusals and exception handling on tiny hand-assembled programs (no firmware
 //! build needed): an access to an unmodelled register stops the run naming its address, a
-//! protected register refuses an unlocked write, and an undefined instruction escalates to
-//! the HardFault handler with the faulting PC stacked.
+//! protected register refuses an unlocked write, an undefined instruction escalates to the
+//! HardFault handler with the faulting PC stacked (YIELD is a NOP), and the semihosting calls
+//! a test harness makes (SYS_GET_CMDLINE once, the exits) behave as a test runner answers them.
 
 use ra4m1_emu::{EmuError, Emulator, Options};
 
@@ -206,4 +207,67 @@ fn ra4m1_run_is_a_runner_that_returns_the_programs_exit_code() {
     let out = run(&["--timeout-ms", "zero", p]);
     assert_eq!(out.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn yield_runs_as_a_nop_and_an_undefined_instruction_after_it_still_faults() {
+    // yield; movs r0,#0x18; ldr r1,=0x20026; bkpt 0xab (SYS_EXIT, success); b .
+    let img = program(
+        &[0xBF10, 0x2018, 0x4901, 0xBEAB, 0xE7FE, 0x0000],
+        &[0x2_0026],
+        None,
+    );
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.run_until_ns(1_000_000).expect("runs");
+    assert_eq!(emu.exit_code(), Some(0), "went past the YIELD");
+    // yield; udf #0; b .   HardFault at 0x4044: b .
+    let img = program(&[0xBF10, 0xDE00, 0xE7FE, 0xE7FE], &[], Some(0x4044));
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.run_until_ns(1_000_000).expect("runs");
+    assert_eq!(emu.pc(), 0x4044, "in the HardFault handler");
+    assert_eq!(
+        emu.read_u32(emu.sp() + 24),
+        Some(0x4042),
+        "stacked PC: the UDF"
+    );
+    assert_ne!(emu.machine().scs.cfsr & (1 << 16), 0, "CFSR.UNDEFINSTR");
+}
+
+#[test]
+fn sys_get_cmdline_answers_the_set_command_once_then_fails() {
+    // block (0x2000_0100) = [buf 0x2000_0200, 64]; SYS_GET_CMDLINE; SYS_WRITE0 buf; again
+    // SYS_GET_CMDLINE (-1 expected); SYS_EXIT_EXTENDED [ApplicationExit, r0 + 1].
+    let code = [
+        0x4A0B, // ldr r2, =block
+        0x4B0C, // ldr r3, =buf
+        0x4C0C, // ldr r4, =64
+        0x6013, // str r3, [r2]
+        0x6054, // str r4, [r2, #4]
+        0x2015, // movs r0, #0x15
+        0x4611, // mov r1, r2
+        0xBEAB, // bkpt 0xab
+        0x2004, // movs r0, #4
+        0x4619, // mov r1, r3
+        0xBEAB, // bkpt 0xab
+        0x2015, // movs r0, #0x15
+        0x4611, // mov r1, r2
+        0xBEAB, // bkpt 0xab
+        0x3001, // adds r0, #1
+        0x4D07, // ldr r5, =0x20026
+        0x6095, // str r5, [r2, #8]
+        0x60D0, // str r0, [r2, #12]
+        0x4611, // mov r1, r2
+        0x3108, // adds r1, #8
+        0x2020, // movs r0, #0x20
+        0xBEAB, // bkpt 0xab
+        0xE7FE, // b .
+        0x0000,
+    ];
+    let img = program(&code, &[0x2000_0100, 0x2000_0200, 64, 0x2_0026], None);
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.set_semihost_cmdline("run_addr 16449");
+    emu.run_until_ns(1_000_000).expect("runs");
+    assert_eq!(emu.take_semihost_output(), b"run_addr 16449");
+    assert_eq!(emu.cmdline_requests(), 2);
+    assert_eq!(emu.exit_code(), Some(0), "the second request returned -1");
 }

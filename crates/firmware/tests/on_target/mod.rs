@@ -7,13 +7,15 @@
 //! an unexpected reset, and the runner fails the test. A test that resets on purpose
 //! registers a continuation first ([`resume_after_reset`]): a record in `.uninit` RAM, which a
 //! reset keeps. At the next boot, before asking for its command, the binary's setup runs it
-//! ([`resume_if_set`]) — only when the reset flags show the reset it expected, so a stale
-//! record (its test timed out before the reset came) is dropped, not run in the next test.
-//! The continuation passes by exiting through semihosting ([`pass`]), fails by panicking.
+//! ([`resume_if_set`]). The continuation passes by exiting through semihosting ([`pass`]),
+//! fails by panicking; it checks the reset cause itself where that is the contract.
 //!
-//! With a probe attached, probe-rs catches resets and HardFaults (DEMCR vector catch) and the
-//! RA4M1 masks the watchdog's reset in on-chip-debug mode (DBGSTOPCR.DBGSTOP_WDT = 1 after
-//! reset): [`resume_after_reset`] clears both, for this boot only.
+//! With a probe attached, probe-rs catches resets and HardFaults (DEMCR.VC_CORERESET and
+//! VC_HARDERR, set before each test) and the RA4M1 masks the watchdog's reset in on-chip-debug
+//! mode (DBGSTOPCR.DBGSTOP_WDT = 1 after reset): [`resume_after_reset`] clears both. DEMCR
+//! keeps its value through a system reset, so the catch bits also tell the test's own reset
+//! (clear) from probe-rs's reset before the next test (set again): a record left by a test that
+//! timed out before its reset came is dropped then, not run in the next test's place.
 #![allow(dead_code)] // each suite uses a part
 
 use core::mem::MaybeUninit;
@@ -80,23 +82,17 @@ pub fn wait_ms(ms: u32) {
 
 // ---- across a reset ----------------------------------------------------------------------
 
-/// The reset a continuation waits for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u32)]
-pub enum Expect {
-    /// The watchdog's (RSTSR1.WDTRF).
-    Watchdog = 1,
-    /// A software reset (RSTSR1.SWRF).
-    Software = 2,
-}
-
 #[repr(C)]
 struct Carry {
     magic: u32,
-    expect: u32,
     resume: usize,
     words: [u32; 8],
 }
+
+/// DEMCR (ARMv7-M), with the vector-catch bits a probe sets: reset (bit 0), HardFault (10).
+const DEMCR: *mut u32 = 0xE000_EDFC as *mut u32;
+const VC_CORERESET: u32 = 1 << 0;
+const VC_HARDERR: u32 = 1 << 10;
 
 const MAGIC: u32 = 0x4341_5259;
 
@@ -119,15 +115,14 @@ pub fn get(i: usize) -> u32 {
     unsafe { core::ptr::addr_of!((*carry()).words[i]).read_volatile() }
 }
 
-/// After the next reset (which must be `expect`), `then` runs instead of a new test. Lets the
-/// reset through a debug probe (see the module doc).
-pub fn resume_after_reset(expect: Expect, then: fn() -> !) {
+/// After the next reset, `then` runs instead of a new test. Lets the reset through a debug
+/// probe (see the module doc).
+pub fn resume_after_reset(then: fn() -> !) {
     for i in 0..8 {
         put(i, 0);
     }
     // SAFETY: the carry record's header; volatile so the stores are done before the reset.
     unsafe {
-        core::ptr::addr_of_mut!((*carry()).expect).write_volatile(expect as u32);
         core::ptr::addr_of_mut!((*carry()).resume).write_volatile(then as usize);
         core::ptr::addr_of_mut!((*carry()).magic).write_volatile(MAGIC);
     }
@@ -138,11 +133,10 @@ pub fn resume_after_reset(expect: Expect, then: fn() -> !) {
 pub fn resume_if_set() {
     // SAFETY: reads of the carry record (uninitialised RAM reads as some bit pattern; only the
     // magic number makes it meaningful), then its magic is cleared so it runs once.
-    let (magic, expect, resume) = unsafe {
+    let (magic, resume) = unsafe {
         let c = carry();
         let v = (
             core::ptr::addr_of!((*c).magic).read_volatile(),
-            core::ptr::addr_of!((*c).expect).read_volatile(),
             core::ptr::addr_of!((*c).resume).read_volatile(),
         );
         core::ptr::addr_of_mut!((*c).magic).write_volatile(0);
@@ -151,19 +145,9 @@ pub fn resume_if_set() {
     if magic != MAGIC {
         return;
     }
-    // RSTSR1: WDTRF bit 1, SWRF bit 2 (read only here: the continuation takes them).
-    let flags = rd!(pac::SYSTEM.rstsr1());
-    let seen = match expect {
-        1 => flags & (1 << 1) != 0,
-        2 => flags & (1 << 2) != 0,
-        _ => false,
-    };
-    if !seen {
-        defmt::warn!(
-            "a continuation waiting for reset {=u32} found RSTSR1 = {=u32:#x}: dropped",
-            expect,
-            u32::from(flags)
-        );
+    // SAFETY: a read of DEMCR, a core debug register without read side effects.
+    if unsafe { DEMCR.read_volatile() } & VC_CORERESET != 0 {
+        defmt::warn!("a continuation left by a test that timed out: dropped");
         return;
     }
     // SAFETY: `resume` was stored from a `fn() -> !` of this same image by
@@ -175,9 +159,8 @@ pub fn resume_if_set() {
 /// Clears the reset and HardFault vector catches (DEMCR bits 0 and 10) and unmasks the
 /// watchdog resets in on-chip-debug mode (DBGSTOPCR bits 0 and 1); no effect without a probe.
 fn let_resets_through_a_probe() {
-    const DEMCR: *mut u32 = 0xE000_EDFC as *mut u32;
     // SAFETY: DEMCR is a read/write core debug register; only the two catch bits change.
-    unsafe { DEMCR.write_volatile(DEMCR.read_volatile() & !((1 << 0) | (1 << 10))) };
+    unsafe { DEMCR.write_volatile(DEMCR.read_volatile() & !(VC_CORERESET | VC_HARDERR)) };
     wr!(pac::DBG.dbgstopcr(), rd!(pac::DBG.dbgstopcr()) & !0b11);
 }
 
@@ -193,10 +176,12 @@ pub const OBSERVED: usize = 7;
 pub const OBSERVED_MAGIC: u32 = 0x5AFE_0B5D;
 /// Carry word of the unsafe-line mask.
 pub const UNSAFE_LINES: usize = 6;
+/// Carry word: the gripper line still drives closed (1) after the fault.
+pub const GRIPPER_HELD: usize = 5;
 
 /// The next fault is the test's: observe the safe state, then the watchdog, then `then`.
 pub fn expect_fault(then: fn() -> !) {
-    resume_after_reset(Expect::Watchdog, then);
+    resume_after_reset(then);
     FAULT_EXPECTED.store(true, Ordering::SeqCst);
 }
 
@@ -228,11 +213,18 @@ pub fn unsafe_lines() -> u32 {
     mask
 }
 
+/// Whether the gripper line drives its closed level (high: GPIO output, PODR = 1, reads high).
+pub fn gripper_closed() -> bool {
+    let f = pfs_of(pins::GRIPPER);
+    f & pfs::PMR == 0 && f & pfs::PDR != 0 && f & pfs::PODR != 0 && f & (1 << 1) != 0
+}
+
 /// Every actuator line out of its safe state: both valves open, the three servos pulsing at
-/// 1.5 ms, and the watchdog running (so a halted board restarts).
+/// 1.5 ms; the gripper holding (closed); the watchdog running (so a halted board restarts).
 pub fn actuate(b: &Board) {
     use embedded_hal::digital::OutputPin as _;
     use embedded_hal::pwm::SetDutyCycle as _;
+    let _ = board::gpio::Output::new_high(pins::GRIPPER);
     let _ = board::gpio::Output::new(pins::INLET).set_high();
     let _ = board::gpio::Output::new(pins::EXHAUST).set_high();
     let gpt7 = board::pwm::Timer::start(pac::GPT167, b.clocks.pclkd_hz);
@@ -248,8 +240,19 @@ pub fn actuate(b: &Board) {
     board::wdt::start(b.clocks.pclkb_hz);
 }
 
+/// The fault tests: every line actuated (checked), the fault expected, then `fault` (a panic,
+/// an undefined instruction); [`after_fault`] checks the rest after the watchdog's reset.
+pub fn provoke_fault(b: &Board, fault: fn() -> !) -> ! {
+    actuate(b);
+    assert_eq!(unsafe_lines(), 0b1_1111, "all lines actuated");
+    assert!(gripper_closed(), "the gripper holding");
+    expect_fault(after_fault);
+    fault()
+}
+
 fn observe() {
     put(UNSAFE_LINES, unsafe_lines());
+    put(GRIPPER_HELD, u32::from(gripper_closed()));
     put(OBSERVED, OBSERVED_MAGIC);
 }
 
@@ -267,6 +270,7 @@ pub fn after_fault() -> ! {
         0,
         "lines not safe after the fault (bit 0 inlet, 1 exhaust, 2..4 servos)"
     );
+    assert_eq!(get(GRIPPER_HELD), 1, "the gripper let go in the fault");
     assert_eq!(cause, protocol::messages::ResetCause::Watchdog);
     pass()
 }

@@ -126,7 +126,8 @@ fn read_str<'a>(
 
 /// The stimulus fixture the emulated bench has fitted (the jumpers of `docs/flashing.md`):
 /// SCI9's TXD9 looped back to RXD9 (Minima: a jumper D11–D12; WiFi: the host echoes on the
-/// bridge's port), A0 (AN009) to GND, A1 (AN000) to 3V3, A2 (AN001) to 5 V (AVCC0).
+/// bridge's port), A0 (AN009) to GND, A1 (AN000) to 3V3, A2 (AN001) to 5 V (AVCC0), and a
+/// TM1637 display on D0 (CLK, P301) and D1 (DIO, P302).
 #[derive(Debug, Clone, Copy)]
 pub struct Fixture;
 
@@ -140,10 +141,10 @@ impl Fixture {
         emu.set_analog(1, 16383);
     }
 
-    fn step(self, emu: &mut Emulator) -> Vec<u8> {
+    /// The loopback: what SCI9 sent comes back on its receive line, at the line rate.
+    fn step(self, emu: &mut Emulator) {
         let tx = emu.host_take();
         emu.host_send(&tx);
-        tx
     }
 }
 
@@ -226,6 +227,8 @@ fn run_case(elf: &[u8], case: &Case, settings: Settings) -> Result<(), Failed> {
         elf,
         Options {
             board: settings.board,
+            // The display module is part of the fixture; a bare board has none.
+            tm1637: settings.fixture.and(Options::default().tm1637),
             ..Options::default()
         },
     )
@@ -245,12 +248,8 @@ fn run_case(elf: &[u8], case: &Case, settings: Settings) -> Result<(), Failed> {
             log.print(d.as_mut(), &mut out);
         }
         match settings.fixture {
-            Some(f) => {
-                f.step(&mut emu);
-            }
-            None => {
-                emu.host_take();
-            }
+            Some(f) => f.step(&mut emu),
+            None => drop(emu.host_take()),
         }
         if let Err(e) = r {
             break Err(format!(

@@ -67,6 +67,7 @@ mod client;
 mod cmd;
 mod device;
 mod failure;
+mod figure;
 mod live;
 mod num;
 mod progress;

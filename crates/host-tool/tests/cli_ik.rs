@@ -146,8 +146,12 @@ fn target_file_per_module_beta_and_svg() {
     );
     let text = std::fs::read_to_string(&svg).expect("svg written");
     assert!(text.starts_with("<svg") && text.trim_end().ends_with("</svg>"));
-    assert!(text.contains("RMS = "));
-    for view in ["front (x–z)", "side (y–z)", "top (x–y)"] {
+    assert!(text.contains("RMS\u{a0}=\u{a0}"));
+    assert!(
+        text.contains("β = 35°, 31.72°") && text.contains("(bottom\u{a0}first)"),
+        "{text}"
+    );
+    for view in ["front view (x–z)", "side view (y–z)", "top view (x–y)"] {
         assert!(text.contains(view), "{view}");
     }
     // Module outlines: 2 modules × 4 side edges, 3 boundary polygons, in each of 3 views.
@@ -221,13 +225,24 @@ fn feasible_states_by_default_and_all_states_marks_the_infeasible() {
         "{table}"
     );
     let text = std::fs::read_to_string(&svg).expect("svg written");
-    // n = 4 side edges per module drawn in each of the 3 views.
-    assert_eq!(
-        text.matches(r#"class="infeasible""#).count(),
-        popouts * 4 * 3
-    );
+    // n = 4 side edges per infeasible module, in a group of their own in each of the 3 views.
+    let groups: Vec<usize> = text
+        .split(r#"<g class="infeasible">"#)
+        .skip(1)
+        .map(|g| {
+            g[..g.find("</g>").expect("group closed")]
+                .matches("<polyline")
+                .count()
+        })
+        .collect();
+    assert_eq!(groups, vec![popouts * 4; 3]);
     assert!(
-        text.contains("orange:") && text.contains("strain 0.190") || text.contains("strain 0.201")
+        text.contains(&format!(
+            "infeasible state ({popouts} of 10 modules, strain 0.190"
+        )) || text.contains(&format!(
+            "infeasible state ({popouts} of 10 modules, strain 0.201"
+        )),
+        "{text}"
     );
 
     let out = host_tool(&args);

@@ -17,7 +17,7 @@ use serde_json::Value;
 use super::states::{designs_from, ordered_object, parse_n};
 use crate::failure::Failure;
 
-mod svg;
+mod figure;
 
 fn target_long_help() -> String {
     format!(
@@ -89,10 +89,16 @@ pub struct Args {
     /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible"}`.
     #[arg(short = 'j', long)]
     pub json: bool,
-    /// Write an SVG of the target and the fitted boom (three orthographic views) to this file
-    /// (`-`: stdout); checked before the solve.
+    /// Write the figure of the fit (target and boom in three orthographic views, one column
+    /// wide) as SVG to this file.
     #[arg(long, value_name = "OUT")]
     pub svg: Option<PathBuf>,
+    /// The same figure as PNG (600 dpi).
+    #[arg(long, value_name = "OUT")]
+    pub png: Option<PathBuf>,
+    /// The same figure as PDF (vector, font embedded).
+    #[arg(long, value_name = "OUT")]
+    pub pdf: Option<PathBuf>,
     /// Write a 3D model of the fitted boom as binary glTF 2.0 (l = 75 mm; strain in red).
     #[arg(long, value_name = "FILE")]
     pub gltf: Option<PathBuf>,
@@ -117,7 +123,8 @@ pub struct Config {
     time_limit: Option<Duration>,
     gap: f64,
     json: bool,
-    svg: Option<PathBuf>,
+    /// (flag, format, path) of every figure asked for.
+    figures: Vec<(&'static str, crate::figure::Format, PathBuf)>,
     gltf: Option<PathBuf>,
 }
 
@@ -309,7 +316,14 @@ impl Args {
             time_limit,
             gap: gap.unwrap_or(0.0),
             json: self.json,
-            svg: self.svg,
+            figures: [
+                ("--svg", crate::figure::Format::Svg, self.svg),
+                ("--png", crate::figure::Format::Png, self.png),
+                ("--pdf", crate::figure::Format::Pdf, self.pdf),
+            ]
+            .into_iter()
+            .filter_map(|(flag, format, path)| Some((flag, format, path?)))
+            .collect(),
             gltf: self.gltf,
         })
     }
@@ -371,17 +385,15 @@ fn spawn_progress(
 /// Runs `host-tool ik`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let cfg = args.validate()?;
-    if cfg.json && cfg.svg.as_deref().is_some_and(super::output::is_stdout) {
+    let to_stdout = cfg
+        .figures
+        .iter()
+        .any(|(_, _, p)| super::output::is_stdout(p));
+    if cfg.json && to_stdout {
         return Err(Failure::usage(
-            "--svg - and --json both write to stdout; give --svg a file name",
+            "a figure to stdout (-) and --json both write to stdout; give the figure a file name",
         ));
     }
-    // Every output is opened before the solve: a bad path fails now, not after the work.
-    let svg_out = cfg
-        .svg
-        .as_deref()
-        .map(|p| super::output::open_one("--svg", p))
-        .transpose()?;
     let gltf = super::model::open_ik_gltf(cfg.gltf.as_deref())?;
     let catalogue = Catalogue::from_designs(&cfg.designs, !cfg.all_states)
         .map_err(|e| Failure::usage(e.to_string()))?;
@@ -391,6 +403,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
     problem
         .check_fittable()
         .map_err(|e| Failure::usage(e.to_string()))?;
+    let figure_files: Vec<(&str, &std::path::Path)> = cfg
+        .figures
+        .iter()
+        .map(|(f, _, p)| (*f, p.as_path()))
+        .collect();
+    let figure_files = super::output::open_all(&figure_files)?;
     let mut control = Control::new();
     control.deadline = cfg.time_limit.map(|t| Instant::now() + t);
     control.target_gap = cfg.gap;
@@ -410,12 +428,16 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let result = ik::solve(&problem, cfg.algorithm, &control);
     done.store(true, Ordering::Relaxed);
     let _ = progress.join();
-    let solution = result.map_err(|e| Failure::usage(e.to_string()))?;
-    if !solution.rms.is_finite() {
-        return Err(Failure::usage(
-            ik::IkError::NotFinite(solution.rms).to_string(),
-        ));
-    }
+    let solution = match result {
+        Ok(s) if s.rms.is_finite() => s,
+        other => {
+            super::output::discard(figure_files);
+            return Err(Failure::usage(match other {
+                Err(e) => e.to_string(),
+                Ok(s) => ik::IkError::NotFinite(s.rms).to_string(),
+            }));
+        }
+    };
     match solution.stop {
         // Said once, by the interrupted exit (130) after the output.
         ik::Stop::Interrupted => {}
@@ -427,21 +449,23 @@ pub fn run(args: Args) -> Result<(), Failure> {
         ik::Stop::Gap | ik::Stop::Finished => {}
     }
     super::model::write_ik_gltf(gltf, &cfg.designs, &solution.names)?;
-    let svg_to_stdout = cfg.svg.as_deref().is_some_and(super::output::is_stdout);
-    if let Some(out) = svg_out {
-        let caption = caption(&cfg, &solution);
-        let text = svg::render(
+    if !figure_files.is_empty() {
+        let fig = figure::render(
             &problem,
             &cfg.designs,
             &solution,
-            &caption,
-            &infeasible_note(&problem, &solution),
+            &figure_header(&cfg, &solution),
         );
-        out.write(|w| w.write_all(text.as_bytes()))?;
+        for (out, (_, format, _)) in figure_files.into_iter().zip(&cfg.figures) {
+            let bytes = fig.encode(*format).map_err(|e| {
+                Failure::Runtime(anyhow::anyhow!("cannot draw {}: {e}", out.flag()))
+            })?;
+            out.write(|w| w.write_all(&bytes))?;
+        }
     }
     if cfg.json {
         crate::cli::print_json_text(&solution_json(&cfg, &problem, &solution));
-    } else if !svg_to_stdout {
+    } else if !to_stdout {
         print_table(&cfg, &problem, &solution);
     }
     if solution.stop == ik::Stop::Interrupted {
@@ -552,22 +576,20 @@ fn describe_target(cfg: &Config) -> String {
     }
 }
 
-fn caption(cfg: &Config, s: &ik::Solution) -> String {
-    format!(
-        "{} fit of {} to {} — metric {}: RMS = {:.6} l{}",
-        cfg.algorithm.name(),
-        describe_boom(cfg),
-        describe_target(cfg),
-        cfg.metric.name(),
-        s.rms,
-        if s.optimal {
-            " (proven optimal)".to_string()
+fn figure_header(cfg: &Config, s: &ik::Solution) -> figure::Header {
+    figure::Header {
+        algorithm: cfg.algorithm.name().to_string(),
+        target: describe_target(cfg),
+        metric: cfg.metric.name().to_string(),
+        rms: s.rms,
+        status: if s.optimal {
+            "proven optimal".to_string()
         } else if let Some(gap) = s.gap {
-            format!(" (≤ {:.2} % above the optimum)", 100.0 * gap)
+            format!("≤ {:.2} % above the optimum", 100.0 * gap)
         } else {
             String::new()
-        }
-    )
+        },
+    }
 }
 
 fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {

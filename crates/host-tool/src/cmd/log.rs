@@ -12,6 +12,9 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 use crate::failure::Failure;
+use crate::figure::Format;
+
+mod plot;
 
 /// Arguments of `host-tool log`.
 #[derive(Debug, clap::Args)]
@@ -36,13 +39,17 @@ pub enum LogCommand {
         #[arg(long, value_name = "DIR")]
         csv: PathBuf,
     },
-    /// Pressure and servo traces with the snap-throughs marked, as SVG.
+    /// Pressure and servo traces with the snap-throughs marked, one journal column wide:
+    /// SVG, PNG (600 dpi) or PDF, by the extension of --out or by --format.
     Plot {
         /// The MCAP file.
         file: PathBuf,
-        /// The SVG to write.
-        #[arg(long, value_name = "FIG.svg")]
+        /// The figure to write: FIG.svg, FIG.png or FIG.pdf.
+        #[arg(long, value_name = "FIG")]
         out: PathBuf,
+        /// The format (svg, png, pdf) when the extension of --out does not name one.
+        #[arg(long, value_name = "FORMAT")]
+        format: Option<String>,
     },
     /// Rewrites a recording whose writer died (no summary) as a complete file.
     Recover {
@@ -149,7 +156,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     match args.command {
         LogCommand::Summary { file } => summary(&file),
         LogCommand::Export { file, csv } => export(&file, &csv),
-        LogCommand::Plot { file, out } => plot(&file, &out),
+        LogCommand::Plot { file, out, format } => plot(&file, &out, format.as_deref()),
         LogCommand::Recover { file, out } => recover(&file, &out),
     }
 }
@@ -347,328 +354,64 @@ fn recover(path: &Path, out: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
-// ---------------------------------------------------------------------------------------------
-// Plot
-// ---------------------------------------------------------------------------------------------
-
-const W: f64 = 960.0;
-const LEFT: f64 = 78.0;
-const RIGHT: f64 = 24.0;
-const PANEL_H: f64 = 230.0;
-const TOP: f64 = 64.0;
-const GAP: f64 = 56.0;
-
-/// "Nice" tick positions from at or below `lo` to at or above `hi`.
-fn ticks(lo: f64, hi: f64, target: usize) -> Vec<f64> {
-    let span = (hi - lo).max(1e-9);
-    let raw = span / target as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 2.5, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| span / s <= target as f64 + 0.5)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step + 1e-9).floor() as i64;
-    let last = (hi / step - 1e-9).ceil() as i64;
-    (first..=last.max(first + 1))
-        .map(|i| i as f64 * step)
-        .collect()
-}
-
-fn fmt_tick(v: f64, step: f64) -> String {
-    let decimals = if step >= 1.0 {
-        0
-    } else {
-        (-step.log10().floor()) as usize
-    };
-    format!("{v:.decimals$}")
-}
-
-struct Panel {
-    y0: f64,
-    lo: f64,
-    hi: f64,
-}
-
-impl Panel {
-    fn y(&self, v: f64) -> f64 {
-        self.y0 + PANEL_H - (v - self.lo) / (self.hi - self.lo) * PANEL_H
+/// The format of `--out`: `--format`, else its extension; the two must agree.
+fn figure_format(out: &Path, format: Option<&str>) -> Result<Format, Failure> {
+    let by_name = Format::from_path(out);
+    match format {
+        Some(f) => {
+            let f = Format::parse(f).map_err(|e| Failure::usage(format!("--format: {e}")))?;
+            match by_name {
+                Some(e) if e != f => Err(Failure::usage(format!(
+                    "--format {} contradicts --out {} (a .{} name); give one of them",
+                    f.name(),
+                    out.display(),
+                    e.name()
+                ))),
+                _ => Ok(f),
+            }
+        }
+        None => by_name.ok_or_else(|| {
+            Failure::usage(format!(
+                "cannot tell the figure format of --out {}: name it .svg, .png or .pdf, or give --format ({})",
+                out.display(),
+                Format::NAMES
+            ))
+        }),
     }
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
-fn plot(path: &Path, out: &Path) -> Result<(), Failure> {
-    let log = load(path)?;
-    let tel: Vec<(f64, f64, [f64; 3])> = log
-        .topic("/telemetry")
-        .filter_map(|m| {
-            let p = m.data["pressure_kpa"].as_f64()?;
-            let s = &m.data["servo_deg"];
-            Some((
-                secs(m.log_ns),
-                p,
-                [s[0].as_f64()?, s[1].as_f64()?, s[2].as_f64()?],
-            ))
-        })
-        .collect();
-    if tel.len() < 2 {
+fn plot(path: &Path, out: &Path, format: Option<&str>) -> Result<(), Failure> {
+    let format = figure_format(out, format)?;
+    let file = super::output::open_all(&[("--out", out)])?;
+    let log = match load(path) {
+        Ok(log) => log,
+        Err(e) => {
+            super::output::discard(file);
+            return Err(e);
+        }
+    };
+    let t = plot::traces(&log);
+    let Some(fig) = plot::render(&t, &plot::title(path, &log)) else {
+        super::output::discard(file);
         return Err(Failure::Runtime(anyhow::anyhow!(
-            "{} has {} telemetry sample(s) on /telemetry: nothing to plot",
+            "{} has {} telemetry sample{} on /telemetry: nothing to plot",
             path.display(),
-            tel.len()
+            t.telemetry.len(),
+            if t.telemetry.len() == 1 { "" } else { "s" }
         )));
-    }
-    let truth: Vec<(f64, f64, u64)> = log
-        .topic("/sim/truth")
-        .filter_map(|m| {
-            Some((
-                secs(m.log_ns),
-                m.data["pressure_kpa"].as_f64()?,
-                m.data["snaps"].as_u64()?,
-            ))
-        })
-        .collect();
-    // Snap-throughs: the simulator's count going up (true), the device's confirmed states.
-    let true_snaps: Vec<f64> = truth
-        .windows(2)
-        .filter(|w| w[1].2 > w[0].2)
-        .map(|w| w[1].0)
-        .collect();
-    let reached: Vec<(f64, String)> = log
-        .topic("/events")
-        .filter(|m| m.data["kind"] == "state-reached")
-        .filter(|m| m.data["event"]["StateReached"]["confirmed"] == true)
-        .map(|m| {
-            (
-                secs(m.log_ns),
-                m.data["text"]
-                    .as_str()
-                    .unwrap_or("")
-                    .trim_start_matches("state ")
-                    .to_string(),
-            )
-        })
-        .collect();
-    let t1 = tel[tel.len() - 1].0;
-    let t0 = ticks(tel[0].0, t1, 10)[0];
-    let xt: Vec<f64> = ticks(t0, t1, 10)
-        .into_iter()
-        .filter(|t| *t >= t0 - 1e-9 && *t <= t1 + 1e-9)
-        .collect();
-    let x = |t: f64| LEFT + (t - t0) / (t1 - t0).max(1e-9) * (W - LEFT - RIGHT);
-
-    let pmax = tel
-        .iter()
-        .map(|s| s.1)
-        .chain(truth.iter().map(|s| s.1))
-        .fold(0.0f64, f64::max);
-    let pmin = tel
-        .iter()
-        .map(|s| s.1)
-        .chain(truth.iter().map(|s| s.1))
-        .fold(0.0f64, f64::min);
-    let pt = ticks(pmin, pmax.max(1.0) * 1.05, 6);
-    let pressure = Panel {
-        y0: TOP,
-        lo: pt[0],
-        hi: *pt.last().expect("ticks"),
     };
-    let smin = tel.iter().flat_map(|s| s.2).fold(0.0f64, f64::min);
-    let smax = tel.iter().flat_map(|s| s.2).fold(0.0f64, f64::max);
-    let st = ticks(smin.min(0.0), smax.max(10.0), 6);
-    let servo = Panel {
-        y0: TOP + PANEL_H + GAP,
-        lo: st[0],
-        hi: *st.last().expect("ticks"),
-    };
-    let h = servo.y0 + PANEL_H + 110.0;
-
-    let mut svg = String::new();
-    let _ = writeln!(
-        svg,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" viewBox="0 0 {W} {h}" font-family="DejaVu Sans, Helvetica, Arial, sans-serif" font-size="12">"#
-    );
-    let _ = writeln!(svg, r#"<rect width="{W}" height="{h}" fill="white"/>"#);
-    let title = log
-        .metadata
-        .iter()
-        .find_map(|(_, m)| m.get("device").map(|d| format!("{} — {d}", path.display())))
-        .unwrap_or_else(|| path.display().to_string());
-    let _ = writeln!(
-        svg,
-        r#"<text x="{LEFT}" y="24" font-size="15" font-weight="bold">{}</text>"#,
-        esc(&title)
-    );
-    let _ = writeln!(
-        svg,
-        r##"<text x="{LEFT}" y="44" fill="#555555">{} telemetry samples over {:.2} s of device time; vertical lines: snap-throughs</text>"##,
-        tel.len(),
-        t1 - t0
-    );
-
-    let panels: [(&Panel, &[f64], &str); 2] = [
-        (&pressure, &pt, "pressure (kPa)"),
-        (&servo, &st, "servo command (°)"),
-    ];
-    for (p, yt, label) in panels {
-        let (x0, x1) = (LEFT, W - RIGHT);
-        let ystep = if yt.len() > 1 { yt[1] - yt[0] } else { 1.0 };
-        for &v in yt {
-            let y = p.y(v);
-            let _ = writeln!(
-                svg,
-                "<line x1=\"{x0}\" y1=\"{y:.1}\" x2=\"{x1}\" y2=\"{y:.1}\" stroke=\"#e4e4e4\"/>\
-                 <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>",
-                x0 - 6.0,
-                y + 4.0,
-                fmt_tick(v, ystep)
-            );
-        }
-        let xstep = if xt.len() > 1 { xt[1] - xt[0] } else { 1.0 };
-        for &t in &xt {
-            let xx = x(t);
-            let yb = p.y0 + PANEL_H;
-            let _ = writeln!(
-                svg,
-                "<line x1=\"{xx:.1}\" y1=\"{:.1}\" x2=\"{xx:.1}\" y2=\"{yb:.1}\" stroke=\"#f0f0f0\"/>\
-                 <line x1=\"{xx:.1}\" y1=\"{yb:.1}\" x2=\"{xx:.1}\" y2=\"{:.1}\" stroke=\"black\"/>\
-                 <text x=\"{xx:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
-                p.y0,
-                yb + 5.0,
-                yb + 18.0,
-                fmt_tick(t, xstep)
-            );
-        }
-        let _ = writeln!(
-            svg,
-            "<rect x=\"{x0}\" y=\"{}\" width=\"{}\" height=\"{PANEL_H}\" fill=\"none\" stroke=\"black\"/>",
-            p.y0,
-            x1 - x0
-        );
-        let cy = p.y0 + PANEL_H / 2.0;
-        let _ = writeln!(
-            svg,
-            "<text transform=\"translate(22 {cy:.1}) rotate(-90)\" text-anchor=\"middle\" font-size=\"13\">{label}</text>"
-        );
-        let _ = writeln!(
-            svg,
-            "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\" font-size=\"13\">device time (s)</text>",
-            (x0 + x1) / 2.0,
-            p.y0 + PANEL_H + 36.0
-        );
-        // Snap markers over both panels.
-        for &t in &true_snaps {
-            let xx = x(t);
-            let _ = writeln!(
-                svg,
-                "<line x1=\"{xx:.1}\" y1=\"{}\" x2=\"{xx:.1}\" y2=\"{}\" stroke=\"#d62728\" stroke-width=\"1.2\"/>",
-                p.y0,
-                p.y0 + PANEL_H
-            );
-        }
-        for (t, _) in &reached {
-            let xx = x(*t);
-            let _ = writeln!(
-                svg,
-                "<line x1=\"{xx:.1}\" y1=\"{}\" x2=\"{xx:.1}\" y2=\"{}\" stroke=\"#2ca02c\" stroke-width=\"1.2\" stroke-dasharray=\"5 3\"/>",
-                p.y0,
-                p.y0 + PANEL_H
-            );
-        }
+    let bytes = fig
+        .encode(format)
+        .map_err(|e| anyhow::anyhow!("cannot draw {}: {e}", out.display()))?;
+    for o in file {
+        o.write(|w| w.write_all(&bytes))?;
     }
-    for (t, name) in &reached {
-        // Right of its line, or left of it near the right edge.
-        let (lx, anchor) = if x(*t) > W - RIGHT - 40.0 {
-            (x(*t) - 3.0, "end")
-        } else {
-            (x(*t) + 3.0, "start")
-        };
-        let _ = writeln!(
-            svg,
-            "<text x=\"{lx:.1}\" y=\"{:.1}\" fill=\"#2ca02c\" font-size=\"11\" text-anchor=\"{anchor}\">{}</text>",
-            pressure.y0 + 13.0,
-            esc(name)
-        );
-    }
-    let poly = |pts: &mut dyn Iterator<Item = (f64, f64)>| -> String {
-        let mut s = String::new();
-        for (a, b) in pts {
-            let _ = write!(s, "{a:.1},{b:.1} ");
-        }
-        s
-    };
-    if !truth.is_empty() {
-        let pts = poly(
-            &mut truth
-                .iter()
-                .filter(|s| s.0 >= t0 && s.0 <= t1)
-                .map(|s| (x(s.0), pressure.y(s.1))),
-        );
-        let _ = writeln!(
-            svg,
-            "<polyline points=\"{pts}\" fill=\"none\" stroke=\"#999\" stroke-width=\"1\" stroke-dasharray=\"3 2\"/>"
-        );
-    }
-    let pts = poly(&mut tel.iter().map(|s| (x(s.0), pressure.y(s.1))));
-    let _ = writeln!(
-        svg,
-        "<polyline points=\"{pts}\" fill=\"none\" stroke=\"#1f77b4\" stroke-width=\"1.6\"/>"
-    );
-    let colours = ["#ff7f0e", "#9467bd", "#17becf"];
-    for (k, c) in colours.iter().enumerate() {
-        let pts = poly(&mut tel.iter().map(|s| (x(s.0), servo.y(s.2[k]))));
-        let _ = writeln!(
-            svg,
-            "<polyline points=\"{pts}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"1.6\"/>"
-        );
-    }
-    // Legend.
-    let mut entries: Vec<(&str, &str, &str)> = vec![("measured pressure", "#1f77b4", "")];
-    if !truth.is_empty() {
-        entries.push(("true pressure (simulator)", "#999", "3 2"));
-    }
-    entries.extend([
-        ("servo 1", colours[0], ""),
-        ("servo 2", colours[1], ""),
-        ("servo 3", colours[2], ""),
-    ]);
-    if !true_snaps.is_empty() {
-        entries.push(("snap-through (simulator truth)", "#d62728", ""));
-    }
-    entries.push(("state confirmed by the device", "#2ca02c", "5 3"));
-    let mut ly = h - 44.0;
-    let mut lx = LEFT;
-    for (name, colour, dash) in entries {
-        let width = 36.0 + 6.6 * name.chars().count() as f64;
-        if lx + width > W - RIGHT {
-            lx = LEFT;
-            ly += 20.0;
-        }
-        let _ = writeln!(
-            svg,
-            "<line x1=\"{lx:.1}\" y1=\"{:.1}\" x2=\"{:.1}\" y2=\"{:.1}\" stroke=\"{colour}\" stroke-width=\"2\" stroke-dasharray=\"{dash}\"/>\
-             <text x=\"{:.1}\" y=\"{ly:.1}\">{}</text>",
-            ly - 4.0,
-            lx + 22.0,
-            ly - 4.0,
-            lx + 27.0,
-            esc(name)
-        );
-        lx += width;
-    }
-    svg.push_str("</svg>\n");
-    std::fs::write(out, svg).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
     crate::out!(
         "{}: {} samples, {} snap-throughs, {} confirmed states",
         out.display(),
-        tel.len(),
-        true_snaps.len(),
-        reached.len()
+        t.telemetry.len(),
+        t.snaps.len(),
+        t.reached.len()
     );
     Ok(())
 }
@@ -676,21 +419,6 @@ fn plot(path: &Path, out: &Path) -> Result<(), Failure> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn ticks_cover_the_range_with_round_steps() {
-        let t = ticks(0.0, 10.2, 10);
-        assert_eq!(t.first(), Some(&0.0));
-        assert!(
-            *t.last().unwrap() >= 10.2 && *t.last().unwrap() <= 12.0,
-            "{t:?}"
-        );
-        let t = ticks(0.0, 31.7, 6);
-        assert_eq!(t[1] - t[0], 5.0, "{t:?}");
-        assert_eq!(t.last(), Some(&35.0), "{t:?}");
-        let t = ticks(-0.2, 30.0, 6);
-        assert!(t[0] <= -0.2 && *t.last().unwrap() >= 30.0, "{t:?}");
-    }
 
     #[test]
     fn nested_values_flatten_to_columns() {

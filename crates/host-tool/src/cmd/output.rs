@@ -21,11 +21,6 @@ pub fn is_stdout(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
-/// Opens one output (`-`: stdout) before the work, as [`open_all`].
-pub fn open_one(flag: &'static str, path: &Path) -> Result<Output, Failure> {
-    Ok(open_all(&[(flag, path)])?.remove(0))
-}
-
 /// Opens every `(flag, path)` for writing; on the first failure removes the files this call
 /// created and returns a usage error naming the flag and the reason.
 pub fn open_all(list: &[(&'static str, &Path)]) -> Result<Vec<Output>, Failure> {

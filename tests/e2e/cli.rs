@@ -75,17 +75,22 @@ fn a_refused_plan_names_the_step_what_it_needs_the_limit_and_how_to_change_it() 
     );
 }
 
-#[test]
-fn monitor_restores_the_telemetry_rate_when_its_stdout_closes() {
-    let sim = hil_sim_pty(&["--sim-speed", "5"]);
-    assert_eq!(telemetry_hz(&sim.path), 10.0);
-    let mut mon = Command::new(binary("host-tool"))
-        .args(["monitor", "-p", &sim.path, "--rate", "25"])
+/// `host-tool monitor` at 25 Hz on `port`, its output piped.
+fn monitor(port: &str) -> std::process::Child {
+    Command::new(binary("host-tool"))
+        .args(["monitor", "-p", port, "--rate", "25"])
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("monitor starts");
+        .expect("monitor starts")
+}
+
+#[test]
+fn monitor_restores_the_telemetry_rate_when_its_stdout_closes() {
+    let sim = hil_sim_pty(&["--sim-speed", "5"]);
+    assert_eq!(telemetry_hz(&sim.path), 10.0);
+    let mut mon = monitor(&sim.path);
     {
         // `| head -2`: two lines read, then the pipe closes.
         let mut lines = BufReader::new(mon.stdout.take().expect("stdout")).lines();
@@ -122,13 +127,7 @@ fn monitor_restores_the_telemetry_rate_when_its_stdout_closes() {
 #[test]
 fn monitor_restores_the_telemetry_rate_on_ctrl_c_and_exits_130() {
     let sim = hil_sim_pty(&["--sim-speed", "5"]);
-    let mut mon = Command::new(binary("host-tool"))
-        .args(["monitor", "-p", &sim.path, "--rate", "25"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("monitor starts");
+    let mut mon = monitor(&sim.path);
     let mut lines = BufReader::new(mon.stdout.take().expect("stdout")).lines();
     // Its header and a first sample: the rate is set.
     for _ in 0..2 {

@@ -294,8 +294,8 @@ fn an_output_file_is_checked_before_the_solve_and_dash_is_stdout() {
     assert_eq!(out.status.code(), Some(2));
 }
 
-#[test]
-fn a_target_file_dash_reads_stdin_and_one_point_is_one_point() {
+/// `host-tool ik` for m modules with the target CSV on stdin (`--target-file -`).
+fn ik_from_stdin(modules: &str, csv: &[u8]) -> Output {
     let mut child = cmd()
         .args([
             "ik",
@@ -304,7 +304,7 @@ fn a_target_file_dash_reads_stdin_and_one_point_is_one_point() {
             "--beta",
             "35",
             "--modules",
-            "2",
+            modules,
             "--target-file",
             "-",
         ])
@@ -317,40 +317,21 @@ fn a_target_file_dash_reads_stdin_and_one_point_is_one_point() {
         .stdin
         .take()
         .expect("stdin")
-        .write_all(b"x,y,z\n0,0,1\n0,0,2\n")
+        .write_all(csv)
         .expect("write stdin");
-    let out = child.wait_with_output().expect("host-tool ends");
+    child.wait_with_output().expect("host-tool ends")
+}
+
+#[test]
+fn a_target_file_dash_reads_stdin_and_one_point_is_one_point() {
+    let out = ik_from_stdin("2", b"x,y,z\n0,0,1\n0,0,2\n");
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     assert!(
         text(&out.stdout).contains("(2 points,"),
         "{}",
         text(&out.stdout)
     );
-
-    let mut child = cmd()
-        .args([
-            "ik",
-            "--n",
-            "4",
-            "--beta",
-            "35",
-            "--modules",
-            "1",
-            "--target-file",
-            "-",
-        ])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("host-tool runs");
-    child
-        .stdin
-        .take()
-        .expect("stdin")
-        .write_all(b"0,0,1\n")
-        .expect("write stdin");
-    let out = child.wait_with_output().expect("host-tool ends");
+    let out = ik_from_stdin("1", b"0,0,1\n");
     let table = text(&out.stdout);
     if out.status.code() == Some(0) {
         assert!(table.contains("(1 point,"), "{table}");

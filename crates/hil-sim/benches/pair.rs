@@ -1,8 +1,10 @@
 //! Whole-system speed on one core: the host engine, the controller and the physics in-process
 //! on one virtual clock (`hil_sim::pair`). Prints the wall time of all 36 (initial, target)
-//! plans (median of 5) and the simulation speed (virtual time / wall time).
+//! plans (median of 5) and the simulation speed (virtual time / wall time), and beside it the
+//! speed per second of this process's own CPU time (`/proc/self/schedstat`): on a shared machine
+//! the wall figure counts the time other processes had the core.
 //!
-//! `cargo bench -p hil-sim --bench pair`
+//! `taskset -c 0 cargo bench -p hil-sim --bench pair`
 
 use std::time::Instant;
 
@@ -12,7 +14,14 @@ use hil_sim::SimOptions;
 use host::RunOptions;
 use planner::graph::Graph;
 
-fn all_36() -> (f64, u64) {
+/// Nanoseconds this process has run on a CPU (Linux), if known.
+fn cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+fn all_36() -> (f64, u64, Option<f64>) {
+    let cpu0 = cpu_ns();
     let start = Instant::now();
     let mut virtual_ms = 0;
     for from in TrunkState::ALL {
@@ -33,13 +42,17 @@ fn all_36() -> (f64, u64) {
             virtual_ms += p.io.sim.now_ms();
         }
     }
-    (start.elapsed().as_secs_f64(), virtual_ms)
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu0.zip(cpu_ns()).map(|(a, b)| (b - a) as f64 * 1e-9);
+    (wall, virtual_ms, cpu)
 }
 
 fn main() {
-    let mut runs: Vec<(f64, u64)> = (0..5).map(|_| all_36()).collect();
+    let mut runs: Vec<(f64, u64, Option<f64>)> = (0..5).map(|_| all_36()).collect();
+    let mut cpus: Vec<f64> = runs.iter().filter_map(|r| r.2).collect();
+    cpus.sort_by(f64::total_cmp);
     runs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (wall_s, virtual_ms) = runs[2];
+    let (wall_s, virtual_ms, _) = runs[2];
     println!(
         "all 36 plans in-process (one core): {:.3} s wall, median of 5 (min {:.3}, max {:.3}); \
          {:.1} s virtual: {:.0}× real time",
@@ -49,9 +62,23 @@ fn main() {
         virtual_ms as f64 / 1000.0,
         virtual_ms as f64 / 1000.0 / wall_s
     );
+    if cpus.len() == 5 {
+        println!(
+            "  per CPU second of this process: {:.3} s, median of 5 (min {:.3}, max {:.3}): {:.0}× \
+             (min {:.0}×, max {:.0}×)",
+            cpus[2],
+            cpus[0],
+            cpus[4],
+            virtual_ms as f64 / 1000.0 / cpus[2],
+            virtual_ms as f64 / 1000.0 / cpus[4],
+            virtual_ms as f64 / 1000.0 / cpus[0]
+        );
+    }
+    let cpu0 = cpu_ns();
     let start = Instant::now();
     let rep = hil_sim::swarm::swarm(0, 500, 1);
     let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu0.zip(cpu_ns()).map(|(a, b)| (b - a) as f64 * 1e-9);
     println!(
         "swarm, 500 scenarios on one core: {:.2} virtual hours in {:.2} s: {:.0}× real time \
          (invariants checked every step); {} violation(s)",
@@ -60,4 +87,10 @@ fn main() {
         rep.virtual_ms as f64 / 1000.0 / wall,
         rep.violations.len()
     );
+    if let Some(cpu) = cpu {
+        println!(
+            "  per CPU second of this process: {cpu:.2} s: {:.0}×",
+            rep.virtual_ms as f64 / 1000.0 / cpu
+        );
+    }
 }

@@ -44,9 +44,14 @@ pub struct MultistableCurve {
     at_contact_n: f64,
 }
 
-/// The derived heights and slope of one barrier ([`MultistableCurve::barrier_span`]).
+/// The derived heights and slope of one barrier ([`MultistableCurve::barrier_span`]), with the
+/// shorter well's law beside them (what the force law reads in one place).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Span {
+    /// The shorter well.
+    lo: Well,
+    /// The tension barrier, N.
+    tension_n: f64,
     /// Height of the tension peak.
     peak_mm: f64,
     /// Height of the compression valley.
@@ -128,6 +133,8 @@ impl MultistableCurve {
                 });
             }
             spans.push(Span {
+                lo,
+                tension_n: b.tension_n,
                 peak_mm,
                 valley_mm,
                 slope_n_per_mm: -(b.tension_n + b.compression_n) / (valley_mm - peak_mm),
@@ -176,9 +183,11 @@ impl MultistableCurve {
                 self.contact_stiffness_n_per_mm,
             );
         }
-        for (i, s) in self.spans.iter().enumerate() {
-            let (lo, hi, b) = (self.wells[i], self.wells[i + 1], self.barriers[i]);
+        // Past barrier i's valley, h is on well i + 1's branch up to the next peak: the next
+        // span's (or, after the last, the last well's) law.
+        for s in &self.spans {
             if h_mm <= s.peak_mm {
+                let lo = s.lo;
                 return (
                     lo.stiffness_n_per_mm * (h_mm - lo.height_mm),
                     lo.stiffness_n_per_mm,
@@ -186,13 +195,7 @@ impl MultistableCurve {
             }
             if h_mm < s.valley_mm {
                 let slope = s.slope_n_per_mm;
-                return (b.tension_n + slope * (h_mm - s.peak_mm), slope);
-            }
-            if i + 1 == self.spans.len() || h_mm <= self.spans[i + 1].peak_mm {
-                return (
-                    hi.stiffness_n_per_mm * (h_mm - hi.height_mm),
-                    hi.stiffness_n_per_mm,
-                );
+                return (s.tension_n + slope * (h_mm - s.peak_mm), slope);
             }
         }
         let last = self.wells[self.wells.len() - 1];

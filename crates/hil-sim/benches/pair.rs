@@ -1,8 +1,8 @@
 //! Whole-system speed on one core: the host engine, the controller and the physics in-process
 //! on one virtual clock (`hil_sim::pair`). Prints the wall time of all 36 (initial, target)
 //! plans (median of 5) and the simulation speed (virtual time / wall time), and beside it the
-//! speed per second of this process's own CPU time (`/proc/self/schedstat`): on a shared machine
-//! the wall figure counts the time other processes had the core.
+//! speed per second of this process's own CPU time (Linux `/proc`): on a shared machine the wall
+//! figure counts the time other processes had the core.
 //!
 //! `taskset -c 0 cargo bench -p hil-sim --bench pair`
 
@@ -14,10 +14,21 @@ use hil_sim::SimOptions;
 use host::RunOptions;
 use planner::graph::Graph;
 
-/// Nanoseconds this process has run on a CPU (Linux), if known.
+/// Nanoseconds this (main) thread has run on a CPU (Linux), if known.
 fn cpu_ns() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/schedstat").ok()?;
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
     s.split_whitespace().next()?.parse().ok()
+}
+
+/// CPU seconds of the whole process, every thread (Linux; user + system, in clock ticks of
+/// 10 ms), if known.
+fn process_cpu_s() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses): utime is the 12th, stime the 13th.
+    let rest = s.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: u64 = f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?;
+    Some(ticks as f64 / 100.0)
 }
 
 fn all_36() -> (f64, u64, Option<f64>) {
@@ -74,11 +85,11 @@ fn main() {
             virtual_ms as f64 / 1000.0 / cpus[0]
         );
     }
-    let cpu0 = cpu_ns();
+    let cpu0 = process_cpu_s();
     let start = Instant::now();
     let rep = hil_sim::swarm::swarm(0, 500, 1);
     let wall = start.elapsed().as_secs_f64();
-    let cpu = cpu0.zip(cpu_ns()).map(|(a, b)| (b - a) as f64 * 1e-9);
+    let cpu = cpu0.zip(process_cpu_s()).map(|(a, b)| b - a);
     println!(
         "swarm, 500 scenarios on one core: {:.2} virtual hours in {:.2} s: {:.0}× real time \
          (invariants checked every step); {} violation(s)",

@@ -22,6 +22,9 @@
 
 use serde::{de::DeserializeOwned, Serialize};
 
+use crate::codec::{Reader, Writer};
+use crate::messages::{DeviceMessage, Request};
+
 /// Largest encoded frame, delimiter included. The decoder drops anything longer.
 pub const MAX_FRAME_LEN: usize = 512;
 /// Largest payload (postcard bytes plus the 4-byte CRC) that fits in [`MAX_FRAME_LEN`]: COBS
@@ -127,8 +130,26 @@ pub fn encode<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, FrameError
     let used = postcard::to_slice(msg, &mut raw[..MAX_RAW_LEN - CRC_LEN])
         .map_err(|_| FrameError::TooLong)?
         .len();
-    let crc = crc32(&raw[..used]).to_le_bytes();
-    raw[used..used + CRC_LEN].copy_from_slice(&crc);
+    stuff(&mut raw, used, out)
+}
+
+/// [`encode`] for a [`DeviceMessage`] through the hand-written codec ([`crate::codec`]): the
+/// same bytes, without serde (the device's path).
+pub fn encode_device_message(msg: &DeviceMessage, out: &mut [u8]) -> Result<usize, FrameError> {
+    let mut raw = [0u8; MAX_RAW_LEN];
+    let mut w = Writer::new(&mut raw[..MAX_RAW_LEN - CRC_LEN]);
+    msg.encode(&mut w);
+    let used = w.written().ok_or(FrameError::TooLong)?;
+    stuff(&mut raw, used, out)
+}
+
+/// `raw[..used]`: a payload; appends its CRC and writes the frame into `out`.
+fn stuff(raw: &mut [u8; MAX_RAW_LEN], used: usize, out: &mut [u8]) -> Result<usize, FrameError> {
+    let payload = raw.get(..used).ok_or(FrameError::TooLong)?;
+    let crc = crc32(payload).to_le_bytes();
+    raw.get_mut(used..used + CRC_LEN)
+        .ok_or(FrameError::TooLong)?
+        .copy_from_slice(&crc);
     let raw_len = used + CRC_LEN;
     // `try_encode` bounds-checks every write (`cobs::encode` would panic on a short buffer);
     // no worst-case pre-check, so a buffer exactly the frame's length is enough. cobs 0.3
@@ -180,6 +201,31 @@ fn decode_stuffed<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError
 /// `raw`: one unstuffed frame, more than [`CRC_LEN`] bytes long; `crc`: the CRC of all but its
 /// last [`CRC_LEN`] bytes, which must equal them (little-endian).
 fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T, FrameError> {
+    let payload = checked_payload(raw, crc)?;
+    // An empty remainder is required: a frame carries exactly one message, so trailing bytes
+    // mean a sender bug and are refused rather than silently ignored. (The deserialiser by
+    // hand rather than `take_from_bytes`: the message is not moved through a tuple, one
+    // ~500-byte memcpy less on the M4 for a plan.)
+    let mut de = postcard::Deserializer::from_bytes(payload);
+    let msg = T::deserialize(&mut de).map_err(|_| FrameError::Payload)?;
+    match de.finalize() {
+        Ok([]) => Ok(msg),
+        _ => Err(FrameError::Payload),
+    }
+}
+
+/// [`check_and_deserialize`] for a [`Request`] read into `out` by the hand-written codec.
+fn check_and_read_request(raw: &[u8], crc: u32, out: &mut Request) -> Result<(), FrameError> {
+    let mut r = Reader::new(checked_payload(raw, crc)?);
+    out.decode_into(&mut r).map_err(|_| FrameError::Payload)?;
+    match r.rest() {
+        [] => Ok(()),
+        _ => Err(FrameError::Payload),
+    }
+}
+
+/// The payload of `raw` (see [`check_and_deserialize`]) when its CRC checks out.
+fn checked_payload(raw: &[u8], crc: u32) -> Result<&[u8], FrameError> {
     let Some((payload, check)) = raw
         .split_last_chunk::<CRC_LEN>()
         .filter(|(p, _)| !p.is_empty())
@@ -193,16 +239,7 @@ fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T,
     if crc.to_le_bytes() != *check {
         return Err(legacy_or_crc(raw));
     }
-    // An empty remainder is required: a frame carries exactly one message, so trailing bytes
-    // mean a sender bug and are refused rather than silently ignored. (The deserialiser by
-    // hand rather than `take_from_bytes`: the message is not moved through a tuple, one
-    // ~500-byte memcpy less on the M4 for a plan.)
-    let mut de = postcard::Deserializer::from_bytes(payload);
-    let msg = T::deserialize(&mut de).map_err(|_| FrameError::Payload)?;
-    match de.finalize() {
-        Ok([]) => Ok(msg),
-        _ => Err(FrameError::Payload),
-    }
+    Ok(payload)
 }
 
 /// Longest frame checked for being protocol v1's: a v1 `Hello`, heartbeat or status answer is
@@ -359,7 +396,19 @@ impl FrameDecoder {
             self.accept(byte);
             return None;
         }
-        self.finish()
+        self.finish(check_and_deserialize)
+    }
+
+    /// [`FrameDecoder::push`] for a [`Request`], read by the hand-written codec
+    /// ([`Request::decode_into`]) into `out`, where it lies (the device's path): the same
+    /// results and counters, `Some(Ok(()))` when `out` holds a new request.
+    #[inline]
+    pub fn push_request(&mut self, byte: u8, out: &mut Request) -> Option<Result<(), FrameError>> {
+        if byte != 0 {
+            self.accept(byte);
+            return None;
+        }
+        self.finish(|raw, crc| check_and_read_request(raw, crc, out))
     }
 
     /// A non-zero byte: the per-byte work, kept small (it runs for every byte received).
@@ -379,7 +428,10 @@ impl FrameDecoder {
     /// The delimiter: checks and deserialises the frame, counts the result, starts afresh.
     /// Out of line so that the per-byte path stays lean where `push` is inlined.
     #[inline(never)]
-    fn finish<T: DeserializeOwned>(&mut self) -> Option<Result<T, FrameError>> {
+    fn finish<T>(
+        &mut self,
+        read: impl FnOnce(&[u8], u32) -> Result<T, FrameError>,
+    ) -> Option<Result<T, FrameError>> {
         let stuffed = core::mem::replace(&mut self.stuffed, 0);
         let len = core::mem::replace(&mut self.len, 0);
         let run = core::mem::replace(&mut self.run, 0);
@@ -396,7 +448,7 @@ impl FrameDecoder {
             Err(FrameError::Cobs)
         } else {
             match self.buf.get(..len) {
-                Some(raw) => check_and_deserialize(raw, crc),
+                Some(raw) => read(raw, crc),
                 None => Err(FrameError::TooLong),
             }
         };

@@ -89,7 +89,7 @@ impl Controller {
         // Responses fit the cache-sized scratch (a status is under 100 bytes); the full-size
         // buffer is only a fallback, so no request can go unanswered.
         let mut scratch = [0u8; link::CACHE_LEN];
-        if let Ok(n) = protocol::encode(&msg, &mut scratch) {
+        if let Ok(n) = protocol::encode_device_message(&msg, &mut scratch) {
             self.cache.store(req.seq, fingerprint, &scratch[..n]);
             self.tx.push_frame(&scratch[..n], 0);
         } else {

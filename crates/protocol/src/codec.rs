@@ -100,27 +100,33 @@ impl<'a> Reader<'a> {
     }
 
     /// A `u16`.
-    #[inline(always)]
+    #[inline(never)]
     pub fn u16(&mut self) -> Read<u16> {
         self.varint::<3, 3>().map(|v| v as u16)
     }
 
     /// A `u32`.
-    #[inline(always)]
+    #[inline(never)]
     pub fn u32(&mut self) -> Read<u32> {
         self.varint::<5, 15>()
     }
 
     /// A sequence length (`usize`), saturated to `u32::MAX`.
     #[inline(always)]
-    pub fn len(&mut self) -> Read<u32> {
+    pub fn seq_len(&mut self) -> Read<u32> {
         self.varint::<{ USIZE_VARINT.0 }, { USIZE_VARINT.1 }>()
     }
 
     /// A variant index below `variants`.
-    #[inline(always)]
+    #[inline(never)]
     pub fn variant(&mut self, variants: u32) -> Read<u32> {
-        match self.u32()? {
+        self.hot_variant(variants)
+    }
+
+    /// [`Reader::variant`] inlined, for the reads a plan repeats (per step and per primitive).
+    #[inline(always)]
+    fn hot_variant(&mut self, variants: u32) -> Read<u32> {
+        match self.varint::<5, 15>()? {
             i if i < variants => Ok(i),
             _ => Err(Invalid),
         }
@@ -145,11 +151,11 @@ impl<'a> Reader<'a> {
 
     /// A [`TrunkState`].
     pub fn trunk_state(&mut self) -> Read<TrunkState> {
-        let top = match self.variant(2)? {
+        let top = match self.hot_variant(2)? {
             0 => TopState::Folded,
             _ => TopState::Deployed,
         };
-        let bottom = match self.variant(3)? {
+        let bottom = match self.hot_variant(3)? {
             0 => BottomState::Packed,
             1 => BottomState::Folded,
             _ => BottomState::Deployed,
@@ -173,7 +179,7 @@ impl<'a> Reader<'a> {
     }
 
     fn primitive(&mut self) -> Read<Primitive> {
-        Ok(match self.variant(9)? {
+        Ok(match self.hot_variant(9)? {
             0 => Primitive::Inflate {
                 pressure_kpa: self.f32()?,
                 snaps: self.byte()?,
@@ -207,7 +213,7 @@ impl<'a> Reader<'a> {
 
     /// A sequence length that fits `capacity`.
     fn len_within(&mut self, capacity: usize) -> Read<usize> {
-        match self.len()? as usize {
+        match self.seq_len()? as usize {
             n if n <= capacity => Ok(n),
             _ => Err(Invalid),
         }
@@ -215,7 +221,7 @@ impl<'a> Reader<'a> {
 
     /// A [`Step`], read into `step`.
     pub fn step_into(&mut self, step: &mut Step) -> Read<()> {
-        step.kind = match self.variant(3)? {
+        step.kind = match self.hot_variant(3)? {
             0 => StepKind::Pneumatic,
             1 => StepKind::Tendon,
             _ => StepKind::Manual,
@@ -254,12 +260,15 @@ const BLANK_STEP: Step = Step {
 };
 
 impl Request {
-    /// An empty request to read into ([`Request::decode_into`]).
-    pub const BLANK: Request = Request {
-        seq: 0,
-        session: 0,
-        body: RequestBody::GetStatus,
-    };
+    /// An empty request to read into ([`Request::decode_into`]). A function, not a `const`:
+    /// a const of this ~540-byte type is stored whole in flash and copied at each use.
+    pub fn blank() -> Request {
+        Request {
+            seq: 0,
+            session: 0,
+            body: RequestBody::GetStatus,
+        }
+    }
 
     /// Reads a request into `self` (a plan or a step into the slots already there when `self`
     /// holds one); on `Err` `self` is left partly written. Bytes after the request are left in

@@ -38,9 +38,6 @@ const MAX_STUFFED_LEN: usize = MAX_FRAME_LEN - 1;
 
 const CRC_ALGORITHM: &crc::Algorithm<u32> = &crc::CRC_32_ISO_HDLC;
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(CRC_ALGORITHM);
-/// Protocol v1's check, only to recognise an old peer's frames (bitwise: bad frames only).
-const LEGACY_CRC: crc::Crc<u16, crc::NoTable> =
-    crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_SDLC);
 
 // The streaming decoder keeps the CRC register itself (no indirection through a
 // `crc::Digest`'s pointer to the algorithm), from the `crc` crate's own table. Its update step
@@ -95,6 +92,25 @@ fn crc_step(register: u32, byte: u8) -> u32 {
     } else {
         crc_step_bytewise(register, byte)
     }
+}
+
+/// Protocol v1's check, CRC-16/IBM-SDLC (poly 0x1021 reflected, init 0xFFFF, final xor
+/// 0xFFFF), only to recognise an old peer's frames and to answer its `Hello`
+/// ([`crate::legacy`]): bit by bit (bad frames only), by hand rather than the `crc` crate's
+/// `NoTable` (3× the size on the board); a test holds it to the crate's.
+pub(crate) fn legacy_crc16(bytes: &[u8]) -> u16 {
+    let mut r = 0xFFFFu16;
+    for &b in bytes {
+        r ^= u16::from(b);
+        for _ in 0..8 {
+            r = if r & 1 != 0 {
+                (r >> 1) ^ 0x8408
+            } else {
+                r >> 1
+            };
+        }
+    }
+    !r
 }
 
 /// CRC-32/ISO-HDLC of `bytes` (as `crc::Crc::<u32>::checksum`).
@@ -255,7 +271,7 @@ fn legacy_or_crc(raw: &[u8]) -> FrameError {
     }
     match raw.split_last_chunk::<2>() {
         Some((payload, check))
-            if !payload.is_empty() && LEGACY_CRC.checksum(payload).to_le_bytes() == *check =>
+            if !payload.is_empty() && legacy_crc16(payload).to_le_bytes() == *check =>
         {
             FrameError::Legacy
         }
@@ -523,6 +539,26 @@ mod tests {
         for n in [0, 1, 2, 3, 4, 63, 64, 255, 511, 600] {
             assert_eq!(crc32(&bytes[..n]), CRC.checksum(&bytes[..n]), "{n} bytes");
         }
+    }
+
+    #[test]
+    fn the_legacy_crc_is_the_crates_ibm_sdlc() {
+        let crate_crc = crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_SDLC);
+        let mut x = 0x9E37_79B9u32;
+        let bytes: [u8; 70] = core::array::from_fn(|_| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as u8
+        });
+        for n in 0..=bytes.len() {
+            assert_eq!(
+                legacy_crc16(&bytes[..n]),
+                crate_crc.checksum(&bytes[..n]),
+                "{n} bytes"
+            );
+        }
+        assert_eq!(legacy_crc16(b"123456789"), 0x906E); // the catalogue's check value
     }
 
     #[test]

@@ -14,10 +14,8 @@
 //! postcard's wire form of v1's types (`tests/wire/legacy.rs` holds them to serde twins).
 
 use crate::codec::{v1_hello_seq, v1_refusal, Writer};
+use crate::frame::legacy_crc16;
 use crate::messages::DeviceInfo;
-
-const V1_CRC: crc::Crc<u16, crc::NoTable> =
-    crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_SDLC);
 
 /// When `raw` (an unstuffed frame with its CRC-16, as [`crate::FrameDecoder::last_frame`]
 /// gives it after a [`crate::FrameError::Legacy`]) is a v1 `Hello`, writes the v1 refusal
@@ -25,7 +23,7 @@ const V1_CRC: crc::Crc<u16, crc::NoTable> =
 /// length; `None` for anything else.
 pub fn refuse_v1_hello(raw: &[u8], info: &DeviceInfo, out: &mut [u8]) -> Option<usize> {
     let (payload, check) = raw.split_last_chunk::<2>()?;
-    if V1_CRC.checksum(payload).to_le_bytes() != *check {
+    if legacy_crc16(payload).to_le_bytes() != *check {
         return None;
     }
     let seq = v1_hello_seq(payload)?;
@@ -33,7 +31,7 @@ pub fn refuse_v1_hello(raw: &[u8], info: &DeviceInfo, out: &mut [u8]) -> Option<
     let mut w = Writer::new(&mut raw_out[..94]);
     v1_refusal(&mut w, seq, info);
     let used = w.written()?;
-    let crc = V1_CRC.checksum(&raw_out[..used]).to_le_bytes();
+    let crc = legacy_crc16(&raw_out[..used]).to_le_bytes();
     raw_out[used..used + 2].copy_from_slice(&crc);
     let n = cobs::try_encode(&raw_out[..used + 2], out).ok()?;
     if n >= out.len() {

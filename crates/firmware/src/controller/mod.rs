@@ -440,7 +440,7 @@ impl Controller {
         self.advance_clock(now_ms);
         // Read where it lies and borrowed from there: a `Request` is ~530 bytes, a move is a
         // memcpy on the M4.
-        let mut req = Request::BLANK;
+        let mut req = Request::blank();
         for &b in bytes {
             if b != 0 {
                 self.fingerprint = self.fingerprint.with(b);

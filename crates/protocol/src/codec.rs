@@ -3,10 +3,11 @@
 //! ([`DeviceMessage::encode`]), byte for byte as postcard with the serde derives does (the
 //! host keeps postcard and serde for everything).
 //!
-//! Why: on the board's Cortex-M4 the serde visitors of the message enums, monomorphised for
-//! postcard, were ≈ 5 KiB of the 40 KiB flash budget, and at `opt-level = "z"` (the size the
-//! budget needs) deserialising the largest plan through them took most of a 95 000-cycle loop
-//! pass (BENCHMARKS.md, "firmware board"). Here a plan is read straight into its slots.
+//! Why: on the board's Cortex-M4 the serde visitors and serialisers of the message types,
+//! monomorphised for postcard, were ≈ 5 KB of the image (this codec is ≈ 3 KB: 1.6 KiB saved),
+//! and at `opt-level = "z"` (the size the 40 KiB budget needs) deserialising the largest plan
+//! through them made a 95 000-cycle loop pass, 41 000 here (BENCHMARKS.md, "firmware board").
+//! A plan is read straight into its slots.
 //!
 //! The postcard wire form (postcard 1.x, its specification "wire format"): a struct or tuple is
 //! its fields in order; `u8` one byte; `u16`/`u32`/`usize` an unsigned LEB128 varint (at most

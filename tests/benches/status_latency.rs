@@ -1,6 +1,7 @@
 //! Round-trip latency of a `GetStatus` request over the simulator's pseudo-terminal: the
-//! simulator (real firmware controller inside) behind a pty, the client on the same serialport
-//! calls as `host-tool` (115200 8N1, 2 ms read timeout), one request in flight at a time.
+//! simulator (real firmware controller inside) behind a pty, the client the real host engine
+//! (`host::Driver`, one request in flight at a time) on the same serialport settings as
+//! `host-tool` (115200 8N1, 2 ms read timeout).
 //!
 //! `cargo bench -p e2e --bench status_latency [-- N]` (N requests, default 2000).
 
@@ -9,7 +10,32 @@ use std::time::{Duration, Instant};
 
 use hil_sim::pty::PtySim;
 use hil_sim::SimOptions;
-use protocol::{DeviceMessage, FrameDecoder, Request, RequestBody, ResponseBody, MAX_FRAME_LEN};
+use host::{Driver, Host, Timing};
+use protocol::ResponseBody;
+
+/// The port on the wall clock; a read returns after the port's timeout when nothing came.
+struct Port {
+    port: Box<dyn serialport::SerialPort>,
+    start: Instant,
+}
+
+impl host::Io for Port {
+    fn now_ms(&mut self) -> u64 {
+        self.start.elapsed().as_millis() as u64
+    }
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.port.write_all(bytes)
+    }
+    fn read(&mut self, _deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        let mut chunk = [0u8; 256];
+        match self.port.read(&mut chunk) {
+            Ok(n) => buf.extend_from_slice(&chunk[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+            Err(e) => return Err(e),
+        }
+        Ok(())
+    }
+}
 
 fn main() -> anyhow::Result<()> {
     let n: usize = std::env::args()
@@ -18,62 +44,32 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or(2000);
     let sim = PtySim::spawn(SimOptions::default())?;
     let path = sim.path().to_string_lossy().into_owned();
-    let mut port = serialport::new(&path, 115_200)
+    let port = serialport::new(&path, 115_200)
         .timeout(Duration::from_millis(2))
         .open()?;
-    let mut decoder = FrameDecoder::new();
-    let mut seq = 0u16;
-    let mut round_trip = |body: RequestBody| -> anyhow::Result<(Duration, ResponseBody)> {
-        seq = seq.wrapping_add(1);
-        let mut frame = [0u8; MAX_FRAME_LEN + 1];
-        let len = protocol::encode(
-            &Request {
-                seq,
-                // GetStatus is answered for anyone: no session needed.
-                session: 0,
-                body,
-            },
-            &mut frame[1..],
-        )
-        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-        let start = Instant::now();
-        port.write_all(&frame[..len + 1])?;
-        let mut buf = [0u8; 256];
-        loop {
-            if start.elapsed() > Duration::from_secs(2) {
-                anyhow::bail!("no response to seq {seq}");
-            }
-            let got = match port.read(&mut buf) {
-                Ok(k) => k,
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => 0,
-                Err(e) => return Err(e.into()),
-            };
-            for &b in &buf[..got] {
-                if let Some(Ok(DeviceMessage::Response { seq: s, body, .. })) =
-                    decoder.push::<DeviceMessage>(b)
-                {
-                    if s == seq {
-                        return Ok((start.elapsed(), body));
-                    }
-                }
-            }
-        }
+    let io = Port {
+        port,
+        start: Instant::now(),
     };
-    round_trip(RequestBody::hello())?;
+    let mut host = Driver::new(Host::new(Timing::standard(), 1), io);
+    host.connect()?;
     let mut rtts = Vec::with_capacity(n);
     for _ in 0..n {
-        let (rtt, body) = round_trip(RequestBody::GetStatus)?;
+        let start = Instant::now();
+        let body = host.command(protocol::RequestBody::GetStatus)?;
+        rtts.push(start.elapsed());
         anyhow::ensure!(
             matches!(body, ResponseBody::Status(_)),
             "not a status: {body:?}"
         );
-        rtts.push(rtt);
     }
+    let retries = host.host.session().stats().retries;
+    drop(host);
     rtts.sort();
     let pct = |p: f64| rtts[((rtts.len() - 1) as f64 * p).round() as usize];
     println!(
         "GetStatus round trip over the pty, {n} requests: median {:.3} ms, p99 {:.3} ms, \
-         min {:.3} ms, max {:.3} ms",
+         min {:.3} ms, max {:.3} ms; {retries} retries",
         pct(0.5).as_secs_f64() * 1e3,
         pct(0.99).as_secs_f64() * 1e3,
         rtts[0].as_secs_f64() * 1e3,

@@ -127,17 +127,40 @@ impl ServoPulse {
 pub struct ServoOutput<P> {
     pwm: P,
     pulse: ServoPulse,
+    /// The last duty computed and what it was computed from (the angle's bits, the channel's
+    /// full scale): the shell writes every step, the command changes far less often. Hosts
+    /// only (the simulator runs this shell for hours of virtual time); on the board the field
+    /// would cost ≈ 0.5 KiB of flash in the main loop's code, more than the budget leaves.
+    #[cfg(not(target_os = "none"))]
+    cached: (u32, u16, u16),
 }
 
 impl<P: SetDutyCycle> ServoOutput<P> {
     /// Wraps a PWM channel already running at [`SERVO_PWM_HZ`].
     pub fn new(pwm: P, pulse: ServoPulse) -> Self {
-        Self { pwm, pulse }
+        // Full scale 0 gives duty 0 for every angle: true of no channel until one is computed.
+        Self {
+            pwm,
+            pulse,
+            #[cfg(not(target_os = "none"))]
+            cached: (0, 0, 0),
+        }
     }
 
-    /// Commands `deg` (clamped to the servo's range).
+    /// Commands `deg` (clamped to the servo's range). The duty is written every call (a
+    /// glitched channel is corrected at once); on hosts it is recomputed only when `deg` or the
+    /// full scale changed.
     pub fn set_deg(&mut self, deg: f32) -> Result<(), P::Error> {
-        let duty = self.pulse.duty(deg, self.pwm.max_duty_cycle());
+        let max = self.pwm.max_duty_cycle();
+        #[cfg(not(target_os = "none"))]
+        let duty = {
+            if self.cached.0 != deg.to_bits() || self.cached.1 != max {
+                self.cached = (deg.to_bits(), max, self.pulse.duty(deg, max));
+            }
+            self.cached.2
+        };
+        #[cfg(target_os = "none")]
+        let duty = self.pulse.duty(deg, max);
         self.pwm.set_duty_cycle(duty)
     }
 

@@ -4,6 +4,7 @@
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 use std::convert::Infallible;
+use std::ops::RangeInclusive;
 use std::rc::Rc;
 
 use embedded_hal::digital::{ErrorKind, ErrorType, InputPin, OutputPin};
@@ -11,12 +12,10 @@ use embedded_hal::pwm::SetDutyCycle;
 use firmware::hw::{
     AnalogInput, PinInputs, PinOutputs, SegmentDisplay, ServoOutput, ServoPulse, Shell, StateStore,
 };
-use firmware::{CraneConfig, StoredState};
+use firmware::{Controller, CraneConfig, StoredState};
 use geometry::TrunkState;
-use protocol::{
-    DeviceMessage, Event, FrameDecoder, Mode, Request, RequestBody, ResponseBody, ResultCode,
-    MAX_FRAME_LEN,
-};
+use host::{Reply, RequestId, Session, SessionEvent, Timing};
+use protocol::{Event, Mode, RequestBody, ResponseBody, ResultCode};
 
 #[derive(Clone, Default)]
 struct Level(Rc<Cell<bool>>);
@@ -220,19 +219,63 @@ fn bench() -> (Bench, TheShell) {
     (b, shell)
 }
 
-fn send(link: &Link, seq: u16, session: u32, body: RequestBody) {
-    let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = protocol::encode(&Request { seq, session, body }, &mut buf).unwrap();
-    link.rx.borrow_mut().extend(&buf[..n]);
+/// The host on the link: the real host engine's session (crates/host), sending only what a
+/// test asks for, and what it was told.
+struct Host {
+    session: Session,
+    told: Vec<SessionEvent>,
 }
 
-fn received(link: &Link) -> Vec<DeviceMessage> {
-    let mut dec = FrameDecoder::new();
-    link.tx
-        .borrow()
-        .iter()
-        .filter_map(|&b| dec.push::<DeviceMessage>(b).and_then(Result::ok))
-        .collect()
+impl Host {
+    fn new() -> Self {
+        let mut session = Session::new(Timing::standard(), 1);
+        session.set_keepalive(false);
+        Self {
+            session,
+            told: Vec::new(),
+        }
+    }
+
+    /// Steps the shell through `ms`: the host's frames onto the link as it sends them, the
+    /// device's bytes into the host as they come, the host's timers.
+    fn run(
+        &mut self,
+        shell: &mut TheShell,
+        ctl: &mut Controller,
+        link: &Link,
+        ms: RangeInclusive<u64>,
+    ) {
+        for now in ms {
+            while let Some(frame) = self.session.poll_transmit() {
+                link.rx.borrow_mut().extend(frame);
+            }
+            shell.step(ctl, now);
+            let bytes = std::mem::take(&mut *link.tx.borrow_mut());
+            self.session.handle_bytes(&bytes, now);
+            if self.session.poll_timeout().is_some_and(|t| t <= now) {
+                self.session.handle_timeout(now);
+            }
+            self.told
+                .extend(std::iter::from_fn(|| self.session.poll_event()));
+        }
+    }
+
+    /// The handshake at `now`, then a `DeclareState` of `state` once it is open; returns the
+    /// request's id.
+    fn connect_and_declare(
+        &mut self,
+        shell: &mut TheShell,
+        ctl: &mut Controller,
+        link: &Link,
+        now: u64,
+        state: &str,
+    ) -> RequestId {
+        self.session.connect(now);
+        self.run(shell, ctl, link, now + 1..=now + 5);
+        assert!(self.session.is_open(), "{:?}", self.told);
+        self.session
+            .request(RequestBody::DeclareState(state.parse().unwrap()), now + 5)
+    }
 }
 
 #[test]
@@ -243,36 +286,36 @@ fn shell_boots_talks_and_drives_the_pins() {
     for now in 1..=10 {
         shell.step(&mut ctl, now);
     }
-    send(&b.link, 1, 0, RequestBody::hello());
-    for now in 11..=15 {
-        shell.step(&mut ctl, now);
-    }
-    send(
-        &b.link,
-        2,
-        ctl.session(),
-        RequestBody::DeclareState("F&F".parse().unwrap()),
-    );
-    for now in 16..=200 {
-        shell.step(&mut ctl, now);
-    }
-    let msgs = received(&b.link);
-    let responses: Vec<_> = msgs
+    let mut host = Host::new();
+    let declare = host.connect_and_declare(&mut shell, &mut ctl, &b.link, 10, "F&F");
+    host.run(&mut shell, &mut ctl, &b.link, 16..=200);
+    // Two answers, the handshake's and the declaration's, each once.
+    let answers: Vec<_> = host
+        .told
         .iter()
-        .filter_map(|m| match m {
-            DeviceMessage::Response { seq, result, body } => Some((*seq, *result, body.clone())),
-            _ => None,
-        })
+        .filter(|ev| !matches!(ev, SessionEvent::Device(_)))
         .collect();
-    assert_eq!(responses.len(), 2);
-    assert!(matches!(
-        responses[0],
-        (1, ResultCode::Ok, ResponseBody::Hello(_))
-    ));
-    assert_eq!(responses[1], (2, ResultCode::Ok, ResponseBody::None));
-    assert!(msgs
+    assert_eq!(answers.len(), 2, "{answers:?}");
+    assert!(matches!(answers[0], SessionEvent::Opened(info) if info.session == ctl.session()));
+    assert_eq!(
+        *answers[1],
+        SessionEvent::Reply {
+            id: declare,
+            reply: Reply {
+                result: ResultCode::Ok,
+                body: ResponseBody::None
+            }
+        }
+    );
+    let stats = host.session.stats();
+    assert_eq!(
+        (stats.retries, stats.stale_responses, stats.frames_dropped),
+        (0, 0, 0)
+    );
+    assert!(host
+        .told
         .iter()
-        .any(|m| matches!(m, DeviceMessage::Event(Event::Heartbeat { .. }))));
+        .any(|ev| matches!(ev, SessionEvent::Device(Event::Heartbeat { .. }))));
     // Persisted through the store, as the board's data flash would.
     let stored = StoredState::from_bytes(&b.store.bytes.borrow().unwrap()).unwrap();
     assert_eq!(stored.map(|s| s.state), Some("F&F".parse().unwrap()));
@@ -332,19 +375,9 @@ fn shell_boots_unconfirmed_from_a_corrupt_store_and_retries_saves() {
     assert_eq!(ctl.mode(), Mode::Standalone);
     // A failing flash: the save is retried until it succeeds.
     b.store.fail_saves.set(3);
-    send(&b.link, 1, 0, RequestBody::hello());
-    for now in 41..=45 {
-        shell.step(&mut ctl, now);
-    }
-    send(
-        &b.link,
-        2,
-        ctl.session(),
-        RequestBody::DeclareState("D&D".parse().unwrap()),
-    );
-    for now in 46..=100 {
-        shell.step(&mut ctl, now);
-    }
+    let mut host = Host::new();
+    host.connect_and_declare(&mut shell, &mut ctl, &b.link, 40, "D&D");
+    host.run(&mut shell, &mut ctl, &b.link, 46..=100);
     assert_eq!(shell.stats.store_errors, 3);
     let stored = StoredState::from_bytes(&b.store.bytes.borrow().unwrap()).unwrap();
     assert_eq!(stored, Some(StoredState::confirmed("D&D".parse().unwrap())));

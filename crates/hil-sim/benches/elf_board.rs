@@ -45,7 +45,9 @@ fn clear(sim: &mut Sim) {
 }
 
 fn main() {
-    // 1. Boot to first answer: a Hello frame every 5 ms from power-on, straight onto the line.
+    // 1. Boot to first answer: a Hello frame every 5 ms from power-on, straight onto the line
+    //    (framed by hand, deliberately: the host engine resends only every 250 ms, too coarse
+    //    to time the boot).
     let wall = Instant::now();
     let mut s = sim("F&P");
     let hello = protocol::messages::Request {

@@ -102,7 +102,7 @@ impl Io for SimIo {
                 self.wait_for_wall();
             }
         }
-        buf.extend(self.sim.read_device_bytes());
+        self.sim.read_device_bytes_into(buf);
         Ok(())
     }
 }

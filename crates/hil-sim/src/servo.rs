@@ -91,6 +91,7 @@ impl Servo {
     /// moving with the load is at full speed.
     /// A limp servo turns with the load (toward slack for a tendon) when it exceeds the
     /// back-drive torque.
+    #[inline]
     pub fn step(&mut self, dt_s: f64, load_torque_n_m: f64) {
         self.stalled = false;
         if self.limp {

@@ -197,6 +197,12 @@ pub struct Sim {
     trace: Option<Trace>,
     payload_n: f64,
     spare_gauss: Option<f64>,
+    /// The display's segments the operator last read, and the task they name.
+    shown: ([u8; 4], Option<ManualTask>),
+    /// Each servo's last duty count taken (`None`: none yet) and the tendon pay-in of its shaft
+    /// angle (the angle's bits, mm): a still servo recomputes neither.
+    duty_seen: [Option<u16>; 3],
+    pay_in: [(u64, f64); 3],
     /// The board ELF in the emulator (processor in the loop), when it runs instead of `ctl`.
     board: Option<Box<ElfBoard>>,
     board_error: Option<String>,
@@ -312,6 +318,9 @@ impl Sim {
             trace: None,
             payload_n: 0.0,
             spare_gauss: None,
+            shown: ([0; 4], crate::operator::task_shown([0; 4])),
+            duty_seen: [None; 3],
+            pay_in: [(f64::NAN.to_bits(), f64::NAN); 3],
             board,
             board_error: None,
         })
@@ -344,6 +353,9 @@ impl Sim {
             trace: self.trace.clone(),
             payload_n: self.payload_n,
             spare_gauss: self.spare_gauss,
+            shown: self.shown,
+            duty_seen: self.duty_seen,
+            pay_in: self.pay_in,
             board: None,
             board_error: self.board_error.clone(),
         })
@@ -420,6 +432,10 @@ impl Sim {
 
     /// Starts recording a compact trace: one line every `period_ms`, plus one per event.
     pub fn enable_trace(&mut self, period_ms: u64) {
+        // The device's events are decoded only while tracing: from the next frame on.
+        if self.trace.is_none() {
+            self.sniffer = FrameDecoder::default();
+        }
         self.trace = Some(Trace {
             period_ms: period_ms.max(1),
             text: String::new(),
@@ -443,6 +459,11 @@ impl Sim {
     /// Takes every byte the device has sent to the host so far.
     pub fn read_device_bytes(&mut self) -> Vec<u8> {
         self.to_host.drain(..).collect()
+    }
+
+    /// Appends every byte the device has sent to the host so far to `buf`.
+    pub fn read_device_bytes_into(&mut self, buf: &mut Vec<u8>) {
+        buf.extend(self.to_host.drain(..));
     }
 
     /// Whether the device has bytes waiting for the host.
@@ -516,14 +537,19 @@ impl Sim {
             let raw = self.cfg.joystick.center_raw[axis] as f64
                 + self.joystick[axis] * half
                 + JOYSTICK_NOISE_RAW * 6f64.sqrt() * (u1 + u2 - 1.0);
-            let raw = raw.round().clamp(0.0, firmware::ADC_MAX as f64) as u16;
+            let raw = round_to_count(raw, firmware::ADC_MAX);
             if axis == 0 {
                 self.shell.inputs.joystick_x.raw = raw;
             } else {
                 self.shell.inputs.joystick_y.raw = raw;
             }
         }
-        let shown = crate::operator::task_shown(self.shell.display.segments);
+        // The display changes seldom: read its task only when it did.
+        let segments = self.shell.display.segments;
+        if self.shown.0 != segments {
+            self.shown = (segments, crate::operator::task_shown(segments));
+        }
+        let shown = self.shown.1;
         let (action, confirm_held) = self.operator.tick(now, shown);
         if let OperatorAction::DoTask(task) = action {
             self.do_manual(task);
@@ -554,25 +580,32 @@ impl Sim {
         }
 
         // Its bytes to the host go through the line.
-        if !self.shell.link.tx.is_empty() {
-            let bytes: Vec<u8> = self.shell.link.tx.drain(..).collect();
-            for b in bytes {
+        // (The sniffer decodes the device's frames for the trace only.)
+        while let Some(b) = self.shell.link.tx.pop_front() {
+            if self.trace.is_some() {
                 if let Some(Ok(DeviceMessage::Event(ev))) = self.sniffer.push::<DeviceMessage>(b) {
                     self.on_device_event(&ev);
                 }
-                if let Some(b) = self.faults.link_byte(b, &mut self.rng) {
-                    self.to_host.push_back(b);
-                }
+            }
+            if let Some(b) = self.faults.link_byte(b, &mut self.rng) {
+                self.to_host.push_back(b);
             }
         }
 
         // Actuators.
         let out = &self.shell.outputs;
-        let pulses = [
-            out.servos.0.inner().pulse_us(),
-            out.servos.1.inner().pulse_us(),
-            out.servos.2.inner().pulse_us(),
+        let duties = [
+            out.servos.0.inner(),
+            out.servos.1.inner(),
+            out.servos.2.inner(),
         ];
+        for (i, pwm) in duties.into_iter().enumerate() {
+            // The same pulse again changes nothing in the servo (`Servo::set_pulse_us`).
+            if self.duty_seen[i] != Some(pwm.duty) {
+                self.duty_seen[i] = Some(pwm.duty);
+                self.servos[i].set_pulse_us(pwm.pulse_us());
+            }
+        }
         let exhaust_cmd = out.exhaust.high;
         let inlet_open = self.faults.inlet(out.inlet.high);
         let dt_s = STEP_MS as f64 * 1e-3;
@@ -580,11 +613,15 @@ impl Sim {
         let tensions = self.trunk.tensions_n();
         let mut pay_in_mm = [0.0; 3];
         for (i, servo) in self.servos.iter_mut().enumerate() {
-            servo.set_pulse_us(pulses[i]);
             // The tendon's torque opposes the pulling direction of the shaft.
             let sign = self.cfg.servo.pull_sign[i] as f64;
             servo.step(dt_s, sign * tensions[i] * spool_m);
-            pay_in_mm[i] = self.cfg.servo.length_for_angle(i, servo.angle_deg as f32) as f64;
+            let bits = servo.angle_deg.to_bits();
+            if self.pay_in[i].0 != bits {
+                let mm = self.cfg.servo.length_for_angle(i, servo.angle_deg as f32) as f64;
+                self.pay_in[i] = (bits, mm);
+            }
+            pay_in_mm[i] = self.pay_in[i].1;
         }
         let act = Actuation {
             pay_in_mm,
@@ -780,6 +817,25 @@ impl Sim {
     }
 }
 
+/// `x.round().clamp(0.0, max as f64) as u16`, exactly (NaN gives 0), without the library call
+/// `round` is on x86-64: the truncation is one instruction and `x - trunc(x)` is exact.
+fn round_to_count(x: f64, max: u16) -> u16 {
+    // 2^52: below it every f64 has a fraction part that `x - trunc(x)` gives exactly.
+    if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
+        return x.round().clamp(0.0, max as f64) as u16;
+    }
+    let t = x as i64;
+    let frac = x - t as f64;
+    let r = if frac >= 0.5 {
+        t + 1
+    } else if frac <= -0.5 {
+        t - 1
+    } else {
+        t
+    };
+    r.clamp(0, max as i64) as u16
+}
+
 /// The ground-truth log for outside clients (`hil-sim --pty --truth-log FILE`): one JSON object
 /// per line whenever the trunk's true state, the actuators' safety or the set of faults (the
 /// controller's active ones and the injected ones in effect) changes, and once more at the end.
@@ -967,6 +1023,34 @@ mod tests {
                 (h - ours).abs() < 1.0,
                 "{s}: physics {h:.2} vs controller {ours:.2}"
             );
+        }
+    }
+
+    #[test]
+    fn rounding_to_a_count_is_round_then_clamp_exactly() {
+        let reference = |x: f64| x.round().clamp(0.0, firmware::ADC_MAX as f64) as u16;
+        let mut xs = vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            0.5,
+            -0.5,
+            0.499_999_999_999_999_94,
+            1.5,
+            2.5,
+            16_383.5,
+            16_384.4,
+            -1.5,
+            1e300,
+            -1e300,
+            4_503_599_627_370_497.0,
+        ];
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        xs.extend((0..100_000).map(|_| rng.gen_range(-200.0..16_600.0)));
+        xs.extend((0..2_000).map(|i| i as f64 * 0.25 - 100.0));
+        for x in xs {
+            assert_eq!(round_to_count(x, firmware::ADC_MAX), reference(x), "{x}");
         }
     }
 

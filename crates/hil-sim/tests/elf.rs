@@ -275,6 +275,8 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
     let _ = sim.read_device_bytes();
     sim.elf_board_mut().unwrap().emu.clear_max_awake();
     let session = host.session();
+    // Both frames on the line at once, as no host engine sends them (it waits for each
+    // answer): framed by hand, deliberately — the pass that receives both is under test.
     let mut line = Vec::new();
     for (seq, body) in [
         (

@@ -1,6 +1,8 @@
 //! hil-sim's integration tests: the real controller driving the simulated crane in-process,
 //! the discovered transition graph, faults, determinism, the trace snapshot and the pty.
 
+mod support;
+
 use firmware::Buttons;
 use geometry::TrunkState;
 use hil_sim::discovery::{self, RigConfig};
@@ -424,50 +426,13 @@ fn a_stuck_open_inlet_never_drives_a_state_change() {
 
 #[test]
 fn the_pty_serves_the_controller_to_a_serial_client() {
-    use std::io::{Read, Write};
-    use std::os::unix::fs::OpenOptionsExt;
-    use std::time::{Duration, Instant};
-
     let sim = hil_sim::pty::PtySim::spawn(SimOptions::default()).expect("pty");
     assert!(sim.path().exists(), "{}", sim.path().display());
-    let mut port = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .custom_flags(nix::fcntl::OFlag::O_NONBLOCK.bits() | nix::fcntl::OFlag::O_NOCTTY.bits())
-        .open(sim.path())
-        .expect("open the device path");
-    let req = protocol::Request {
-        seq: 42,
-        session: 0,
-        body: protocol::RequestBody::hello(),
-    };
-    let mut frame = [0u8; protocol::MAX_FRAME_LEN];
-    let n = protocol::encode(&req, &mut frame).unwrap();
-    port.write_all(&[0]).unwrap();
-    port.write_all(&frame[..n]).unwrap();
-    let mut dec = protocol::FrameDecoder::default();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    let mut hello = None;
-    let mut buf = [0u8; 512];
-    while hello.is_none() && Instant::now() < deadline {
-        match port.read(&mut buf) {
-            Ok(n) => {
-                for m in dec.feed::<protocol::DeviceMessage>(&buf[..n]).flatten() {
-                    if let protocol::DeviceMessage::Response { seq: 42, body, .. } = m {
-                        hello = Some(body);
-                    }
-                }
-            }
-            Err(_) => std::thread::sleep(Duration::from_millis(5)),
-        }
-    }
-    match hello {
-        Some(protocol::ResponseBody::Hello(info)) => {
-            assert_eq!(info.board, protocol::Board::Simulator);
-            assert_eq!(info.trunk.top.n, 3);
-        }
-        other => panic!("no hello response: {other:?}"),
-    }
+    let mut client = support::pty_host(sim.path(), 42);
+    let info = client.connect().expect("the handshake is answered");
+    assert_eq!(info.board, protocol::Board::Simulator);
+    assert_eq!(info.trunk.top.n, 3);
+    drop(client);
     let truth = sim.stop();
     assert_eq!(truth.true_state, Some(st("F&P")));
     // Virtual time ran (at 20× wall time) while we talked.

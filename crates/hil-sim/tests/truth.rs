@@ -1,6 +1,8 @@
 //! The crane never claims a state it does not know: interruptions (faults, power cuts) leave the
 //! controller's belief either true or unconfirmed with the truth among its candidates.
 
+mod support;
+
 use geometry::TrunkState;
 use hil_sim::host::SimHost;
 use hil_sim::{Fault, Sim, SimOptions};
@@ -418,93 +420,6 @@ fn no_false_leak_fault_after_a_link_loss_or_a_reboot_mid_step() {
 /// with the truth among the candidates.
 #[test]
 fn a_host_killed_mid_step_over_the_pty_leaves_an_honest_status() {
-    use std::io::{Read, Write};
-    use std::os::fd::AsFd;
-    use std::os::unix::fs::OpenOptionsExt;
-
-    struct Client {
-        port: std::fs::File,
-        dec: protocol::FrameDecoder,
-        seq: u16,
-        session: u32,
-    }
-    impl Client {
-        fn open(path: &std::path::Path) -> Client {
-            let port = std::fs::OpenOptions::new()
-                .read(true)
-                .write(true)
-                .custom_flags(
-                    nix::fcntl::OFlag::O_NONBLOCK.bits() | nix::fcntl::OFlag::O_NOCTTY.bits(),
-                )
-                .open(path)
-                .expect("open the device path");
-            Client {
-                port,
-                dec: protocol::FrameDecoder::default(),
-                seq: 0,
-                session: 0,
-            }
-        }
-
-        /// Waits (on the port, at most `ms` of wall time) for bytes; feeds them.
-        fn pump(&mut self, ms: u16) -> Vec<protocol::DeviceMessage> {
-            let mut fds = [nix::poll::PollFd::new(
-                self.port.as_fd(),
-                nix::poll::PollFlags::POLLIN,
-            )];
-            let _ = nix::poll::poll(&mut fds, nix::poll::PollTimeout::from(ms));
-            let mut buf = [0u8; 1024];
-            let mut out = Vec::new();
-            while let Ok(n) = self.port.read(&mut buf) {
-                if n == 0 {
-                    break;
-                }
-                out.extend(
-                    self.dec
-                        .feed::<protocol::DeviceMessage>(&buf[..n])
-                        .flatten(),
-                );
-            }
-            out
-        }
-
-        fn request(&mut self, body: RequestBody) -> (protocol::ResultCode, protocol::ResponseBody) {
-            self.seq += 1;
-            let req = protocol::Request {
-                seq: self.seq,
-                session: self.session,
-                body,
-            };
-            let mut frame = [0u8; protocol::MAX_FRAME_LEN];
-            let n = protocol::encode(&req, &mut frame).unwrap();
-            let start = std::time::Instant::now();
-            let mut last_send = None::<std::time::Instant>;
-            while start.elapsed() < std::time::Duration::from_secs(10) {
-                if last_send.is_none_or(|t| t.elapsed() > std::time::Duration::from_millis(250)) {
-                    self.port.write_all(&[0]).unwrap();
-                    self.port.write_all(&frame[..n]).unwrap();
-                    last_send = Some(std::time::Instant::now());
-                }
-                for m in self.pump(20) {
-                    if let protocol::DeviceMessage::Response { seq, result, body } = m {
-                        if seq == self.seq {
-                            return (result, body);
-                        }
-                    }
-                }
-            }
-            panic!("no answer to {:?}", req.body);
-        }
-
-        fn hello(&mut self) {
-            let (res, body) = self.request(RequestBody::hello());
-            assert_eq!(res, protocol::ResultCode::Ok, "{body:?}");
-            if let protocol::ResponseBody::Hello(info) = body {
-                self.session = info.session;
-            }
-        }
-    }
-
     for t in &TRANSITIONS {
         for kill_ms in [400u64, 1_500] {
             let sim = hil_sim::pty::PtySim::spawn(SimOptions {
@@ -513,34 +428,34 @@ fn a_host_killed_mid_step_over_the_pty_leaves_an_honest_status() {
                 ..SimOptions::default()
             })
             .expect("pty");
-            let mut host = Client::open(sim.path());
-            host.hello();
+            let mut host = support::pty_host(sim.path(), 1);
+            host.connect().expect("handshake");
             // The pty stretches the link timeout by the speed (a wall-clock client's 3 s);
-            // this client keeps virtual time, so the device's own 3 s apply.
-            let (res, _) = host.request(RequestBody::SetParam {
+            // the kill is timed in virtual time, so the device's own 3 s apply.
+            let answer = host.call(RequestBody::SetParam {
                 id: ParamId::LinkTimeoutMs,
                 value: 3_000.0,
             });
-            assert_eq!(res, protocol::ResultCode::Ok);
-            let (res, _) = host.request(RequestBody::RunStep(t.step()));
-            assert_eq!(res, protocol::ResultCode::InProgress);
+            assert_eq!(answer.map(|a| a.result), Ok(protocol::ResultCode::Ok));
+            let answer = host.call(RequestBody::RunStep(t.step()));
+            assert_eq!(
+                answer.map(|a| a.result),
+                Ok(protocol::ResultCode::InProgress)
+            );
             let started = sim.ground_truth().time_ms;
-            // The host runs, heartbeating, until it is killed.
+            // The host runs, heartbeating, until it is killed (no `Close`).
             while sim.ground_truth().time_ms < started + kill_ms {
-                host.request(RequestBody::Heartbeat);
+                host.call(RequestBody::Heartbeat).expect("answered");
             }
-            drop(host);
+            host.vanish();
             let killed = sim.ground_truth().time_ms;
             // 3.5 s later a new host asks (the old one's session has timed out by then).
-            let mut next = Client::open(sim.path());
+            let mut next = support::pty_host(sim.path(), 30_000);
             while sim.ground_truth().time_ms < killed + 3_500 {
-                next.pump(20);
+                next.idle(20).expect("reads");
             }
-            next.hello();
-            let (_, body) = next.request(RequestBody::GetStatus);
-            let protocol::ResponseBody::Status(status) = body else {
-                panic!("{body:?}")
-            };
+            next.connect().expect("handshake");
+            let status = next.status().expect("a status");
             // Let the trunk settle before reading the truth.
             let truth = sim.stop().true_state;
             let verdict = judge(&status, truth);

@@ -326,7 +326,8 @@ impl Session {
         self.timing
     }
 
-    /// Who the device is, once the handshake is done.
+    /// Who the device is, once it answered the handshake: the session it opened, or (after a
+    /// refusal) its versions and trunk with session 0 — the session in force is never told.
     pub fn device(&self) -> Option<&DeviceInfo> {
         self.info.as_ref()
     }
@@ -525,7 +526,10 @@ impl Session {
                 return;
             }
         };
-        // The one rule both sides apply; a device that says Ok but differs is still refused.
+        // Kept on a refusal too: who refused, with which versions.
+        self.info = Some(info.clone());
+        // The one rule both sides apply (`protocol::check_hello`); a device that says Ok but
+        // differs is still refused.
         if let Err(mismatch) = info.check() {
             self.phase = Phase::Closed;
             self.events.push_back(SessionEvent::HandshakeFailed(
@@ -545,7 +549,6 @@ impl Session {
         }
         self.phase = Phase::Open;
         self.session_id = info.session;
-        self.info = Some(info.clone());
         self.events.push_back(SessionEvent::Opened(info));
     }
 

@@ -166,7 +166,8 @@ impl Controller {
     }
 
     fn hello(&mut self, protocol_version: u16, schema_id: u32, takeover: bool) -> Answer {
-        if protocol_version != PROTOCOL_VERSION || schema_id != SCHEMA_ID {
+        // The one rule both sides apply (the host engine on the answer's `DeviceInfo`).
+        if protocol::check_hello(protocol_version, schema_id).is_err() {
             let info = ResponseBody::Hello(self.device_info(0));
             return (ResultCode::Rejected(RejectReason::VersionMismatch), info);
         }

@@ -7,10 +7,11 @@ extern crate std;
 use std::vec::Vec as StdVec;
 
 use geometry::{BottomState, TopState, TrunkState};
+use host::{RequestId, Session, SessionError, SessionEvent, Timing};
 use protocol::{
-    transitions, DeviceMessage, Event, FaultCode, FrameDecoder, ManualTask, Mode, ParamId, Plan,
-    PlanPhase, Primitive, RejectReason, Request, RequestBody, ResponseBody, ResultCode, Step,
-    StepKind, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID,
+    transitions, DeviceInfo, DeviceMessage, Event, FaultCode, FrameDecoder, ManualTask, Mode,
+    ParamId, Plan, PlanPhase, Primitive, RejectReason, Request, RequestBody, ResponseBody,
+    ResultCode, Step, StepKind, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID,
 };
 
 use super::*;
@@ -220,6 +221,18 @@ impl Plant {
     }
 }
 
+/// What the line does to the next frame that crosses it (once): a device test of the host
+/// engine's retry, not a host of its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LineFault {
+    /// Flips a bit of the next frame toward the device.
+    CorruptToDevice,
+    /// Loses what the device sends next; the bytes are kept in [`Rig::lost`].
+    LoseToHost,
+}
+
+/// The real controller and the plant at 1 kHz, and on the line the real host engine
+/// (`host::Session`: handshake, sequence numbers, retries, heartbeat).
 struct Rig {
     cfg: CraneConfig,
     ctl: Controller,
@@ -229,14 +242,22 @@ struct Rig {
     joystick: [u16; 2],
     /// Forces the raw pressure sample (sensor fault injection).
     raw_override: Option<u16>,
-    host: FrameDecoder,
-    seq: u16,
-    /// The session the last successful handshake opened (0: none).
-    session: u32,
-    msgs: StdVec<(u64, DeviceMessage)>,
+    /// Every host that was on the line (none leaves it): each sees every byte the device sends
+    /// and ignores answers to the others' requests.
+    hosts: StdVec<Session>,
+    /// The host [`Rig::request`] speaks for.
+    primary: usize,
+    /// What the hosts were told, with the time and the host's index: handshakes and replies;
+    /// device events as the primary host got them.
+    log: StdVec<(u64, usize, SessionEvent)>,
     stores: StdVec<StoredState>,
-    /// Requests sent by `tick` every this many ms (0: none) to keep the link alive.
-    heartbeat_every_ms: u64,
+    line_fault: Option<LineFault>,
+    /// What [`LineFault::LoseToHost`] lost.
+    lost: StdVec<u8>,
+    /// The next host's first sequence number (the device caches its answers by `seq`).
+    next_first_seq: u16,
+    /// The next forged frame's sequence number.
+    forged_seq: u16,
 }
 
 impl Rig {
@@ -249,7 +270,7 @@ impl Rig {
     }
 
     fn with(cfg: CraneConfig, boot: BootRecord, plant_state: TrunkState) -> Self {
-        Self {
+        let mut r = Self {
             cfg,
             ctl: Controller::new(cfg, boot, 0),
             plant: Plant::new(plant_state),
@@ -257,42 +278,131 @@ impl Rig {
             buttons: Buttons::default(),
             joystick: cfg.joystick.center_raw,
             raw_override: None,
-            host: FrameDecoder::new(),
-            seq: 0,
-            session: 0,
-            msgs: StdVec::new(),
+            hosts: StdVec::new(),
+            primary: 0,
+            log: StdVec::new(),
             stores: StdVec::new(),
-            heartbeat_every_ms: 0,
-        }
+            line_fault: None,
+            lost: StdVec::new(),
+            next_first_seq: 1,
+            forged_seq: 40_000,
+        };
+        let host = r.new_host();
+        r.hosts.push(host);
+        r
     }
 
     /// A rig with a completed handshake.
     fn connected(state: TrunkState) -> Self {
         let mut r = Self::new(state);
-        r.hello_ok();
+        r.connect();
         r
     }
 
-    fn hello_ok(&mut self) {
-        let (res, body) = self.request(RequestBody::hello());
-        assert_eq!(res, ResultCode::Ok);
-        let ResponseBody::Hello(info) = body else {
-            panic!("no device info")
-        };
-        assert_ne!(info.session, 0);
-        self.session = info.session;
+    /// A host engine that has sent nothing. It sends only what a test asks for until
+    /// [`Rig::keepalive`]: the link watch is under test.
+    fn new_host(&mut self) -> Session {
+        let mut host = Session::new(Timing::standard(), self.next_first_seq);
+        self.next_first_seq = self.next_first_seq.wrapping_add(1_000);
+        host.set_keepalive(false);
+        host
     }
 
-    fn drain(&mut self) {
+    /// A new host process in place of the primary one, its handshake done.
+    fn connect(&mut self) {
+        let (i, hello) = self.join(false);
+        assert_ne!(hello.expect("the handshake succeeds").session, 0);
+        self.primary = i;
+    }
+
+    /// The primary host.
+    fn host(&mut self) -> &mut Session {
+        &mut self.hosts[self.primary]
+    }
+
+    /// Another host on the line, and how its handshake ended.
+    fn join(&mut self, takeover: bool) -> (usize, Result<DeviceInfo, SessionError>) {
+        let host = self.new_host();
+        self.hosts.push(host);
+        let i = self.hosts.len() - 1;
+        (i, self.handshake(i, takeover))
+    }
+
+    fn handshake(&mut self, host: usize, takeover: bool) -> Result<DeviceInfo, SessionError> {
+        let mark = self.log.len();
+        if takeover {
+            self.hosts[host].connect_takeover(self.now);
+        } else {
+            self.hosts[host].connect(self.now);
+        }
+        self.exchange();
+        self.log[mark..]
+            .iter()
+            .find_map(|(_, h, ev)| match ev {
+                SessionEvent::Opened(info) if *h == host => Some(Ok(info.clone())),
+                SessionEvent::HandshakeFailed(e) if *h == host => Some(Err(e.clone())),
+                _ => None,
+            })
+            .expect("the device answers the handshake")
+    }
+
+    /// The session the primary host holds (0: none).
+    fn session(&self) -> u32 {
+        self.hosts[self.primary].device().map_or(0, |d| d.session)
+    }
+
+    /// The primary host sends a heartbeat whenever it has been quiet for the protocol's period.
+    fn keepalive(&mut self) {
+        self.host().set_keepalive(true);
+    }
+
+    /// Carries bytes both ways until the line is quiet: the hosts' frames to the controller,
+    /// the controller's bytes to every host.
+    fn exchange(&mut self) {
+        loop {
+            for host in &mut self.hosts {
+                while let Some(mut frame) = host.poll_transmit() {
+                    if self.line_fault == Some(LineFault::CorruptToDevice) {
+                        self.line_fault = None;
+                        frame[4] ^= if frame[4] == 0x10 { 0x20 } else { 0x10 };
+                    }
+                    self.ctl.handle_rx(&frame, self.now);
+                }
+            }
+            let rx = self.device_bytes();
+            if rx.is_empty() {
+                break;
+            }
+            if self.line_fault == Some(LineFault::LoseToHost) {
+                self.line_fault = None;
+                self.lost = rx;
+            } else {
+                for host in &mut self.hosts {
+                    host.handle_bytes(&rx, self.now);
+                }
+            }
+            self.collect();
+        }
+        self.collect();
+    }
+
+    fn device_bytes(&mut self) -> StdVec<u8> {
+        let mut rx = StdVec::new();
         let mut buf = [0u8; 256];
         loop {
             let n = self.ctl.poll_tx(&mut buf);
             if n == 0 {
-                break;
+                return rx;
             }
-            for &b in &buf[..n] {
-                if let Some(Ok(m)) = self.host.push::<DeviceMessage>(b) {
-                    self.msgs.push((self.now, m));
+            rx.extend_from_slice(&buf[..n]);
+        }
+    }
+
+    fn collect(&mut self) {
+        for (i, host) in self.hosts.iter_mut().enumerate() {
+            while let Some(ev) = host.poll_event() {
+                if i == self.primary || !matches!(ev, SessionEvent::Device(_)) {
+                    self.log.push((self.now, i, ev));
                 }
             }
         }
@@ -304,9 +414,12 @@ impl Rig {
             self.now += 1;
             let out = self.ctl.poll_outputs();
             self.plant.update(&out, 1, &self.cfg);
-            if self.heartbeat_every_ms > 0 && self.now % self.heartbeat_every_ms == 0 {
-                self.send(RequestBody::Heartbeat);
+            for host in &mut self.hosts {
+                if host.poll_timeout().is_some_and(|t| t <= self.now) {
+                    host.handle_timeout(self.now);
+                }
             }
+            self.exchange();
             let inputs = Inputs {
                 pressure_raw: self
                     .raw_override
@@ -320,7 +433,7 @@ impl Rig {
                 self.stores.push(s);
                 self.ctl.handle_stored();
             }
-            self.drain();
+            self.exchange();
         }
     }
 
@@ -336,52 +449,87 @@ impl Rig {
         cond(self).then(|| self.now - t0)
     }
 
-    fn frame(&mut self, body: RequestBody) -> (u16, StdVec<u8>) {
-        self.seq = self.seq.wrapping_add(1);
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let n = protocol::encode(
-            &Request {
-                seq: self.seq,
-                session: self.session,
-                body,
-            },
-            &mut buf,
-        )
-        .unwrap();
-        (self.seq, buf[..n].to_vec())
+    /// The answer the primary host got to its request `id`, if it came.
+    fn reply(&self, id: RequestId) -> Option<(ResultCode, ResponseBody)> {
+        self.answer(self.primary, id)
     }
 
-    fn send(&mut self, body: RequestBody) -> u16 {
-        let (seq, bytes) = self.frame(body);
-        self.ctl.handle_rx(&bytes, self.now);
-        seq
+    fn answer(&self, host: usize, id: RequestId) -> Option<(ResultCode, ResponseBody)> {
+        self.log.iter().find_map(|(_, h, ev)| match ev {
+            SessionEvent::Reply { id: got, reply } if *h == host && *got == id => {
+                Some((reply.result, reply.body.clone()))
+            }
+            SessionEvent::Failed { id: got, error } if *h == host && *got == id => {
+                panic!("{id:?} failed: {error}")
+            }
+            _ => None,
+        })
     }
 
-    fn response(&self, seq: u16) -> StdVec<(ResultCode, ResponseBody)> {
-        self.msgs
-            .iter()
-            .filter_map(|(_, m)| match m {
-                DeviceMessage::Response {
-                    seq: s,
-                    result,
-                    body,
-                } if *s == seq => Some((*result, body.clone())),
-                _ => None,
-            })
-            .collect()
+    /// Queues `body` at the primary host; it goes out at the next [`Rig::exchange`].
+    fn send(&mut self, body: RequestBody) -> RequestId {
+        let now = self.now;
+        self.host().request(body, now)
+    }
+
+    /// `body` from `host`, answered at once (the controller answers within its pass); exactly
+    /// one answer reaches the host (a second one would count as stale).
+    fn request_from(&mut self, host: usize, body: RequestBody) -> (ResultCode, ResponseBody) {
+        let stale = self.hosts[host].stats().stale_responses;
+        let id = self.hosts[host].request(body, self.now);
+        self.exchange();
+        let answer = self.answer(host, id).expect("answered at once");
+        assert_eq!(self.hosts[host].stats().stale_responses, stale);
+        answer
     }
 
     fn request(&mut self, body: RequestBody) -> (ResultCode, ResponseBody) {
-        let seq = self.send(body);
-        self.drain();
-        let r = self.response(seq);
-        assert_eq!(r.len(), 1, "exactly one response to seq {seq}");
-        r[0].clone()
+        self.request_from(self.primary, body)
     }
 
+    /// `body` framed as no host engine frames it (before any handshake, from a session it does
+    /// not hold, an old `seq`): deliberately forged bytes, for the device's side of the rules.
+    fn forge(&mut self, seq: Option<u16>, session: u32, body: RequestBody) -> StdVec<u8> {
+        let seq = seq.unwrap_or_else(|| {
+            self.forged_seq = self.forged_seq.wrapping_add(1);
+            self.forged_seq
+        });
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = protocol::encode(&Request { seq, session, body }, &mut buf).unwrap();
+        buf[..n].to_vec()
+    }
+
+    /// Raw bytes to the device (forged frames, garbage); returns what it answered, read off the
+    /// line (the hosts see it too).
+    fn inject(&mut self, bytes: &[u8]) -> StdVec<DeviceMessage> {
+        self.ctl.handle_rx(bytes, self.now);
+        let rx = self.device_bytes();
+        for host in &mut self.hosts {
+            host.handle_bytes(&rx, self.now);
+        }
+        self.collect();
+        off_the_line(&rx)
+    }
+
+    /// A forged request (see [`Rig::forge`]) from `session`; returns its one answer.
+    fn forged(&mut self, session: u32, body: RequestBody) -> (ResultCode, ResponseBody) {
+        let frame = self.forge(None, session, body);
+        let answers: StdVec<_> = self
+            .inject(&frame)
+            .into_iter()
+            .filter_map(|m| match m {
+                DeviceMessage::Response { result, body, .. } => Some((result, body)),
+                DeviceMessage::Event(_) => None,
+            })
+            .collect();
+        assert_eq!(answers.len(), 1, "exactly one answer: {answers:?}");
+        answers[0].clone()
+    }
+
+    /// The device events received.
     fn events(&self) -> impl Iterator<Item = &Event> {
-        self.msgs.iter().filter_map(|(_, m)| match m {
-            DeviceMessage::Event(e) => Some(e),
+        self.log.iter().filter_map(|(_, _, ev)| match ev {
+            SessionEvent::Device(e) => Some(e),
             _ => None,
         })
     }
@@ -414,6 +562,14 @@ impl Rig {
         Plan { plan_id: id, steps }
     }
 
+    /// Runs `step` on its own (the device accepts it: `InProgress`).
+    fn run_step(&mut self, step: Step) {
+        assert_eq!(
+            self.request(RequestBody::RunStep(step)).0,
+            ResultCode::InProgress
+        );
+    }
+
     fn upload_and_start(&mut self, plan: Plan) {
         let id = plan.plan_id;
         assert_eq!(
@@ -432,6 +588,15 @@ impl Rig {
         set(&mut self.buttons, false);
         self.run(30);
     }
+}
+
+/// The device's messages in `bytes`, as a protocol analyser on the line reads them.
+fn off_the_line(bytes: &[u8]) -> StdVec<DeviceMessage> {
+    let mut dec = FrameDecoder::new();
+    bytes
+        .iter()
+        .filter_map(|&b| dec.push::<DeviceMessage>(b).and_then(Result::ok))
+        .collect()
 }
 
 fn step(
@@ -481,7 +646,7 @@ fn boot_corrupt_store_is_unconfirmed_with_storage_fault() {
     );
     assert_eq!(s.faults, FaultCode::StateStorage.bit());
     assert_eq!(r.ctl.poll_display(), display::fault(10));
-    r.hello_ok();
+    r.connect();
     // Plans need a confirmed state.
     let (res, _) = r.request(RequestBody::RunStep(Rig::nominal(FP, FF)));
     assert_eq!(res, ResultCode::Rejected(RejectReason::Faulted));
@@ -521,8 +686,10 @@ fn boot_from_stored_state_and_watchdog_report() {
 #[test]
 fn handshake_is_required_and_checked() {
     let mut r = Rig::new(FP);
+    // A host that breaks the rules (the engine shakes hands first, with this build's
+    // versions): forged frames.
     assert_eq!(
-        r.request(RequestBody::GetStatus),
+        r.forged(0, RequestBody::GetStatus),
         (
             ResultCode::Rejected(RejectReason::NoHandshake),
             ResponseBody::None
@@ -532,11 +699,14 @@ fn handshake_is_required_and_checked() {
         (PROTOCOL_VERSION + 1, SCHEMA_ID),
         (PROTOCOL_VERSION, SCHEMA_ID ^ 1),
     ] {
-        let (res, body) = r.request(RequestBody::Hello {
-            protocol_version: v,
-            schema_id: id,
-            takeover: false,
-        });
+        let (res, body) = r.forged(
+            0,
+            RequestBody::Hello {
+                protocol_version: v,
+                schema_id: id,
+                takeover: false,
+            },
+        );
         assert_eq!(res, ResultCode::Rejected(RejectReason::VersionMismatch));
         let ResponseBody::Hello(info) = body else {
             panic!("no device info")
@@ -548,10 +718,10 @@ fn handshake_is_required_and_checked() {
         assert_eq!(info.trunk.pressure_limit_kpa, 40.0);
     }
     assert_eq!(
-        r.request(RequestBody::Heartbeat).0,
+        r.forged(0, RequestBody::Heartbeat).0,
         ResultCode::Rejected(RejectReason::NoHandshake)
     );
-    r.hello_ok();
+    r.connect();
     let (res, body) = r.request(RequestBody::GetStatus);
     assert_eq!(res, ResultCode::Ok);
     let ResponseBody::Status(s) = body else {
@@ -564,37 +734,39 @@ fn handshake_is_required_and_checked() {
 #[test]
 fn every_request_gets_one_response_and_retries_are_not_reexecuted() {
     let mut r = Rig::connected(FP);
-    let (seq, bytes) = r.frame(RequestBody::RunStep(Rig::nominal(FP, FF)));
-    r.ctl.handle_rx(&bytes, r.now);
-    r.drain();
+    // The line loses the answer: the engine sends the request again, with the same seq, after
+    // its response timeout.
+    r.line_fault = Some(LineFault::LoseToHost);
+    let id = r.send(RequestBody::RunStep(Rig::nominal(FP, FF)));
+    r.exchange();
+    let lost = off_the_line(&r.lost);
+    let Some(DeviceMessage::Response { seq, result, body }) = lost.first() else {
+        panic!("lost {lost:?}")
+    };
+    let seq = *seq;
     assert_eq!(
-        r.response(seq),
-        [(ResultCode::InProgress, ResponseBody::None)]
+        (*result, body),
+        (ResultCode::InProgress, &ResponseBody::None)
     );
-    r.run(50);
-    // The host lost the answer and retries: the same answer, the step is not restarted
-    // (a second execution would answer Busy).
-    r.ctl.handle_rx(&bytes, r.now);
-    r.drain();
-    assert_eq!(r.response(seq).len(), 2);
-    assert!(r
-        .response(seq)
-        .iter()
-        .all(|x| *x == (ResultCode::InProgress, ResponseBody::None)));
-    // A different request with the same seq is a new request.
-    let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = protocol::encode(
-        &Request {
-            seq,
-            session: r.session,
-            body: RequestBody::Heartbeat,
-        },
-        &mut buf,
-    )
-    .unwrap();
-    r.ctl.handle_rx(&buf[..n], r.now);
-    r.drain();
-    assert_eq!(r.response(seq).last().unwrap().0, ResultCode::Ok);
+    assert_eq!(r.reply(id), None);
+    r.run(u64::from(protocol::RESPONSE_TIMEOUT_MS));
+    // The same answer: the step is not restarted (a second execution would answer Busy).
+    assert_eq!(
+        r.reply(id),
+        Some((ResultCode::InProgress, ResponseBody::None))
+    );
+    assert_eq!(r.host().stats().retries, 1);
+    // A different request with the same seq is a new request (forged: the engine never
+    // reuses a seq).
+    let heartbeat = r.forge(Some(seq), r.session(), RequestBody::Heartbeat);
+    let answers = r.inject(&heartbeat);
+    assert!(
+        matches!(
+            answers.last(),
+            Some(DeviceMessage::Response { seq: s, result: ResultCode::Ok, .. }) if *s == seq
+        ),
+        "{answers:?}"
+    );
     assert_eq!(r.ctl.mode(), Mode::Running);
     assert!(r.plan_done().is_none());
 }
@@ -602,22 +774,22 @@ fn every_request_gets_one_response_and_retries_are_not_reexecuted() {
 #[test]
 fn any_chunking_and_garbage_never_panic() {
     let mut r = Rig::connected(FP);
-    // One request byte by byte, with garbage and empty frames around it.
-    r.ctl.handle_rx(&[0, 0, 1, 2, 3, 0xFF, 0], r.now);
-    let (seq, bytes) = r.frame(RequestBody::GetParam(ParamId::PressureLimitKpa));
-    for b in &bytes {
-        r.ctl.handle_rx(core::slice::from_ref(b), r.now);
+    // Garbage and empty frames (deliberate raw bytes), then the engine's request byte by byte.
+    r.inject(&[0, 0, 1, 2, 3, 0xFF, 0]);
+    let id = r.send(RequestBody::GetParam(ParamId::PressureLimitKpa));
+    let frame = r.host().poll_transmit().expect("sent at once");
+    for b in &frame {
+        r.inject(core::slice::from_ref(b));
     }
-    r.drain();
     assert_eq!(
-        r.response(seq),
-        [(
+        r.reply(id),
+        Some((
             ResultCode::Ok,
             ResponseBody::Param {
                 id: ParamId::PressureLimitKpa,
                 value: 40.0
             }
-        )]
+        ))
     );
     // 200 kB of pseudo-random bytes (with delimiters) interleaved with the loop.
     let mut x: u32 = 7;
@@ -630,8 +802,8 @@ fn any_chunking_and_garbage_never_panic() {
         r.ctl.handle_rx(&chunk, r.now);
         r.run(1);
     }
-    // The noise ends inside a frame: the delimiter a host sends after a timeout closes it.
-    r.ctl.handle_rx(&[0], r.now);
+    // The noise ends inside a frame: the delimiter the engine sends ahead of a request closes it.
+    r.inject(&[0]);
     let s = r.ctl.status();
     assert!(s.frames_dropped > 1_000, "{}", s.frames_dropped);
     // Still alive and answering.
@@ -642,16 +814,19 @@ fn any_chunking_and_garbage_never_panic() {
 fn corrupted_frames_are_counted_and_the_retry_answers() {
     let mut r = Rig::connected(FP);
     let before = r.ctl.status().frames_dropped;
-    let (seq, mut bytes) = r.frame(RequestBody::GetStatus);
-    let good = bytes.clone();
-    bytes[3] ^= 0x10;
-    r.ctl.handle_rx(&bytes, r.now);
-    r.drain();
-    assert!(r.response(seq).is_empty());
+    r.line_fault = Some(LineFault::CorruptToDevice);
+    let id = r.send(RequestBody::GetStatus);
+    r.exchange();
+    assert_eq!(r.reply(id), None);
     assert_eq!(r.ctl.status().frames_dropped, before + 1);
-    r.ctl.handle_rx(&good, r.now);
-    r.drain();
-    assert_eq!(r.response(seq).len(), 1);
+    // The engine's retry after its response timeout is answered, once.
+    r.run(u64::from(protocol::RESPONSE_TIMEOUT_MS));
+    assert!(matches!(
+        r.reply(id),
+        Some((ResultCode::Ok, ResponseBody::Status(_)))
+    ));
+    let stats = r.host().stats();
+    assert_eq!((stats.retries, stats.stale_responses), (1, 0));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -661,7 +836,7 @@ fn corrupted_frames_are_counted_and_the_retry_answers() {
 #[test]
 fn pneumatic_plan_f_and_p_to_d_and_f_is_confirmed_by_snaps() {
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(7, &[FP, FF, DF]));
     assert_eq!(r.ctl.mode(), Mode::Running);
     let took = r
@@ -717,7 +892,7 @@ fn pneumatic_plan_f_and_p_to_d_and_f_is_confirmed_by_snaps() {
 #[test]
 fn tendon_plan_d_and_d_to_f_and_p_counts_two_snaps_to_pack() {
     let mut r = Rig::connected(DD);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(3, &[DD, FD, FF, FP]));
     r.run_until(30_000, |r| r.plan_done().is_some())
         .expect("plan finishes");
@@ -740,7 +915,7 @@ fn tendon_plan_d_and_d_to_f_and_p_counts_two_snaps_to_pack() {
 fn blind_tendon_snaps_are_confirmed_by_the_sealed_release() {
     let mut r = Rig::connected(FD);
     r.plant.tendon_spike = false;
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(3, &[FD, FF, FP]));
     let mut max_servo = 0.0f32;
     let mut sealed_releases = 0;
@@ -776,7 +951,7 @@ fn a_pull_without_a_snap_is_refused_after_the_sealed_release() {
     for (from, to) in [(DD, FD), (FF, FP)] {
         let mut r = Rig::connected(from);
         r.plant.stuck = true;
-        r.heartbeat_every_ms = 250;
+        r.keepalive();
         r.upload_and_start(Rig::plan(1, &[from, to]));
         r.run_until(20_000, |r| r.plan_done().is_some())
             .expect("fails in time");
@@ -794,7 +969,7 @@ fn a_pull_without_a_snap_is_refused_after_the_sealed_release() {
     // Packing one bottom layer of two (+3 kPa where both make +6): one snap is not two.
     let mut r = Rig::connected(FF);
     r.plant.tendon_spike = false;
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(1, &[FF, FP]));
     let stop_at_half = |r: &mut Rig| {
         // The second layer never packs: a stiff one.
@@ -860,7 +1035,7 @@ fn a_stuck_open_inlet_is_vented_and_never_pushes_the_trunk_on() {
     // after the vent gives up, the safe state holds the pressure down (no second pop).
     let mut r = Rig::connected(FF);
     r.plant.inlet_sticks = true;
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(1, &[FF, DF]));
     r.run_until(40_000, |r| r.plan_done().is_some())
         .expect("fails in time");
@@ -882,7 +1057,7 @@ fn a_stuck_open_inlet_is_vented_and_never_pushes_the_trunk_on() {
 fn a_step_without_its_snap_is_not_confirmed() {
     let mut r = Rig::connected(FP);
     r.plant.stuck = true;
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(1, &[FP, FF]));
     r.run_until(10_000, |r| r.plan_done().is_some())
         .expect("fails in time");
@@ -931,7 +1106,7 @@ fn a_step_without_its_snap_is_not_confirmed() {
 #[test]
 fn step_time_limit_faults() {
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     let s = step(
         StepKind::Pneumatic,
         FP,
@@ -939,7 +1114,7 @@ fn step_time_limit_faults() {
         &[Primitive::WaitSnap { timeout_ms: 60_000 }],
         1_000,
     );
-    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run_step(s);
     let t = r.run_until(5_000, |r| r.ctl.mode() == Mode::Safe).unwrap();
     assert!((999..=1_001).contains(&t), "{t}");
     assert_eq!(r.faults_raised(), [FaultCode::StepTimeout]);
@@ -1067,7 +1242,7 @@ fn plan_validation_rejects_bad_plans() {
         reject(RejectReason::UnknownPlan)
     );
     // A valid upload, then busy while running.
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(6, &[FP, FF]));
     assert_eq!(
         r.request(RequestBody::UploadPlan(Rig::plan(8, &[FP, FF])))
@@ -1086,7 +1261,7 @@ fn plan_validation_rejects_bad_plans() {
 #[test]
 fn abort_goes_to_the_safe_state_and_is_not_latched() {
     let mut r = Rig::connected(DD);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(2, &[DD, FD]));
     r.run(300);
     let mid = r.ctl.poll_outputs().servo_deg;
@@ -1137,7 +1312,7 @@ fn abort_goes_to_the_safe_state_and_is_not_latched() {
 #[test]
 fn a_fault_leaves_the_servos_limp_until_reset() {
     let mut r = Rig::connected(DD);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(2, &[DD, FD]));
     r.run(300);
     r.buttons.estop = true;
@@ -1155,7 +1330,7 @@ fn a_fault_leaves_the_servos_limp_until_reset() {
 fn manual_step_waits_for_the_button_or_the_host() {
     for by_button in [true, false] {
         let mut r = Rig::connected(DF);
-        r.heartbeat_every_ms = 250;
+        r.keepalive();
         assert_eq!(
             r.request(RequestBody::ConfirmManual).0,
             ResultCode::Rejected(RejectReason::NoManualPending)
@@ -1209,7 +1384,7 @@ fn a_persons_confirm_is_checked_and_never_taken_for_the_truth() {
     let hand = protocol::StateSet::EMPTY.with(DF).with(DP).with(FF);
     for (done, found, left) in [(DF, DF, hand), (FF, FF, protocol::StateSet::single(FF))] {
         let mut r = Rig::connected(DF);
-        r.heartbeat_every_ms = 250;
+        r.keepalive();
         r.upload_and_start(Rig::plan(4, &[DF, DP]));
         r.run(1_000);
         r.plant.volume_fill = true;
@@ -1227,7 +1402,7 @@ fn a_persons_confirm_is_checked_and_never_taken_for_the_truth() {
     }
     // A leaking trunk voids the probe: unconfirmed among what a hand can make of D&F.
     let mut r = Rig::connected(DF);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(4, &[DF, DP]));
     r.run(1_000);
     r.plant.volume_fill = true;
@@ -1245,7 +1420,7 @@ fn a_persons_confirm_is_checked_and_never_taken_for_the_truth() {
 #[test]
 fn a_step_without_evidence_is_assumed_unconfirmed() {
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     let s = step(
         StepKind::Pneumatic,
         FP,
@@ -1253,7 +1428,7 @@ fn a_step_without_evidence_is_assumed_unconfirmed() {
         &[Primitive::Hold { duration_ms: 100 }],
         1_000,
     );
-    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run_step(s);
     r.run(200);
     let st = r.ctl.status();
     assert_eq!((st.state, st.state_confirmed), (FF, false));
@@ -1268,7 +1443,7 @@ fn a_step_without_evidence_is_assumed_unconfirmed() {
 #[test]
 fn gripper_and_bend_primitives() {
     let mut r = Rig::connected(FF);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     let s = step(
         StepKind::Tendon,
         FF,
@@ -1282,7 +1457,7 @@ fn gripper_and_bend_primitives() {
         ],
         10_000,
     );
-    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run_step(s);
     r.run(100);
     assert!(r.ctl.poll_outputs().gripper_closed);
     // The bend waits for the gripper to settle (400 ms) before moving.
@@ -1381,7 +1556,7 @@ fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
     assert!((8.0..10.0).contains(&why.limit), "{why:?}");
     assert_eq!(upload(&mut dp, 5, &[bend(DP, 8.0)]).0, ResultCode::Ok);
     // Just inside the limit, the accepted bend runs to its end: no ServoLimit.
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     assert_eq!(
         r.request(RequestBody::RunStep(bend(FF, 77.0))).0,
         ResultCode::InProgress
@@ -1402,7 +1577,7 @@ fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
 fn over_pressure_vents_at_once() {
     let mut r = Rig::connected(FP);
     r.plant.stuck = true;
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     // The inlet is open (an inflate) when the pressure jumps: with it closed, the same jump
     // would be a stuck inlet (tested below).
     assert_eq!(
@@ -1443,7 +1618,7 @@ fn over_pressure_vents_at_once() {
 #[test]
 fn a_lowered_cap_caps_the_inflate_target() {
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.plant.stuck = true;
     assert_eq!(
         r.request(RequestBody::UploadPlan(Rig::plan(1, &[FP, FF])))
@@ -1474,7 +1649,7 @@ fn a_lowered_cap_caps_the_inflate_target() {
         }],
         20_000,
     );
-    r.request(RequestBody::RunStep(s));
+    r.run_step(s);
     r.run(500);
     r.request(RequestBody::SetParam {
         id: ParamId::PressureLimitKpa,
@@ -1491,7 +1666,7 @@ fn a_lowered_cap_caps_the_inflate_target() {
 #[test]
 fn pressure_sensor_dropout_faults_and_vents() {
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.request(RequestBody::RunStep(Rig::nominal(FP, FF)));
     r.run(300);
     assert!(r.ctl.poll_outputs().inlet_open);
@@ -1519,7 +1694,7 @@ fn pressure_sensor_dropout_faults_and_vents() {
 #[test]
 fn estop_latches_until_released_and_reset() {
     let mut r = Rig::connected(DD);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(1, &[DD, FD]));
     r.run(400);
     let mid = r.ctl.poll_outputs().servo_deg;
@@ -1567,7 +1742,7 @@ fn link_loss_aborts_a_host_plan_only() {
         }],
         20_000,
     );
-    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run_step(s);
     let t0 = r.now;
     r.run_until(5_000, |r| r.ctl.mode() == Mode::Safe).unwrap();
     assert_eq!(r.now - t0, protocol::DEFAULT_LINK_TIMEOUT_MS as u64);
@@ -1578,7 +1753,7 @@ fn link_loss_aborts_a_host_plan_only() {
     );
     // With heartbeats the same plan runs to its end.
     let mut r = Rig::connected(DD);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(1, &[DD, FD]));
     r.run_until(10_000, |r| r.plan_done().is_some()).unwrap();
     assert_eq!(r.plan_done(), Some((true, FD)));
@@ -1591,28 +1766,25 @@ fn link_loss_aborts_a_host_plan_only() {
     assert!(r.faults_raised().is_empty());
 }
 
+/// From F&F: inflate to 8 kPa (no snap), then `then` sealed.
+fn sealed_at_8_kpa(to: TrunkState, then: Primitive) -> Step {
+    let inflate = Primitive::Inflate {
+        pressure_kpa: 8.0,
+        snaps: 0,
+    };
+    step(StepKind::Pneumatic, FF, to, &[inflate, then], 20_000)
+}
+
 #[test]
 fn leak_is_detected_while_holding_sealed() {
+    let five_s = Primitive::Hold { duration_ms: 5_000 };
     let hold = |r: &mut Rig| {
-        let s = step(
-            StepKind::Pneumatic,
-            FF,
-            FF,
-            &[
-                Primitive::Inflate {
-                    pressure_kpa: 8.0,
-                    snaps: 0,
-                },
-                Primitive::Hold { duration_ms: 5_000 },
-            ],
-            20_000,
-        );
-        assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+        r.run_step(sealed_at_8_kpa(FF, five_s));
         r.run_until(8_000, |r| r.plan_done().is_some()).unwrap();
     };
     // The trunk's own small leak (0.5 kPa/s) is within the allowance; the regulator tops it up.
     let mut r = Rig::connected(FF);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.plant.stuck = true;
     r.plant.leak_kpa_per_s = 0.5;
     hold(&mut r);
@@ -1620,27 +1792,14 @@ fn leak_is_detected_while_holding_sealed() {
     assert!(r.faults_raised().is_empty());
     // A torn trunk (4 kPa/s) is a Leak.
     let mut r = Rig::connected(FF);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.plant.stuck = true;
     hold(&mut r);
     r.plant.leak_kpa_per_s = 0.0;
     let mut r2 = Rig::connected(FF);
-    r2.heartbeat_every_ms = 250;
+    r2.keepalive();
     r2.plant.stuck = true;
-    let s = step(
-        StepKind::Pneumatic,
-        FF,
-        FF,
-        &[
-            Primitive::Inflate {
-                pressure_kpa: 8.0,
-                snaps: 0,
-            },
-            Primitive::Hold { duration_ms: 5_000 },
-        ],
-        20_000,
-    );
-    r2.request(RequestBody::RunStep(s));
+    r2.run_step(sealed_at_8_kpa(FF, five_s));
     r2.run(1_500);
     r2.plant.leak_kpa_per_s = 4.0;
     r2.run_until(3_000, |r| r.ctl.mode() == Mode::Safe).unwrap();
@@ -1653,22 +1812,12 @@ fn leak_is_detected_while_holding_sealed() {
 fn snap_while_holding_sealed_is_not_a_leak() {
     // A pressure step of −3 kPa while sealed and still: the snap detector claims it.
     let mut r = Rig::connected(FF);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.plant.stuck = true;
-    let s = step(
-        StepKind::Pneumatic,
-        FF,
+    r.run_step(sealed_at_8_kpa(
         DF,
-        &[
-            Primitive::Inflate {
-                pressure_kpa: 8.0,
-                snaps: 0,
-            },
-            Primitive::WaitSnap { timeout_ms: 5_000 },
-        ],
-        20_000,
-    );
-    r.request(RequestBody::RunStep(s));
+        Primitive::WaitSnap { timeout_ms: 5_000 },
+    ));
     r.run(2_000);
     r.plant.p_kpa -= 3.0;
     r.run_until(3_000, |r| r.plan_done().is_some()).unwrap();
@@ -1679,7 +1828,7 @@ fn snap_while_holding_sealed_is_not_a_leak() {
 #[test]
 fn servo_slew_and_limits() {
     let mut r = Rig::connected(DD);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     // Slew limit: 90 °/s → at most 0.09° per 1 ms tick.
     r.request(RequestBody::RunStep(Rig::nominal(DD, FD)));
     let mut last = r.ctl.poll_outputs().servo_deg[0];
@@ -1695,7 +1844,7 @@ fn servo_slew_and_limits() {
     r.run_until(10_000, |r| r.plan_done().is_some()).unwrap();
     // Limits lowered while a plan runs: the next pull beyond them is a ServoLimit fault.
     let mut r = Rig::connected(FD);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(2, &[FD, DD, FD]));
     r.run(200);
     let (res, body) = r.request(RequestBody::SetParam {
@@ -1777,7 +1926,7 @@ fn telemetry_and_heartbeat_rates() {
         id: ParamId::TelemetryHz,
         value: 20.0,
     });
-    r.msgs.clear();
+    r.log.clear();
     r.run(2_000);
     let telemetry = r
         .events()
@@ -1793,7 +1942,7 @@ fn telemetry_and_heartbeat_rates() {
         id: ParamId::TelemetryHz,
         value: 0.0,
     });
-    r.msgs.clear();
+    r.log.clear();
     r.run(1_000);
     assert_eq!(
         r.events()
@@ -1806,15 +1955,15 @@ fn telemetry_and_heartbeat_rates() {
         id: ParamId::TelemetryHz,
         value: 50.0,
     });
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.request(RequestBody::RunStep(Rig::nominal(FP, FF)));
-    r.msgs.clear();
+    r.log.clear();
     r.run(1_000);
     let progress: StdVec<u64> = r
-        .msgs
+        .log
         .iter()
-        .filter(|(_, m)| matches!(m, DeviceMessage::Event(Event::StepProgress { .. })))
-        .map(|(t, _)| *t)
+        .filter(|(_, _, ev)| matches!(ev, SessionEvent::Device(Event::StepProgress { .. })))
+        .map(|(t, _, _)| *t)
         .collect();
     assert!((9..=11).contains(&progress.len()), "{progress:?}");
     assert!(progress
@@ -1826,7 +1975,8 @@ fn telemetry_and_heartbeat_rates() {
 fn no_events_before_the_handshake() {
     let mut r = Rig::new(FP);
     r.run(2_000);
-    assert!(r.msgs.is_empty());
+    assert!(r.log.is_empty());
+    assert_eq!(r.host().stats().frames_rx, 0);
 }
 
 #[test]
@@ -1834,7 +1984,7 @@ fn deadline_follows_activity() {
     let mut r = Rig::new(FP);
     r.run(10);
     assert_eq!(r.ctl.poll_deadline(), r.now + 1_000);
-    r.hello_ok();
+    r.connect();
     r.run(1);
     // Next telemetry (10 Hz) or heartbeat.
     assert!(r.ctl.poll_deadline() <= r.now + 100);
@@ -2160,7 +2310,7 @@ fn joystick_twin_matches_the_geometry_crate() {
 #[test]
 fn an_assumed_state_stops_the_next_step_of_a_plan() {
     let mut r = Rig::connected(FF);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     // Step 0 reaches D&F without evidence (assumed); step 1 needs a confirmed D&F.
     let mut steps = heapless::Vec::new();
     steps
@@ -2196,7 +2346,7 @@ fn an_assumed_state_stops_the_next_step_of_a_plan() {
 /// from its start to the first fault, with the fault, the filtered pressure then and the
 /// outputs then.
 fn inflate_until_fault(r: &mut Rig) -> (u64, FaultCode, f32, Outputs) {
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.upload_and_start(Rig::plan(5, &[FP, FF]));
     let t0 = r.now;
     r.run_until(30_000, |r| !r.faults_raised().is_empty())
@@ -2250,7 +2400,7 @@ fn an_inlet_that_never_opens_is_no_pressure_rise_after_one_window() {
     // A supply that comes back after a reset: the same step now succeeds.
     assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
     r.plant.inlet_blocked = false;
-    r.msgs.clear();
+    r.log.clear();
     r.upload_and_start(Rig::plan(6, &[FP, FF]));
     r.run_until(10_000, |r| r.plan_done().is_some()).unwrap();
     assert_eq!(r.plan_done(), Some((true, FF)));
@@ -2262,7 +2412,7 @@ fn a_slow_but_steady_rise_is_not_a_stall() {
     // A supply 10× slower than the nominal 10 kPa/s gains 3 kPa per 3 s window, six times the
     // 0.5 kPa the watch asks for: both inflates reach their snaps, in ≈ 30 s.
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.plant.inlet_kpa_per_s = 1.0;
     r.upload_and_start(Rig::plan(5, &[FP, FF, DF]));
     let took = r
@@ -2276,7 +2426,7 @@ fn a_slow_but_steady_rise_is_not_a_stall() {
     // per window) is a stall at the first full window, still within the 1 kPa ambient band:
     // NoPressureRise.
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     r.plant.inlet_kpa_per_s = 0.2;
     r.upload_and_start(Rig::plan(5, &[FP, FF]));
     r.run(10_000);
@@ -2296,7 +2446,7 @@ fn a_leak_while_the_regulator_holds_is_named_leak() {
     // opens that the inlet can only hold at 2 kPa (10 kPa/s against 5 p per second): the
     // inlet stays open, the pressure stalls at 2 kPa, above the ambient band.
     let mut r = Rig::connected(FP);
-    r.heartbeat_every_ms = 250;
+    r.keepalive();
     let s = step(
         StepKind::Pneumatic,
         FP,
@@ -2312,7 +2462,7 @@ fn a_leak_while_the_regulator_holds_is_named_leak() {
         ],
         30_000,
     );
-    assert_eq!(r.request(RequestBody::RunStep(s)).0, ResultCode::InProgress);
+    r.run_step(s);
     r.run(2_000);
     assert!(r.faults_raised().is_empty());
     r.plant.hole_per_s = 5.0;
@@ -2330,38 +2480,33 @@ fn a_leak_while_the_regulator_holds_is_named_leak() {
 // Sessions: binding, takeover, replay
 // ---------------------------------------------------------------------------------------------
 
-impl Rig {
-    /// Sends `body` as if from another host holding `session`; returns its one response.
-    fn request_as(&mut self, session: u32, body: RequestBody) -> (ResultCode, ResponseBody) {
-        let mine = core::mem::replace(&mut self.session, session);
-        let r = self.request(body);
-        self.session = mine;
-        r
+/// The reason a handshake was refused for (`None`: it succeeded, or failed otherwise).
+fn refusal(hello: &Result<DeviceInfo, SessionError>) -> Option<RejectReason> {
+    match hello {
+        Err(SessionError::Rejected { reason, .. }) => Some(*reason),
+        _ => None,
     }
 }
 
 #[test]
 fn a_live_session_refuses_a_second_hello_and_a_takeover_is_explicit() {
     let mut r = Rig::connected(FF);
-    let first = r.session;
-    r.heartbeat_every_ms = 200;
+    let first = r.session();
+    r.keepalive();
     r.run(500);
     // A second host while the first is live: refused, and not told the session in force.
-    let (res, body) = r.request_as(0, RequestBody::hello());
-    assert_eq!(res, ResultCode::Rejected(RejectReason::SessionBusy));
-    let ResponseBody::Hello(info) = body else {
-        panic!("no device info")
-    };
-    assert_eq!(info.session, 0);
+    let (b, hello) = r.join(false);
+    assert_eq!(
+        refusal(&hello),
+        Some(RejectReason::SessionBusy),
+        "{hello:?}"
+    );
+    assert_eq!(r.hosts[b].device().map(|info| info.session), Some(0));
     // The first host goes on working.
     assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
     // An explicit takeover opens a new session ...
-    let (res, body) = r.request_as(0, RequestBody::hello_takeover());
-    assert_eq!(res, ResultCode::Ok);
-    let ResponseBody::Hello(info) = body else {
-        panic!("no device info")
-    };
-    let second = info.session;
+    let (c, hello) = r.join(true);
+    let second = hello.expect("taken over").session;
     assert!(second != 0 && second != first);
     // ... and the first host's next state-changing request is refused.
     assert_eq!(
@@ -2381,7 +2526,7 @@ fn a_live_session_refuses_a_second_hello_and_a_takeover_is_explicit() {
     );
     // The new owner is obeyed.
     assert_eq!(
-        r.request_as(second, RequestBody::DeclareState(FD)).0,
+        r.request_from(c, RequestBody::DeclareState(FD)).0,
         ResultCode::Ok
     );
     assert_eq!(r.ctl.status().state, FD);
@@ -2391,51 +2536,57 @@ fn a_live_session_refuses_a_second_hello_and_a_takeover_is_explicit() {
 fn a_silent_owner_frees_the_crane_after_the_link_timeout_and_close_frees_it_at_once() {
     let mut r = Rig::connected(FF);
     r.run(r.cfg.link_timeout_ms as u64 - 10);
+    let (_, hello) = r.join(false);
     assert_eq!(
-        r.request_as(0, RequestBody::hello()).0,
-        ResultCode::Rejected(RejectReason::SessionBusy)
+        refusal(&hello),
+        Some(RejectReason::SessionBusy),
+        "{hello:?}"
     );
     r.run(20);
-    let (res, _) = r.request_as(0, RequestBody::hello());
-    assert_eq!(
-        res,
-        ResultCode::Ok,
-        "the owner was silent for the link timeout"
+    let (_, hello) = r.join(false);
+    assert!(
+        hello.is_ok(),
+        "the owner was silent for the link timeout: {hello:?}"
     );
     // A host that closes its session frees the crane at once.
     let mut r = Rig::connected(FF);
     assert_eq!(r.request(RequestBody::Close).0, ResultCode::Ok);
-    assert_eq!(r.request_as(0, RequestBody::hello()).0, ResultCode::Ok);
+    let (_, hello) = r.join(false);
+    assert!(hello.is_ok(), "{hello:?}");
 }
 
 #[test]
 fn a_replayed_upload_and_start_from_a_stranger_is_refused_and_abort_from_anyone_is_honoured() {
     // Host A runs a plan; its frames are recorded off the wire.
     let mut r = Rig::connected(FP);
-    let (_, upload) = r.frame(RequestBody::UploadPlan(Rig::plan(5, &[FP, FF])));
-    let (_, start) = r.frame(RequestBody::StartPlan { plan_id: 5 });
-    r.ctl.handle_rx(&upload, r.now);
-    r.ctl.handle_rx(&start, r.now);
-    r.drain();
+    let recorded = |r: &mut Rig, body| {
+        let id = r.send(body);
+        let frame = r.host().poll_transmit().expect("sent at once");
+        r.inject(&frame);
+        assert!(r.reply(id).is_some());
+        frame
+    };
+    let upload = recorded(&mut r, RequestBody::UploadPlan(Rig::plan(5, &[FP, FF])));
+    let start = recorded(&mut r, RequestBody::StartPlan { plan_id: 5 });
     assert_eq!(r.ctl.mode(), Mode::Running);
-    // Abort from a host without any session is honoured at once.
-    assert_eq!(r.request_as(0, RequestBody::Abort).0, ResultCode::Ok);
+    // Abort from a host without any session is honoured at once (forged: the engine shakes
+    // hands first).
+    assert_eq!(r.forged(0, RequestBody::Abort).0, ResultCode::Ok);
     assert_eq!(r.ctl.mode(), Mode::Safe);
     r.run(100);
-    // Host A closes; host B handshakes and replays A's recorded frames byte for byte.
+    // Host A closes; host B handshakes and replays A's recorded frames byte for byte
+    // (deliberately raw: a replay is a forged frame).
     assert_eq!(r.request(RequestBody::Close).0, ResultCode::Ok);
-    r.hello_ok();
+    r.connect();
     assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
     r.request(RequestBody::DeclareState(FP));
-    let before = r.msgs.len();
-    r.ctl.handle_rx(&upload, r.now);
-    r.ctl.handle_rx(&start, r.now);
-    r.drain();
-    let answers: StdVec<ResultCode> = r.msgs[before..]
+    let mut answers = r.inject(&upload);
+    answers.extend(r.inject(&start));
+    let answers: StdVec<ResultCode> = answers
         .iter()
-        .filter_map(|(_, m)| match m {
+        .filter_map(|m| match m {
             DeviceMessage::Response { result, .. } => Some(*result),
-            _ => None,
+            DeviceMessage::Event(_) => None,
         })
         .collect();
     assert_eq!(
@@ -2453,6 +2604,7 @@ fn a_replayed_upload_and_start_from_a_stranger_is_refused_and_abort_from_anyone_
 #[test]
 fn before_any_handshake_only_hello_and_abort_are_served() {
     let mut r = Rig::new(FF);
+    // A host that skips the handshake (the engine never does): forged frames.
     for body in [
         RequestBody::GetStatus,
         RequestBody::Heartbeat,
@@ -2461,12 +2613,12 @@ fn before_any_handshake_only_hello_and_abort_are_served() {
         RequestBody::DeclareState(FD),
     ] {
         assert_eq!(
-            r.request(body.clone()).0,
+            r.forged(0, body.clone()).0,
             ResultCode::Rejected(RejectReason::NoHandshake),
             "{body:?}"
         );
     }
-    assert_eq!(r.request(RequestBody::Abort).0, ResultCode::Ok);
+    assert_eq!(r.forged(0, RequestBody::Abort).0, ResultCode::Ok);
     assert_eq!(r.ctl.mode(), Mode::Safe);
 }
 
@@ -2478,9 +2630,11 @@ fn session_ids_differ_per_handshake_and_per_boot() {
         r.ctl.add_entropy(boot);
         for _ in 0..4 {
             r.run(7);
-            let _ = r.request(RequestBody::Close);
-            r.hello_ok();
-            ids.push(r.session);
+            // The engine's close (nothing before the first handshake), then a new host.
+            r.host().close();
+            r.exchange();
+            r.connect();
+            ids.push(r.session());
         }
     }
     let mut unique = ids.clone();
@@ -2494,16 +2648,25 @@ fn session_ids_differ_per_handshake_and_per_boot() {
 // Belief: boot from the journal, identification by the operator
 // ---------------------------------------------------------------------------------------------
 
+impl Rig {
+    /// Booted from the journal of a D&D → F&D fold interrupted mid-pull (the trunk is F&D),
+    /// connected; with the record.
+    fn interrupted_fold() -> (Self, StoredState) {
+        let record = StoredState {
+            state: DD,
+            confirmed: false,
+            candidates: protocol::StateSet::single(DD).with(FD).with(FF),
+            pending: Some(protocol::Transition { from: DD, to: FD }),
+        };
+        let mut r = Rig::with(CraneConfig::default(), BootRecord::Stored(record), FD);
+        r.connect();
+        (r, record)
+    }
+}
+
 #[test]
 fn a_pending_record_boots_unconfirmed_and_refuses_steps() {
-    let record = StoredState {
-        state: DD,
-        confirmed: false,
-        candidates: protocol::StateSet::single(DD).with(FD).with(FF),
-        pending: Some(protocol::Transition { from: DD, to: FD }),
-    };
-    let mut r = Rig::with(CraneConfig::default(), BootRecord::Stored(record), FD);
-    r.hello_ok();
+    let (mut r, record) = Rig::interrupted_fold();
     let s = r.ctl.status();
     assert_eq!((s.state, s.state_confirmed), (DD, false));
     assert_eq!(s.candidates, record.candidates);
@@ -2530,14 +2693,7 @@ fn a_pending_record_boots_unconfirmed_and_refuses_steps() {
 
 #[test]
 fn the_operator_picks_a_candidate_with_up_down_and_confirms_it() {
-    let record = StoredState {
-        state: DD,
-        confirmed: false,
-        candidates: protocol::StateSet::single(DD).with(FD).with(FF),
-        pending: Some(protocol::Transition { from: DD, to: FD }),
-    };
-    let mut r = Rig::with(CraneConfig::default(), BootRecord::Stored(record), FD);
-    r.hello_ok();
+    let (mut r, record) = Rig::interrupted_fold();
     // A sensor fault: no probing, the operator is asked at once.
     r.raw_override = Some(0);
     r.run(r.cfg.pressure_sensor.dropout_ms as u64 + 20);
@@ -2575,7 +2731,8 @@ fn the_operator_picks_a_candidate_with_up_down_and_confirms_it() {
 #[test]
 fn a_v1_host_is_refused_in_v1_words() {
     let mut r = Rig::new(FF);
-    // A v1 Hello (seq 9, version 1, schema 0x221ee9a8) framed with v1's CRC-16.
+    // A v1 Hello (seq 9, version 1, schema 0x221ee9a8) framed with v1's CRC-16, by hand:
+    // deliberately raw bytes (no host engine speaks v1).
     let payload = [0x09u8, 0x00, 0x01, 0xa8, 0xd3, 0xfb, 0x90, 0x02];
     let crc = crc::Crc::<u16>::new(&crc::CRC_16_IBM_SDLC).checksum(&payload);
     let mut raw = payload.to_vec();
@@ -2605,7 +2762,7 @@ fn a_v1_host_is_refused_in_v1_words() {
     // Nothing else changed: no handshake, no session.
     assert_eq!(r.ctl.session(), 0);
     assert_eq!(
-        r.request(RequestBody::GetStatus).0,
+        r.forged(0, RequestBody::GetStatus).0,
         ResultCode::Rejected(RejectReason::NoHandshake)
     );
 }

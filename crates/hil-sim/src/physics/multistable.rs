@@ -37,6 +37,24 @@ pub struct MultistableCurve {
     barriers: Vec<Barrier>,
     contact_mm: f64,
     contact_stiffness_n_per_mm: f64,
+    /// What the laws below derive from each barrier, computed once: the curve is evaluated
+    /// several times in every 1 ms physics step, and these are the same divisions each time.
+    spans: Vec<Span>,
+    /// Force of the first well's law at the contact height.
+    at_contact_n: f64,
+}
+
+/// The derived heights and slope of one barrier ([`MultistableCurve::barrier_span`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Span {
+    /// Height of the tension peak.
+    peak_mm: f64,
+    /// Height of the compression valley.
+    valley_mm: f64,
+    /// Slope of the snap-through branch (negative).
+    slope_n_per_mm: f64,
+    /// Where the snap-through branch crosses zero force (the basin boundary).
+    zero_mm: f64,
 }
 
 /// Why a curve's parameters were rejected.
@@ -97,14 +115,11 @@ impl MultistableCurve {
         if !ok {
             return Err(CurveError::NotPositive);
         }
-        let curve = Self {
-            wells,
-            barriers,
-            contact_mm,
-            contact_stiffness_n_per_mm,
-        };
-        for i in 0..curve.barriers.len() {
-            let (peak_mm, valley_mm) = curve.barrier_span(i);
+        let mut spans = Vec::with_capacity(barriers.len());
+        for i in 0..barriers.len() {
+            let (lo, hi, b) = (wells[i], wells[i + 1], barriers[i]);
+            let peak_mm = lo.height_mm + b.tension_n / lo.stiffness_n_per_mm;
+            let valley_mm = hi.height_mm - b.compression_n / hi.stiffness_n_per_mm;
             if peak_mm >= valley_mm {
                 return Err(CurveError::Overlap {
                     index: i,
@@ -112,8 +127,23 @@ impl MultistableCurve {
                     valley_mm,
                 });
             }
+            spans.push(Span {
+                peak_mm,
+                valley_mm,
+                slope_n_per_mm: -(b.tension_n + b.compression_n) / (valley_mm - peak_mm),
+                zero_mm: peak_mm
+                    + (valley_mm - peak_mm) * b.tension_n / (b.tension_n + b.compression_n),
+            });
         }
-        Ok(curve)
+        let first = wells[0];
+        Ok(Self {
+            at_contact_n: first.stiffness_n_per_mm * (contact_mm - first.height_mm),
+            wells,
+            barriers,
+            contact_mm,
+            contact_stiffness_n_per_mm,
+            spans,
+        })
     }
 
     /// The wells, shortest first.
@@ -128,11 +158,8 @@ impl MultistableCurve {
 
     /// Heights of the tension peak and the compression valley of barrier `i`.
     pub fn barrier_span(&self, i: usize) -> (f64, f64) {
-        let (lo, hi, b) = (self.wells[i], self.wells[i + 1], self.barriers[i]);
-        (
-            lo.height_mm + b.tension_n / lo.stiffness_n_per_mm,
-            hi.height_mm - b.compression_n / hi.stiffness_n_per_mm,
-        )
+        let s = self.spans[i];
+        (s.peak_mm, s.valley_mm)
     }
 
     /// Internal force of the element at height `h_mm` (tension positive: the force with which
@@ -143,28 +170,25 @@ impl MultistableCurve {
 
     /// Force and its slope dF/dh (negative on a snap-through branch).
     pub fn force_and_stiffness(&self, h_mm: f64) -> (f64, f64) {
-        let first = self.wells[0];
         if h_mm < self.contact_mm {
-            let at_contact = first.stiffness_n_per_mm * (self.contact_mm - first.height_mm);
             return (
-                at_contact + self.contact_stiffness_n_per_mm * (h_mm - self.contact_mm),
+                self.at_contact_n + self.contact_stiffness_n_per_mm * (h_mm - self.contact_mm),
                 self.contact_stiffness_n_per_mm,
             );
         }
-        for i in 0..self.barriers.len() {
-            let (peak, valley) = self.barrier_span(i);
+        for (i, s) in self.spans.iter().enumerate() {
             let (lo, hi, b) = (self.wells[i], self.wells[i + 1], self.barriers[i]);
-            if h_mm <= peak {
+            if h_mm <= s.peak_mm {
                 return (
                     lo.stiffness_n_per_mm * (h_mm - lo.height_mm),
                     lo.stiffness_n_per_mm,
                 );
             }
-            if h_mm < valley {
-                let slope = -(b.tension_n + b.compression_n) / (valley - peak);
-                return (b.tension_n + slope * (h_mm - peak), slope);
+            if h_mm < s.valley_mm {
+                let slope = s.slope_n_per_mm;
+                return (b.tension_n + slope * (h_mm - s.peak_mm), slope);
             }
-            if i + 1 == self.barriers.len() || h_mm <= self.barrier_span(i + 1).0 {
+            if i + 1 == self.spans.len() || h_mm <= self.spans[i + 1].peak_mm {
                 return (
                     hi.stiffness_n_per_mm * (h_mm - hi.height_mm),
                     hi.stiffness_n_per_mm,
@@ -181,25 +205,19 @@ impl MultistableCurve {
     /// The well whose basin holds `h_mm` when unloaded: the element relaxes to it at zero force.
     /// The basin boundary of barrier `i` is where its snap-through branch crosses zero force.
     pub fn basin(&self, h_mm: f64) -> usize {
-        for i in 0..self.barriers.len() {
-            let (peak, valley) = self.barrier_span(i);
-            let b = self.barriers[i];
-            let zero = peak + (valley - peak) * b.tension_n / (b.tension_n + b.compression_n);
-            if h_mm < zero {
-                return i;
-            }
-        }
-        self.wells.len() - 1
+        self.spans
+            .iter()
+            .position(|s| h_mm < s.zero_mm)
+            .unwrap_or(self.wells.len() - 1)
     }
 
     /// The well whose stable branch holds `h_mm`, or `None` on a snap-through branch.
     pub fn stable_well(&self, h_mm: f64) -> Option<usize> {
-        for i in 0..self.barriers.len() {
-            let (peak, valley) = self.barrier_span(i);
-            if h_mm <= peak {
+        for (i, s) in self.spans.iter().enumerate() {
+            if h_mm <= s.peak_mm {
                 return Some(i);
             }
-            if h_mm < valley {
+            if h_mm < s.valley_mm {
                 return None;
             }
         }

@@ -77,6 +77,42 @@ pub struct Trunk {
     /// Last well each module was settled in.
     last_well: [usize; 2],
     tensions_n: [f64; 3],
+    /// What every step derives from the parameters alone, computed once.
+    derived: Derived,
+}
+
+/// Values every step needs that depend on the parameters only (the same expressions, evaluated
+/// once in [`Trunk::new`] instead of every millisecond).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Derived {
+    /// Series bending stiffness for each (top basin, bottom basin), N·mm/rad.
+    k_bend: [[f64; 4]; 2],
+    /// Orifice areas, m²: inlet, normal leak, exhaust, the `leak` fault.
+    inlet_m2: f64,
+    leak_m2: f64,
+    exhaust_m2: f64,
+    fault_leak_m2: f64,
+    /// The damping terms `c / dt` of the last step's `dt` (the bits of `dt`, then the terms).
+    c_over_dt: (u64, [f64; 4]),
+}
+
+impl Derived {
+    fn new(p: &TrunkParams) -> Self {
+        Self {
+            k_bend: core::array::from_fn(|t| {
+                core::array::from_fn(|b| {
+                    let kt = p.top_bending_n_mm_per_rad[t];
+                    let kb = p.bottom_bending_n_mm_per_rad[b];
+                    1.0 / (1.0 / kt + 1.0 / kb)
+                })
+            }),
+            inlet_m2: orifice_area_m2(p.inlet_diameter_mm),
+            leak_m2: orifice_area_m2(p.leak_diameter_mm),
+            exhaust_m2: orifice_area_m2(p.exhaust_diameter_mm),
+            fault_leak_m2: orifice_area_m2(p.fault_leak_diameter_mm),
+            c_over_dt: (f64::NAN.to_bits(), [f64::NAN; 4]),
+        }
+    }
 }
 
 fn top_well(s: TopState) -> usize {
@@ -110,6 +146,7 @@ impl Trunk {
     /// A trunk at rest in `state`, straight, at atmospheric pressure.
     pub fn new(params: TrunkParams, state: TrunkState) -> Self {
         let mut t = Self {
+            derived: Derived::new(&params),
             params,
             heights_mm: [0.0; 2],
             bend: [0.0; 2],
@@ -236,17 +273,29 @@ impl Trunk {
         })
     }
 
+    /// The two modules' bending stiffnesses in series, for the basins they are in.
     fn bending_stiffness(&self) -> f64 {
         let p = &self.params;
-        let kt = p.top_bending_n_mm_per_rad[p.top.basin(self.heights_mm[0]).min(1)];
-        let kb = p.bottom_bending_n_mm_per_rad[p.bottom.basin(self.heights_mm[1]).min(3)];
-        1.0 / (1.0 / kt + 1.0 / kb)
+        let t = p.top.basin(self.heights_mm[0]).min(1);
+        let b = p.bottom.basin(self.heights_mm[1]).min(3);
+        self.derived.k_bend[t][b]
     }
 
     /// Advances the trunk by `dt_s` under `act`; returns the snaps that completed in the step.
     // Index loops: this is 4×4 matrix assembly, clearer with indices.
     #[allow(clippy::needless_range_loop)]
     pub fn step(&mut self, dt_s: f64, act: &Actuation) -> heapless_snaps::Snaps {
+        if self.derived.c_over_dt.0 != dt_s.to_bits() {
+            let p = &self.params;
+            let c = [
+                p.damping_n_s_per_mm,
+                p.damping_n_s_per_mm,
+                p.bending_damping_n_mm_s_per_rad,
+                p.bending_damping_n_mm_s_per_rad,
+            ];
+            self.derived.c_over_dt = (dt_s.to_bits(), c.map(|c| c / dt_s));
+        }
+        let c_over_dt = self.derived.c_over_dt.1;
         let p = &self.params;
         let area_m2 = p.area_mm2 * 1e-6;
         let r_t = p.tendon_radius_mm;
@@ -279,6 +328,10 @@ impl Trunk {
         let (mut m, mut v) = ([0.0; 2], [0.0; 2]);
         let mut kbb = [[0.0; 2]; 2];
         for i in 0..3 {
+            if k_taut[i] == 0.0 {
+                // A slack tendon adds only zeros (its tension is 0 too).
+                continue;
+            }
             let u = TENDON_DIR[i];
             for a in 0..2 {
                 m[a] += tension[i] * r_t * u[a];
@@ -312,19 +365,13 @@ impl Trunk {
             }
             jac[2 + a][2 + a] -= k_bend;
         }
-        let c = [
-            p.damping_n_s_per_mm,
-            p.damping_n_s_per_mm,
-            p.bending_damping_n_mm_s_per_rad,
-            p.bending_damping_n_mm_s_per_rad,
-        ];
         // (C/dt − J)·Δx = G
         let mut a = [[0.0; 4]; 4];
         for r in 0..4 {
             for col in 0..4 {
                 a[r][col] = -jac[r][col];
             }
-            a[r][r] += c[r] / dt_s;
+            a[r][r] += c_over_dt[r];
         }
         let dx = solve4(a, g);
         self.heights_mm[0] += dx[0];
@@ -335,17 +382,18 @@ impl Trunk {
         // Gas: flows at the new volume.
         let volume = self.volume_m3();
         let p_abs = self.pv_j / volume;
+        let d = &self.derived;
         let mut flow = 0.0;
         if act.inlet_open {
-            let a = orifice_area_m2(p.inlet_diameter_mm);
+            let a = d.inlet_m2;
             flow += exchange_pv(p.cd, a, p_abs, P_ATM_PA + p.supply_gauge_pa, volume, dt_s);
         }
-        let mut vent_area = orifice_area_m2(p.leak_diameter_mm);
+        let mut vent_area = d.leak_m2;
         if act.exhaust_open {
-            vent_area += orifice_area_m2(p.exhaust_diameter_mm);
+            vent_area += d.exhaust_m2;
         }
         if act.fault_leak {
-            vent_area += orifice_area_m2(p.fault_leak_diameter_mm);
+            vent_area += d.fault_leak_m2;
         }
         flow += exchange_pv(p.cd, vent_area, p_abs, P_ATM_PA, volume, dt_s);
         self.pv_j = (self.pv_j + flow * dt_s).max(1.0);

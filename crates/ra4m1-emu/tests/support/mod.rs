@@ -1,4 +1,9 @@
-//! Shared by the firmware tests: where the `uno-r4` ELF is, and a minimal host.
+//! Shared by the firmware tests: where the `uno-r4` ELF is, and requests framed by hand.
+//!
+//! Deliberately not the host engine (`crates/host`): these tests time the board itself — a
+//! Hello every 20 ms from power-on to find the first pass that answers, requests pipelined on
+//! the line to measure the transmit rate, one status round trip to the microsecond — which a
+//! stop-and-wait engine retrying every `RESPONSE_TIMEOUT_MS` cannot do.
 #![allow(dead_code)] // each test binary uses a part of it
 
 use std::path::PathBuf;

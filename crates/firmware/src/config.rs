@@ -421,14 +421,8 @@ impl CraneConfig {
     /// within `0..=HARD_MAX_PRESSURE_KPA`, servo limits ordered within 0–180°, positive slew and
     /// periods. Non-finite values fall back to the defaults.
     pub fn validated(mut self) -> Self {
+        use fix_value as fix;
         let d = CraneConfig::default();
-        let fix = |v: f32, lo: f32, hi: f32, dflt: f32| {
-            if v.is_finite() {
-                crate::clampf(v, lo, hi)
-            } else {
-                dflt
-            }
-        };
         self.pressure_limit_kpa = fix(
             self.pressure_limit_kpa,
             0.0,
@@ -489,6 +483,18 @@ impl CraneConfig {
             self.joystick.half_range_raw = d.joystick.half_range_raw;
         }
         self
+    }
+}
+
+/// `v` limited to `lo..=hi`, or `dflt` when it is not finite (one of
+/// [`CraneConfig::validated`]'s checks; out of line: it runs once, at boot, and is called
+/// for every field).
+#[inline(never)]
+fn fix_value(v: f32, lo: f32, hi: f32, dflt: f32) -> f32 {
+    if v.is_finite() {
+        crate::clampf(v, lo, hi)
+    } else {
+        dflt
     }
 }
 

@@ -82,15 +82,24 @@ pub enum BootRecord {
 }
 
 /// CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, not reflected, no final xor; the catalogue
-/// calls it CRC-16/IBM-3740). Bitwise (`NoTable`): records are a few bytes and are written
-/// rarely, so a 512-byte table in flash would buy nothing.
-const CCITT_FALSE: crc::Crc<u16, crc::NoTable> =
-    crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_3740);
-
-/// CRC-16/CCITT-FALSE of `bytes`: the check of a stored record (bytes 6–7) and of the board's
-/// flash-log slots (`board::flash_log`), so both stay one on-flash format.
+/// calls it CRC-16/IBM-3740) of `bytes`, bit by bit: the check of a stored record (bytes 6–7)
+/// and of the board's flash-log slots (`board::flash_log`), so both stay one on-flash format.
+/// Records are a few bytes and are written rarely, so a table in flash would buy nothing; by
+/// hand rather than the `crc` crate's `NoTable` (whose generic step is 3× the size on the
+/// board): a test holds it to the crate's.
 pub fn crc16(bytes: &[u8]) -> u16 {
-    CCITT_FALSE.checksum(bytes)
+    let mut r = 0xFFFFu16;
+    for &b in bytes {
+        r ^= u16::from(b) << 8;
+        for _ in 0..8 {
+            r = if r & 0x8000 != 0 {
+                (r << 1) ^ 0x1021
+            } else {
+                r << 1
+            };
+        }
+    }
+    r
 }
 
 fn state_at(index: u8) -> Result<TrunkState, StoreError> {
@@ -188,6 +197,25 @@ impl StoredState {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn crc_is_the_crates_ccitt_false() {
+        let crate_crc = crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_3740);
+        let mut x = 0x2545_f491u32;
+        let bytes: [u8; 40] = core::array::from_fn(|_| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as u8
+        });
+        for n in 0..=bytes.len() {
+            assert_eq!(
+                crc16(&bytes[..n]),
+                crate_crc.checksum(&bytes[..n]),
+                "{n} bytes"
+            );
+        }
+    }
 
     #[test]
     fn crc_is_ccitt_false() {

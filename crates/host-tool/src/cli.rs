@@ -7,7 +7,8 @@ use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 use serde_json::Value;
 
-/// 0: errors only (`-q`), 1: normal, 2+: debug detail (`-v`: frames, retries, timings).
+/// 0: errors only (`-q`), 1: normal, 2: debug detail (`-v`: frames decoded, retries,
+/// timings), 3+: and each frame's bytes (`-vv`).
 static VERBOSITY: AtomicU8 = AtomicU8::new(1);
 /// A JSON object (or the first JSON line) was printed on stdout.
 static JSON_PRINTED: AtomicBool = AtomicBool::new(false);
@@ -28,6 +29,11 @@ pub fn notes() -> bool {
 /// Whether debug detail is shown (`-v`).
 pub fn debug() -> bool {
     VERBOSITY.load(Ordering::Relaxed) >= 2
+}
+
+/// Whether each frame's bytes are shown too (`-vv`).
+pub fn trace_bytes() -> bool {
+    VERBOSITY.load(Ordering::Relaxed) >= 3
 }
 
 /// Writes `text` to stdout; a failed write marks stdout closed (see [`stdout_closed`]).

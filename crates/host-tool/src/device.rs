@@ -149,10 +149,14 @@ impl Connection {
     pub fn close(mut self) -> Option<SimTruth> {
         let st = self.session.host.session().stats();
         crate::debug!(
-            "link: {} requests, {} retried, {} corrupt frames dropped",
-            st.requests,
+            "link: {}, {} retried, {} dropped",
+            crate::num::plural(st.requests as usize, "request", "requests"),
             st.retries,
-            st.frames_dropped
+            crate::num::plural(
+                st.frames_dropped as usize,
+                "corrupt frame",
+                "corrupt frames"
+            )
         );
         if let AnyIo::Sim(io) = &mut self.session.io.inner {
             if self.session.host.session().is_closed() {

@@ -8,14 +8,16 @@ use std::process::ExitCode;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
-/// A note on stderr, left out with `-q`. A closed stderr (the terminal went away) is no reason
-/// to die mid-plan: the run goes on to its safe end.
+/// A note on stderr, left out with `-q`, wrapped to the terminal's width (`cli::wrap`). A
+/// closed stderr (the terminal went away) is no reason to die mid-plan: the run goes on to its
+/// safe end.
 #[macro_export]
 macro_rules! say {
     ($($t:tt)*) => {{
         use std::io::Write as _;
         if $crate::cli::notes() {
-            let _ = writeln!(std::io::stderr(), $($t)*);
+            let text = $crate::cli::wrap(&format!($($t)*));
+            let _ = writeln!(std::io::stderr(), "{text}");
         }
     }};
 }
@@ -74,6 +76,7 @@ mod progress;
 mod record;
 mod scene;
 mod sim;
+mod trace;
 mod transport;
 
 /// Design, plan and command Yoshimura-origami cranes (or their simulator).
@@ -86,7 +89,7 @@ mod transport;
     after_help = EXAMPLES
 )]
 struct Cli {
-    /// Say more: protocol frames, retries and timings on stderr.
+    /// Say more on stderr: each protocol frame decoded (-vv: and its bytes), retries, timings.
     #[arg(short, long, global = true, action = clap::ArgAction::Count, conflicts_with = "quiet")]
     verbose: u8,
     /// Say nothing but errors (and the output asked for).

@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle, TermLike};
 use planner::graph::{kind_name, manual_task_text, Plan};
 use protocol::ManualTask;
 
@@ -86,7 +86,7 @@ impl Progress for Lines {
     }
 
     fn note(&mut self, message: &str) {
-        crate::say!("{}", crate::cli::wrap(message));
+        crate::say!("{message}");
     }
 }
 
@@ -116,7 +116,10 @@ impl Progress for Bars {
             old.finish_and_clear();
         }
         let expected_ms = (plan.steps()[index].edge.cost_s * 1000.0).max(1.0) as u64;
-        let bar = ProgressBar::new(expected_ms);
+        let bar = ProgressBar::with_draw_target(
+            Some(expected_ms),
+            ProgressDrawTarget::term_like_with_hz(Box::new(Stderr(console::Term::stderr())), 20),
+        );
         // `wide_bar` takes what the terminal's width leaves: the line never wraps.
         let style = ProgressStyle::with_template("{prefix:.bold} [{wide_bar:.cyan/blue}] {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
@@ -138,7 +141,7 @@ impl Progress for Bars {
     }
 
     fn manual_prompt(&mut self, _index: usize, task: ManualTask, enter_confirms: bool) {
-        let line = manual_line(task, enter_confirms);
+        let line = crate::cli::wrap(&manual_line(task, enter_confirms));
         match &self.bar {
             Some(bar) => bar.println(line),
             None => crate::say!("{line}"),
@@ -161,5 +164,43 @@ impl Progress for Bars {
             Some(bar) => bar.println(crate::cli::wrap(message)),
             None => crate::say!("{message}"),
         }
+    }
+}
+
+/// The terminal the bars draw on: stderr, as wide as [`crate::cli::width`] says (`COLUMNS`
+/// when set, as for every other line), so a bar is never wider than the text around it.
+#[derive(Debug)]
+struct Stderr(console::Term);
+
+impl TermLike for Stderr {
+    fn width(&self) -> u16 {
+        crate::cli::width().map_or(self.0.size().1, |w| w.min(usize::from(u16::MAX)) as u16)
+    }
+    fn height(&self) -> u16 {
+        self.0.size().0
+    }
+    fn move_cursor_up(&self, n: usize) -> std::io::Result<()> {
+        self.0.move_cursor_up(n)
+    }
+    fn move_cursor_down(&self, n: usize) -> std::io::Result<()> {
+        self.0.move_cursor_down(n)
+    }
+    fn move_cursor_right(&self, n: usize) -> std::io::Result<()> {
+        self.0.move_cursor_right(n)
+    }
+    fn move_cursor_left(&self, n: usize) -> std::io::Result<()> {
+        self.0.move_cursor_left(n)
+    }
+    fn write_line(&self, s: &str) -> std::io::Result<()> {
+        self.0.write_line(s)
+    }
+    fn write_str(&self, s: &str) -> std::io::Result<()> {
+        self.0.write_str(s)
+    }
+    fn clear_line(&self) -> std::io::Result<()> {
+        self.0.clear_line()
+    }
+    fn flush(&self) -> std::io::Result<()> {
+        self.0.flush()
     }
 }

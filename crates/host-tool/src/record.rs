@@ -870,8 +870,8 @@ impl Truth for crate::transport::AnyIo {
     }
 }
 
-/// The engine's I/O with a tap: forwards every call to `inner`, and records what passes when a
-/// [`Recording`] is attached.
+/// The engine's I/O with a tap: forwards every call to `inner`, records what passes when a
+/// [`Recording`] is attached, and traces it on stderr with `-v` ([`crate::trace`]).
 pub struct Recorder<I> {
     /// The I/O that does the work.
     pub inner: I,
@@ -879,6 +879,8 @@ pub struct Recorder<I> {
     /// Bytes of the device's current, unfinished frame.
     rx_partial: Vec<u8>,
     next_truth_ms: u64,
+    /// The debug trace of the frames (`-v`).
+    trace: Option<crate::trace::Trace>,
 }
 
 impl<I> Recorder<I> {
@@ -889,6 +891,7 @@ impl<I> Recorder<I> {
             recording,
             rx_partial: Vec::new(),
             next_truth_ms: 0,
+            trace: crate::trace::Trace::if_asked(),
         }
     }
 
@@ -904,6 +907,12 @@ impl<I: host::Io + Truth> host::Io for Recorder<I> {
     }
 
     fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        if let Some(trace) = self.trace.as_mut() {
+            let now = self.inner.now_ms();
+            for line in trace.tx_lines(now, bytes) {
+                crate::debug!("{line}");
+            }
+        }
         self.inner.write(bytes)?;
         if let Some(rec) = self.recording.as_mut() {
             let now = self.inner.now_ms();
@@ -918,6 +927,12 @@ impl<I: host::Io + Truth> host::Io for Recorder<I> {
     fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
         let start = buf.len();
         self.inner.read(deadline_ms, buf)?;
+        if let Some(trace) = self.trace.as_mut().filter(|_| buf.len() > start) {
+            let now = self.inner.now_ms();
+            for line in trace.rx_lines(now, &buf[start..]) {
+                crate::debug!("{line}");
+            }
+        }
         let Some(rec) = self.recording.as_mut() else {
             return Ok(());
         };

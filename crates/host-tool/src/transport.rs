@@ -91,10 +91,6 @@ impl host::Io for AnyIo {
     }
 
     fn write(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        if crate::cli::debug() {
-            let t = self.now_ms();
-            crate::debug!("{t:>8} ms → {}", hex(bytes));
-        }
         match self {
             AnyIo::Serial(io) => io.write(bytes),
             AnyIo::Sim(io) => io.write(bytes),
@@ -102,26 +98,11 @@ impl host::Io for AnyIo {
     }
 
     fn read(&mut self, deadline_ms: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
-        let before = buf.len();
-        let r = match self {
+        match self {
             AnyIo::Serial(io) => io.read(deadline_ms, buf),
             AnyIo::Sim(io) => io.read(deadline_ms, buf),
-        };
-        if crate::cli::debug() && buf.len() > before {
-            let t = self.now_ms();
-            crate::debug!("{t:>8} ms ← {}", hex(&buf[before..]));
         }
-        r
     }
-}
-
-/// Bytes as `n bytes: 00 0a ff …` (`-v`).
-fn hex(bytes: &[u8]) -> String {
-    let mut s = format!("{} bytes:", bytes.len());
-    for b in bytes {
-        s += &format!(" {b:02x}");
-    }
-    s
 }
 
 /// Opens the serial device at `path` (8N1, no flow control, 115200 baud). A port held by

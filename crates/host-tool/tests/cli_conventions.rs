@@ -368,7 +368,7 @@ fn ctrl_c_during_a_solve_prints_the_best_boom_and_exits_130() {
 }
 
 #[test]
-fn quiet_says_nothing_but_errors_and_verbose_shows_frames_and_timings() {
+fn quiet_says_nothing_but_errors_and_verbose_shows_frames_decoded_retries_and_timings() {
     let out = host_tool(&["plan", "--target", "D&F", "--sim", "-q"]);
     assert_eq!(out.status.code(), Some(0));
     assert_eq!(text(&out.stderr), "");
@@ -377,15 +377,53 @@ fn quiet_says_nothing_but_errors_and_verbose_shows_frames_and_timings() {
     let out = host_tool(&["status", "--sim", "-v"]);
     assert_eq!(out.status.code(), Some(0));
     let err = text(&out.stderr);
+    // Each frame decoded on the engine's clock: the request's name and sequence number, the
+    // answer's result, body and round trip; events by name; no raw bytes at -v.
+    let line = |pat: &str| err.lines().find(|l| l.contains(pat)).unwrap_or_default();
+    assert!(line("→ #1 Hello{protocol ").contains(" ms → "), "{err}");
+    let status = line("← #2 ok Status{F&P confirmed, standalone,");
     assert!(
-        err.contains(" ms → ") && err.contains(" ms ← "),
-        "frames: {err}"
-    );
-    assert!(err.contains("handshake with the simulator:"), "{err}");
-    assert!(
-        err.contains("requests,") && err.contains("retried"),
+        status.contains(" ms ← ") && status.ends_with(" ms)"),
         "{err}"
     );
+    assert!(line("→ #2 GetStatus").contains(" ms → "), "{err}");
+    assert!(err.contains("← event "), "{err}");
+    assert!(!err.contains(" bytes:"), "{err}");
+    assert!(err.contains("handshake with the simulator:"), "{err}");
+    assert!(
+        err.contains("link: 1 request, 0 retried, 0 corrupt frames dropped"),
+        "{err}"
+    );
+    // -vv: and each frame's bytes.
+    let err = text(&host_tool(&["status", "--sim", "-vv"]).stderr);
+    assert!(
+        err.contains("→ #2 GetStatus") && err.contains(" bytes: 00 "),
+        "{err}"
+    );
+    // Retries are marked on the resent request: under line noise some answers are lost.
+    let out = host_tool(&[
+        "plan",
+        "--target",
+        "D&D",
+        "--sim",
+        "--sim-fault",
+        "line-noise",
+        "--seed",
+        "11",
+        "-v",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let err = text(&out.stderr);
+    let retry = line_in(&err, "(retry 1 of #");
+    assert!(
+        retry.contains(" ms → #") && retry.ends_with(" ms after the first)"),
+        "{err}"
+    );
+    assert!(err.contains("a corrupt frame, dropped ("), "{err}");
+}
+
+fn line_in<'a>(text: &'a str, pat: &str) -> &'a str {
+    text.lines().find(|l| l.contains(pat)).unwrap_or_default()
 }
 
 #[test]
@@ -511,5 +549,51 @@ fn monitor_prints_a_header_a_readable_rate_and_no_two_samples_at_one_time() {
     let mut seen = std::collections::HashSet::new();
     for t in &times {
         assert!(seen.insert(*t), "two samples at {t} s: {s}");
+    }
+}
+
+/// `host-tool ARGS` with a stdout whose reader is already gone (`| true`, `| head` after its
+/// line): every write fails with EPIPE.
+fn into_a_closed_pipe(args: &[&str]) -> Output {
+    let (read, write) = nix::unistd::pipe().expect("a pipe");
+    drop(read);
+    cmd()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::from(write))
+        .stderr(Stdio::piped())
+        .output()
+        .expect("host-tool runs")
+}
+
+#[test]
+fn a_closed_stdout_ends_each_command_quietly_without_a_panic() {
+    for args in [
+        &["ports"][..],
+        &["ports", "-j"][..],
+        &[
+            "fk",
+            "--n",
+            "6",
+            "--beta",
+            "35",
+            "--states",
+            "deployed,folded",
+        ][..],
+        &["states", "--n", "6", "--beta", "35"][..],
+        &["plan", "--target", "D&F", "--sim", "--json"][..],
+        &["plan", "--target", "D&F", "--dry-run"][..],
+        &["status", "--sim"][..],
+        &["param", "get", "--sim"][..],
+        &["completions", "bash"][..],
+        &["man"][..],
+    ] {
+        let out = into_a_closed_pipe(args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
+        assert!(
+            !err.contains("panicked") && !err.contains("Broken pipe"),
+            "{args:?}: {err}"
+        );
     }
 }

@@ -357,6 +357,8 @@ struct Following {
     event_durations: Vec<Option<u32>>,
     prompted: Vec<bool>,
     polls_without_plan: u32,
+    /// `StartPlan` was accepted.
+    started: bool,
 }
 
 /// Runs plans on one device until it reports `target`, or fails cleanly, as a state machine
@@ -378,6 +380,9 @@ pub struct PlanRunner {
     out: Outcome,
     events: VecDeque<RunEvent>,
     cancelled: bool,
+    /// The plan the operator stopped, and why, until the status after the abort tells how far
+    /// it got.
+    stopped: Option<(Following, String)>,
     manual_confirm_pending: bool,
     status_fresh: bool,
     probing_noted: bool,
@@ -406,6 +411,7 @@ impl PlanRunner {
             },
             events: VecDeque::new(),
             cancelled: false,
+            stopped: None,
             manual_confirm_pending: false,
             status_fresh: false,
             probing_noted: false,
@@ -455,27 +461,75 @@ impl PlanRunner {
             return;
         }
         self.cancelled = true;
-        // Every step already done: nothing was cut short, so no step is named (nor reported
-        // failed) — the trunk reached its last step's state before the operator stopped.
-        let all_done = self
-            .following
-            .as_ref()
-            .is_some_and(|f| f.current >= f.plan.steps().len());
-        let step = if all_done { None } else { self.current_step() };
+        let step = self.current_step();
         let message = match step {
             Some(s) => format!("{s} aborted by the operator ({why})"),
-            None if all_done => format!(
-                "stopped by the operator after the last step was done ({why}); no step was cut \
-                 short"
-            ),
             None => format!("aborted by the operator ({why})"),
         };
         let mut failure = RunFailure::new(FailureKind::Aborted, message);
         failure.step = step;
-        if self.following.is_some() {
-            self.report_current_failed(None);
-        }
+        // Which steps the device got through is known only from its status after the abort:
+        // the last poll may predate a step it finished (or the whole plan), and a step that was
+        // done is not reported failed. Kept until then.
+        self.stopped = self.following.take().map(|f| (f, why.to_string()));
         self.abort(session, failure, now_ms);
+    }
+
+    /// The account of a plan the operator stopped, from the device's status after the abort:
+    /// steps it finished are reported done, the one it was in (if any) failed. `None` when every
+    /// step was done and the device reports the target: nothing was cut short, the run reached
+    /// it.
+    fn account_for_stop(&mut self, run: Following, why: &str, st: &Status) -> Option<RunFailure> {
+        let total = run.plan.steps().len();
+        let ps = st.plan.filter(|p| p.plan_id == run.plan_id);
+        // Steps finished (up to this index), and the one cut short.
+        let (finished_to, cut) = match ps {
+            Some(p) if p.phase == PlanPhase::Done => (total, None),
+            Some(p) if p.phase == PlanPhase::Ready => (run.current, None),
+            Some(p) => {
+                let i = usize::from(p.step)
+                    .max(run.current)
+                    .min(total.saturating_sub(1));
+                (i, Some(i))
+            }
+            None if run.started => (run.current, Some(run.current)),
+            None => (run.current, None),
+        };
+        let durations = run.event_durations.clone();
+        let from = run.current;
+        self.following = Some(run);
+        for (i, d) in durations.iter().enumerate().take(finished_to).skip(from) {
+            self.finish_step(i, true, *d);
+        }
+        let step = cut.and_then(|i| {
+            self.finish_step(i, false, durations.get(i).copied().flatten());
+            let f = self.following.as_mut()?;
+            f.current = i;
+            Self::step_of(f)
+        });
+        self.following = None;
+        if let Some(s) = step {
+            return Some(
+                RunFailure::new(
+                    FailureKind::Aborted,
+                    format!("{s} aborted by the operator ({why})"),
+                )
+                .at(s),
+            );
+        }
+        let message = if finished_to == total {
+            format!(
+                "stopped by the operator after the last step was done ({why}); no step was cut \
+                 short"
+            )
+        } else {
+            format!("aborted by the operator ({why}) before the plan started")
+        };
+        if finished_to == total && st.state == self.target && st.state_confirmed {
+            self.events.push_back(RunEvent::Note(message));
+            return None;
+        }
+        Some(RunFailure::new(FailureKind::Aborted, message))
     }
 
     /// The operator did the manual step the device waits for (Enter on the terminal).
@@ -643,6 +697,11 @@ impl PlanRunner {
             },
         };
         if self.wait == Wait::Abort || self.wait == Wait::StatusAfterAbort {
+            if let Some((run, _)) = self.stopped.take() {
+                self.following = Some(run);
+                self.report_current_failed(None);
+                self.following = None;
+            }
             let mut f = self.abort_reason.take().unwrap_or_else(|| {
                 RunFailure::new(FailureKind::LinkLost, "link lost during the abort")
             });
@@ -777,7 +836,8 @@ impl PlanRunner {
                 Ok(_) => {
                     self.wait = Wait::Poll;
                     self.next_poll_ms = Some(now_ms + self.options.poll_ms);
-                    if let Some(f) = &self.following {
+                    if let Some(f) = self.following.as_mut() {
+                        f.started = true;
                         self.events.push_back(RunEvent::StepStarted {
                             index: 0,
                             total: f.plan.steps().len(),
@@ -820,6 +880,11 @@ impl PlanRunner {
             },
             Wait::Abort => {
                 if let Err(e) = reply.accepted("Abort") {
+                    if let Some((run, _)) = self.stopped.take() {
+                        self.following = Some(run);
+                        self.report_current_failed(None);
+                        self.following = None;
+                    }
                     let mut f = self.abort_reason.take().unwrap_or_else(|| {
                         RunFailure::new(FailureKind::Aborted, "aborted".to_string())
                     });
@@ -838,12 +903,24 @@ impl PlanRunner {
                     .abort_reason
                     .take()
                     .unwrap_or_else(|| RunFailure::new(FailureKind::Aborted, "aborted"));
+                let stopped = self.stopped.take();
                 match reply.status() {
                     Ok(st) => {
                         self.record_status(&st);
+                        if let Some((run, why)) = stopped {
+                            match self.account_for_stop(run, &why, &st) {
+                                Some(failure) => f = failure,
+                                None => return self.finish(None),
+                            }
+                        }
                         f.message = format!("{}; {}", f.message, after_abort_text(&st));
                     }
                     Err(e) => {
+                        if let Some((run, _)) = stopped {
+                            self.following = Some(run);
+                            self.report_current_failed(None);
+                            self.following = None;
+                        }
                         self.out.state_confirmed = false;
                         f.message = format!(
                             "{}; abort acknowledged, no status after it ({e})",
@@ -1009,6 +1086,7 @@ impl PlanRunner {
             event_durations: vec![None; total],
             prompted: vec![false; total],
             polls_without_plan: 0,
+            started: false,
         });
         self.ask(session, Wait::Upload, RequestBody::UploadPlan(wire), now_ms);
     }

@@ -3,7 +3,8 @@
 
 pub use planner::graph::{kind_name, manual_task_text as manual_task, PrimitiveText};
 use protocol::{
-    Board, FaultCode, Mode, ParamId, PlanPhase, Refusal, RefusedField, RejectReason, RequestBody,
+    Board, DeviceMessage, Event, FaultCode, Mode, ParamId, PlanPhase, Refusal, RefusedField,
+    RejectReason, Request, RequestBody, ResponseBody, ResultCode, StateSet, Status, Step,
 };
 
 /// The fault's display code, `E-04`.
@@ -207,6 +208,226 @@ pub const fn request_name(body: &RequestBody) -> &'static str {
     }
 }
 
+/// An event's name for messages.
+pub const fn event_name(event: &Event) -> &'static str {
+    match event {
+        Event::Heartbeat { .. } => "Heartbeat",
+        Event::Telemetry(_) => "Telemetry",
+        Event::StepProgress { .. } => "StepProgress",
+        Event::StepDone { .. } => "StepDone",
+        Event::PlanDone { .. } => "PlanDone",
+        Event::StateReached { .. } => "StateReached",
+        Event::ManualRequired { .. } => "ManualRequired",
+        Event::FaultRaised(_) => "FaultRaised",
+        Event::FaultCleared(_) => "FaultCleared",
+        Event::IdentifyNeedsOperator { .. } => "IdentifyNeedsOperator",
+    }
+}
+
+/// A result code's name: `ok`, `in-progress`, `busy`, `rejected: out-of-range`.
+pub fn result(result: ResultCode) -> String {
+    match result {
+        ResultCode::Ok => "ok".into(),
+        ResultCode::InProgress => "in-progress".into(),
+        ResultCode::Busy => "busy".into(),
+        ResultCode::Rejected(r) => format!("rejected: {}", reject_name(r)),
+    }
+}
+
+fn seconds(ms: u32) -> String {
+    format!("{:.3} s", f64::from(ms) / 1000.0)
+}
+
+fn confirmed(state: geometry::TrunkState, confirmed: bool) -> String {
+    if confirmed {
+        format!("{state} confirmed")
+    } else {
+        format!("{state} unconfirmed")
+    }
+}
+
+fn states(set: StateSet) -> String {
+    let names: Vec<&str> = set.iter().map(|s| s.name()).collect();
+    names.join(" ")
+}
+
+fn step_text(s: &Step) -> String {
+    format!("{} → {} {}", s.from, s.to, kind_name(s.kind))
+}
+
+/// A request as one line for the debug trace (`-v`): `#12 GetStatus`,
+/// `#5 UploadPlan{plan 1: F&P → F&F pneumatic, F&F → D&F pneumatic}`,
+/// `#7 SetParam{telemetry-hz = 50 Hz}`.
+pub fn request_line(req: &Request) -> String {
+    let name = request_name(&req.body);
+    let detail = match &req.body {
+        RequestBody::Hello {
+            protocol_version,
+            schema_id,
+            takeover,
+        } => format!(
+            "protocol {protocol_version}, schema {schema_id:#010x}{}",
+            if *takeover { ", takeover" } else { "" }
+        ),
+        RequestBody::UploadPlan(plan) => {
+            let steps: Vec<String> = plan.steps.iter().map(step_text).collect();
+            format!("plan {}: {}", plan.plan_id, steps.join(", "))
+        }
+        RequestBody::StartPlan { plan_id } => format!("plan {plan_id}"),
+        RequestBody::RunStep(step) => step_text(step),
+        RequestBody::DeclareState(state) => state.to_string(),
+        RequestBody::GetParam(id) => param_name(*id).to_string(),
+        RequestBody::SetParam { id, value } => {
+            format!("{} = {value} {}", param_name(*id), param_unit(*id))
+        }
+        RequestBody::GetStatus
+        | RequestBody::Heartbeat
+        | RequestBody::Abort
+        | RequestBody::ConfirmManual
+        | RequestBody::ResetFaults
+        | RequestBody::Close
+        | RequestBody::Identify => String::new(),
+    };
+    if detail.is_empty() {
+        format!("#{} {name}", req.seq)
+    } else {
+        format!("#{} {name}{{{detail}}}", req.seq)
+    }
+}
+
+fn status_text(s: &Status) -> String {
+    let mut t = format!(
+        "{}, {}, {:.1} kPa, servos {:.0}/{:.0}/{:.0}°",
+        confirmed(s.state, s.state_confirmed),
+        mode(s.mode),
+        s.pressure_kpa,
+        s.servo_deg[0],
+        s.servo_deg[1],
+        s.servo_deg[2]
+    );
+    if !s.state_confirmed {
+        t += &format!(", may be {}", states(s.candidates));
+    }
+    if let Some(p) = &s.plan {
+        t += &format!(
+            ", plan {} step {}/{} {}",
+            p.plan_id,
+            u16::from(p.step) + 1,
+            p.steps,
+            phase(p.phase)
+        );
+    }
+    if s.faults != 0 {
+        let codes: Vec<String> = faults_in(s.faults).map(fault_code).collect();
+        t += &format!(", faults {}", codes.join(" "));
+    }
+    t + &format!(", uptime {}", seconds(s.uptime_ms))
+}
+
+/// A message from the device as one line for the debug trace (`-v`):
+/// `#12 ok Status{F&P confirmed, standalone, 0.0 kPa, …}`,
+/// `#5 rejected: out-of-range Refused{step 1, pressure 16 (limit 10)}`,
+/// `event StepDone{plan 1 step 1, ok, F&F, 5.200 s}`.
+pub fn message_line(msg: &DeviceMessage) -> String {
+    match msg {
+        DeviceMessage::Response {
+            seq,
+            result: r,
+            body,
+        } => {
+            let body = match body {
+                ResponseBody::None => String::new(),
+                ResponseBody::Hello(i) => format!(
+                    " Hello{{protocol {}, schema {:#010x}, firmware {}.{}.{}, {}, session {}}}",
+                    i.protocol_version,
+                    i.schema_id,
+                    i.firmware_version[0],
+                    i.firmware_version[1],
+                    i.firmware_version[2],
+                    board(i.board),
+                    i.session
+                ),
+                ResponseBody::Status(s) => format!(" Status{{{}}}", status_text(s)),
+                ResponseBody::Param { id, value } => format!(
+                    " Param{{{} = {value} {}}}",
+                    param_name(*id),
+                    param_unit(*id)
+                ),
+                ResponseBody::Refused(f) => format!(
+                    " Refused{{{}{} {} (limit {})}}",
+                    f.step
+                        .map_or(String::new(), |s| format!("step {}, ", u16::from(s) + 1)),
+                    refused_field_name(f.field),
+                    f.value,
+                    f.limit
+                ),
+            };
+            format!("#{seq} {}{body}", result(*r))
+        }
+        DeviceMessage::Event(e) => {
+            let detail = match e {
+                Event::Heartbeat { uptime_ms, mode: m } => {
+                    format!("{}, {}", seconds(*uptime_ms), mode(*m))
+                }
+                Event::Telemetry(t) => format!(
+                    "{}, {:.1} kPa, servos {:.0}/{:.0}/{:.0}°, inlet {}, exhaust {}, {}",
+                    seconds(t.uptime_ms),
+                    t.pressure_kpa,
+                    t.servo_deg[0],
+                    t.servo_deg[1],
+                    t.servo_deg[2],
+                    if t.inlet_open { "open" } else { "closed" },
+                    if t.exhaust_open { "open" } else { "closed" },
+                    confirmed(t.state, t.state_confirmed)
+                ),
+                Event::StepProgress {
+                    plan_id,
+                    step,
+                    primitive,
+                    elapsed_ms,
+                } => format!(
+                    "plan {plan_id} step {} primitive {}, {}",
+                    u16::from(*step) + 1,
+                    u16::from(*primitive) + 1,
+                    seconds(*elapsed_ms)
+                ),
+                Event::StepDone {
+                    plan_id,
+                    step,
+                    ok,
+                    state,
+                    duration_ms,
+                } => format!(
+                    "plan {plan_id} step {}, {}, {state}, {}",
+                    u16::from(*step) + 1,
+                    if *ok { "ok" } else { "not confirmed" },
+                    seconds(*duration_ms)
+                ),
+                Event::PlanDone { plan_id, ok, state } => format!(
+                    "plan {plan_id}, {}, {state}",
+                    if *ok { "ok" } else { "not ok" }
+                ),
+                Event::StateReached {
+                    state,
+                    confirmed: c,
+                } => confirmed(*state, *c),
+                Event::ManualRequired {
+                    plan_id,
+                    step,
+                    task,
+                } => format!(
+                    "plan {plan_id} step {}: {}",
+                    u16::from(*step) + 1,
+                    manual_task(*task)
+                ),
+                Event::FaultRaised(f) | Event::FaultCleared(f) => fault(*f),
+                Event::IdentifyNeedsOperator { candidates } => states(*candidates),
+            };
+            format!("event {}{{{detail}}}", event_name(e))
+        }
+    }
+}
+
 /// A mode's name.
 pub const fn mode(mode: Mode) -> &'static str {
     match mode {
@@ -269,5 +490,68 @@ mod tests {
             )
         );
         assert_eq!(fault_list(0), "none");
+    }
+
+    #[test]
+    fn frames_read_as_one_line_each_with_their_names_and_key_fields() {
+        use geometry::TrunkState;
+        let st = |s: &str| s.parse::<TrunkState>().unwrap();
+        let req = |seq, body| {
+            request_line(&Request {
+                seq,
+                session: 7,
+                body,
+            })
+        };
+        assert_eq!(req(12, RequestBody::GetStatus), "#12 GetStatus");
+        assert_eq!(
+            req(
+                3,
+                RequestBody::SetParam {
+                    id: ParamId::TelemetryHz,
+                    value: 50.0
+                }
+            ),
+            "#3 SetParam{telemetry-hz = 50 Hz}"
+        );
+        let edge = protocol::transitions::transition(st("F&P"), st("F&F"))
+            .unwrap()
+            .step();
+        let mut plan = protocol::Plan {
+            plan_id: 1,
+            steps: heapless::Vec::new(),
+        };
+        plan.steps.push(edge).unwrap();
+        assert_eq!(
+            req(4, RequestBody::UploadPlan(plan)),
+            "#4 UploadPlan{plan 1: F&P → F&F pneumatic}"
+        );
+        assert_eq!(
+            message_line(&DeviceMessage::Response {
+                seq: 5,
+                result: ResultCode::Rejected(RejectReason::OutOfRange),
+                body: ResponseBody::Refused(Refusal {
+                    step: Some(0),
+                    field: RefusedField::Pressure,
+                    value: 16.0,
+                    limit: 10.0,
+                }),
+            }),
+            "#5 rejected: out-of-range Refused{step 1, pressure 16 (limit 10)}"
+        );
+        assert_eq!(
+            message_line(&DeviceMessage::Event(Event::StepDone {
+                plan_id: 1,
+                step: 0,
+                ok: true,
+                state: st("F&F"),
+                duration_ms: 5_200,
+            })),
+            "event StepDone{plan 1 step 1, ok, F&F, 5.200 s}"
+        );
+        assert_eq!(
+            message_line(&DeviceMessage::Event(Event::FaultRaised(FaultCode::Leak))),
+            format!("event FaultRaised{{{}}}", fault(FaultCode::Leak))
+        );
     }
 }

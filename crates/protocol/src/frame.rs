@@ -22,6 +22,9 @@
 
 use serde::{de::DeserializeOwned, Serialize};
 
+use crate::codec::{Reader, Writer};
+use crate::messages::{DeviceMessage, Request};
+
 /// Largest encoded frame, delimiter included. The decoder drops anything longer.
 pub const MAX_FRAME_LEN: usize = 512;
 /// Largest payload (postcard bytes plus the 4-byte CRC) that fits in [`MAX_FRAME_LEN`]: COBS
@@ -35,9 +38,6 @@ const MAX_STUFFED_LEN: usize = MAX_FRAME_LEN - 1;
 
 const CRC_ALGORITHM: &crc::Algorithm<u32> = &crc::CRC_32_ISO_HDLC;
 const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(CRC_ALGORITHM);
-/// Protocol v1's check, only to recognise an old peer's frames (bitwise: bad frames only).
-const LEGACY_CRC: crc::Crc<u16, crc::NoTable> =
-    crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_SDLC);
 
 // The streaming decoder keeps the CRC register itself (no indirection through a
 // `crc::Digest`'s pointer to the algorithm), from the `crc` crate's own table. Its update step
@@ -94,6 +94,25 @@ fn crc_step(register: u32, byte: u8) -> u32 {
     }
 }
 
+/// Protocol v1's check, CRC-16/IBM-SDLC (poly 0x1021 reflected, init 0xFFFF, final xor
+/// 0xFFFF), only to recognise an old peer's frames and to answer its `Hello`
+/// ([`crate::legacy`]): bit by bit (bad frames only), by hand rather than the `crc` crate's
+/// `NoTable` (3× the size on the board); a test holds it to the crate's.
+pub(crate) fn legacy_crc16(bytes: &[u8]) -> u16 {
+    let mut r = 0xFFFFu16;
+    for &b in bytes {
+        r ^= u16::from(b);
+        for _ in 0..8 {
+            r = if r & 1 != 0 {
+                (r >> 1) ^ 0x8408
+            } else {
+                r >> 1
+            };
+        }
+    }
+    !r
+}
+
 /// CRC-32/ISO-HDLC of `bytes` (as `crc::Crc::<u32>::checksum`).
 fn crc32(bytes: &[u8]) -> u32 {
     bytes.iter().fold(CRC_INIT, |r, &b| crc_step(r, b)) ^ CRC_ALGORITHM.xorout
@@ -127,8 +146,26 @@ pub fn encode<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, FrameError
     let used = postcard::to_slice(msg, &mut raw[..MAX_RAW_LEN - CRC_LEN])
         .map_err(|_| FrameError::TooLong)?
         .len();
-    let crc = crc32(&raw[..used]).to_le_bytes();
-    raw[used..used + CRC_LEN].copy_from_slice(&crc);
+    stuff(&mut raw, used, out)
+}
+
+/// [`encode`] for a [`DeviceMessage`] through the hand-written codec ([`crate::codec`]): the
+/// same bytes, without serde (the device's path).
+pub fn encode_device_message(msg: &DeviceMessage, out: &mut [u8]) -> Result<usize, FrameError> {
+    let mut raw = [0u8; MAX_RAW_LEN];
+    let mut w = Writer::new(&mut raw[..MAX_RAW_LEN - CRC_LEN]);
+    msg.encode(&mut w);
+    let used = w.written().ok_or(FrameError::TooLong)?;
+    stuff(&mut raw, used, out)
+}
+
+/// `raw[..used]`: a payload; appends its CRC and writes the frame into `out`.
+fn stuff(raw: &mut [u8; MAX_RAW_LEN], used: usize, out: &mut [u8]) -> Result<usize, FrameError> {
+    let payload = raw.get(..used).ok_or(FrameError::TooLong)?;
+    let crc = crc32(payload).to_le_bytes();
+    raw.get_mut(used..used + CRC_LEN)
+        .ok_or(FrameError::TooLong)?
+        .copy_from_slice(&crc);
     let raw_len = used + CRC_LEN;
     // `try_encode` bounds-checks every write (`cobs::encode` would panic on a short buffer);
     // no worst-case pre-check, so a buffer exactly the frame's length is enough. cobs 0.3
@@ -180,6 +217,31 @@ fn decode_stuffed<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError
 /// `raw`: one unstuffed frame, more than [`CRC_LEN`] bytes long; `crc`: the CRC of all but its
 /// last [`CRC_LEN`] bytes, which must equal them (little-endian).
 fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T, FrameError> {
+    let payload = checked_payload(raw, crc)?;
+    // An empty remainder is required: a frame carries exactly one message, so trailing bytes
+    // mean a sender bug and are refused rather than silently ignored. (The deserialiser by
+    // hand rather than `take_from_bytes`: the message is not moved through a tuple, one
+    // ~500-byte memcpy less on the M4 for a plan.)
+    let mut de = postcard::Deserializer::from_bytes(payload);
+    let msg = T::deserialize(&mut de).map_err(|_| FrameError::Payload)?;
+    match de.finalize() {
+        Ok([]) => Ok(msg),
+        _ => Err(FrameError::Payload),
+    }
+}
+
+/// [`check_and_deserialize`] for a [`Request`] read into `out` by the hand-written codec.
+fn check_and_read_request(raw: &[u8], crc: u32, out: &mut Request) -> Result<(), FrameError> {
+    let mut r = Reader::new(checked_payload(raw, crc)?);
+    out.decode_into(&mut r).map_err(|_| FrameError::Payload)?;
+    match r.rest() {
+        [] => Ok(()),
+        _ => Err(FrameError::Payload),
+    }
+}
+
+/// The payload of `raw` (see [`check_and_deserialize`]) when its CRC checks out.
+fn checked_payload(raw: &[u8], crc: u32) -> Result<&[u8], FrameError> {
     let Some((payload, check)) = raw
         .split_last_chunk::<CRC_LEN>()
         .filter(|(p, _)| !p.is_empty())
@@ -193,16 +255,7 @@ fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T,
     if crc.to_le_bytes() != *check {
         return Err(legacy_or_crc(raw));
     }
-    // An empty remainder is required: a frame carries exactly one message, so trailing bytes
-    // mean a sender bug and are refused rather than silently ignored. (The deserialiser by
-    // hand rather than `take_from_bytes`: the message is not moved through a tuple, one
-    // ~500-byte memcpy less on the M4 for a plan.)
-    let mut de = postcard::Deserializer::from_bytes(payload);
-    let msg = T::deserialize(&mut de).map_err(|_| FrameError::Payload)?;
-    match de.finalize() {
-        Ok([]) => Ok(msg),
-        _ => Err(FrameError::Payload),
-    }
+    Ok(payload)
 }
 
 /// Longest frame checked for being protocol v1's: a v1 `Hello`, heartbeat or status answer is
@@ -218,7 +271,7 @@ fn legacy_or_crc(raw: &[u8]) -> FrameError {
     }
     match raw.split_last_chunk::<2>() {
         Some((payload, check))
-            if !payload.is_empty() && LEGACY_CRC.checksum(payload).to_le_bytes() == *check =>
+            if !payload.is_empty() && legacy_crc16(payload).to_le_bytes() == *check =>
         {
             FrameError::Legacy
         }
@@ -359,7 +412,19 @@ impl FrameDecoder {
             self.accept(byte);
             return None;
         }
-        self.finish()
+        self.finish(check_and_deserialize)
+    }
+
+    /// [`FrameDecoder::push`] for a [`Request`], read by the hand-written codec
+    /// ([`Request::decode_into`]) into `out`, where it lies (the device's path): the same
+    /// results and counters, `Some(Ok(()))` when `out` holds a new request.
+    #[inline]
+    pub fn push_request(&mut self, byte: u8, out: &mut Request) -> Option<Result<(), FrameError>> {
+        if byte != 0 {
+            self.accept(byte);
+            return None;
+        }
+        self.finish(|raw, crc| check_and_read_request(raw, crc, out))
     }
 
     /// A non-zero byte: the per-byte work, kept small (it runs for every byte received).
@@ -379,7 +444,10 @@ impl FrameDecoder {
     /// The delimiter: checks and deserialises the frame, counts the result, starts afresh.
     /// Out of line so that the per-byte path stays lean where `push` is inlined.
     #[inline(never)]
-    fn finish<T: DeserializeOwned>(&mut self) -> Option<Result<T, FrameError>> {
+    fn finish<T>(
+        &mut self,
+        read: impl FnOnce(&[u8], u32) -> Result<T, FrameError>,
+    ) -> Option<Result<T, FrameError>> {
         let stuffed = core::mem::replace(&mut self.stuffed, 0);
         let len = core::mem::replace(&mut self.len, 0);
         let run = core::mem::replace(&mut self.run, 0);
@@ -396,7 +464,7 @@ impl FrameDecoder {
             Err(FrameError::Cobs)
         } else {
             match self.buf.get(..len) {
-                Some(raw) => check_and_deserialize(raw, crc),
+                Some(raw) => read(raw, crc),
                 None => Err(FrameError::TooLong),
             }
         };
@@ -471,6 +539,26 @@ mod tests {
         for n in [0, 1, 2, 3, 4, 63, 64, 255, 511, 600] {
             assert_eq!(crc32(&bytes[..n]), CRC.checksum(&bytes[..n]), "{n} bytes");
         }
+    }
+
+    #[test]
+    fn the_legacy_crc_is_the_crates_ibm_sdlc() {
+        let crate_crc = crc::Crc::<u16, crc::NoTable>::new(&crc::CRC_16_IBM_SDLC);
+        let mut x = 0x9E37_79B9u32;
+        let bytes: [u8; 70] = core::array::from_fn(|_| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as u8
+        });
+        for n in 0..=bytes.len() {
+            assert_eq!(
+                legacy_crc16(&bytes[..n]),
+                crate_crc.checksum(&bytes[..n]),
+                "{n} bytes"
+            );
+        }
+        assert_eq!(legacy_crc16(b"123456789"), 0x906E); // the catalogue's check value
     }
 
     #[test]

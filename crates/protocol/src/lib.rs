@@ -64,14 +64,15 @@
 // `assert!` in its tests; remove this once those become `const { assert!(..) }`.
 #![cfg_attr(test, allow(clippy::assertions_on_constants))]
 
+pub mod codec;
 pub mod frame;
 pub mod legacy;
 pub mod messages;
 pub mod transitions;
 
 pub use frame::{
-    decode, encode, DecoderStats, Feed, FrameDecoder, FrameError, LEGACY_CHECK_MAX, MAX_FRAME_LEN,
-    MAX_RAW_LEN,
+    decode, encode, encode_device_message, DecoderStats, Feed, FrameDecoder, FrameError,
+    LEGACY_CHECK_MAX, MAX_FRAME_LEN, MAX_RAW_LEN,
 };
 pub use messages::*;
 

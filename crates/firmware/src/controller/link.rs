@@ -82,7 +82,7 @@ impl Default for TxQueue {
 /// Encodes a device message as one frame into `scratch`; returns its length (0 if it cannot be
 /// encoded, which the message sizes rule out).
 pub fn encode(msg: &DeviceMessage, scratch: &mut [u8; MAX_FRAME_LEN]) -> usize {
-    protocol::encode(msg, scratch).unwrap_or(0)
+    protocol::encode_device_message(msg, scratch).unwrap_or(0)
 }
 
 /// The last response, kept to answer a retried request without executing it twice.

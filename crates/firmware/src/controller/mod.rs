@@ -438,16 +438,18 @@ impl Controller {
     /// Bytes received from the host link, in any chunking. Bad frames are counted and dropped.
     pub fn handle_rx(&mut self, bytes: &[u8], now_ms: u64) {
         self.advance_clock(now_ms);
+        // Read where it lies and borrowed from there: a `Request` is ~530 bytes, a move is a
+        // memcpy on the M4.
+        let mut req = Request::blank();
         for &b in bytes {
             if b != 0 {
                 self.fingerprint = self.fingerprint.with(b);
             }
-            let decoded = self.decoder.push::<Request>(b);
+            let decoded = self.decoder.push_request(b, &mut req);
             if b == 0 {
                 let fp = core::mem::replace(&mut self.fingerprint, Fingerprint::START);
-                // Borrowed where it lies: a `Request` is ~530 bytes, a move is a memcpy on the M4.
-                match &decoded {
-                    Some(Ok(req)) => self.on_request(req, fp.0),
+                match decoded {
+                    Some(Ok(())) => self.on_request(&req, fp.0),
                     Some(Err(protocol::FrameError::Legacy)) => self.on_v1_frame(),
                     _ => {}
                 }
@@ -1245,7 +1247,7 @@ impl Controller {
     fn send_event(&mut self, ev: Event) {
         // Events encode to under 64 bytes; a small scratch saves clearing 512 bytes per event.
         let mut scratch = [0u8; EVENT_SCRATCH_LEN];
-        match protocol::encode(&DeviceMessage::Event(ev), &mut scratch) {
+        match protocol::encode_device_message(&DeviceMessage::Event(ev), &mut scratch) {
             Ok(n) => {
                 self.tx.push_frame(&scratch[..n], RESPONSE_RESERVE);
             }

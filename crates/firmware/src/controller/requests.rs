@@ -89,14 +89,12 @@ impl Controller {
         // Responses fit the cache-sized scratch (a status is under 100 bytes); the full-size
         // buffer is only a fallback, so no request can go unanswered.
         let mut scratch = [0u8; link::CACHE_LEN];
-        if let Ok(n) = protocol::encode(&msg, &mut scratch) {
-            self.cache.store(req.seq, fingerprint, &scratch[..n]);
-            self.tx.push_frame(&scratch[..n], 0);
+        if let Ok(n) = protocol::encode_device_message(&msg, &mut scratch) {
+            self.answer(req.seq, fingerprint, &scratch[..n]);
         } else {
             let mut big = [0u8; MAX_FRAME_LEN];
             let n = link::encode(&msg, &mut big);
-            self.cache.store(req.seq, fingerprint, &big[..n]);
-            self.tx.push_frame(&big[..n], 0);
+            self.answer(req.seq, fingerprint, &big[..n]);
         }
         // Events caused by the request follow its response.
         let deferred = core::mem::take(&mut self.deferred);
@@ -104,6 +102,13 @@ impl Controller {
             self.emit(ev);
         }
         self.update_outputs();
+    }
+
+    /// Sends the response `frame` to the request `(seq, fingerprint)`, and keeps it for a retry.
+    #[inline(never)]
+    fn answer(&mut self, seq: u16, fingerprint: u32, frame: &[u8]) {
+        self.cache.store(seq, fingerprint, frame);
+        self.tx.push_frame(frame, 0);
     }
 
     /// A protocol-v1 frame: a v1 host's Hello gets v1's refusal with this device's versions

@@ -2,6 +2,7 @@
 //! edge cases, handshake, the streaming decoder against the one-shot one, the in-place plan
 //! deserialiser against the derive.
 
+mod codec;
 mod edges;
 mod golden;
 mod handshake;

@@ -136,7 +136,20 @@ fn a_stop_during_the_last_step_names_it_and_reports_it_failed() {
 fn through_the_binary_ctrl_c_after_the_last_step_is_done_exits_130_with_no_step_failed() {
     // Seed 2: the host's next status poll comes 96 ms of device time after the device's last
     // StepDone (its `-v` trace shows both); paced at ×0.5 that is ~190 ms of wall time for the
-    // SIGINT to land first.
+    // SIGINT to land first. On a machine too loaded for that, the signal lands after the run
+    // ended: that run must still label no step FAILED, and it is tried again (3 runs at most).
+    for attempt in 1..=3 {
+        if stop_after_the_last_step_done() {
+            return;
+        }
+        eprintln!("run {attempt}: the SIGINT landed after the run had ended; again");
+    }
+    panic!("in 3 runs the SIGINT never landed between the last StepDone and the host's poll");
+}
+
+/// One run of the binary interrupted at its last `StepDone`: `true` when the stop landed in
+/// the window (and was reported right), `false` when the run had already ended on its own.
+fn stop_after_the_last_step_done() -> bool {
     let mut child = Command::new(env!("CARGO_BIN_EXE_host-tool"))
         .args([
             "plan",
@@ -171,16 +184,12 @@ fn through_the_binary_ctrl_c_after_the_last_step_is_done_exits_130_with_no_step_
         }
     }
     let pid = nix::unistd::Pid::from_raw(child.id() as i32);
-    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).expect("SIGINT");
+    // The child may have ended already (ESRCH): that is the missed window, checked below.
+    let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT);
     err.read_to_string(&mut shown).expect("stderr");
     let out = child.wait_with_output().expect("host-tool ends");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout)
         .unwrap_or_else(|e| panic!("one JSON object ({e}):\n{shown}"));
-    assert_eq!(out.status.code(), Some(130), "{v}\n{shown}");
-    assert!(
-        shown.contains("no step was cut short"),
-        "the stop came after the run ended, not between the StepDone and the poll:\n{shown}"
-    );
     assert_eq!(v["ok"], true, "{v}");
     assert!(v["failure"].is_null(), "{v}");
     assert_eq!(v["final_state"], "D&F", "{v}");
@@ -188,8 +197,17 @@ fn through_the_binary_ctrl_c_after_the_last_step_is_done_exits_130_with_no_step_
     assert_eq!(steps.len(), 2, "{v}");
     assert!(steps.iter().all(|s| s["ok"] == true), "{v}");
     assert!(!shown.contains("FAILED"), "{shown}");
+    if out.status.code() == Some(0) && !shown.contains("no step was cut short") {
+        return false;
+    }
+    assert_eq!(out.status.code(), Some(130), "{v}\n{shown}");
+    assert!(
+        shown.contains("no step was cut short"),
+        "the stop came after the run ended, not between the StepDone and the poll:\n{shown}"
+    );
     assert!(
         shown.contains("interrupted: interrupted after the target was reached"),
         "{shown}"
     );
+    true
 }

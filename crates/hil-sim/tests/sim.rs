@@ -414,8 +414,15 @@ fn a_stuck_open_inlet_never_drives_a_state_change() {
     assert!(g.exhaust_open, "{g:?}");
     assert_eq!(g.mode, Mode::Safe, "{g:?}");
     assert!(g.display.starts_with("E-11"), "{g:?}");
-    // The pop was seen: the controller knows where the trunk is.
+    // The pop was seen, but not the sealed trunk holding its pressure after it (gas kept
+    // coming in): D&F is the best guess, unconfirmed (the host identifies).
     assert_eq!(g.believed_state, st("D&F"), "{g:?}");
+    let st_now = host.request_ok(&mut sim, protocol::RequestBody::GetStatus, 1_000);
+    let Ok(protocol::messages::ResponseBody::Status(s)) = st_now else {
+        panic!("{st_now:?}")
+    };
+    assert!(!s.state_confirmed, "{s:?}");
+    assert!(s.candidates.contains(st("D&F")), "{s:?}");
     // Held at (or below) the level the safe state found, well under the bottom's 30 kPa.
     assert!(
         max_after <= at_fault.pressure_kpa.max(10.0) + 1.0,

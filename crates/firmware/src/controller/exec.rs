@@ -194,6 +194,10 @@ pub(super) struct Exec {
     pub(super) snaps: u8,
     /// When the current primitive reached its pressure or length.
     reached_ms: Option<u64>,
+    /// An inflation's snaps were all seen: when, and the pressure once the drop is over. The
+    /// inlet stays shut while the drop is checked to be a step (a snap: the sealed trunk then
+    /// holds its pressure) and not the start of a fall (a leak opening).
+    snapped: Option<(u64, Option<f32>)>,
     /// A primitive of this step completed on sensor evidence (its snaps) or a person's word.
     evidence: bool,
     /// Pressure held by the inflate regulator for the rest of the step.
@@ -310,6 +314,7 @@ impl Controller {
             prim_started: false,
             snaps: 0,
             reached_ms: None,
+            snapped: None,
             evidence: false,
             hold_kpa: None,
             filling: false,
@@ -420,7 +425,14 @@ impl Controller {
             // Nothing moved, or nothing came near a snap: still where it started.
             return Some(Belief::confirmed(step.from));
         }
-        Some(Belief::unconfirmed(step.from, belief::reach(step), pending))
+        // An inflation whose snaps all came, stopped while the check that its drop was a snap
+        // ran: most likely there, not certain.
+        let snapped = matches!(
+            step.primitives.get(e.prim as usize),
+            Some(Primitive::Inflate { snaps, .. }) if *snaps > 0 && e.snaps >= *snaps
+        );
+        let guess = if snapped { step.to } else { step.from };
+        Some(Belief::unconfirmed(guess, belief::reach(step), pending))
     }
 
     /// Ends the running plan (if any) with `phase`, reporting the step and the plan.
@@ -641,6 +653,7 @@ impl Controller {
         e.prim_start_ms = now;
         e.snaps = 0;
         e.reached_ms = None;
+        e.snapped = None;
         e.pull = match prim {
             Primitive::TendonPull { snaps, .. } if snaps > 0 => Some(PullCheck {
                 phase: PullPhase::Pulling,
@@ -687,6 +700,7 @@ impl Controller {
         let h = self.cfg.hysteresis_kpa;
         let cap = self.cfg.pressure_limit_kpa;
         let settle = self.cfg.snap.settle_ms as u64;
+        let snap_cfg = self.cfg.snap;
         let at_target = self.servos_at_target();
         let relief = self.cfg.pull_relief_kpa;
         let vent_tol = self.cfg.vent_tolerance_kpa;
@@ -715,8 +729,15 @@ impl Controller {
         }
         // Stalled inflation: the regulator had the inlet open, yet the pressure does not rise.
         // Not while a person works on the trunk (their hands move it).
+        // Nor once an inflation's snaps came (the check after them closes the inlet).
+        let snapped =
+            matches!(prim, Primitive::Inflate { snaps, .. } if snaps > 0 && e.snaps >= snaps);
         let mut stall = None;
-        if e.hold_kpa.is_some() && inlet_was_open && !matches!(prim, Primitive::Manual(_)) {
+        if e.hold_kpa.is_some()
+            && inlet_was_open
+            && !snapped
+            && !matches!(prim, Primitive::Manual(_))
+        {
             stall = e.rise.feed(now, p, rise_cfg);
         } else {
             e.rise.reset();
@@ -736,7 +757,25 @@ impl Controller {
                 let target = e.hold_kpa.unwrap_or(pressure_kpa).min(cap - h);
                 let r = reached(e, p >= target);
                 if snaps > 0 && e.snaps >= snaps {
-                    Progress::Done { evidence: true }
+                    // A snap's drop is a step: once it is over, the sealed trunk holds its
+                    // pressure. A leak opening drops it as fast at first, then goes on
+                    // falling: that drop is no evidence.
+                    inlet = false;
+                    e.filling = false;
+                    let quiet = snap_cfg.refractory_ms as u64;
+                    let (t, after) = e.snapped.get_or_insert((now, None));
+                    let elapsed = now.saturating_sub(*t);
+                    match *after {
+                        None if elapsed >= quiet => {
+                            *after = Some(p);
+                            Progress::Running
+                        }
+                        Some(p1) if p < p1 - snap_cfg.threshold_kpa => {
+                            Progress::Fail(FaultCode::Leak)
+                        }
+                        Some(_) if elapsed >= 2 * quiet => Progress::Done { evidence: true },
+                        _ => Progress::Running,
+                    }
                 } else if let Some(t) = r {
                     if snaps == 0 {
                         Progress::Done { evidence: false }
@@ -889,6 +928,11 @@ impl Controller {
             } else {
                 ps.phase = PlanPhase::Running;
             }
+        }
+        if snapped {
+            // The check after the snaps watches the sealed fall itself (the drop's tail is no
+            // leak).
+            self.leak_quiet_until_ms = self.leak_quiet_until_ms.max(now + super::snap::SLOT_MS);
         }
         self.want_inlet = inlet;
         self.want_exhaust = exhaust;

@@ -5,7 +5,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 H="$PWD/target/release/host-tool"
-[ -x "$H" ] || cargo build --release --locked -p host-tool
+# The test build of the workspace makes it (a no-op after `cargo test --workspace --release`).
+cargo test --workspace --release --locked --no-run -q
 python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tools/fabrication/requirements.txt
 (cd tools/fabrication && npm ci --no-audit --no-fund --silent)
 OUT="$(mktemp -d)"

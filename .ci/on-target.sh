@@ -8,7 +8,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
-cargo build --release --locked -p ra4m1-emu --bin ra4m1-run
+# The workspace's test build makes ra4m1-run (for ra4m1-emu's tests); asking for it the same way
+# keeps cargo's feature resolution, so after `cargo test --workspace --release` this is a no-op
+# (`cargo build -p ra4m1-emu` alone resolves features differently and rebuilds every dependency).
+cargo test --workspace --release --locked --no-run -q
 target_dir="${CARGO_TARGET_DIR:-target}"
 case "$target_dir" in /*) ;; *) target_dir="$PWD/$target_dir" ;; esac
 

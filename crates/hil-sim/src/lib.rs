@@ -10,7 +10,7 @@
 //! - [`servo`]: servo dynamics (slew, torque–speed line, stall).
 //! - [`operator`]: the simulated person who does manual steps.
 //! - [`fault`]: injectable faults.
-//! - [`Sim`] ([`sim`]): all of it on one virtual clock with a seeded RNG; the controller runs
+//! - [`Sim`] ([`sim`]): all of it on one virtual clock with a seeded RNG ([`rng`]); the controller runs
 //!   through `firmware::hw::Shell`, the board's own loop body, never a re-implementation.
 //! - [`host`]: `SimHost`, short exchanges for tests, the real host engine driven sans-IO.
 //! - [`pair`]: the real host engine, the controller and the physics on one virtual clock.
@@ -43,6 +43,7 @@ pub mod operator;
 pub mod pair;
 pub mod physics;
 pub mod pty;
+pub mod rng;
 pub mod servo;
 pub mod sim;
 pub mod swarm;

@@ -9,7 +9,6 @@ use geometry::TrunkState;
 use protocol::messages::{Board, DeviceMessage, Event, ManualTask, Mode, ModuleConfig};
 use protocol::FrameDecoder;
 use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 use crate::devices::{
     segments_text, SimAnalog, SimDisplay, SimFlash, SimInputPin, SimOutputPin, SimPwm, SimSerial,
@@ -22,6 +21,7 @@ use crate::physics::params::{
 };
 use crate::physics::trunk::{well_name, Module};
 use crate::physics::{Actuation, Trunk, TrunkParams};
+use crate::rng::SimRng;
 use crate::servo::{Servo, ServoSpec};
 
 /// Virtual time of one simulation step (the board's loop runs at 1 kHz).
@@ -175,7 +175,7 @@ pub fn sim_crane_config() -> CraneConfig {
 /// The simulated crane running the real controller.
 pub struct Sim {
     opts: SimOptions,
-    rng: ChaCha8Rng,
+    rng: SimRng,
     now_ms: u64,
     cfg: CraneConfig,
     trunk: Trunk,
@@ -299,7 +299,7 @@ impl Sim {
             None => None,
         };
         Ok(Self {
-            rng: ChaCha8Rng::seed_from_u64(opts.seed),
+            rng: SimRng::seed_from_u64(opts.seed),
             opts,
             now_ms: 0,
             cfg,
@@ -502,16 +502,21 @@ impl Sim {
     }
 
     fn gauss(&mut self) -> f64 {
-        // Box–Muller (rand 0.8 without rand_distr), both values of each pair used.
+        // Marsaglia's polar method (rand 0.8 without rand_distr), both values of each pair
+        // used: exactly normal, like Box–Muller, without its sine and cosine.
         if let Some(g) = self.spare_gauss.take() {
             return g;
         }
-        let u1: f64 = self.rng.gen_range(f64::EPSILON..1.0);
-        let u2: f64 = self.rng.gen();
-        let r = (-2.0 * u1.ln()).sqrt();
-        let (s, c) = (2.0 * core::f64::consts::PI * u2).sin_cos();
-        self.spare_gauss = Some(r * s);
-        r * c
+        loop {
+            let u = 2.0 * self.rng.gen::<f64>() - 1.0;
+            let v = 2.0 * self.rng.gen::<f64>() - 1.0;
+            let s = u * u + v * v;
+            if s > 0.0 && s < 1.0 {
+                let f = (-2.0 * s.ln() / s).sqrt();
+                self.spare_gauss = Some(v * f);
+                return u * f;
+            }
+        }
     }
 
     /// Advances the virtual clock by one step ([`STEP_MS`]).
@@ -1046,7 +1051,7 @@ mod tests {
             -1e300,
             4_503_599_627_370_497.0,
         ];
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut rng = SimRng::seed_from_u64(3);
         xs.extend((0..100_000).map(|_| rng.gen_range(-200.0..16_600.0)));
         xs.extend((0..2_000).map(|i| i as f64 * 0.25 - 100.0));
         for x in xs {

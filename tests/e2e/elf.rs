@@ -144,16 +144,6 @@ fn all_36_plans_reach_their_target_on_the_elf() {
             && truth2.true_state == Some(to.parse().unwrap())
             && truth2.actuators_safe)
         {
-            // Known defect on the opt-level-z ELF (issue 12 stays open for it): F&P → D&P's
-            // manual check ends E-04, unconfirmed, every time. Held to honest and safe here.
-            let known = (*from, *to) == ("F&P", "D&P")
-                && v2["fault_code"] == "E-04"
-                && v2["state_confirmed"] != true
-                && truth2.actuators_safe;
-            if known {
-                eprintln!("known defect (issue 12): {first}");
-                continue;
-            }
             failures.push(format!("{first}\n  and again: exit {} {v2}", again.code()));
         }
     }

@@ -14,14 +14,7 @@ use hil_sim::{Sim, SimOptions};
 use protocol::messages::{DeviceMessage, RequestBody, Step};
 
 fn elf() -> PathBuf {
-    std::env::var_os("UNO_R4_ELF")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-            std::env::var_os("CARGO_TARGET_DIR")
-                .map_or(root.join("target"), PathBuf::from)
-                .join("thumbv7em-none-eabihf/firmware/uno-r4")
-        })
+    hil_sim::elf_board::built_elf_path()
 }
 
 fn sim(initial: &str) -> Sim {

@@ -95,6 +95,21 @@ impl flash_log::NorFlash for DataFlashImage<'_> {
     }
 }
 
+/// Where `cargo firmware` writes the board ELF: `$UNO_R4_ELF` if set, else
+/// `thumbv7em-none-eabihf/firmware/uno-r4` under `$CARGO_TARGET_DIR` or the workspace's
+/// `target/` (the workspace as this crate was built in). The file may not exist yet.
+pub fn built_elf_path() -> std::path::PathBuf {
+    use std::path::PathBuf;
+    std::env::var_os("UNO_R4_ELF")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+            std::env::var_os("CARGO_TARGET_DIR")
+                .map_or(root.join("target"), PathBuf::from)
+                .join("thumbv7em-none-eabihf/firmware/uno-r4")
+        })
+}
+
 /// The emulated board and what the simulator tracks of it from its messages.
 pub struct ElfBoard {
     /// The emulator.

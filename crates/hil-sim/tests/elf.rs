@@ -11,14 +11,7 @@ use protocol::messages::{ResponseBody, Step};
 
 /// `cargo firmware`'s ELF (or `$UNO_R4_ELF`); panics with the command that builds it.
 fn elf() -> PathBuf {
-    let p = std::env::var_os("UNO_R4_ELF")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
-            std::env::var_os("CARGO_TARGET_DIR")
-                .map_or(root.join("target"), PathBuf::from)
-                .join("thumbv7em-none-eabihf/firmware/uno-r4")
-        });
+    let p = hil_sim::elf_board::built_elf_path();
     assert!(
         p.is_file(),
         "{} is missing: build it with `cargo firmware`",

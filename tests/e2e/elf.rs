@@ -103,6 +103,7 @@ fn all_36_plans_reach_their_target_on_the_elf() {
         start.elapsed()
     );
     let mut failures = Vec::new();
+    let mut retried = 0;
     for (from, to, out, truth) in &results {
         let v = out.json();
         let ok = out.code() == 0
@@ -114,9 +115,10 @@ fn all_36_plans_reach_their_target_on_the_elf() {
         if ok {
             continue;
         }
-        // A known intermittent failure on the ELF over the pty (wall-clock host): a manual
-        // step's check ends E-04, unconfirmed. Such a failure must still be honest and safe
-        // (never a confirmed false state), and the same plan must then succeed once.
+        // Seen on a machine at load ≈ 10 (the host keeps wall time over the pty): a manual
+        // step's check ending E-04, unconfirmed. Such a failure must still be honest and safe
+        // (never a confirmed false state), the same plan must then succeed, and only one plan
+        // of the 36 may need it.
         let honest = v["state_confirmed"] != true
             || truth.true_state.map(|s| s.to_string())
                 == v["final_state"].as_str().map(String::from);
@@ -126,6 +128,11 @@ fn all_36_plans_reach_their_target_on_the_elf() {
             "dishonest or unsafe failure: {first}"
         );
         eprintln!("retrying after an honest failure: {first}");
+        retried += 1;
+        if retried > 1 {
+            failures.push(format!("{first}\n  (a second plan needing a retry)"));
+            continue;
+        }
         let sim = board(from, vec![]);
         let path = sim.path().display().to_string();
         let again = host_tool(&["plan", "--target", to, "--port", &path, "--json"], LIMIT);

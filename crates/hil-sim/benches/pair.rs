@@ -5,6 +5,10 @@
 //! figure counts the time other processes had the core.
 //!
 //! `taskset -c 0 cargo bench -p hil-sim --bench pair`
+//!
+//! With `-- --once` it runs the 36 plans once and prints their virtual time, nothing else: the
+//! run to count instructions with (`valgrind --tool=callgrind`), a figure that does not depend
+//! on the machine's load or clock.
 
 use std::time::Instant;
 
@@ -59,6 +63,11 @@ fn all_36() -> (f64, u64, Option<f64>) {
 }
 
 fn main() {
+    if std::env::args().any(|a| a == "--once") {
+        let (_, virtual_ms, _) = all_36();
+        println!("all 36 plans once: {virtual_ms} ms virtual ({virtual_ms} steps of 1 ms)");
+        return;
+    }
     let mut runs: Vec<(f64, u64, Option<f64>)> = (0..5).map(|_| all_36()).collect();
     let mut cpus: Vec<f64> = runs.iter().filter_map(|r| r.2).collect();
     cpus.sort_by(f64::total_cmp);

@@ -249,6 +249,12 @@ impl Exec {
         Some((step, prim.copied()))
     }
 
+    /// `prim` is an inflation whose expected snaps were all seen: its drop is being checked
+    /// (the inlet shut) to be a snap and not a leak opening.
+    fn snaps_all_seen(&self, prim: Primitive) -> bool {
+        matches!(prim, Primitive::Inflate { snaps, .. } if snaps > 0 && self.snaps >= snaps)
+    }
+
     /// The probe primitive running (its index in [`PROBE`]): the identification plan's, or a
     /// manual step's check.
     fn probe_index(&self) -> Option<u8> {
@@ -427,10 +433,10 @@ impl Controller {
         }
         // An inflation whose snaps all came, stopped while the check that its drop was a snap
         // ran: most likely there, not certain.
-        let snapped = matches!(
-            step.primitives.get(e.prim as usize),
-            Some(Primitive::Inflate { snaps, .. }) if *snaps > 0 && e.snaps >= *snaps
-        );
+        let snapped = step
+            .primitives
+            .get(e.prim as usize)
+            .is_some_and(|p| e.snaps_all_seen(*p));
         let guess = if snapped { step.to } else { step.from };
         Some(Belief::unconfirmed(guess, belief::reach(step), pending))
     }
@@ -730,8 +736,7 @@ impl Controller {
         // Stalled inflation: the regulator had the inlet open, yet the pressure does not rise.
         // Not while a person works on the trunk (their hands move it).
         // Nor once an inflation's snaps came (the check after them closes the inlet).
-        let snapped =
-            matches!(prim, Primitive::Inflate { snaps, .. } if snaps > 0 && e.snaps >= snaps);
+        let snapped = e.snaps_all_seen(prim);
         let mut stall = None;
         if e.hold_kpa.is_some()
             && inlet_was_open
@@ -756,7 +761,7 @@ impl Controller {
             } => {
                 let target = e.hold_kpa.unwrap_or(pressure_kpa).min(cap - h);
                 let r = reached(e, p >= target);
-                if snaps > 0 && e.snaps >= snaps {
+                if snapped {
                     // A snap's drop is a step: once it is over, the sealed trunk holds its
                     // pressure. A leak opening drops it as fast at first, then goes on
                     // falling: that drop is no evidence.

@@ -194,8 +194,15 @@ fn the_fault_subset_fails_cleanly_on_the_elf_with_the_actuators_safe() {
         let sim = board(from, vec![fault]);
         let path = sim.path().display().to_string();
         let out = host_tool(&["plan", "--target", to, "--port", &path, "--json"], LIMIT);
-        // Let the device's own link watch act on a dropped link before judging the actuators.
-        std::thread::sleep(Duration::from_millis(1_000));
+        // Judge the actuators once the device's own link watch has had its whole time, on the
+        // device's clock, since the host went away: a dropped link is for the device to act on.
+        let gone_ms = sim.ground_truth().time_ms;
+        let watch_ms = (f64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) * SPEED) as u64;
+        assert!(
+            sim.ground_truth_at(gone_ms + watch_ms + 200, LIMIT)
+                .is_some(),
+            "{fault:?}: the emulated board stopped"
+        );
         let truth = sim.stop();
         (fault, step, why, out, truth)
     });

@@ -13,7 +13,7 @@
 use std::os::fd::{AsFd, AsRawFd, OwnedFd};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -61,7 +61,7 @@ pub fn check_pty_speed(speed: f64) -> Result<(), String> {
 pub struct PtySim {
     path: PathBuf,
     stop: Arc<AtomicBool>,
-    truth: Arc<Mutex<Option<GroundTruth>>>,
+    truth: Arc<Truth>,
     thread: Option<JoinHandle<()>>,
     clock: (Instant, u64),
 }
@@ -95,7 +95,7 @@ impl PtySim {
         let path = nix::unistd::ttyname(pty.slave.as_fd()).context("naming the pty")?;
         // The simulator is built on its own thread (an emulated board is not `Send`); the
         // first ground truth, or why it could not start, comes back over a channel.
-        let truth = Arc::new(Mutex::new(None::<GroundTruth>));
+        let truth = Arc::new(Truth::default());
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = std::sync::mpsc::sync_channel::<Result<(Instant, u64), String>>(1);
         let thread = {
@@ -105,7 +105,7 @@ impl PtySim {
                 .spawn(move || {
                     match Sim::try_new(opts).map(|s| s.with_link_timeout_ms(link_timeout_ms)) {
                         Ok(sim) => {
-                            *lock(&truth) = Some(sim.ground_truth());
+                            truth.set(sim.ground_truth());
                             let clock = (Instant::now(), sim.now_ms());
                             let _ = tx.send(Ok(clock));
                             serve(sim, clock, pty.master, pty.slave, &stop, &truth, log);
@@ -148,9 +148,30 @@ impl PtySim {
 
     /// The ground truth now (updated every few wall milliseconds).
     pub fn ground_truth(&self) -> GroundTruth {
-        lock(&self.truth)
+        lock(&self.truth.now)
             .clone()
             .unwrap_or_else(|| unreachable!("set before spawn returns"))
+    }
+
+    /// Waits until the simulator's clock reads `time_ms` or later and gives the ground truth
+    /// then (within one update, a few wall milliseconds); `None` when `limit` of wall time
+    /// passed first or the simulator stopped before.
+    pub fn ground_truth_at(&self, time_ms: u64, limit: Duration) -> Option<GroundTruth> {
+        let deadline = Instant::now() + limit;
+        let mut now = lock(&self.truth.now);
+        loop {
+            if let Some(t) = now.as_ref().filter(|t| t.time_ms >= time_ms) {
+                return Some(t.clone());
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() || self.thread.as_ref().is_none_or(|t| t.is_finished()) {
+                return None;
+            }
+            now = match self.truth.changed.wait_timeout(now, left) {
+                Ok((g, _)) => g,
+                Err(e) => e.into_inner().0,
+            };
+        }
     }
 
     /// Stops the simulator and returns its final ground truth.
@@ -173,6 +194,20 @@ impl Drop for PtySim {
     }
 }
 
+/// The simulator thread's latest ground truth, and a signal at every update.
+#[derive(Debug, Default)]
+struct Truth {
+    now: Mutex<Option<GroundTruth>>,
+    changed: Condvar,
+}
+
+impl Truth {
+    fn set(&self, t: GroundTruth) {
+        *lock(&self.now) = Some(t);
+        self.changed.notify_all();
+    }
+}
+
 fn lock(m: &Mutex<Option<GroundTruth>>) -> std::sync::MutexGuard<'_, Option<GroundTruth>> {
     // A poisoned lock only means the simulator thread panicked mid-update: the value is still
     // a complete GroundTruth.
@@ -187,7 +222,7 @@ fn serve(
     // Held open so the pty stays usable while no client has it open.
     _slave: OwnedFd,
     stop: &AtomicBool,
-    truth: &Mutex<Option<GroundTruth>>,
+    truth: &Truth,
     log: Option<std::fs::File>,
 ) {
     use std::io::Write as _;
@@ -246,14 +281,14 @@ fn serve(
             }
         }
         if last_truth.elapsed() >= Duration::from_millis(5) {
-            *lock(truth) = Some(sim.ground_truth());
+            truth.set(sim.ground_truth());
             last_truth = Instant::now();
         }
         if speed.is_finite() {
             std::thread::sleep(WALL_TICK);
         }
     }
-    *lock(truth) = Some(sim.ground_truth());
+    truth.set(sim.ground_truth());
     if let Some((f, l)) = log.as_mut() {
         append(l.finish(&sim), f);
         let _ = f.flush();

@@ -447,6 +447,21 @@ fn the_pty_serves_the_controller_to_a_serial_client() {
 }
 
 #[test]
+fn the_pty_gives_the_ground_truth_at_a_virtual_time() {
+    let sim = hil_sim::pty::PtySim::spawn(SimOptions::default()).expect("pty");
+    let t0 = sim.ground_truth().time_ms;
+    // 200 ms of virtual time at 20× wall time: ≈ 10 ms of wall time.
+    let t = sim
+        .ground_truth_at(t0 + 200, std::time::Duration::from_secs(30))
+        .expect("the clock reaches it");
+    assert!(t.time_ms >= t0 + 200, "{} after {t0}", t.time_ms);
+    // A time the limit comes before: no truth is invented for it.
+    let never = sim.ground_truth_at(u64::MAX, std::time::Duration::from_millis(20));
+    assert!(never.is_none(), "{never:?}");
+    assert!(sim.stop().time_ms >= t.time_ms);
+}
+
+#[test]
 fn the_step_up_button_unpacks_the_trunk_without_a_host() {
     let mut sim = Sim::new(SimOptions::default());
     sim.run_for(100);

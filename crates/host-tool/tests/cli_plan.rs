@@ -45,8 +45,15 @@ fn a_dry_run_explains_the_plan_without_a_device() {
     assert!(text.contains("dry run"), "{text}");
 }
 
-/// A device that answers every Hello with another protocol version and schema id.
-fn mismatched_device() -> (String, std::thread::JoinHandle<u32>) {
+/// A device that answers every Hello with another protocol version and schema id. It keeps
+/// the pty open until the client has exited (a message on the returned sender), so the client
+/// reads the whole answer; the thread gives the number of Hellos it answered.
+fn mismatched_device() -> (
+    String,
+    std::sync::mpsc::Sender<()>,
+    std::thread::JoinHandle<u32>,
+) {
+    let (client_done, done) = std::sync::mpsc::channel::<()>();
     let pty = nix::pty::openpty(None, None).expect("a pty");
     let mut t = nix::sys::termios::tcgetattr(pty.slave.as_fd()).expect("termios");
     nix::sys::termios::cfmakeraw(&mut t);
@@ -99,17 +106,18 @@ fn mismatched_device() -> (String, std::thread::JoinHandle<u32>) {
                 }
             }
         }
-        // Give the client time to read the answer before the pty goes away.
-        std::thread::sleep(Duration::from_millis(500));
+        // The pty stays until the client has read the answer and exited.
+        let _ = done.recv_timeout(Duration::from_secs(30));
         hellos
     });
-    (path.to_string_lossy().into_owned(), handle)
+    (path.to_string_lossy().into_owned(), client_done, handle)
 }
 
 #[test]
 fn a_protocol_mismatch_exits_1_naming_both_versions_and_schema_ids() {
-    let (path, device) = mismatched_device();
+    let (path, client_done, device) = mismatched_device();
     let out = host_tool(&["plan", "--target", "D&F", "--port", &path, "--json"]);
+    client_done.send(()).expect("the fake device waits");
     assert_eq!(device.join().expect("the fake device ran"), 1);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);

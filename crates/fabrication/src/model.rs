@@ -280,7 +280,7 @@ pub fn validate_glb(bytes: &[u8]) -> Result<usize, String> {
                 .ok_or("primitive without COLOR_0")?
                 .into_rgba_f32()
                 .count();
-            if positions.len() % 3 != 0 || colours != positions.len() {
+            if !positions.len().is_multiple_of(3) || colours != positions.len() {
                 return Err(format!(
                     "{} positions, {colours} colours: not whole triangles",
                     positions.len()

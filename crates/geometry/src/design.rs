@@ -170,7 +170,7 @@ impl ModuleDesign {
     /// λ′ (eq 16): distance from an edge's line to the farthest boundary vertex.
     pub fn lambda_edge(&self) -> f64 {
         let t = PI / self.n as f64;
-        if self.n % 2 == 0 {
+        if self.n.is_multiple_of(2) {
             libm::cos(t) / libm::sin(t)
         } else {
             (1.0 + libm::cos(t)) / (2.0 * libm::sin(t))
@@ -180,7 +180,7 @@ impl ModuleDesign {
     /// λ (eq 28): distance from the tangent at a vertex to the farthest boundary vertex.
     pub fn lambda_vertex(&self) -> f64 {
         let t = PI / self.n as f64;
-        if self.n % 2 == 0 {
+        if self.n.is_multiple_of(2) {
             1.0 / libm::sin(t)
         } else {
             (1.0 + libm::cos(t)) / (2.0 * libm::sin(t))

@@ -316,7 +316,7 @@ impl SelfPacked3d {
         let n = self.n();
         let k = k % (2 * n);
         let j = k / 2;
-        let (o, axis_end, x, y) = if k % 2 == 0 {
+        let (o, axis_end, x, y) = if k.is_multiple_of(2) {
             (
                 self.mid_bend[j],
                 self.bottom[j],

@@ -53,7 +53,7 @@ fn main() {
     let mut decoder = protocol::FrameDecoder::new();
     let mut answered = None;
     while s.now_ms() < 2_000 && answered.is_none() {
-        if s.now_ms() % 5 == 0 {
+        if s.now_ms().is_multiple_of(5) {
             s.write_host_bytes(&frame[..n]);
         }
         s.step();

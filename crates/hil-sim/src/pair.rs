@@ -98,7 +98,7 @@ impl Io for SimIo {
         while !self.sim.has_device_bytes() && self.sim.now_ms() < deadline_ms {
             self.step();
             // Pace in 10 ms slices: fine enough to watch, coarse enough to cost nothing.
-            if self.pacer.is_some() && self.sim.now_ms() % 10 == 0 {
+            if self.pacer.is_some() && self.sim.now_ms().is_multiple_of(10) {
                 self.wait_for_wall();
             }
         }

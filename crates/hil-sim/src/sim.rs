@@ -661,7 +661,7 @@ impl Sim {
             }
         }
         if let Some(tr) = self.trace.as_ref() {
-            if now % tr.period_ms == 0 {
+            if now.is_multiple_of(tr.period_ms) {
                 let line = self.trace_line();
                 if let Some(tr) = self.trace.as_mut() {
                     tr.text.push_str(&line);

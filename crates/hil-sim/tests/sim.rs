@@ -214,7 +214,7 @@ fn inflate_trace(from: &str, to: &str, faults: &[Fault], seed: u64) -> Vec<(f32,
     let mut trace = Vec::new();
     while trace.len() < 32_000 && sim.controller().mode() == Mode::Running {
         sim.step();
-        if sim.now_ms() % 200 == 0 {
+        if sim.now_ms().is_multiple_of(200) {
             let _ = host.send(&mut sim, protocol::RequestBody::Heartbeat);
             host.poll(&mut sim);
         }

@@ -49,7 +49,7 @@ fn program(code: &[u16], literals: &[u32], hard_fault: Option<u32>) -> Vec<u8> {
     for h in code {
         img.extend_from_slice(&h.to_le_bytes());
     }
-    while img.len() % 4 != 0 {
+    while !img.len().is_multiple_of(4) {
         img.push(0);
     }
     for l in literals {

@@ -102,7 +102,7 @@ impl Adc {
             0x0E => self.adcer.into(),
             0x10 => self.adstrgr.into(),
             0x12 => self.adexicr.into(),
-            0x20..=0x53 if off % 2 == 0 => {
+            0x20..=0x53 if off.is_multiple_of(2) => {
                 need(size, 2, "ADDRn")?;
                 self.addr[(off as usize - 0x20) / 2].into()
             }

@@ -247,7 +247,7 @@ impl Flash {
             0x04 => {
                 if !in_df(self.fsar)
                     || !in_df(self.fear)
-                    || (self.fsar - DF_PE_BASE) as usize % DF_BLOCK != 0
+                    || !((self.fsar - DF_PE_BASE) as usize).is_multiple_of(DF_BLOCK)
                 {
                     self.fstatr2 |= 1 << 4;
                     self.done = true;

@@ -39,7 +39,7 @@ impl Icu {
     /// A read at `off`.
     pub fn read(&self, off: u32, size: u32) -> R<u32> {
         match off {
-            0x300..=0x37F if off % 4 == 0 => {
+            0x300..=0x37F if off.is_multiple_of(4) => {
                 need(size, 4, "IELSRn")?;
                 Ok(self.ielsr[(off as usize - 0x300) / 4])
             }
@@ -50,7 +50,7 @@ impl Icu {
     /// A write at `off`.
     pub fn write(&mut self, off: u32, size: u32, v: u32) -> R<()> {
         match off {
-            0x300..=0x37F if off % 4 == 0 => {
+            0x300..=0x37F if off.is_multiple_of(4) => {
                 need(size, 4, "IELSRn")?;
                 let n = (off as usize - 0x300) / 4;
                 if v & (1 << 24) != 0 {

@@ -197,7 +197,7 @@ fn the_fault_subset_fails_cleanly_on_the_elf_with_the_actuators_safe() {
         // Judge the actuators once the device's own link watch has had its whole time, on the
         // device's clock, since the host went away: a dropped link is for the device to act on.
         let gone_ms = sim.ground_truth().time_ms;
-        let watch_ms = (f64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) * SPEED) as u64;
+        let watch_ms = u64::from(sim.link_timeout_ms());
         assert!(
             sim.ground_truth_at(gone_ms + watch_ms + 200, LIMIT)
                 .is_some(),

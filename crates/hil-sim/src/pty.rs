@@ -64,6 +64,7 @@ pub struct PtySim {
     truth: Arc<Truth>,
     thread: Option<JoinHandle<()>>,
     clock: (Instant, u64),
+    link_timeout_ms: u32,
 }
 
 impl PtySim {
@@ -131,6 +132,7 @@ impl PtySim {
             truth,
             thread: Some(thread),
             clock,
+            link_timeout_ms,
         })
     }
 
@@ -139,6 +141,12 @@ impl PtySim {
     /// so an outside client can map the device's time to its own clock.
     pub fn clock(&self) -> (Instant, u64) {
         self.clock
+    }
+
+    /// The device's link watch, virtual ms: scaled with the speed, so that it lasts the
+    /// protocol's wall-time timeout for a client on the wall clock.
+    pub fn link_timeout_ms(&self) -> u32 {
+        self.link_timeout_ms
     }
 
     /// The device path a serial client opens (e.g. `/dev/pts/7`).

@@ -458,6 +458,11 @@ fn the_pty_gives_the_ground_truth_at_a_virtual_time() {
     // A time the limit comes before: no truth is invented for it.
     let never = sim.ground_truth_at(u64::MAX, std::time::Duration::from_millis(20));
     assert!(never.is_none(), "{never:?}");
+    // The link watch lasts the protocol's 3 s of wall time at 20× wall time.
+    assert_eq!(
+        sim.link_timeout_ms(),
+        protocol::DEFAULT_LINK_TIMEOUT_MS * 20
+    );
     assert!(sim.stop().time_ms >= t.time_ms);
 }
 

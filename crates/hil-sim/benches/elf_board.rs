@@ -111,7 +111,7 @@ fn main() {
     for (f, c) in profile.iter().take(16) {
         println!("  {c:>7} cycles  {}", &f[..f.len().min(100)]);
     }
-    let plan = planner::graph::Graph::nominal()
+    let plan = transition_graph::Graph::nominal()
         .plan("F&P".parse().unwrap(), "D&D".parse().unwrap())
         .unwrap();
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();

@@ -16,7 +16,7 @@ use geometry::TrunkState;
 use hil_sim::pair::{pair, SimShell};
 use hil_sim::SimOptions;
 use host::RunOptions;
-use planner::graph::Graph;
+use transition_graph::Graph;
 
 /// Nanoseconds this (main) thread has run on a CPU (Linux), if known.
 fn cpu_ns() -> Option<u64> {

@@ -17,6 +17,8 @@
 //! - [`swarm`]: random scenarios of the whole system checked against invariants.
 //! - [`pty`]: the simulator serving its link on a pseudo-terminal, for any serial client.
 //! - [`discovery`]: the transition graph the physics supports, as JSON or Graphviz DOT.
+//! - `elf_board` (feature `pil`, on by default): processor in the loop, the board's own ELF in
+//!   the RA4M1 emulator (`ra4m1-emu`, which links Unicorn: GPL-2.0) wired to the same parts.
 //!
 //! Architecture invariant: nothing here decides what the crane does; the controller does, from
 //! what the simulated sensors tell it. The simulator never reads the wall clock except in
@@ -36,6 +38,7 @@
 pub mod cli;
 pub mod devices;
 pub mod discovery;
+#[cfg(feature = "pil")]
 pub mod elf_board;
 pub mod fault;
 pub mod host;

@@ -13,6 +13,7 @@ use rand::{Rng, SeedableRng};
 use crate::devices::{
     segments_text, SimAnalog, SimDisplay, SimFlash, SimInputPin, SimOutputPin, SimPwm, SimSerial,
 };
+#[cfg(feature = "pil")]
 use crate::elf_board::{ElfBoard, ElfBoardError};
 use crate::fault::{Fault, FaultInjector};
 use crate::operator::{Operator, OperatorAction};
@@ -64,6 +65,21 @@ impl Default for SimOptions {
             firmware_elf: None,
         }
     }
+}
+
+/// Why [`Sim::try_new`] could not start the simulator.
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    /// The firmware ELF could not be loaded or the emulator refused it.
+    #[cfg(feature = "pil")]
+    #[error(transparent)]
+    Board(#[from] ElfBoardError),
+    /// A firmware ELF was asked for, but this build has no emulator.
+    #[error(
+        "{0}: this build of hil-sim has no processor in the loop (the RA4M1 emulator is its \
+         feature `pil`); build it with `--features pil` to run a firmware ELF"
+    )]
+    NoPil(String),
 }
 
 /// The truth that judges safety ([`Sim::safety`]).
@@ -204,6 +220,7 @@ pub struct Sim {
     duty_seen: [Option<u16>; 3],
     pay_in: [(u64, f64); 3],
     /// The board ELF in the emulator (processor in the loop), when it runs instead of `ctl`.
+    #[cfg(feature = "pil")]
     board: Option<Box<ElfBoard>>,
     board_error: Option<String>,
 }
@@ -245,7 +262,7 @@ impl Sim {
 
     /// A simulator at virtual time 0 with the trunk at rest in `opts.initial`; fails when the
     /// firmware ELF cannot be loaded.
-    pub fn try_new(opts: SimOptions) -> Result<Self, ElfBoardError> {
+    pub fn try_new(opts: SimOptions) -> Result<Self, StartError> {
         let cfg = sim_crane_config();
         let mut params =
             TrunkParams::pdf().unwrap_or_else(|e| unreachable!("calibrated parameters: {e}"));
@@ -291,6 +308,7 @@ impl Sim {
         );
         let ctl = shell.boot(cfg, 0);
         let operator = Operator::new(opts.operator);
+        #[cfg(feature = "pil")]
         let board = match &opts.firmware_elf {
             Some(path) => Some(Box::new(ElfBoard::new(
                 path,
@@ -298,6 +316,10 @@ impl Sim {
             )?)),
             None => None,
         };
+        #[cfg(not(feature = "pil"))]
+        if let Some(path) = &opts.firmware_elf {
+            return Err(StartError::NoPil(path.display().to_string()));
+        }
         Ok(Self {
             rng: SimRng::seed_from_u64(opts.seed),
             opts,
@@ -321,6 +343,7 @@ impl Sim {
             shown: ([0; 4], crate::operator::task_shown([0; 4])),
             duty_seen: [None; 3],
             pay_in: [(f64::NAN.to_bits(), f64::NAN); 3],
+            #[cfg(feature = "pil")]
             board,
             board_error: None,
         })
@@ -330,7 +353,7 @@ impl Sim {
     /// campaign to cut every 10 ms of one step without re-running its start. `None` with the
     /// firmware ELF (an emulated chip is not copied).
     pub fn fork(&self) -> Option<Sim> {
-        if self.board.is_some() {
+        if self.runs_elf() {
             return None;
         }
         Some(Sim {
@@ -356,27 +379,31 @@ impl Sim {
             shown: self.shown,
             duty_seen: self.duty_seen,
             pay_in: self.pay_in,
+            #[cfg(feature = "pil")]
             board: None,
             board_error: self.board_error.clone(),
         })
     }
 
     /// The emulated board, when the simulator runs the firmware ELF.
+    #[cfg(feature = "pil")]
     pub fn elf_board(&self) -> Option<&ElfBoard> {
         self.board.as_deref()
     }
 
     /// The emulated board, mutably (to inject chip-level faults).
+    #[cfg(feature = "pil")]
     pub fn elf_board_mut(&mut self) -> Option<&mut ElfBoard> {
         self.board.as_deref_mut()
     }
 
     /// The controller's mode: the host-built controller's, or the one the ELF last reported.
     pub fn mode(&self) -> Mode {
-        match &self.board {
-            Some(b) => b.mode,
-            None => self.ctl.mode(),
+        #[cfg(feature = "pil")]
+        if let Some(b) = &self.board {
+            return b.mode;
         }
+        self.ctl.mode()
     }
 
     /// The same simulator with the controller's link timeout set to `ms` (clamped to the
@@ -570,6 +597,7 @@ impl Sim {
         inputs.estop.high = held.estop;
 
         // The controller, through the board's own loop body (or the board ELF in the emulator).
+        #[cfg(feature = "pil")]
         match self.board.as_mut() {
             None => self.shell.step(&mut self.ctl, now),
             Some(b) => {
@@ -583,6 +611,8 @@ impl Sim {
                 }
             }
         }
+        #[cfg(not(feature = "pil"))]
+        self.shell.step(&mut self.ctl, now);
 
         // Its bytes to the host go through the line.
         // (The sniffer decodes the device's frames for the trace only.)
@@ -730,6 +760,7 @@ impl Sim {
     pub fn power_cycle(&mut self) {
         self.shell.link.rx.clear();
         self.shell.link.tx.clear();
+        #[cfg(feature = "pil")]
         match self.board.as_mut() {
             None => self.ctl = self.shell.boot(self.cfg, self.now_ms),
             Some(b) => {
@@ -737,6 +768,10 @@ impl Sim {
                     self.board_error = Some(e.to_string());
                 }
             }
+        }
+        #[cfg(not(feature = "pil"))]
+        {
+            self.ctl = self.shell.boot(self.cfg, self.now_ms);
         }
         if let Some(tr) = self.trace.as_mut() {
             let _ = writeln!(tr.text, "{:>8} power cycle", self.now_ms);
@@ -753,10 +788,11 @@ impl Sim {
     /// Successful writes to the emulated data flash so far (with the ELF: records, counted
     /// as programmed bytes per 14-byte slot).
     pub fn flash_writes(&self) -> u32 {
-        match &self.board {
-            None => self.shell.store.writes,
-            Some(b) => (b.emu.machine().flash.programs / 14) as u32,
+        #[cfg(feature = "pil")]
+        if let Some(b) = &self.board {
+            return (b.emu.machine().flash.programs / 14) as u32;
         }
+        self.shell.store.writes
     }
 
     /// Why the emulated board stopped, if it did.
@@ -789,13 +825,7 @@ impl Sim {
         let limit = self.cfg.pressure_limit_kpa;
         let p = self.trunk.pressure_kpa() as f32;
         let inlet_open = self.inlet_passes();
-        let (believed_state, mode) = match &self.board {
-            Some(b) => (b.state, b.mode),
-            None => {
-                let st = self.ctl.status();
-                (st.state, st.mode)
-            }
-        };
+        let (believed_state, mode) = self.believed();
         let h = self.trunk.heights_mm();
         GroundTruth {
             true_state: self.trunk.state(),
@@ -910,10 +940,29 @@ impl Sim {
 
     /// The controller's active faults (none known from an emulated board).
     fn device_faults(&self) -> u16 {
-        match &self.board {
-            Some(_) => 0,
-            None => self.ctl.status().faults,
+        if self.runs_elf() {
+            return 0;
         }
+        self.ctl.status().faults
+    }
+
+    /// The board ELF runs in the emulator instead of the host-built controller.
+    fn runs_elf(&self) -> bool {
+        #[cfg(feature = "pil")]
+        return self.board.is_some();
+        #[cfg(not(feature = "pil"))]
+        false
+    }
+
+    /// What the device believes and its mode: the host-built controller's, or (an emulated
+    /// board) the last it reported.
+    fn believed(&self) -> (TrunkState, Mode) {
+        #[cfg(feature = "pil")]
+        if let Some(b) = &self.board {
+            return (b.state, b.mode);
+        }
+        let st = self.ctl.status();
+        (st.state, st.mode)
     }
 
     fn truth_key(&self) -> (Option<TrunkState>, bool, u16, Vec<Fault>) {
@@ -949,19 +998,16 @@ impl Sim {
         });
         // What the device believes: the controller's belief, or (an emulated board) the last
         // state it reported.
-        match &self.board {
-            Some(b) => v["believed_state"] = b.state.name().into(),
-            None => {
-                let status = self.ctl.status();
-                v["believed_state"] = status.state.name().into();
-                v["state_confirmed"] = status.state_confirmed.into();
-                v["candidates"] = status
-                    .candidates
-                    .iter()
-                    .map(|s| s.name())
-                    .collect::<Vec<_>>()
-                    .into();
-            }
+        v["believed_state"] = self.believed().0.name().into();
+        if !self.runs_elf() {
+            let status = self.ctl.status();
+            v["state_confirmed"] = status.state_confirmed.into();
+            v["candidates"] = status
+                .candidates
+                .iter()
+                .map(|s| s.name())
+                .collect::<Vec<_>>()
+                .into();
         }
         v.to_string()
     }

@@ -15,10 +15,10 @@ use std::rc::Rc;
 
 use geometry::TrunkState;
 use host::{Driver, Host, HostEvent, RunEvent, RunOptions, SessionEvent, Timing};
-use planner::graph::Graph;
 use protocol::messages::{ManualTask, Mode};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use transition_graph::Graph;
 
 use crate::operator::Mistake;
 use crate::pair::SimIo;

@@ -42,7 +42,7 @@ fn the_elf_runs_a_plan_on_the_simulated_crane() {
     let (mut sim, mut host) = sim("F&P");
     let from: TrunkState = "F&P".parse().unwrap();
     let to: TrunkState = "D&D".parse().unwrap();
-    let plan = planner::graph::Graph::nominal().plan(from, to).unwrap();
+    let plan = transition_graph::Graph::nominal().plan(from, to).unwrap();
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
     let wall = Instant::now();
     let t0 = sim.now_ms();
@@ -309,7 +309,7 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
     );
 
     sim.elf_board_mut().unwrap().emu.clear_max_awake();
-    let plan = planner::graph::Graph::nominal()
+    let plan = transition_graph::Graph::nominal()
         .plan(ff, "D&D".parse().unwrap())
         .unwrap();
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
@@ -351,7 +351,7 @@ fn status_after_a_power_cut(sim: &mut Sim) -> protocol::messages::Status {
 /// what the board writes first).
 fn started_plan(elf_mode: bool) -> (Sim, SimHost, Step) {
     let from: TrunkState = "F&P".parse().unwrap();
-    let plan = planner::graph::Graph::nominal()
+    let plan = transition_graph::Graph::nominal()
         .plan(from, "D&F".parse().unwrap())
         .unwrap();
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();

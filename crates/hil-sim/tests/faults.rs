@@ -7,7 +7,7 @@ use geometry::TrunkState;
 use hil_sim::pair::{pair, SimShell};
 use hil_sim::{Fault, SimOptions};
 use host::RunOptions;
-use planner::graph::Graph;
+use transition_graph::Graph;
 
 /// FNV-1a, 64 bit: a stable fingerprint of a trace.
 fn fnv(s: &str) -> u64 {

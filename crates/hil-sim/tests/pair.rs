@@ -5,7 +5,7 @@ use geometry::TrunkState;
 use hil_sim::pair::{pair, SimShell};
 use hil_sim::SimOptions;
 use host::{Outcome, RunOptions};
-use planner::graph::Graph;
+use transition_graph::Graph;
 
 fn run(initial: TrunkState, target: TrunkState, seed: u64) -> (Outcome, hil_sim::GroundTruth) {
     let mut p = pair(SimOptions {

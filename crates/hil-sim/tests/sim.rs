@@ -63,7 +63,7 @@ fn every_nominal_edge_lands_where_the_catalogue_says_through_the_real_controller
 
 #[test]
 fn every_state_reaches_every_other_state_with_the_planners_plan() {
-    let graph = planner::graph::Graph::nominal();
+    let graph = transition_graph::Graph::nominal();
     let mut reached = 0;
     for from in TrunkState::ALL {
         for to in TrunkState::ALL {
@@ -141,7 +141,7 @@ fn same_seed_same_run_and_the_seed_matters() {
 /// Regenerate with `UPDATE_SNAPSHOTS=1 cargo test -p hil-sim --release --test sim`.
 #[test]
 fn snapshot_of_a_full_deployment_trace() {
-    let graph = planner::graph::Graph::nominal();
+    let graph = transition_graph::Graph::nominal();
     let plan = graph.plan(st("F&P"), st("D&D")).unwrap();
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
     let mut sim = Sim::new(SimOptions::default());
@@ -349,7 +349,7 @@ fn a_broken_tendon_leaves_belief_and_truth_consistent() {
 
 #[test]
 fn link_drop_mid_plan_sends_the_crane_to_its_safe_state() {
-    let graph = planner::graph::Graph::nominal();
+    let graph = transition_graph::Graph::nominal();
     let plan = graph.plan(st("F&P"), st("D&D")).unwrap();
     let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
     let (mut sim, mut host) = sim_at(st("F&P"), &[Fault::LinkDrop]);

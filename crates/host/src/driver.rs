@@ -5,8 +5,8 @@
 use std::collections::VecDeque;
 
 use geometry::TrunkState;
-use planner::graph::Graph;
 use protocol::{DeviceInfo, Event, RequestBody};
+use transition_graph::Graph;
 
 use crate::engine::{Host, HostEvent};
 use crate::runner::{Outcome, RunEvent, RunOptions};

@@ -4,8 +4,8 @@
 use std::collections::VecDeque;
 
 use geometry::TrunkState;
-use planner::graph::Graph;
 use protocol::RequestBody;
+use transition_graph::Graph;
 
 use crate::runner::{PlanRunner, RunEvent, RunOptions};
 use crate::session::{RequestId, Session, SessionEvent, Timing};

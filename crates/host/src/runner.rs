@@ -12,11 +12,11 @@
 use std::collections::VecDeque;
 
 use geometry::TrunkState;
-use planner::graph::{kind_name, Graph, Plan};
 use protocol::{
     Event, FaultCode, ManualTask, Mode, PlanPhase, RejectReason, RequestBody, ResponseBody, Status,
     StepKind,
 };
+use transition_graph::{kind_name, Graph, Plan};
 
 use crate::session::{RequestId, Session, SessionError, SessionEvent};
 use crate::text;

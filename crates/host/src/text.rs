@@ -1,11 +1,11 @@
 //! Human text for the wire's enums: the one place where a fault, a refusal, a mode or a request
 //! gets its words (the protocol crate carries no strings beyond each fault's short description).
 
-pub use planner::graph::{kind_name, manual_task_text as manual_task, PrimitiveText};
 use protocol::{
     Board, DeviceMessage, Event, FaultCode, Mode, ParamId, PlanPhase, Refusal, RefusedField,
     RejectReason, Request, RequestBody, ResponseBody, ResultCode, StateSet, Status, Step,
 };
+pub use transition_graph::{kind_name, manual_task_text as manual_task, PrimitiveText};
 
 /// The fault's display code, `E-04`.
 pub fn fault_code(fault: FaultCode) -> String {

@@ -2,9 +2,9 @@
 //! where the paper says no actuator can go.
 
 use geometry::TrunkState;
-use planner::graph::{CostModel, Graph, PlanError};
 use protocol::transitions::{TRANSITIONS, UNPACK_KPA};
 use protocol::{StepKind, MAX_PLAN_STEPS};
+use transition_graph::{CostModel, Graph, PlanError};
 
 fn s(name: &str) -> TrunkState {
     name.parse().unwrap()

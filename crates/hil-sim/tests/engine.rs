@@ -1,4 +1,4 @@
-//! The engine against the real firmware controller, in-process, on one clock (no physics: the
+//! The host engine against the real firmware controller, in-process, on one clock (no physics: the
 //! trunk stays put, which is enough for the protocol's half of the contract).
 
 use firmware::{BootRecord, Controller, CraneConfig, Inputs};
@@ -86,7 +86,7 @@ fn handshake_status_and_a_plan_start_against_the_real_controller() {
     let status = d.status().unwrap();
     assert_eq!(status.state, geometry::TrunkState::AS_MANUFACTURED);
     assert_eq!(status.mode, Mode::Standalone);
-    let plan = planner::graph::Graph::nominal()
+    let plan = transition_graph::Graph::nominal()
         .plan(status.state, "F&F".parse().unwrap())
         .unwrap()
         .to_protocol(3)
@@ -105,7 +105,7 @@ fn handshake_status_and_a_plan_start_against_the_real_controller() {
 fn a_lost_response_is_retried_with_the_same_seq_and_executed_once() {
     let mut d = driver();
     d.connect().unwrap();
-    let plan = planner::graph::Graph::nominal()
+    let plan = transition_graph::Graph::nominal()
         .plan("F&P".parse().unwrap(), "F&F".parse().unwrap())
         .unwrap()
         .to_protocol(9)
@@ -161,7 +161,7 @@ fn a_silent_device_is_a_lost_link_after_the_silence_limit() {
 fn the_engine_keeps_the_link_alive_while_idle() {
     let mut d = driver();
     d.connect().unwrap();
-    let plan = planner::graph::Graph::nominal()
+    let plan = transition_graph::Graph::nominal()
         .plan("F&P".parse().unwrap(), "F&F".parse().unwrap())
         .unwrap()
         .to_protocol(4)

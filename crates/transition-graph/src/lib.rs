@@ -1,3 +1,4 @@
+#![forbid(unsafe_code)]
 //! PDF trunk transition planning: the six-state graph, the cheapest plan, replanning.
 //!
 //! The graph is built from the shared catalogue [`protocol::transitions::TRANSITIONS`] (the same
@@ -9,7 +10,7 @@
 //!
 //! ```
 //! use geometry::TrunkState;
-//! use planner::graph::Graph;
+//! use transition_graph::Graph;
 //!
 //! let graph = Graph::nominal();
 //! let from: TrunkState = "F&P".parse().unwrap();

@@ -5,6 +5,7 @@
 //! (`cargo test --workspace --release` builds them itself).
 
 mod cli;
+mod deps;
 mod elf;
 mod faults;
 mod graph_agreement;

@@ -4,6 +4,7 @@
 //! `cargo test --workspace` builds a package's binaries only for that package's own integration
 //! tests, so the binaries are located next to the test executable (`target/<profile>/deps/..`)
 //! rather than through `CARGO_BIN_EXE_*` (which only a package's own tests get).
+#![forbid(unsafe_code)]
 
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Read};

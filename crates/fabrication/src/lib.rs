@@ -19,6 +19,7 @@
 //!
 //! Every function that takes user input validates it and returns an `Err` with a message that
 //! says what is valid; nothing panics on any input.
+#![forbid(unsafe_code)]
 
 pub mod dxf_out;
 pub mod fold;

@@ -52,6 +52,7 @@
 //! };
 //! assert!((tips[0].z - golden.w()).abs() < 1e-12);
 //! ```
+#![forbid(unsafe_code)]
 #![no_std]
 #![deny(missing_docs)]
 #![cfg_attr(

@@ -33,6 +33,7 @@
 //! assert_eq!(truth.true_state, Some("F&P".parse().unwrap()));
 //! assert!(truth.actuators_safe);
 //! ```
+#![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
 pub mod cli;

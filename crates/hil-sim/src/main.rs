@@ -10,6 +10,7 @@
 //! aliases). With `--pty` the first line of stdout ends with the device path; the simulator then
 //! runs until SIGINT, SIGTERM or SIGHUP (exit 130, as host-tool, the truth log's last line
 //! written). Usage errors exit with 2, runtime failures with 1.
+#![forbid(unsafe_code)]
 
 use std::io::Write as _;
 use std::process::ExitCode;

@@ -3,6 +3,7 @@
 //! Arguments are parsed by clap, validated into a config once, then the command runs.
 //! Exit codes: 0 success, 1 runtime failure (device, link, plan), 2 usage error, 130
 //! interrupted (SIGINT, SIGTERM, SIGHUP; the crane made safe first).
+#![forbid(unsafe_code)]
 
 use std::process::ExitCode;
 

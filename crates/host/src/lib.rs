@@ -31,6 +31,7 @@
 //! host.handle_timeout(u64::from(protocol::RESPONSE_TIMEOUT_MS));
 //! assert_eq!(host.poll_transmit(), Some(hello));
 //! ```
+#![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
 pub mod driver;

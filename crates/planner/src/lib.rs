@@ -5,6 +5,7 @@
 //! - [`graph`]: PDF trunk transition planning (paper §6.2): the six-state graph built from the
 //!   protocol's transition catalogue, cheapest plans by Dijkstra, replanning — the
 //!   `transition-graph` crate, re-exported (the host engine uses it alone, without the IK).
+#![forbid(unsafe_code)]
 
 pub use transition_graph as graph;
 pub mod ik;

@@ -51,6 +51,7 @@
 //! assert_eq!(got, vec![Ok(req)]);
 //! assert_eq!(dec.stats().frames_ok, 1);
 //! ```
+#![forbid(unsafe_code)]
 #![no_std]
 #![deny(missing_docs)]
 #![cfg_attr(

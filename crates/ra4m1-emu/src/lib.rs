@@ -21,6 +21,7 @@
 //! start mode, OFS1 = 0xFFFF_CFDF: HOCO 48 MHz, voltage monitor 0 off), the clock dividers of
 //! the Arduino core, one flash wait state; on the WiFi board the bootloader's SCI9 interrupt
 //! links IELSR2/3 (TXI/TEI) are left set with their NVIC lines pending.
+#![forbid(unsafe_code)]
 
 #![deny(missing_docs)]
 

@@ -16,6 +16,7 @@
 //! does not model (the message names the address), 2 on a usage error. `--rtt PATH` writes the
 //! RTT up-channel's bytes (defmt frames) to PATH, read as a probe would: decode them with
 //! `defmt-print -e ELF < PATH`.
+#![forbid(unsafe_code)]
 
 use std::io::Write as _;
 use std::process::ExitCode;

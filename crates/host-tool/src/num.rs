@@ -109,6 +109,18 @@ pub fn number_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clo
     }
 }
 
+/// A clap parser for a finite number in `(0, hi]`: a duration or a rate that must be positive.
+pub fn positive_at_most(hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let expected = format!("expected a number greater than 0 and at most {hi}");
+        match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 && v <= hi => Ok(v),
+            Ok(v) if v.is_finite() => Err(format!("{v} is out of range: {expected}")),
+            _ => Err(format!("'{s}' is not a finite number: {expected}")),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -125,6 +137,17 @@ mod tests {
         assert_eq!(json(1.234_567_890_123_45).to_string(), "1.23456789012345");
         let v = clean(serde_json::json!({"p": 30.1f32, "a": [12.100000000000001, -0.0], "n": 3}));
         assert_eq!(v.to_string(), r#"{"a":[12.1,0.0],"n":3,"p":30.1}"#);
+    }
+
+    #[test]
+    fn positive_numbers_refuse_zero_and_the_top_of_the_range_is_inclusive() {
+        let p = positive_at_most(1e9);
+        assert_eq!(p("1e9"), Ok(1e9));
+        assert_eq!(p("0.001"), Ok(0.001));
+        assert!(p("0").unwrap_err().contains("greater than 0"));
+        assert!(p("1e20").unwrap_err().contains("out of range"));
+        assert!(p("inf").unwrap_err().contains("not a finite number"));
+        assert!(p("-1").unwrap_err().contains("out of range"));
     }
 
     #[test]

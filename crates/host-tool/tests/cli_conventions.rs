@@ -162,6 +162,23 @@ fn a_negative_seed_is_a_seed() {
 }
 
 #[test]
+fn monitor_durations_outside_their_range_are_refused_before_anything_runs() {
+    // 1e20 s once panicked (exit 101) making a `Duration`; 0 and a negative one never end.
+    for bad in ["1e20", "0", "-1", "inf", "nan"] {
+        let out = host_tool(&["monitor", "--sim", "--duration", bad]);
+        assert_eq!(out.status.code(), Some(2), "--duration {bad}");
+        let err = text(&out.stderr);
+        assert!(
+            err.contains("greater than 0 and at most 1000000000"),
+            "--duration {bad}: {err}"
+        );
+    }
+    // The smallest sensible value runs.
+    let out = host_tool(&["monitor", "--sim", "--duration", "0.001", "-j"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}
+
+#[test]
 fn integer_options_refuse_fractions_saying_what_is_expected() {
     let out = host_tool(&["monitor", "--sim", "--rate", "1.5", "--duration", "0.1"]);
     assert_eq!(out.status.code(), Some(2));

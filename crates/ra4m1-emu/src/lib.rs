@@ -22,7 +22,6 @@
 //! the Arduino core, one flash wait state; on the WiFi board the bootloader's SCI9 interrupt
 //! links IELSR2/3 (TXI/TEI) are left set with their NVIC lines pending.
 #![forbid(unsafe_code)]
-
 #![deny(missing_docs)]
 
 pub mod clock;

@@ -17,12 +17,16 @@ use crate::failure::Failure;
 use host::text::fault_list;
 
 /// Arguments of `host-tool monitor`.
+/// The longest `--duration`, s.
+const MAX_DURATION_S: f64 = 1e9;
+
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     pub device: DeviceArgs,
-    /// Stop after this many seconds, > 0 [default: until Ctrl-C].
-    #[arg(long, value_name = "SECONDS")]
+    /// Stop after this many seconds [range: > 0 to 1e9 (about 31 years); default: until
+    /// Ctrl-C].
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true, value_parser = crate::num::positive_at_most(MAX_DURATION_S))]
     pub duration: Option<f64>,
     /// Samples per second [range: 1–50, whole numbers]: the device's telemetry rate (device
     /// time) and, in text, at most this many lines per wall second.
@@ -42,21 +46,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
         return through_server(&server, &args);
     }
     let device = args.device.validate(Some(1.0))?;
-    let duration = match args.duration {
-        Some(d) if !(d.is_finite() && d > 0.0) => {
-            return Err(Failure::usage(format!(
-                "invalid --duration {d}: it must be > 0 seconds"
-            )))
-        }
-        Some(d) => Some(Duration::from_secs_f64(d)),
-        None => None,
-    };
-    if !(1..=50).contains(&args.rate) {
-        return Err(Failure::usage(format!(
-            "invalid --rate {}: it must be 1–50 Hz",
-            args.rate
-        )));
-    }
+    // In range by its parser: a `Duration` holds it.
+    let duration = args.duration.map(Duration::from_secs_f64);
     let cancel = crate::cmd::plan::interrupt_flag();
     let recording = args
         .record
@@ -210,11 +201,6 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
         return Err(Failure::usage(
             "a server holds this device and records its session itself: --record is not needed",
         ));
-    }
-    if let Some(d) = args.duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
-        return Err(Failure::usage(format!(
-            "invalid --duration {d}: it must be > 0 seconds"
-        )));
     }
     let cancel = crate::cmd::plan::interrupt_flag();
     let mut c = crate::client::Client::connect(server)?;

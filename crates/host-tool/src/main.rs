@@ -68,6 +68,7 @@ macro_rules! out_raw {
 mod cli;
 mod client;
 mod cmd;
+mod completions;
 mod device;
 mod failure;
 mod figure;
@@ -220,9 +221,7 @@ fn main() -> ExitCode {
         Command::Log(args) => cmd::log::run(args),
         Command::Serve(args) => cmd::serve::run(args),
         Command::Completions { shell } => {
-            let mut out = Vec::new();
-            clap_complete::generate(shell, &mut Cli::command(), "host-tool", &mut out);
-            out_raw!("{}", String::from_utf8_lossy(&out));
+            out_raw!("{}", completions::script(shell, Cli::command()));
             Ok(())
         }
         Command::Man => {

@@ -327,7 +327,7 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
 /// away from where it stood at the start (`rest`, degrees).
 fn actuating(sim: &Sim, rest: [f32; 3]) -> bool {
     let emu = &sim.elf_board().unwrap().emu;
-    let valve = [(1, 4), (1, 11)]
+    let valve = [(1, 4), (3, 1)]
         .iter()
         .any(|&(p, n)| emu.pin_drive(p, n) == ra4m1_emu::PinDrive::High);
     let servo = sim.ground_truth().servo_deg;

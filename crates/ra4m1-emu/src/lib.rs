@@ -19,10 +19,11 @@
 //! 0x4000 ([`Emulator::new`]): VTOR = 0x4000, MSP and PC from the application's vector table,
 //! PRIMASK = 1, HOCO at 48 MHz (option bytes OFS0 = 0xFFFF_FFFF: both watchdogs in register-
 //! start mode, OFS1 = 0xFFFF_CFDF: HOCO 48 MHz, voltage monitor 0 off), the clock dividers of
-//! the Arduino core, one flash wait state; on the WiFi board the bootloader's SCI9 interrupt
-//! links IELSR2/3 (TXI/TEI) are left set with their NVIC lines pending.
+//! the Arduino core, one flash wait state; the bootloader's interrupt links IELSR0..3 are left
+//! set (`arduino-renesas-bootloader`, `src/irq_table.c`: on the WiFi SCI9 TXI, TEI, RXI, ERI; on
+//! the Minima USBFS INT, RESUME, FIFO 0, FIFO 1), the first ones with IR and their NVIC lines
+//! pending.
 #![forbid(unsafe_code)]
-
 #![deny(missing_docs)]
 
 pub mod clock;
@@ -70,8 +71,12 @@ pub struct Options {
     pub board: Board,
     /// Data-flash program/erase times.
     pub flash_timing: FlashTiming,
-    /// Wiring of the TM1637 display, `(clk, dio)` as `(port, pin)`.
+    /// Wiring of the TM1637 display, `(clk, dio)` as `(port, pin)` (default: the board's pin
+    /// map, CLK P111, DIO P302).
     pub tm1637: Option<((usize, usize), (usize, usize))>,
+    /// A debug probe is attached (on-chip-debug mode: DBGSTOPCR's reset value masks the
+    /// watchdogs' resets). `ra4m1-run` sets it for test ELFs, as probe-rs runs them.
+    pub probe: bool,
 }
 
 impl Default for Options {
@@ -79,7 +84,8 @@ impl Default for Options {
         Self {
             board: Board::Wifi,
             flash_timing: FlashTiming::default(),
-            tm1637: Some(((3, 1), (3, 2))),
+            tm1637: Some(((1, 11), (3, 2))),
+            probe: false,
         }
     }
 }
@@ -158,45 +164,12 @@ fn elf_functions(elf: &[u8]) -> Vec<(u32, u32, String)> {
     f
 }
 
-/// A legacy-mangled Rust symbol (`_ZN…E`) as a path without its hash (`a::b::c`); any other
-/// name as it is. Enough to read a profile, not a full demangler.
+/// A Rust symbol (legacy `_ZN…E` or v0 `_R…`) demangled by `rustc-demangle`, without its hash
+/// (`a::b::c`); any other name as it is.
 fn demangle(name: &str) -> String {
-    let Some(mut rest) = name.strip_prefix("_ZN") else {
-        return name.to_string();
-    };
-    let mut parts = Vec::new();
-    while let Some(len_end) = rest.find(|c: char| !c.is_ascii_digit()) {
-        let Ok(len) = rest[..len_end].parse::<usize>() else {
-            break;
-        };
-        let Some(part) = rest.get(len_end..len_end + len) else {
-            break;
-        };
-        parts.push(part);
-        rest = &rest[len_end + len..];
-    }
-    if parts
-        .last()
-        .is_some_and(|h| h.len() == 17 && h.starts_with('h'))
-    {
-        parts.pop();
-    }
-    let path = parts.join("::");
-    [
-        ("$LT$", "<"),
-        ("$GT$", ">"),
-        ("$u20$", " "),
-        ("$C$", ","),
-        ("$RF$", "&"),
-        ("$u7b$", "{"),
-        ("$u7d$", "}"),
-        ("..", "::"),
-    ]
-    .iter()
-    .fold(path, |s, (from, to)| s.replace(from, to))
+    format!("{:#}", rustc_demangle::demangle(name))
 }
 
-/// Loads the PT_LOAD segments of a 32-bit ARM ELF into a code-flash image.
 fn load_elf(elf: &[u8]) -> Result<Vec<u8>, EmuError> {
     use object::read::elf::{ElfFile32, ProgramHeader};
     use object::Endianness;
@@ -281,6 +254,10 @@ impl Emulator {
             vcc_mv: 5000,
             reset_due: None,
             held_in_reset: false,
+            lvd_release_at: None,
+            irq_hold: (0, 0),
+            probe: options.probe,
+            parked: false,
             wakes: 0,
             wake_start_cycles: 0,
             max_awake_cycles: 0,
@@ -459,14 +436,42 @@ impl Emulator {
         m.sci.host_baud = host_baud;
         m.icu = Default::default();
         m.scs = periph::scs::Scs::new(APP_BASE);
-        if board == Board::Wifi {
+        {
+            // The bootloader's links (`src/irq_table.c`): the WiFi's SCI9 UART (TXI, TEI, RXI,
+            // ERI; its last transmission left TXI and TEI requesting), the Minima's USBFS (INT,
+            // RESUME, FIFO 0, FIFO 1; INT requesting).
             use periph::{event, icu::IR};
-            m.icu.ielsr[2] = u32::from(event::SCI9_TXI) | IR;
-            m.icu.ielsr[3] = u32::from(event::SCI9_TEI) | IR;
-            m.scs.pending = 0b1100;
+            let (links, requesting): ([u16; 4], u32) = match board {
+                Board::Wifi => (
+                    [
+                        event::SCI9_TXI,
+                        event::SCI9_TEI,
+                        event::SCI9_RXI,
+                        event::SCI9_ERI,
+                    ],
+                    0b0011,
+                ),
+                Board::Minima => (
+                    [
+                        event::USBFS_INT,
+                        event::USBFS_RESUME,
+                        event::USBFS_FIFO_0,
+                        event::USBFS_FIFO_1,
+                    ],
+                    0b0001,
+                ),
+            };
+            for (n, e) in links.into_iter().enumerate() {
+                let ir = if requesting & (1 << n) != 0 { IR } else { 0 };
+                m.icu.ielsr[n] = u32::from(e) | ir;
+            }
+            m.scs.pending = requesting;
         }
         m.wdt = Default::default();
         m.dbgstopcr = 3;
+        m.irq_hold = (0, 0);
+        m.lvd_release_at = None;
+        m.parked = false;
         m.flash.reset(now);
         m.asleep = false;
         m.reset_due = None;
@@ -509,6 +514,32 @@ impl Emulator {
         uc.reg_write(RegisterARM::PC, u64::from(entry | 1))
             .map_err(|e| cpu_err(e, entry))?;
         self.resets.push(kind);
+        Ok(())
+    }
+
+    /// A second reset within the Arduino bootloader's 500 ms window after a reset that was not
+    /// a power-on (`arduino-renesas-bootloader`, `src/main.c`: the double-tap magic at
+    /// 0x2000_7FF0): the bootloader stays, the application does not start until a power cycle
+    /// (or a reset after the window). The pins as the parked bootloader drives them: P111 an
+    /// output, low (TinyUSB's `uno_r4` pin table, `board_init`, both boards), then its LED fade
+    /// from GPT PWM on LED_FADE_GPIO — GTIOC3A = P111 on the Minima (`Makefile.minima`),
+    /// GTIOC2B = P102 on the WiFi (`Makefile.wifi`); every other pin released.
+    pub fn park_in_bootloader(&mut self) -> Result<(), EmuError> {
+        self.reset(ResetKind::Software)?;
+        let board = self.options.board;
+        let m = self.m();
+        m.parked = true;
+        const PDR: u32 = 1 << 2;
+        const PMR: u32 = 1 << 16;
+        const PSEL_GPT: u32 = 0b00011 << 24;
+        m.port.pfs[1][11] = PDR;
+        let (port, pin) = match board {
+            Board::Minima => (1, 11),
+            Board::Wifi => (1, 2),
+        };
+        m.port.pfs[port][pin] = PMR | PSEL_GPT;
+        m.port.changed = true;
+        m.update_parts();
         Ok(())
     }
 
@@ -577,10 +608,20 @@ impl Emulator {
         out
     }
 
-    /// Sets the supply voltage (mV): below an armed voltage monitor 1 level, the chip resets
-    /// and stays in reset until it rises again.
+    /// Sets the supply voltage (mV): a fall below an armed voltage monitor 1 level resets the
+    /// chip, which is released as LVD1CR0.RN says ([`periph::system`]).
     pub fn set_vcc_mv(&mut self, mv: u32) {
         self.m().vcc_mv = mv;
+    }
+
+    /// Holds NVIC interrupt line `line` off for `ns` of virtual time from now: its requests
+    /// stay pending but are not taken, as when a handler of higher priority or a critical
+    /// section delays it; then it is taken as usual. For scenarios of a handler entered late.
+    pub fn hold_irq(&mut self, line: u32, ns: u64) {
+        let now = self.machine().now;
+        let m = self.m();
+        m.scs.held |= 1 << line;
+        m.irq_hold = (m.scs.held, now + clock::ns_to_ticks(ns));
     }
 
     /// Drives `P<port><pin>` from outside (`None`: leaves it open).
@@ -780,14 +821,27 @@ impl Emulator {
             if self.machine().exit_code.is_some() {
                 return Ok(());
             }
+            if self.machine().parked {
+                let m = self.m();
+                m.now = m.now.max(end);
+                return Ok(());
+            }
             if self.machine().held_in_reset {
                 let m = self.m();
                 let level = m.sys.lvd1_reset_level_mv().unwrap_or(0);
-                if m.vcc_mv < level {
-                    m.now = m.now.max(end);
-                    return Ok(());
+                if m.lvd_release_at.is_none() && m.vcc_mv >= level {
+                    // RN = 0: released tLVD1 after VCC is back above Vdet1.
+                    m.lvd_release_at = Some(m.now + clock::ns_to_ticks(periph::system::T_LVD1_NS));
+                }
+                match m.lvd_release_at {
+                    Some(t) if t <= end => m.now = m.now.max(t),
+                    _ => {
+                        m.now = m.now.max(end);
+                        return Ok(());
+                    }
                 }
                 m.held_in_reset = false;
+                m.lvd_release_at = None;
                 // Released: the bootloader runs again and jumps to the application.
                 let old = m.sys.clone();
                 self.reset(ResetKind::BrownOut)?;
@@ -862,9 +916,15 @@ impl Emulator {
         if kind == ResetKind::BrownOut {
             let old = self.machine().sys.clone();
             self.reset(kind)?;
+            let now = self.machine().now;
             let m = self.m();
             m.sys.keep_lvd_from(&old);
             m.held_in_reset = true;
+            // RN = 1: released tLVD1 after the assertion, whatever VCC is.
+            m.lvd_release_at = m
+                .sys
+                .lvd1_negation_after_assertion()
+                .then(|| now + clock::ns_to_ticks(periph::system::T_LVD1_NS));
             let _ = end;
             return Ok(());
         }
@@ -1261,4 +1321,21 @@ fn intr_hook(uc: &mut Unicorn<'_, Machine>, intno: u32) {
     }
     m.stopped = true;
     let _ = uc.emu_stop();
+}
+
+#[cfg(test)]
+mod tests {
+    /// Legacy symbols lose their hash; generics and escapes are written out; C names pass.
+    #[test]
+    fn symbols_demangle_to_their_paths() {
+        assert_eq!(
+            super::demangle("_ZN8firmware10controller10Controller8progress17h0123456789abcdefE"),
+            "firmware::controller::Controller::progress"
+        );
+        assert_eq!(
+            super::demangle("_ZN4core3ptr50drop_in_place$LT$firmware..hw..Shell$LT$u8$GT$$GT$17h0123456789abcdefE"),
+            "core::ptr::drop_in_place<firmware::hw::Shell<u8>>"
+        );
+        assert_eq!(super::demangle("memcpy"), "memcpy");
+    }
 }

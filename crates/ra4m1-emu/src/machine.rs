@@ -142,8 +142,20 @@ pub struct Machine {
     pub vcc_mv: u32,
     /// A reset the hardware decided (WDT underflow, LVD, AIRCR).
     pub reset_due: Option<ResetKind>,
-    /// Held in reset by the voltage monitor until VCC recovers.
+    /// Held in reset by voltage monitor 1 (see [`periph::system`]).
     pub held_in_reset: bool,
+    /// When voltage monitor 1 releases the reset (ticks), once that is decided: at the
+    /// assertion with LVD1CR0.RN = 1, when VCC is back above Vdet1 with RN = 0.
+    pub lvd_release_at: Option<u64>,
+    /// NVIC lines held off (not delivered though pending) and until when, ticks
+    /// ([`crate::Emulator::hold_irq`]).
+    pub irq_hold: (u32, u64),
+    /// Parked in the bootloader ([`crate::Emulator::park_in_bootloader`]): the application
+    /// does not run until the next reset.
+    pub parked: bool,
+    /// A debug probe is attached: the chip is in on-chip-debug mode, where DBGSTOPCR masks
+    /// the watchdogs' resets (DBGSTOP_WDT, DBGSTOP_IWDT; reset value 1 = masked).
+    pub probe: bool,
     /// Count of loop passes (wake-ups) and the longest awake stretch, cycles.
     pub wakes: u64,
     /// Awake cycles at the last wake-up.
@@ -165,7 +177,7 @@ pub struct Machine {
     /// SYS_GET_CMDLINE calls so far.
     pub cmdline_requests: u32,
     /// DBGSTOPCR (reset value 3: WDT and IWDT resets masked in on-chip-debug mode, which the
-    /// emulated chip never is in).
+    /// emulated chip is in when [`Machine::probe`] is set).
     pub dbgstopcr: u32,
 }
 
@@ -400,6 +412,7 @@ impl Machine {
             self.sci.next_event(),
             self.adc.done_at,
             self.flash.next_event(),
+            (self.irq_hold.0 != 0).then_some(self.irq_hold.1),
             if self.asleep && self.wdt.stops_in_sleep() {
                 None
             } else {
@@ -419,7 +432,13 @@ impl Machine {
         let now = self.now;
         let counting = !(self.asleep && self.wdt.stops_in_sleep());
         if self.wdt.advance(now, counting) {
-            self.reset_due = Some(ResetKind::Watchdog);
+            if self.probe && self.dbgstopcr & 0b10 != 0 {
+                // On-chip-debug mode with DBGSTOP_WDT = 1: the underflow's reset is masked;
+                // the counter stays at 0 until the next refresh.
+                self.wdt.masked_underflow();
+            } else {
+                self.reset_due = Some(ResetKind::Watchdog);
+            }
         }
         if let Some(mut t) = self.scs.syst_next {
             if self.scs.syst_csr & 1 != 0 {
@@ -438,10 +457,13 @@ impl Machine {
         self.sync_sci();
         self.adc.advance(now);
         self.flash.advance(now);
-        if let Some(level) = self.sys.lvd1_reset_level_mv() {
-            if self.vcc_mv < level {
-                self.reset_due = Some(ResetKind::BrownOut);
-            }
+        if self.sys.lvd1_compare(self.vcc_mv) {
+            self.reset_due = Some(ResetKind::BrownOut);
+        }
+        if self.irq_hold.0 != 0 && now >= self.irq_hold.1 {
+            self.scs.held = 0;
+            self.irq_hold = (0, 0);
+            self.irq_check = true;
         }
     }
 }

@@ -46,7 +46,8 @@ fn main() -> ! {
     let Some(mut cp) = cortex_m::Peripherals::take() else {
         halt()
     };
-    // The bootloader's interrupt links (IELSR2/3 select SCI9 on the WiFi) and NVIC state go
+    // The bootloader's interrupt links (IELSR0..3: SCI9 on the WiFi, USBFS on the Minima) and
+    // NVIC state go
     // before anything is configured.
     board::irq::clear_bootloader_state(&mut cp.NVIC);
     if !board::gpio::self_check() {

@@ -355,6 +355,31 @@ mod tests {
         on_target::provoke_fault(&b, || panic!("deliberate panic (on-target test)"));
     }
 
+    /// A stack overflow (unbounded recursion, 256 bytes a frame) with the stack guard armed
+    /// (`board::stack`): the stack pointer monitor's NMI comes while `stack::RESERVE` bytes are
+    /// left, the handler drives every actuator line safe while the gripper keeps holding, and
+    /// the watchdog restarts the board. (Unguarded, the recursion would run through `.bss` and
+    /// `.data` and off the bottom of RAM.)
+    #[test]
+    fn a_stack_overflow_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
+        on_target::provoke_fault(&b, overflow);
+    }
+
+    fn overflow() -> ! {
+        crate::board::stack::guard();
+        let n = deep(1_000_000);
+        panic!("returned from the recursion: {}", n)
+    }
+
+    #[inline(never)]
+    fn deep(n: u32) -> u32 {
+        let frame = core::hint::black_box([n; 64]);
+        if n == 0 {
+            return 0;
+        }
+        deep(n - 1).wrapping_add(core::hint::black_box(frame)[7])
+    }
+
     /// The same for a HardFault (an undefined instruction).
     #[test]
     fn a_hard_fault_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {

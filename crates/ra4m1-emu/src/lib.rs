@@ -44,6 +44,8 @@ pub use periph::port::PinDrive;
 pub use periph::system::ResetKind;
 use periph::{scs::exc, Why};
 
+/// The word the stack is painted with at power-on ([`Emulator::stack_high_water`]).
+pub const STACK_PAINT: u32 = 0x5AC3_5AC3;
 /// Code flash size (R7FA4M1AB: 256 KiB).
 pub const CODE_FLASH: u32 = 256 * 1024;
 /// SRAM base and size (32 KiB).
@@ -245,6 +247,7 @@ impl Emulator {
             icu: Default::default(),
             scs: periph::scs::Scs::new(APP_BASE),
             wdt: Default::default(),
+            spmon: Default::default(),
             flash: periph::flash::Flash::new(),
             tm1637: tm1637::Tm1637::new(),
             wiring: Wiring {
@@ -468,6 +471,7 @@ impl Emulator {
             m.scs.pending = requesting;
         }
         m.wdt = Default::default();
+        m.spmon = Default::default();
         m.dbgstopcr = 3;
         m.irq_hold = (0, 0);
         m.lvd_release_at = None;
@@ -478,9 +482,18 @@ impl Emulator {
         m.error = None;
         m.irq_check = true;
         if kind == ResetKind::PowerOn {
-            let zeros = vec![0u8; RAM.1 as usize];
+            // SRAM powers up with unknown contents; here zeros, and the stack (from the ELF's
+            // `_stack_end`, cortex-m-rt's end of the static RAM, to the top) painted with
+            // [`STACK_PAINT`] so that [`Emulator::stack_high_water`] can tell how deep it went.
+            let mut ram = vec![0u8; RAM.1 as usize];
+            if let Some(end) = self.symbol("_stack_end") {
+                let from = end.saturating_sub(RAM.0).min(RAM.1) as usize & !3;
+                for w in ram[from..].chunks_exact_mut(4) {
+                    w.copy_from_slice(&STACK_PAINT.to_le_bytes());
+                }
+            }
             self.uc
-                .mem_write(RAM.0.into(), &zeros)
+                .mem_write(RAM.0.into(), &ram)
                 .map_err(|e| cpu_err(e, 0))?;
         }
         let word = |a: u32| {
@@ -743,6 +756,11 @@ impl Emulator {
         self.uc.reg_read(RegisterARM::SP).unwrap_or(0) as u32
     }
 
+    /// Sets the main stack pointer (a stack that has grown to `sp`, for tests of a guard).
+    pub fn set_sp(&mut self, sp: u32) {
+        let _ = self.uc.reg_write(RegisterARM::SP, sp.into());
+    }
+
     /// Reads memory as the CPU sees it (RAM or flash; `None` elsewhere).
     pub fn read_u32(&self, addr: u32) -> Option<u32> {
         let mut b = [0u8; 4];
@@ -792,6 +810,24 @@ impl Emulator {
         }
         self.write_u32(ch + 16, write);
         out
+    }
+
+    /// The deepest the main stack has reached since the last power-on, bytes below its top
+    /// (`_stack_start`): the lowest word from `_stack_end` up that no longer holds the paint
+    /// of the power-on. `None` without cortex-m-rt's stack symbols. (A word the program wrote
+    /// with the paint's own value would be missed: the figure is exact up to such a word.)
+    pub fn stack_high_water(&self) -> Option<u32> {
+        let (end, top) = (self.symbol("_stack_end")?, self.symbol("_stack_start")?);
+        let mut a = (end + 3) & !3;
+        while a < top && self.read_u32(a) == Some(STACK_PAINT) {
+            a += 4;
+        }
+        Some(top - a)
+    }
+
+    /// The stack's room: `_stack_start − _stack_end`, bytes.
+    pub fn stack_size(&self) -> Option<u32> {
+        Some(self.symbol("_stack_start")? - self.symbol("_stack_end")?)
     }
 
     /// The address of the ELF symbol `name`.
@@ -1014,6 +1050,7 @@ impl Emulator {
         let m = self.m();
         match e {
             exc::HARD_FAULT => m.scs.hardfault_pending = false,
+            exc::NMI => m.scs.nmi_pending = false,
             exc::SYSTICK => m.scs.systick_pending = false,
             _ => m.scs.pending &= !(1 << (e - exc::IRQ0)),
         }
@@ -1052,6 +1089,18 @@ fn block_hook(uc: &mut Unicorn<'_, Machine>, addr: u64, size: u32) {
         let _ = uc.emu_stop();
         return;
     }
+    if m.spmon.enabled() {
+        let sp = uc.reg_read(RegisterARM::SP).unwrap_or(0) as u32;
+        let m = uc.get_data_mut();
+        if m.spmon.check(sp) && m.icu.nmi(12) {
+            // NMISR.SPEST: the NMI, taken before this block.
+            m.scs.nmi_pending = true;
+            m.stopped = true;
+            let _ = uc.emu_stop();
+            return;
+        }
+    }
+    let m = uc.get_data_mut();
     if m.irq_check {
         m.irq_check = false;
         let candidate = m

@@ -41,6 +41,8 @@ pub enum Page {
     Scs,
     /// DBG: DBGSTR, DBGSTOPCR (no debugger is attached to the emulated chip).
     Dbg,
+    /// MPU page: the CPU stack pointer monitor (SPMON at 0xD00).
+    Mpu,
 }
 
 /// The GTIOC pins of the board's timer channels: (port, pin, GPT channel, output B). A read of
@@ -65,6 +67,7 @@ pub const PAGES: &[(u32, u32, Page)] = &[
     (0xE000_1000, 0x1000, Page::Dwt),
     (0xE000_E000, 0x1000, Page::Scs),
     (0x4001_B000, 0x1000, Page::Dbg),
+    (0x4000_0000, 0x1000, Page::Mpu),
 ];
 
 /// How the board around the chip is wired for the emulator's parts.
@@ -130,6 +133,8 @@ pub struct Machine {
     pub scs: Scs,
     /// WDT.
     pub wdt: Wdt,
+    /// The stack pointer monitor.
+    pub spmon: periph::spmon::Spmon,
     /// Data flash.
     pub flash: Flash,
     /// The display part.
@@ -245,6 +250,10 @@ impl Machine {
             Page::Faci => self.flash.read(base, off, size, now),
             Page::FaciEntry => self.flash.read(base, off, size, now),
             Page::Dwt => self.scs.dwt_read(off, size, self.awake_cycles),
+            Page::Mpu => match off {
+                0xD00..=0xD0F => self.spmon.read(off - 0xD00, size),
+                _ => Err(Why::Unmodelled),
+            },
             Page::Dbg => match (off, size) {
                 (0x00, 4) => Ok(0),
                 (0x10, 4) => Ok(self.dbgstopcr),
@@ -317,6 +326,10 @@ impl Machine {
             }
             Page::Faci | Page::FaciEntry => self.flash.write(base, off, size, v, now)?,
             Page::Dwt => self.scs.dwt_write(off, size, v, self.awake_cycles)?,
+            Page::Mpu => match off {
+                0xD00..=0xD0F => self.spmon.write(off - 0xD00, size, v)?,
+                _ => return Err(Why::Unmodelled),
+            },
             Page::Dbg => match (off, size) {
                 (0x10, 4) => self.dbgstopcr = v & 0x0307_0003,
                 _ => return Err(Why::Unmodelled),

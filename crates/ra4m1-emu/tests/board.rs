@@ -407,3 +407,37 @@ fn the_gripper_never_opens_across_a_watchdog_reset_or_a_brown_out() {
         "driven closed again"
     );
 }
+
+/// The stack guard of the board binary (`board/stack.rs`): the stack pointer monitor is armed
+/// at boot over the stack less its bottom 512 bytes; a main stack grown below that limit (the
+/// SP set there between two blocks of the running loop, as an overflow would leave it) raises
+/// the monitor's NMI at once, whose handler drives every actuator line safe; the watchdog then
+/// restarts the board. Also the stack's high-water mark of an idle second, by the paint.
+#[test]
+fn a_stack_overflow_is_caught_by_the_stack_pointer_monitor() {
+    use ra4m1_emu::PinDrive;
+    let mut emu = board(Options::default());
+    hello_info(&mut emu);
+    let m = emu.machine();
+    assert!(m.spmon.enabled(), "the monitor is armed at boot");
+    let end = emu.symbol("_stack_end").expect("cortex-m-rt's _stack_end");
+    assert_eq!(m.spmon.sa, end + 512);
+    assert_eq!(m.spmon.ea, 0x2000_7FFF);
+    let used = emu.stack_high_water().expect("painted");
+    let room = emu.stack_size().expect("stack symbols");
+    eprintln!("stack: {used} of {room} bytes used after boot and a handshake");
+    assert!(used > 1_000 && used < room - 512, "{used}");
+    emu.set_sp(end + 400);
+    let t = emu.now_ns();
+    emu.run_until_ns(t + 1_000_000).unwrap();
+    assert_ne!(emu.machine().icu.nmisr & (1 << 12), 0, "NMISR.SPEST");
+    for (port, pin) in [(1, 4), (3, 1), (3, 4), (3, 3), (1, 1)] {
+        assert_eq!(
+            emu.pin_drive(port, pin),
+            PinDrive::Low,
+            "P{port}{pin:02} safe"
+        );
+    }
+    emu.run_until_ns(t + 400_000_000).unwrap();
+    assert_eq!(emu.resets(), &[ra4m1_emu::ResetKind::Watchdog]);
+}

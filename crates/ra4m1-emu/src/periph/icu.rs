@@ -19,6 +19,11 @@ pub const IR: u32 = 1 << 16;
 pub struct Icu {
     /// IELSR0..31.
     pub ielsr: [u32; 32],
+    /// NMIER (0x120): NMI sources enabled; bits can only be set (FSP `r_lvd`: "NMIER bits
+    /// can only be set"). SPEEN is bit 12.
+    pub nmier: u16,
+    /// NMISR (0x140): NMI sources detected; cleared through NMICLR (0x130).
+    pub nmisr: u16,
 }
 
 impl Icu {
@@ -39,9 +44,17 @@ impl Icu {
         self.ielsr[n] & IR != 0 && self.ielsr[n] & 0x1FF != 0
     }
 
+    /// The NMI source `bit` detected: returns true when it raises the NMI (enabled in NMIER).
+    pub fn nmi(&mut self, bit: u16) -> bool {
+        self.nmisr |= 1 << bit;
+        self.nmier & (1 << bit) != 0
+    }
+
     /// A read at `off`.
     pub fn read(&self, off: u32, size: u32) -> R<u32> {
         match off {
+            0x120 => need(size, 2, "NMIER").map(|()| self.nmier.into()),
+            0x140 => need(size, 2, "NMISR").map(|()| self.nmisr.into()),
             0x300..=0x37F if off.is_multiple_of(4) => {
                 need(size, 4, "IELSRn")?;
                 Ok(self.ielsr[(off as usize - 0x300) / 4])
@@ -53,6 +66,16 @@ impl Icu {
     /// A write at `off`.
     pub fn write(&mut self, off: u32, size: u32, v: u32) -> R<()> {
         match off {
+            0x120 => {
+                need(size, 2, "NMIER")?;
+                self.nmier |= v as u16;
+                Ok(())
+            }
+            0x130 => {
+                need(size, 2, "NMICLR")?;
+                self.nmisr &= !(v as u16);
+                Ok(())
+            }
             0x300..=0x37F if off.is_multiple_of(4) => {
                 need(size, 4, "IELSRn")?;
                 let n = (off as usize - 0x300) / 4;

@@ -10,6 +10,7 @@ pub mod icu;
 pub mod port;
 pub mod sci;
 pub mod scs;
+pub mod spmon;
 pub mod system;
 pub mod wdt;
 

@@ -11,6 +11,8 @@ use super::{need, refuse, Why, R};
 pub const IRQS: usize = 32;
 /// Exception numbers.
 pub mod exc {
+    /// NMI (priority −2).
+    pub const NMI: u16 = 2;
     /// HardFault.
     pub const HARD_FAULT: u16 = 3;
     /// SysTick.
@@ -35,6 +37,8 @@ pub struct Scs {
     pub systick_pending: bool,
     /// HardFault pending.
     pub hardfault_pending: bool,
+    /// NMI pending (from the ICU's NMI sources).
+    pub nmi_pending: bool,
     /// Active exceptions, innermost last.
     pub active: Vec<u16>,
     /// VTOR.
@@ -78,6 +82,7 @@ impl Scs {
             ipr: [0; IRQS],
             systick_pending: false,
             hardfault_pending: false,
+            nmi_pending: false,
             active: Vec::new(),
             vtor,
             aircr_prigroup: 0,
@@ -104,6 +109,7 @@ impl Scs {
     /// Priority of exception `e` (lower is more urgent; HardFault is −1).
     pub fn priority(&self, e: u16) -> i16 {
         match e {
+            exc::NMI => -2,
             exc::HARD_FAULT => -1,
             4..=15 => i16::from(self.shpr[usize::from(e) - 4] & 0xF0),
             _ => i16::from(self.ipr[usize::from(e - exc::IRQ0)] & 0xF0),
@@ -118,6 +124,9 @@ impl Scs {
                 best = Some((e, p));
             }
         };
+        if self.nmi_pending {
+            consider(exc::NMI, -2);
+        }
         if self.hardfault_pending {
             consider(exc::HARD_FAULT, -1);
         }

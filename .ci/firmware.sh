@@ -17,7 +17,7 @@ elf="$target_dir/thumbv7em-none-eabihf/firmware/uno-r4"
 python3 - "$elf" <<'PY'
 import struct, sys
 
-FLASH_BUDGET = 40 * 1024            # 39.6 KiB reached (BENCHMARKS.md, "firmware board")
+FLASH_BUDGET = 40 * 1024            # 39.7 KiB reached (BENCHMARKS.md, "firmware board")
 RAM_BUDGET = 16 * 1024
 APP_START = 0x4000                      # memory.x FLASH ORIGIN
 RAM = (0x2000_0000, 0x2000_8000)        # 32 KiB SRAM

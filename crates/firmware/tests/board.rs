@@ -25,7 +25,8 @@ mod tests {
     use crate::board::flash_log::{FlashError, FlashLog, NorFlash, SLOT_LEN};
     use crate::board::gpio::PortPin;
     use crate::board::regs::pac;
-    use crate::board::{dataflash::DataFlash, pins, pwm, time, uart, wdt};
+    use crate::board::regs::rd;
+    use crate::board::{dataflash::DataFlash, lvd, pins, pwm, time, uart, wdt};
     use crate::on_target::{self, get, put, Board};
     use firmware::hw::StateStore as _;
     use firmware::StoredState;
@@ -172,6 +173,50 @@ mod tests {
         assert!(baud.abs_diff(115_200) <= 1_152, "{baud} Bd");
     }
 
+    /// The transmit interrupt entered late — held off by a critical section three character
+    /// times long, twenty times while 200 bytes go out — loses nothing: the line runs dry and
+    /// goes idle within the bytes' line time (each handler clears its ICU flag at entry; at its
+    /// end it would swallow the TXI its own TDR write raised, and the line would never idle).
+    #[test]
+    fn a_transmit_interrupt_entered_late_loses_nothing(b: Board) {
+        let mut link = uart::HostUart::new(b.clocks.pclka_hz, pins::HOST_TX, pins::HOST_RX);
+        assert_eq!(link.write(&[0x55u8; 200]), Ok(200));
+        for _ in 0..20 {
+            cortex_m::interrupt::free(|_| time::delay_us(260));
+            time::delay_us(100);
+        }
+        let t0 = on_target::ms();
+        while !link.idle() && on_target::ms().wrapping_sub(t0) < 100 {}
+        assert!(link.idle(), "the transmitter stopped with bytes queued");
+    }
+
+    /// The brown-out reset as `lvd::enable_brownout_reset` arms it (RA4M1 UM, LVD; FSP
+    /// `r_lvd`): LVD1CR0 = RN 0 (held in reset until VCC is back), RI 1 (reset), CMPE and RIE
+    /// on; the circuit on (LVCMPCR.LVD1E), level 3.84 V, no stale detection; arming twice (as
+    /// after a brown-out, with the monitor's registers kept) gives the same.
+    #[test]
+    fn the_brown_out_reset_holds_the_chip_until_vcc_is_back(_b: Board) {
+        for _ in 0..2 {
+            lvd::enable_brownout_reset();
+            assert_eq!(
+                rd!(pac::SYSTEM.lvd1cr0()) & 0xC5,
+                0x45,
+                "RN 0, RI 1, CMPE 1, RIE 1"
+            );
+            assert_ne!(rd!(pac::SYSTEM.lvcmpcr()) & (1 << 5), 0, "LVD1E");
+            assert_eq!(rd!(pac::SYSTEM.lvdlvlr()) & 0x1F, 0x03, "3.84 V");
+            assert_eq!(rd!(pac::SYSTEM.lvd1sr()) & 1, 0, "DET clear");
+        }
+    }
+
+    /// Starting the watchdog unmasks its reset in on-chip-debug mode (DBGSTOPCR.DBGSTOP_WDT and
+    /// DBGSTOP_IWDT = 0), so a board with a probe attached is guarded too.
+    #[test]
+    fn starting_the_watchdog_unmasks_it_in_debug_mode(b: Board) {
+        wdt::start(b.clocks.pclkb_hz);
+        assert_eq!(rd!(pac::DBG.dbgstopcr()) & 0b11, 0);
+    }
+
     /// The watchdog does not reset a board that feeds it (1 s fed: three timeouts), and resets
     /// a starved one after its timeout (349.5 ms at PCLKB 24 MHz: 345..=355 ms by the tick),
     /// which the next boot reports as a watchdog reset.
@@ -308,6 +353,31 @@ mod tests {
     #[test]
     fn a_panic_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
         on_target::provoke_fault(&b, || panic!("deliberate panic (on-target test)"));
+    }
+
+    /// A stack overflow (unbounded recursion, 256 bytes a frame) with the stack guard armed
+    /// (`board::stack`): the stack pointer monitor's NMI comes while `stack::RESERVE` bytes are
+    /// left, the handler drives every actuator line safe while the gripper keeps holding, and
+    /// the watchdog restarts the board. (Unguarded, the recursion would run through `.bss` and
+    /// `.data` and off the bottom of RAM.)
+    #[test]
+    fn a_stack_overflow_leaves_every_output_safe_then_the_watchdog_restarts(b: Board) {
+        on_target::provoke_fault(&b, overflow);
+    }
+
+    fn overflow() -> ! {
+        crate::board::stack::guard();
+        let n = deep(1_000_000);
+        panic!("returned from the recursion: {}", n)
+    }
+
+    #[inline(never)]
+    fn deep(n: u32) -> u32 {
+        let frame = core::hint::black_box([n; 64]);
+        if n == 0 {
+            return 0;
+        }
+        deep(n - 1).wrapping_add(core::hint::black_box(frame)[7])
     }
 
     /// The same for a HardFault (an undefined instruction).

@@ -7,7 +7,7 @@
 //! | A0 (P014, AN009) at 0 V | jumper A0–GND | jumper A0–GND |
 //! | A1 (P000, AN000) at 3.3 V | jumper A1–3V3 | jumper A1–3V3 |
 //! | A2 (P001, AN001) at 5 V | jumper A2–5V | jumper A2–5V |
-//! | a TM1637 display module | CLK to D0 (P301), DIO to D1 (P302), VCC 5V, GND | the same |
+//! | a TM1637 display module | CLK to D13 (P111), DIO to D1 (P302), VCC 5V, GND | CLK to D6 (P111), DIO to D1 (P302), VCC 5V, GND |
 //!
 //! ```text
 //! cargo test-board-fixture                                      # probe-rs

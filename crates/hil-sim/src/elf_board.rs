@@ -29,7 +29,7 @@ mod flash_log;
 /// The board's pins (`crates/firmware/src/board/pins.rs`), as `(port, pin)`.
 mod pin {
     pub const INLET: (usize, usize) = (1, 4);
-    pub const EXHAUST: (usize, usize) = (1, 11);
+    pub const EXHAUST: (usize, usize) = (3, 1);
     pub const GRIPPER: (usize, usize) = (1, 0);
     pub const BTN_UP: (usize, usize) = (1, 5);
     pub const BTN_DOWN: (usize, usize) = (1, 6);

@@ -19,8 +19,10 @@
 //! 0x4000 ([`Emulator::new`]): VTOR = 0x4000, MSP and PC from the application's vector table,
 //! PRIMASK = 1, HOCO at 48 MHz (option bytes OFS0 = 0xFFFF_FFFF: both watchdogs in register-
 //! start mode, OFS1 = 0xFFFF_CFDF: HOCO 48 MHz, voltage monitor 0 off), the clock dividers of
-//! the Arduino core, one flash wait state; on the WiFi board the bootloader's SCI9 interrupt
-//! links IELSR2/3 (TXI/TEI) are left set with their NVIC lines pending.
+//! the Arduino core, one flash wait state; the bootloader's interrupt links IELSR0..3 are left
+//! set (`arduino-renesas-bootloader`, `src/irq_table.c`: on the WiFi SCI9 TXI, TEI, RXI, ERI; on
+//! the Minima USBFS INT, RESUME, FIFO 0, FIFO 1), the first ones with IR and their NVIC lines
+//! pending.
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
@@ -42,6 +44,8 @@ pub use periph::port::PinDrive;
 pub use periph::system::ResetKind;
 use periph::{scs::exc, Why};
 
+/// The word the stack is painted with at power-on ([`Emulator::stack_high_water`]).
+pub const STACK_PAINT: u32 = 0x5AC3_5AC3;
 /// Code flash size (R7FA4M1AB: 256 KiB).
 pub const CODE_FLASH: u32 = 256 * 1024;
 /// SRAM base and size (32 KiB).
@@ -69,8 +73,12 @@ pub struct Options {
     pub board: Board,
     /// Data-flash program/erase times.
     pub flash_timing: FlashTiming,
-    /// Wiring of the TM1637 display, `(clk, dio)` as `(port, pin)`.
+    /// Wiring of the TM1637 display, `(clk, dio)` as `(port, pin)` (default: the board's pin
+    /// map, CLK P111, DIO P302).
     pub tm1637: Option<((usize, usize), (usize, usize))>,
+    /// A debug probe is attached (on-chip-debug mode: DBGSTOPCR's reset value masks the
+    /// watchdogs' resets). `ra4m1-run` sets it for test ELFs, as probe-rs runs them.
+    pub probe: bool,
 }
 
 impl Default for Options {
@@ -78,7 +86,8 @@ impl Default for Options {
         Self {
             board: Board::Wifi,
             flash_timing: FlashTiming::default(),
-            tm1637: Some(((3, 1), (3, 2))),
+            tm1637: Some(((1, 11), (3, 2))),
+            probe: false,
         }
     }
 }
@@ -157,45 +166,12 @@ fn elf_functions(elf: &[u8]) -> Vec<(u32, u32, String)> {
     f
 }
 
-/// A legacy-mangled Rust symbol (`_ZN…E`) as a path without its hash (`a::b::c`); any other
-/// name as it is. Enough to read a profile, not a full demangler.
+/// A Rust symbol (legacy `_ZN…E` or v0 `_R…`) demangled by `rustc-demangle`, without its hash
+/// (`a::b::c`); any other name as it is.
 fn demangle(name: &str) -> String {
-    let Some(mut rest) = name.strip_prefix("_ZN") else {
-        return name.to_string();
-    };
-    let mut parts = Vec::new();
-    while let Some(len_end) = rest.find(|c: char| !c.is_ascii_digit()) {
-        let Ok(len) = rest[..len_end].parse::<usize>() else {
-            break;
-        };
-        let Some(part) = rest.get(len_end..len_end + len) else {
-            break;
-        };
-        parts.push(part);
-        rest = &rest[len_end + len..];
-    }
-    if parts
-        .last()
-        .is_some_and(|h| h.len() == 17 && h.starts_with('h'))
-    {
-        parts.pop();
-    }
-    let path = parts.join("::");
-    [
-        ("$LT$", "<"),
-        ("$GT$", ">"),
-        ("$u20$", " "),
-        ("$C$", ","),
-        ("$RF$", "&"),
-        ("$u7b$", "{"),
-        ("$u7d$", "}"),
-        ("..", "::"),
-    ]
-    .iter()
-    .fold(path, |s, (from, to)| s.replace(from, to))
+    format!("{:#}", rustc_demangle::demangle(name))
 }
 
-/// Loads the PT_LOAD segments of a 32-bit ARM ELF into a code-flash image.
 fn load_elf(elf: &[u8]) -> Result<Vec<u8>, EmuError> {
     use object::read::elf::{ElfFile32, ProgramHeader};
     use object::Endianness;
@@ -271,6 +247,7 @@ impl Emulator {
             icu: Default::default(),
             scs: periph::scs::Scs::new(APP_BASE),
             wdt: Default::default(),
+            spmon: Default::default(),
             flash: periph::flash::Flash::new(),
             tm1637: tm1637::Tm1637::new(),
             wiring: Wiring {
@@ -280,6 +257,10 @@ impl Emulator {
             vcc_mv: 5000,
             reset_due: None,
             held_in_reset: false,
+            lvd_release_at: None,
+            irq_hold: (0, 0),
+            probe: options.probe,
+            parked: false,
             wakes: 0,
             wake_start_cycles: 0,
             max_awake_cycles: 0,
@@ -458,23 +439,61 @@ impl Emulator {
         m.sci.host_baud = host_baud;
         m.icu = Default::default();
         m.scs = periph::scs::Scs::new(APP_BASE);
-        if board == Board::Wifi {
+        {
+            // The bootloader's links (`src/irq_table.c`): the WiFi's SCI9 UART (TXI, TEI, RXI,
+            // ERI; its last transmission left TXI and TEI requesting), the Minima's USBFS (INT,
+            // RESUME, FIFO 0, FIFO 1; INT requesting).
             use periph::{event, icu::IR};
-            m.icu.ielsr[2] = u32::from(event::SCI9_TXI) | IR;
-            m.icu.ielsr[3] = u32::from(event::SCI9_TEI) | IR;
-            m.scs.pending = 0b1100;
+            let (links, requesting): ([u16; 4], u32) = match board {
+                Board::Wifi => (
+                    [
+                        event::SCI9_TXI,
+                        event::SCI9_TEI,
+                        event::SCI9_RXI,
+                        event::SCI9_ERI,
+                    ],
+                    0b0011,
+                ),
+                Board::Minima => (
+                    [
+                        event::USBFS_INT,
+                        event::USBFS_RESUME,
+                        event::USBFS_FIFO_0,
+                        event::USBFS_FIFO_1,
+                    ],
+                    0b0001,
+                ),
+            };
+            for (n, e) in links.into_iter().enumerate() {
+                let ir = if requesting & (1 << n) != 0 { IR } else { 0 };
+                m.icu.ielsr[n] = u32::from(e) | ir;
+            }
+            m.scs.pending = requesting;
         }
         m.wdt = Default::default();
+        m.spmon = Default::default();
         m.dbgstopcr = 3;
+        m.irq_hold = (0, 0);
+        m.lvd_release_at = None;
+        m.parked = false;
         m.flash.reset(now);
         m.asleep = false;
         m.reset_due = None;
         m.error = None;
         m.irq_check = true;
         if kind == ResetKind::PowerOn {
-            let zeros = vec![0u8; RAM.1 as usize];
+            // SRAM powers up with unknown contents; here zeros, and the stack (from the ELF's
+            // `_stack_end`, cortex-m-rt's end of the static RAM, to the top) painted with
+            // [`STACK_PAINT`] so that [`Emulator::stack_high_water`] can tell how deep it went.
+            let mut ram = vec![0u8; RAM.1 as usize];
+            if let Some(end) = self.symbol("_stack_end") {
+                let from = end.saturating_sub(RAM.0).min(RAM.1) as usize & !3;
+                for w in ram[from..].chunks_exact_mut(4) {
+                    w.copy_from_slice(&STACK_PAINT.to_le_bytes());
+                }
+            }
             self.uc
-                .mem_write(RAM.0.into(), &zeros)
+                .mem_write(RAM.0.into(), &ram)
                 .map_err(|e| cpu_err(e, 0))?;
         }
         let word = |a: u32| {
@@ -508,6 +527,32 @@ impl Emulator {
         uc.reg_write(RegisterARM::PC, u64::from(entry | 1))
             .map_err(|e| cpu_err(e, entry))?;
         self.resets.push(kind);
+        Ok(())
+    }
+
+    /// A second reset within the Arduino bootloader's 500 ms window after a reset that was not
+    /// a power-on (`arduino-renesas-bootloader`, `src/main.c`: the double-tap magic at
+    /// 0x2000_7FF0): the bootloader stays, the application does not start until a power cycle
+    /// (or a reset after the window). The pins as the parked bootloader drives them: P111 an
+    /// output, low (TinyUSB's `uno_r4` pin table, `board_init`, both boards), then its LED fade
+    /// from GPT PWM on LED_FADE_GPIO — GTIOC3A = P111 on the Minima (`Makefile.minima`),
+    /// GTIOC2B = P102 on the WiFi (`Makefile.wifi`); every other pin released.
+    pub fn park_in_bootloader(&mut self) -> Result<(), EmuError> {
+        self.reset(ResetKind::Software)?;
+        let board = self.options.board;
+        let m = self.m();
+        m.parked = true;
+        const PDR: u32 = 1 << 2;
+        const PMR: u32 = 1 << 16;
+        const PSEL_GPT: u32 = 0b00011 << 24;
+        m.port.pfs[1][11] = PDR;
+        let (port, pin) = match board {
+            Board::Minima => (1, 11),
+            Board::Wifi => (1, 2),
+        };
+        m.port.pfs[port][pin] = PMR | PSEL_GPT;
+        m.port.changed = true;
+        m.update_parts();
         Ok(())
     }
 
@@ -576,10 +621,20 @@ impl Emulator {
         out
     }
 
-    /// Sets the supply voltage (mV): below an armed voltage monitor 1 level, the chip resets
-    /// and stays in reset until it rises again.
+    /// Sets the supply voltage (mV): a fall below an armed voltage monitor 1 level resets the
+    /// chip, which is released as LVD1CR0.RN says ([`periph::system`]).
     pub fn set_vcc_mv(&mut self, mv: u32) {
         self.m().vcc_mv = mv;
+    }
+
+    /// Holds NVIC interrupt line `line` off for `ns` of virtual time from now: its requests
+    /// stay pending but are not taken, as when a handler of higher priority or a critical
+    /// section delays it; then it is taken as usual. For scenarios of a handler entered late.
+    pub fn hold_irq(&mut self, line: u32, ns: u64) {
+        let now = self.machine().now;
+        let m = self.m();
+        m.scs.held |= 1 << line;
+        m.irq_hold = (m.scs.held, now + clock::ns_to_ticks(ns));
     }
 
     /// Drives `P<port><pin>` from outside (`None`: leaves it open).
@@ -701,6 +756,11 @@ impl Emulator {
         self.uc.reg_read(RegisterARM::SP).unwrap_or(0) as u32
     }
 
+    /// Sets the main stack pointer (a stack that has grown to `sp`, for tests of a guard).
+    pub fn set_sp(&mut self, sp: u32) {
+        let _ = self.uc.reg_write(RegisterARM::SP, sp.into());
+    }
+
     /// Reads memory as the CPU sees it (RAM or flash; `None` elsewhere).
     pub fn read_u32(&self, addr: u32) -> Option<u32> {
         let mut b = [0u8; 4];
@@ -752,6 +812,24 @@ impl Emulator {
         out
     }
 
+    /// The deepest the main stack has reached since the last power-on, bytes below its top
+    /// (`_stack_start`): the lowest word from `_stack_end` up that no longer holds the paint
+    /// of the power-on. `None` without cortex-m-rt's stack symbols. (A word the program wrote
+    /// with the paint's own value would be missed: the figure is exact up to such a word.)
+    pub fn stack_high_water(&self) -> Option<u32> {
+        let (end, top) = (self.symbol("_stack_end")?, self.symbol("_stack_start")?);
+        let mut a = (end + 3) & !3;
+        while a < top && self.read_u32(a) == Some(STACK_PAINT) {
+            a += 4;
+        }
+        Some(top - a)
+    }
+
+    /// The stack's room: `_stack_start − _stack_end`, bytes.
+    pub fn stack_size(&self) -> Option<u32> {
+        Some(self.symbol("_stack_start")? - self.symbol("_stack_end")?)
+    }
+
     /// The address of the ELF symbol `name`.
     pub fn symbol(&self, name: &str) -> Option<u32> {
         self.symbols.get(name).copied()
@@ -779,14 +857,27 @@ impl Emulator {
             if self.machine().exit_code.is_some() {
                 return Ok(());
             }
+            if self.machine().parked {
+                let m = self.m();
+                m.now = m.now.max(end);
+                return Ok(());
+            }
             if self.machine().held_in_reset {
                 let m = self.m();
                 let level = m.sys.lvd1_reset_level_mv().unwrap_or(0);
-                if m.vcc_mv < level {
-                    m.now = m.now.max(end);
-                    return Ok(());
+                if m.lvd_release_at.is_none() && m.vcc_mv >= level {
+                    // RN = 0: released tLVD1 after VCC is back above Vdet1.
+                    m.lvd_release_at = Some(m.now + clock::ns_to_ticks(periph::system::T_LVD1_NS));
+                }
+                match m.lvd_release_at {
+                    Some(t) if t <= end => m.now = m.now.max(t),
+                    _ => {
+                        m.now = m.now.max(end);
+                        return Ok(());
+                    }
                 }
                 m.held_in_reset = false;
+                m.lvd_release_at = None;
                 // Released: the bootloader runs again and jumps to the application.
                 let old = m.sys.clone();
                 self.reset(ResetKind::BrownOut)?;
@@ -861,9 +952,15 @@ impl Emulator {
         if kind == ResetKind::BrownOut {
             let old = self.machine().sys.clone();
             self.reset(kind)?;
+            let now = self.machine().now;
             let m = self.m();
             m.sys.keep_lvd_from(&old);
             m.held_in_reset = true;
+            // RN = 1: released tLVD1 after the assertion, whatever VCC is.
+            m.lvd_release_at = m
+                .sys
+                .lvd1_negation_after_assertion()
+                .then(|| now + clock::ns_to_ticks(periph::system::T_LVD1_NS));
             let _ = end;
             return Ok(());
         }
@@ -953,6 +1050,7 @@ impl Emulator {
         let m = self.m();
         match e {
             exc::HARD_FAULT => m.scs.hardfault_pending = false,
+            exc::NMI => m.scs.nmi_pending = false,
             exc::SYSTICK => m.scs.systick_pending = false,
             _ => m.scs.pending &= !(1 << (e - exc::IRQ0)),
         }
@@ -991,6 +1089,18 @@ fn block_hook(uc: &mut Unicorn<'_, Machine>, addr: u64, size: u32) {
         let _ = uc.emu_stop();
         return;
     }
+    if m.spmon.enabled() {
+        let sp = uc.reg_read(RegisterARM::SP).unwrap_or(0) as u32;
+        let m = uc.get_data_mut();
+        if m.spmon.check(sp) && m.icu.nmi(12) {
+            // NMISR.SPEST: the NMI, taken before this block.
+            m.scs.nmi_pending = true;
+            m.stopped = true;
+            let _ = uc.emu_stop();
+            return;
+        }
+    }
+    let m = uc.get_data_mut();
     if m.irq_check {
         m.irq_check = false;
         let candidate = m
@@ -1260,4 +1370,21 @@ fn intr_hook(uc: &mut Unicorn<'_, Machine>, intno: u32) {
     }
     m.stopped = true;
     let _ = uc.emu_stop();
+}
+
+#[cfg(test)]
+mod tests {
+    /// Legacy symbols lose their hash; generics and escapes are written out; C names pass.
+    #[test]
+    fn symbols_demangle_to_their_paths() {
+        assert_eq!(
+            super::demangle("_ZN8firmware10controller10Controller8progress17h0123456789abcdefE"),
+            "firmware::controller::Controller::progress"
+        );
+        assert_eq!(
+            super::demangle("_ZN4core3ptr50drop_in_place$LT$firmware..hw..Shell$LT$u8$GT$$GT$17h0123456789abcdefE"),
+            "core::ptr::drop_in_place<firmware::hw::Shell<u8>>"
+        );
+        assert_eq!(super::demangle("memcpy"), "memcpy");
+    }
 }

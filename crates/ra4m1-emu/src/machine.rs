@@ -41,6 +41,8 @@ pub enum Page {
     Scs,
     /// DBG: DBGSTR, DBGSTOPCR (no debugger is attached to the emulated chip).
     Dbg,
+    /// MPU page: the CPU stack pointer monitor (SPMON at 0xD00).
+    Mpu,
 }
 
 /// The GTIOC pins of the board's timer channels: (port, pin, GPT channel, output B). A read of
@@ -65,6 +67,7 @@ pub const PAGES: &[(u32, u32, Page)] = &[
     (0xE000_1000, 0x1000, Page::Dwt),
     (0xE000_E000, 0x1000, Page::Scs),
     (0x4001_B000, 0x1000, Page::Dbg),
+    (0x4000_0000, 0x1000, Page::Mpu),
 ];
 
 /// How the board around the chip is wired for the emulator's parts.
@@ -130,6 +133,8 @@ pub struct Machine {
     pub scs: Scs,
     /// WDT.
     pub wdt: Wdt,
+    /// The stack pointer monitor.
+    pub spmon: periph::spmon::Spmon,
     /// Data flash.
     pub flash: Flash,
     /// The display part.
@@ -142,8 +147,20 @@ pub struct Machine {
     pub vcc_mv: u32,
     /// A reset the hardware decided (WDT underflow, LVD, AIRCR).
     pub reset_due: Option<ResetKind>,
-    /// Held in reset by the voltage monitor until VCC recovers.
+    /// Held in reset by voltage monitor 1 (see [`periph::system`]).
     pub held_in_reset: bool,
+    /// When voltage monitor 1 releases the reset (ticks), once that is decided: at the
+    /// assertion with LVD1CR0.RN = 1, when VCC is back above Vdet1 with RN = 0.
+    pub lvd_release_at: Option<u64>,
+    /// NVIC lines held off (not delivered though pending) and until when, ticks
+    /// ([`crate::Emulator::hold_irq`]).
+    pub irq_hold: (u32, u64),
+    /// Parked in the bootloader ([`crate::Emulator::park_in_bootloader`]): the application
+    /// does not run until the next reset.
+    pub parked: bool,
+    /// A debug probe is attached: the chip is in on-chip-debug mode, where DBGSTOPCR masks
+    /// the watchdogs' resets (DBGSTOP_WDT, DBGSTOP_IWDT; reset value 1 = masked).
+    pub probe: bool,
     /// Count of loop passes (wake-ups) and the longest awake stretch, cycles.
     pub wakes: u64,
     /// Awake cycles at the last wake-up.
@@ -165,7 +182,7 @@ pub struct Machine {
     /// SYS_GET_CMDLINE calls so far.
     pub cmdline_requests: u32,
     /// DBGSTOPCR (reset value 3: WDT and IWDT resets masked in on-chip-debug mode, which the
-    /// emulated chip never is in).
+    /// emulated chip is in when [`Machine::probe`] is set).
     pub dbgstopcr: u32,
 }
 
@@ -233,6 +250,10 @@ impl Machine {
             Page::Faci => self.flash.read(base, off, size, now),
             Page::FaciEntry => self.flash.read(base, off, size, now),
             Page::Dwt => self.scs.dwt_read(off, size, self.awake_cycles),
+            Page::Mpu => match off {
+                0xD00..=0xD0F => self.spmon.read(off - 0xD00, size),
+                _ => Err(Why::Unmodelled),
+            },
             Page::Dbg => match (off, size) {
                 (0x00, 4) => Ok(0),
                 (0x10, 4) => Ok(self.dbgstopcr),
@@ -305,6 +326,10 @@ impl Machine {
             }
             Page::Faci | Page::FaciEntry => self.flash.write(base, off, size, v, now)?,
             Page::Dwt => self.scs.dwt_write(off, size, v, self.awake_cycles)?,
+            Page::Mpu => match off {
+                0xD00..=0xD0F => self.spmon.write(off - 0xD00, size, v)?,
+                _ => return Err(Why::Unmodelled),
+            },
             Page::Dbg => match (off, size) {
                 (0x10, 4) => self.dbgstopcr = v & 0x0307_0003,
                 _ => return Err(Why::Unmodelled),
@@ -400,6 +425,7 @@ impl Machine {
             self.sci.next_event(),
             self.adc.done_at,
             self.flash.next_event(),
+            (self.irq_hold.0 != 0).then_some(self.irq_hold.1),
             if self.asleep && self.wdt.stops_in_sleep() {
                 None
             } else {
@@ -419,7 +445,13 @@ impl Machine {
         let now = self.now;
         let counting = !(self.asleep && self.wdt.stops_in_sleep());
         if self.wdt.advance(now, counting) {
-            self.reset_due = Some(ResetKind::Watchdog);
+            if self.probe && self.dbgstopcr & 0b10 != 0 {
+                // On-chip-debug mode with DBGSTOP_WDT = 1: the underflow's reset is masked;
+                // the counter stays at 0 until the next refresh.
+                self.wdt.masked_underflow();
+            } else {
+                self.reset_due = Some(ResetKind::Watchdog);
+            }
         }
         if let Some(mut t) = self.scs.syst_next {
             if self.scs.syst_csr & 1 != 0 {
@@ -438,10 +470,13 @@ impl Machine {
         self.sync_sci();
         self.adc.advance(now);
         self.flash.advance(now);
-        if let Some(level) = self.sys.lvd1_reset_level_mv() {
-            if self.vcc_mv < level {
-                self.reset_due = Some(ResetKind::BrownOut);
-            }
+        if self.sys.lvd1_compare(self.vcc_mv) {
+            self.reset_due = Some(ResetKind::BrownOut);
+        }
+        if self.irq_hold.0 != 0 && now >= self.irq_hold.1 {
+            self.scs.held = 0;
+            self.irq_hold = (0, 0);
+            self.irq_check = true;
         }
     }
 }

@@ -119,9 +119,11 @@ fn limp_servo_lines_are_driven_low_not_released() {
 #[test]
 fn the_bootloaders_interrupt_state_is_cleared_and_the_wdt_counts_in_sleep() {
     let mut emu = board(Options::default());
-    // Before the first instruction: the WiFi bootloader's SCI9 links with their lines pending.
-    assert_ne!(emu.machine().icu.ielsr[2] & (1 << 16), 0);
-    assert_ne!(emu.machine().scs.pending & 0b1100, 0);
+    // Before the first instruction: the WiFi bootloader's SCI9 links (IELSR0..3: TXI, TEI,
+    // RXI, ERI), TXI and TEI requesting with their lines pending.
+    assert_eq!(emu.machine().icu.ielsr[0], 0xA9 | (1 << 16));
+    assert_eq!(emu.machine().icu.ielsr[2] & 0x1FF, 0xA8);
+    assert_ne!(emu.machine().scs.pending & 0b0011, 0);
     emu.run_until_ns(100_000_000).unwrap();
     let m = emu.machine();
     for n in 4..32 {
@@ -133,7 +135,7 @@ fn the_bootloaders_interrupt_state_is_cleared_and_the_wdt_counts_in_sleep() {
         "no stale pending line: {:#x}",
         m.scs.pending
     );
-    assert_eq!(m.icu.ielsr[2] & (1 << 16), 0, "IELSR2.IR");
+    assert_eq!(m.icu.ielsr[0] & (1 << 16), 0, "IELSR0.IR");
     assert!(!m.wdt.stops_in_sleep(), "WDTCSTPR.SLCSTP must be 0");
     assert!(m.wdt.running);
 }
@@ -159,7 +161,7 @@ fn a_hard_fault_makes_every_output_safe_then_the_watchdog_restarts_and_says_so()
     emu.inject_hard_fault();
     let t = emu.now_ns();
     emu.run_until_ns(t + 1_000_000).unwrap();
-    for (port, pin) in [(1, 4), (1, 11)] {
+    for (port, pin) in [(1, 4), (3, 1)] {
         assert_eq!(
             emu.pin_drive(port, pin),
             PinDrive::Low,
@@ -181,19 +183,136 @@ fn a_hard_fault_makes_every_output_safe_then_the_watchdog_restarts_and_says_so()
     assert_eq!(info.reset_cause, protocol::messages::ResetCause::Watchdog);
 }
 
+/// Brown-out (voltage monitor 1, `board/lvd.rs`): the board is held in reset for as long as
+/// VCC is below Vdet1 — sampled every 0.1 ms over 20 ms, it never runs (LVD1CR0.RN = 0; with
+/// RN = 1 the chip would restart 0.2 ms after the reset asserted and run on the low supply) —
+/// is released once VCC is back, reports the brown-out, and is guarded again: the monitor's
+/// registers survive its reset (LVD1E still set, DET latched), so the boot re-arms it in the
+/// manual's order, and a second sag resets and holds it again.
 #[test]
 fn a_brown_out_holds_the_board_in_reset_and_is_reported() {
     let mut emu = board(Options::default());
     hello_info(&mut emu);
+    for round in 1..=2 {
+        let t = emu.now_ns();
+        emu.set_vcc_mv(3_500);
+        emu.run_until_ns(t + 1_000_000).unwrap();
+        for k in 0..200 {
+            emu.run_until_ns(emu.now_ns() + 100_000).unwrap();
+            assert!(
+                emu.machine().held_in_reset,
+                "round {round}: running at {} µs after the sag (VCC < Vdet1)",
+                k * 100 + 1_000
+            );
+        }
+        let brown_outs = emu
+            .resets()
+            .iter()
+            .filter(|&&r| r == ra4m1_emu::ResetKind::BrownOut)
+            .count();
+        assert!(brown_outs >= round, "round {round}: {:?}", emu.resets());
+        emu.set_vcc_mv(5_000);
+        let info = hello_info(&mut emu);
+        assert_eq!(info.reset_cause, protocol::messages::ResetCause::BrownOut);
+        assert!(!emu.machine().held_in_reset);
+    }
+}
+
+/// SCI9's transmit-data-empty handler entered late (held off for 3 character times while a
+/// response is going out, as a long critical section would): the handler clears its ICU
+/// flag first (`board/uart.rs`), so the TXI that its own TDR write raises at once on the idle
+/// shifter is not lost — the response completes and the link keeps answering. (Cleared at
+/// the end, that TXI is swallowed: the transmitter stops with TX_ACTIVE set, for good.)
+#[test]
+fn a_transmit_interrupt_entered_late_does_not_stop_the_link() {
+    const TXI_LINE: u32 = 2; // IEL2 ← SCI9_TXI (board/uart.rs)
+    let mut emu = board(Options::default());
+    let mut dec = FrameDecoder::default();
+    handshake(&mut emu, &mut dec);
+    for k in 0..5u16 {
+        let before = emu.machine().sci.tx_count;
+        send(&mut emu, 50 + k, RequestBody::GetStatus);
+        // Until the response is on the wire, then hold the TXI off for 3 frames (260 µs).
+        let end = emu.now_ns() + 50_000_000;
+        while emu.machine().sci.tx_count < before + 2 && emu.now_ns() < end {
+            emu.run_until_ns(emu.now_ns() + 10_000).unwrap();
+        }
+        assert!(
+            emu.machine().sci.tx_count > before,
+            "request {k}: no answer started"
+        );
+        emu.hold_irq(TXI_LINE, 260_000);
+        assert!(
+            wait_for(&mut emu, &mut dec, 100, |m| matches!(
+                m,
+                DeviceMessage::Response { seq, .. } if *seq == 50 + k
+            ))
+            .is_some(),
+            "status {k} not answered after a late TXI"
+        );
+    }
+}
+
+/// With a debug probe attached (on-chip-debug mode, where DBGSTOPCR's reset value masks the
+/// watchdog's reset), the board binary still has its watchdog: it clears DBGSTOP_WDT at boot,
+/// so a board halted by a fault is restarted within the 350 ms timeout.
+#[test]
+fn the_watchdog_guards_the_board_with_a_probe_attached() {
+    let mut emu = board(Options {
+        probe: true,
+        ..Options::default()
+    });
+    hello_info(&mut emu);
+    assert_eq!(
+        emu.machine().dbgstopcr & 0b11,
+        0,
+        "DBGSTOP_WDT/IWDT cleared"
+    );
+    emu.inject_hard_fault();
     let t = emu.now_ns();
-    emu.set_vcc_mv(3_500);
-    emu.run_until_ns(t + 20_000_000).unwrap();
-    assert_eq!(emu.resets(), &[ra4m1_emu::ResetKind::BrownOut]);
-    assert!(emu.machine().held_in_reset, "held while VCC < Vdet1");
-    emu.set_vcc_mv(5_000);
-    let info = hello_info(&mut emu);
-    assert_eq!(info.reset_cause, protocol::messages::ResetCause::BrownOut);
-    assert!(!emu.machine().held_in_reset);
+    emu.run_until_ns(t + 400_000_000).unwrap();
+    assert_eq!(emu.resets(), &[ra4m1_emu::ResetKind::Watchdog]);
+}
+
+/// The board parked in the bootloader (a second reset within its 500 ms window,
+/// `arduino-renesas-bootloader` `src/main.c`): the bootloader drives P111 (low, and on the
+/// Minima fades it from GTIOC3A) and on the WiFi fades P102; no actuator of the board's pin map
+/// (`board/pins.rs`) is on those pins, so every actuator line is released: the valves' gate
+/// pull-downs keep them closed, the servos get no pulse, the gripper's pull-up keeps it closed.
+#[test]
+fn a_board_parked_in_the_bootloader_drives_no_actuator() {
+    use ra4m1_emu::PinDrive;
+    // board/pins.rs: inlet P104, exhaust P301, gripper P100, servos P304, P303, P101.
+    const ACTUATORS: [(usize, usize); 6] = [(1, 4), (3, 1), (1, 0), (3, 4), (3, 3), (1, 1)];
+    for b in [ra4m1_emu::Board::Minima, ra4m1_emu::Board::Wifi] {
+        let mut emu = board(Options {
+            board: b,
+            ..Options::default()
+        });
+        hello_info(&mut emu);
+        emu.park_in_bootloader().unwrap();
+        let t = emu.now_ns();
+        emu.run_until_ns(t + 1_000_000_000).unwrap();
+        let fade = if b == ra4m1_emu::Board::Minima {
+            (1, 11)
+        } else {
+            (1, 2)
+        };
+        assert!(
+            matches!(emu.pin_drive(fade.0, fade.1), PinDrive::Peripheral { .. }),
+            "{b:?}: the bootloader fades its LED pin"
+        );
+        for (port, pin) in ACTUATORS {
+            assert!(
+                matches!(emu.pin_drive(port, pin), PinDrive::Released { .. }),
+                "{b:?}: actuator P{port}{pin:02} is {:?} in the parked bootloader",
+                emu.pin_drive(port, pin)
+            );
+        }
+        // A power cycle leaves the bootloader (no double-tap magic after a power-on reset).
+        emu.power_cycle().unwrap();
+        hello_info(&mut emu);
+    }
 }
 
 /// A probe that put the RTT channel in blocking mode and went away with the buffer full: with
@@ -287,4 +406,38 @@ fn the_gripper_never_opens_across_a_watchdog_reset_or_a_brown_out() {
         PinDrive::High,
         "driven closed again"
     );
+}
+
+/// The stack guard of the board binary (`board/stack.rs`): the stack pointer monitor is armed
+/// at boot over the stack less its bottom 512 bytes; a main stack grown below that limit (the
+/// SP set there between two blocks of the running loop, as an overflow would leave it) raises
+/// the monitor's NMI at once, whose handler drives every actuator line safe; the watchdog then
+/// restarts the board. Also the stack's high-water mark of an idle second, by the paint.
+#[test]
+fn a_stack_overflow_is_caught_by_the_stack_pointer_monitor() {
+    use ra4m1_emu::PinDrive;
+    let mut emu = board(Options::default());
+    hello_info(&mut emu);
+    let m = emu.machine();
+    assert!(m.spmon.enabled(), "the monitor is armed at boot");
+    let end = emu.symbol("_stack_end").expect("cortex-m-rt's _stack_end");
+    assert_eq!(m.spmon.sa, end + 512);
+    assert_eq!(m.spmon.ea, 0x2000_7FFF);
+    let used = emu.stack_high_water().expect("painted");
+    let room = emu.stack_size().expect("stack symbols");
+    eprintln!("stack: {used} of {room} bytes used after boot and a handshake");
+    assert!(used > 1_000 && used < room - 512, "{used}");
+    emu.set_sp(end + 400);
+    let t = emu.now_ns();
+    emu.run_until_ns(t + 1_000_000).unwrap();
+    assert_ne!(emu.machine().icu.nmisr & (1 << 12), 0, "NMISR.SPEST");
+    for (port, pin) in [(1, 4), (3, 1), (3, 4), (3, 3), (1, 1)] {
+        assert_eq!(
+            emu.pin_drive(port, pin),
+            PinDrive::Low,
+            "P{port}{pin:02} safe"
+        );
+    }
+    emu.run_until_ns(t + 400_000_000).unwrap();
+    assert_eq!(emu.resets(), &[ra4m1_emu::ResetKind::Watchdog]);
 }

@@ -46,7 +46,8 @@ fn main() -> ! {
     let Some(mut cp) = cortex_m::Peripherals::take() else {
         halt()
     };
-    // The bootloader's interrupt links (IELSR2/3 select SCI9 on the WiFi) and NVIC state go
+    // The bootloader's interrupt links (IELSR0..3: SCI9 on the WiFi, USBFS on the Minima) and
+    // NVIC state go
     // before anything is configured.
     board::irq::clear_bootloader_state(&mut cp.NVIC);
     if !board::gpio::self_check() {
@@ -61,6 +62,7 @@ fn main() -> ! {
     let reset = board::wdt::take_reset_cause();
     let wdt_ms = board::wdt::start(clocks.pclkb_hz);
     board::lvd::enable_brownout_reset();
+    board::stack::guard();
     info!(
         "uno-r4: {} reset {=str} wdt {} ms",
         clocks,
@@ -177,6 +179,13 @@ fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
 #[exception]
 unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
     board::safe::fault(|| error!("hard fault at pc {=u32:#010x}", ef.pc()))
+}
+
+/// The stack pointer monitor (`board::stack`): the stack overflowed into its last
+/// `board::stack::RESERVE` bytes. The safe state, then the watchdog.
+#[exception]
+unsafe fn NonMaskableInt() {
+    board::safe::fault(|| error!("stack overflow (stack pointer monitor)"))
 }
 
 /// An exception or interrupt nobody configured (every unused vector): the safe state, then

@@ -1,6 +1,7 @@
 //! Interrupt state left by the bootloader. The Arduino bootloader hands over with its own
-//! ICU event links still set (on the UNO R4 WiFi IELSR2/3 select SCI9 TXI/TEI, the bridge's
-//! UART) and their NVIC lines possibly pending. Before any interrupt is unmasked, every link
+//! ICU event links still set (`arduino-renesas-bootloader`, `src/irq_table.c`: on the UNO R4
+//! WiFi IELSR0..3 select SCI9 TXI, TEI, RXI, ERI, the bridge's UART; on the Minima USBFS INT,
+//! RESUME, FIFO 0, FIFO 1) and their NVIC lines possibly pending. Before any interrupt is unmasked, every link
 //! is cleared (IELSRn = 0 also clears IR) and every NVIC line disabled and un-pended, so a
 //! handler only ever runs for a source this firmware configured (RA4M1 UM, "Interrupt
 //! Controller Unit": IELSRn; Cortex-M4 NVIC ICER/ICPR).

@@ -22,6 +22,7 @@
 //! - [`tm1637`]: the bit-banged four-digit display (`hw::SegmentDisplay`).
 //! - [`dataflash`]: the data flash through the flash sequencer ([`flash_log::NorFlash`]).
 //! - [`flash_log`]: the wear-aware record log (`hw::StateStore`).
+//! - [`stack`]: the stack guard (the CPU stack pointer monitor's NMI).
 //! - [`safe`]: the safe state of every actuator line for the fault handlers, then the watchdog.
 //! - [`log`]: the defmt macro shim (`log::info!` …) so nothing else names the backend.
 
@@ -37,6 +38,7 @@ pub mod pins;
 pub mod pwm;
 pub mod regs;
 pub mod safe;
+pub mod stack;
 pub mod time;
 pub mod tm1637;
 pub mod uart;

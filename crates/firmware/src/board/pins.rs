@@ -13,9 +13,10 @@ pub const SERVO2: PortPin = PortPin::new(1, 1);
 
 /// Inlet valve MOSFET gate, high = open (P104: WiFi D2, Minima D3).
 pub const INLET: PortPin = PortPin::new(1, 4);
-/// Exhaust valve MOSFET gate, high = open (P111: WiFi D6, Minima D13 = LED_BUILTIN, which the
-/// bootloader may blink: on this pin that can only vent, never inflate).
-pub const EXHAUST: PortPin = PortPin::new(1, 11);
+/// Exhaust valve MOSFET gate, high = open (P301: D0 on both boards). Not P111: the Minima's
+/// bootloader fades P111 (its LED_BUILTIN) for as long as it stays in the bootloader after a
+/// double reset, which on a valve vents the trunk (`docs/hardware.md`, "Bootloader").
+pub const EXHAUST: PortPin = PortPin::new(3, 1);
 /// Gripper driver, high = closed (P100: A5/SCL on both boards).
 pub const GRIPPER: PortPin = PortPin::new(1, 0);
 
@@ -32,8 +33,10 @@ pub const BTN_SHOW: PortPin = PortPin::new(0, 2);
 /// E-stop, normally-closed contact to ground (P112: WiFi D7, Minima D10).
 pub const BTN_ESTOP: PortPin = PortPin::new(1, 12);
 
-/// TM1637 CLK (P301: D0 on both boards).
-pub const TM_CLK: PortPin = PortPin::new(3, 1);
+/// TM1637 CLK (P111: WiFi D6, Minima D13 = LED_BUILTIN). The pin the bootloaders drive (low
+/// while they wait, faded on the Minima while parked): on the display's clock that only
+/// clocks nothing in (DIO stays high: no start condition).
+pub const TM_CLK: PortPin = PortPin::new(1, 11);
 /// TM1637 DIO (P302: D1 on both boards).
 pub const TM_DIO: PortPin = PortPin::new(3, 2);
 

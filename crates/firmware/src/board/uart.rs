@@ -35,7 +35,7 @@ const SLOT_RXI: usize = 0;
 const SLOT_ERI: usize = 1;
 const SLOT_TXI: usize = 2;
 const SLOT_TEI: usize = 3;
-/// IELSRn.IR: the slot's request flag, cleared by the handler.
+/// IELSRn.IR: the slot's request flag, cleared by the handler at its entry.
 const IELSR_IR: u32 = 1 << 16;
 
 /// SSR bits.
@@ -113,24 +113,31 @@ impl Ring {
     }
 }
 
+/// Clears the slot's request flag. Every handler does this first, as FSP's `r_sci_uart` ISRs
+/// do (`R_BSP_IrqStatusClear` at entry): an event that comes while IR is still 1 is no new
+/// request, so a flag cleared at the handler's end would swallow the event its own work raised
+/// — a TXI entered more than one character time late writes TDR to an idle shifter, which
+/// raises the next TXI at once; cleared afterwards, that TXI is lost, the transmitter stops
+/// with `TX_ACTIVE` set and nothing is sent again.
 fn clear_ir(slot: usize) {
     let v = rd!(pac::ICU.ielsr()[slot]);
     wr!(pac::ICU.ielsr()[slot], v & !IELSR_IR);
-    // The flag must read back cleared before returning, or the slot re-fires.
+    // The flag must read back cleared before the handler's work, or the NVIC sees it again.
     let _ = rd!(pac::ICU.ielsr()[slot]);
 }
 
 #[interrupt]
 fn IEL0() {
+    clear_ir(SLOT_RXI);
     let b = rd!(pac::SCI9.rdr());
     if !RX.push(b) {
         RX_DROPPED.fetch_add(1, Ordering::Relaxed);
     }
-    clear_ir(SLOT_RXI);
 }
 
 #[interrupt]
 fn IEL2() {
+    clear_ir(SLOT_TXI);
     // TDR is empty: the next byte, or (ring empty) wait for the end of the last one.
     match TX.pop() {
         Some(b) => wr!(pac::SCI9.tdr(), b),
@@ -139,11 +146,11 @@ fn IEL2() {
             wr!(pac::SCI9.scr(), (scr & !SCR_TIE) | SCR_TEIE);
         }
     }
-    clear_ir(SLOT_TXI);
 }
 
 #[interrupt]
 fn IEL3() {
+    clear_ir(SLOT_TEI);
     // The last byte has left: idle, unless `write` queued more since the ring ran dry.
     let scr = rd!(pac::SCI9.scr()) & !SCR_TEIE;
     match TX.pop() {
@@ -156,17 +163,16 @@ fn IEL3() {
             TX_ACTIVE.store(false, Ordering::Release);
         }
     }
-    clear_ir(SLOT_TEI);
 }
 
 #[interrupt]
 fn IEL1() {
+    clear_ir(SLOT_ERI);
     // Read RDR to discard the bad byte, then clear the error flags so reception resumes.
     let _ = rd!(pac::SCI9.rdr());
     let ssr = rd!(pac::SCI9.ssr());
     wr!(pac::SCI9.ssr(), ssr & !SSR_ERRORS);
     RX_DROPPED.fetch_add(1, Ordering::Relaxed);
-    clear_ir(SLOT_ERI);
 }
 
 /// The SCI9 host link.
@@ -204,6 +210,11 @@ impl HostUart {
         }
         wr!(pac::SCI9.scr(), SCR_TE | SCR_RE | SCR_RIE);
         Self(())
+    }
+
+    /// The transmitter has sent everything queued and stopped (`flush` would return).
+    pub fn idle(&self) -> bool {
+        !TX_ACTIVE.load(Ordering::Acquire)
     }
 
     /// Bytes lost so far (ring full or line errors).
@@ -281,7 +292,7 @@ impl embedded_io::Write for HostUart {
     }
 
     fn flush(&mut self) -> Result<(), Infallible> {
-        while TX_ACTIVE.load(Ordering::Acquire) {
+        while !self.idle() {
             core::hint::spin_loop();
         }
         Ok(())

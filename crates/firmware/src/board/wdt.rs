@@ -3,6 +3,13 @@
 //! reset on underflow — 350 ms at PCLKB = 24 MHz, counting in sleep mode too (WDTCSTPR). The
 //! main loop refreshes it every pass; the data-flash waits refresh it too.
 //!
+//! With a debug probe attached the chip is in on-chip-debug mode, where DBGSTOPCR's reset
+//! value (DBGSTOP_WDT = DBGSTOP_IWDT = 1) masks both watchdogs' resets: a board on the bench
+//! with a probe would run unguarded. [`start`] clears both bits, so the watchdog resets a hung
+//! board whether a probe is attached or not (no effect without one). A debugging session that
+//! halts at breakpoints builds with the feature `probe-masks-watchdog`, which keeps the mask
+//! (`docs/flashing.md`).
+//!
 //! The IWDT can only be started by the option bytes (OFS0.IWDTSTRT = 0, auto-start), which this
 //! project never writes. If whoever programmed them did start it, it is refreshed as well —
 //! otherwise it would reset the board on its own schedule.
@@ -96,6 +103,11 @@ pub fn start(pclkb_hz: u32) -> u32 {
         wr!(pac::WDT.wdtcr(), WDTCR);
         wr!(pac::WDT.wdtrcr(), WDTRCR_RESET);
         wr!(pac::WDT.wdtcstpr(), WDTCSTPR_COUNT_IN_SLEEP);
+    }
+    if !cfg!(feature = "probe-masks-watchdog") {
+        // DBGSTOPCR: DBGSTOP_IWDT (0) and DBGSTOP_WDT (1) = 0, the resets enabled in
+        // on-chip-debug mode too.
+        wr!(pac::DBG.dbgstopcr(), rd!(pac::DBG.dbgstopcr()) & !0b11);
     }
     feed();
     // In u32 (PCLKB ≥ 1 kHz on any clock tree): a u64 division would link 0.9 KiB of

@@ -284,6 +284,16 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     semihosting::process::abort()
 }
 
+/// The stack pointer monitor's NMI (`board::stack`), as the board binary handles it.
+#[cortex_m_rt::exception]
+unsafe fn NonMaskableInt() {
+    if FAULT_EXPECTED.swap(false, Ordering::SeqCst) {
+        board::safe::fault(observe)
+    }
+    defmt::error!("NMI (stack pointer monitor)");
+    semihosting::process::abort()
+}
+
 #[cortex_m_rt::exception]
 unsafe fn HardFault(ef: &cortex_m_rt::ExceptionFrame) -> ! {
     if FAULT_EXPECTED.swap(false, Ordering::SeqCst) {

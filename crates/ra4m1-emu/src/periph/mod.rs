@@ -10,6 +10,7 @@ pub mod icu;
 pub mod port;
 pub mod sci;
 pub mod scs;
+pub mod spmon;
 pub mod system;
 pub mod wdt;
 
@@ -79,6 +80,15 @@ pub mod event {
     pub const SCI9_TEI: u16 = 0xAA;
     /// SCI9 receive error.
     pub const SCI9_ERI: u16 = 0xAB;
-    /// LVD1 (voltage monitor 1 interrupt).
-    pub const LVD_LVD1: u16 = 0x0D;
+    /// USBFS interrupt (the Minima bootloader's link).
+    pub const USBFS_INT: u16 = 0x33;
+    /// USBFS resume.
+    pub const USBFS_RESUME: u16 = 0x34;
+    /// USBFS FIFO 0 transfer request.
+    pub const USBFS_FIFO_0: u16 = 0x31;
+    /// USBFS FIFO 1 transfer request.
+    pub const USBFS_FIFO_1: u16 = 0x32;
+    /// LVD1 (voltage monitor 1 interrupt): 0x19 (FSP `bsp_elc.h` for the RA4M1,
+    /// `ELC_EVENT_LVD_LVD1`).
+    pub const LVD_LVD1: u16 = 0x19;
 }

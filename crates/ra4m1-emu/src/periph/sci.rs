@@ -70,7 +70,9 @@ impl Sci {
         let tdre = u8::from(self.tdr.is_none()) << 7;
         let rdrf = u8::from(self.rdrf) << 6;
         let tend = u8::from(self.tdr.is_none() && self.tsr.is_none()) << 2;
-        tdre | rdrf | self.errors | tend | 0x02 // MPBT reads 0, MPB 1 (idle)
+        // MPB (1) and MPBT (0) read 0 outside multi-processor mode: idle SSR = 0x84 (TDRE,
+        // TEND), its reset value (UM "Serial Communications Interface", SSR).
+        tdre | rdrf | self.errors | tend
     }
 
     /// Ticks per bit at the current settings.
@@ -289,5 +291,25 @@ impl Sci {
             _ => return Err(Why::Unmodelled),
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// SSR reads 0x84 at reset and whenever the transmitter is idle (TDRE, TEND; MPB = 0).
+    #[test]
+    fn ssr_idle_value_is_0x84() {
+        let mut s = Sci::new();
+        assert_eq!(s.read(0x4, 1), Ok(0x84));
+        let mut ev = Vec::new();
+        s.write(0x1, 1, 51, 0, 48_000_000, &mut ev).unwrap();
+        s.write(0x2, 1, u32::from(TE), 0, 48_000_000, &mut ev)
+            .unwrap();
+        s.write(0x3, 1, 0x55, 0, 48_000_000, &mut ev).unwrap();
+        assert_eq!(s.read(0x4, 1), Ok(0x80), "shifting: TDRE, not TEND");
+        s.advance(u64::MAX / 2, 48_000_000, &mut ev);
+        assert_eq!(s.read(0x4, 1), Ok(0x84));
     }
 }

@@ -11,6 +11,8 @@ use super::{need, refuse, Why, R};
 pub const IRQS: usize = 32;
 /// Exception numbers.
 pub mod exc {
+    /// NMI (priority −2).
+    pub const NMI: u16 = 2;
     /// HardFault.
     pub const HARD_FAULT: u16 = 3;
     /// SysTick.
@@ -26,12 +28,17 @@ pub struct Scs {
     pub enabled: u32,
     /// NVIC pending bits.
     pub pending: u32,
+    /// Lines held off from outside (pending but not taken: a test's stand-in for a handler
+    /// entered late, see `Emulator::hold_irq`).
+    pub held: u32,
     /// NVIC priorities (upper nibble significant).
     pub ipr: [u8; IRQS],
     /// SysTick pending (ICSR.PENDSTSET).
     pub systick_pending: bool,
     /// HardFault pending.
     pub hardfault_pending: bool,
+    /// NMI pending (from the ICU's NMI sources).
+    pub nmi_pending: bool,
     /// Active exceptions, innermost last.
     pub active: Vec<u16>,
     /// VTOR.
@@ -71,9 +78,11 @@ impl Scs {
         Self {
             enabled: 0,
             pending: 0,
+            held: 0,
             ipr: [0; IRQS],
             systick_pending: false,
             hardfault_pending: false,
+            nmi_pending: false,
             active: Vec::new(),
             vtor,
             aircr_prigroup: 0,
@@ -100,6 +109,7 @@ impl Scs {
     /// Priority of exception `e` (lower is more urgent; HardFault is −1).
     pub fn priority(&self, e: u16) -> i16 {
         match e {
+            exc::NMI => -2,
             exc::HARD_FAULT => -1,
             4..=15 => i16::from(self.shpr[usize::from(e) - 4] & 0xF0),
             _ => i16::from(self.ipr[usize::from(e - exc::IRQ0)] & 0xF0),
@@ -114,13 +124,16 @@ impl Scs {
                 best = Some((e, p));
             }
         };
+        if self.nmi_pending {
+            consider(exc::NMI, -2);
+        }
         if self.hardfault_pending {
             consider(exc::HARD_FAULT, -1);
         }
         if self.systick_pending {
             consider(exc::SYSTICK, self.priority(exc::SYSTICK));
         }
-        let mut lines = self.pending & self.enabled;
+        let mut lines = self.pending & self.enabled & !self.held;
         while lines != 0 {
             let n = lines.trailing_zeros() as u16;
             lines &= lines - 1;

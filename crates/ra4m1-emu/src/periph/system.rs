@@ -12,8 +12,16 @@
 //! - Resets (UM "Resets"): RSTSR0 (PORF, LVD0RF, LVD1RF, LVD2RF), RSTSR1 (IWDTRF, WDTRF,
 //!   SWRF; write 0 after reading 1 to clear), RSTSR2 (CWSF).
 //! - Low Voltage Detection (UM "Low Voltage Detection (LVD)"): LVCMPCR, LVDLVLR, LVD1CR0,
-//!   LVD1CR1, LVD1SR: voltage monitor 1 compares VCC with Vdet1 and resets the chip (RI = 1)
-//!   while VCC is below it.
+//!   LVD1CR1, LVD1SR (DET 0, MON 1): voltage monitor 1 compares VCC with Vdet1; with RI = 1
+//!   a fall below Vdet1 sets LVD1SR.DET and asserts the voltage monitor 1 reset. Its release
+//!   follows LVD1CR0.RN (bit 7; FSP `lvd_negation_delay_t`, the PAC's `Lvdcr0::Rn`): RN = 0
+//!   releases it [`T_LVD1_NS`] after VCC is back above Vdet1 (the chip is held while VCC is
+//!   low), RN = 1 — the reset value — releases it [`T_LVD1_NS`] after it was asserted, whatever
+//!   VCC is; the chip then runs on the low supply and the monitor resets it again only after
+//!   VCC has risen above Vdet1 and fallen below it anew. The setting procedure (UM "Low Voltage
+//!   Detection", as FSP `r_lvd` follows it) is enforced: LVDLVLR is refused while LVCMPCR.LVD1E
+//!   = 1, and LVD1CR0.RIE going to 1 is refused while LVD1SR.DET = 1 (a stale detection would
+//!   fire at once). The monitor's registers, LVD1SR included, survive its own reset.
 
 use super::{need, refuse, sub_read, Clocks, Why, R};
 
@@ -27,6 +35,10 @@ pub const MSTP_BASE: u32 = 0x4004_7000;
 pub const VDET1_MV: [u32; 16] = [
     4290, 4140, 4020, 3840, 3100, 3000, 2900, 2790, 2680, 2580, 2480, 2200, 1960, 1860, 1750, 1650,
 ];
+
+/// The voltage monitor 1 reset's release delay tLVD1, ns. The model uses 0.2 ms, the order of
+/// the datasheet's figure; no test depends on its exact value.
+pub const T_LVD1_NS: u64 = 200_000;
 
 /// Why the chip last reset (RSTSR0/1 flags set by the hardware).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -114,6 +126,34 @@ impl System {
         self.lvdlvlr = old.lvdlvlr;
         self.lvd1cr0 = old.lvd1cr0;
         self.lvd1cr1 = old.lvd1cr1;
+        self.lvd1sr = old.lvd1sr;
+    }
+
+    /// LVD1CR0.RN: the reset is released a fixed time after it asserted (1), or after VCC is
+    /// back above Vdet1 (0).
+    pub fn lvd1_negation_after_assertion(&self) -> bool {
+        self.lvd1cr0 & (1 << 7) != 0
+    }
+
+    /// Voltage monitor 1's comparison with VCC (`vcc_mv`): returns true when it asserts its
+    /// reset now (armed as a reset, VCC has just fallen below Vdet1). Updates LVD1SR (MON:
+    /// VCC at or above Vdet1; DET: a fall was detected).
+    pub fn lvd1_compare(&mut self, vcc_mv: u32) -> bool {
+        let Some(level) = self.lvd1_reset_level_mv() else {
+            return false;
+        };
+        let above = vcc_mv >= level;
+        let was_above = self.lvd1sr & 0x02 != 0;
+        if above {
+            self.lvd1sr |= 0x02;
+            false
+        } else {
+            self.lvd1sr &= !0x02;
+            if was_above {
+                self.lvd1sr |= 0x01;
+            }
+            was_above
+        }
     }
 
     /// The clock frequencies in effect.
@@ -298,6 +338,12 @@ impl System {
             }
             0x418 => {
                 self.guard(PRC3, "LVDLVLR")?;
+                if self.lvcmpcr & (1 << 5) != 0 {
+                    return refuse(
+                        "LVDLVLR written while LVCMPCR.LVD1E = 1 (clear LVD1E first: UM \
+                         \"Low Voltage Detection\", FSP r_lvd)",
+                    );
+                }
                 if v & 0x1F > 0x0F {
                     return refuse(format!(
                         "LVDLVLR.LVD1LVL = {:#x} is a prohibited setting",
@@ -308,6 +354,12 @@ impl System {
             }
             0x41A => {
                 self.guard(PRC3, "LVD1CR0")?;
+                if v & 1 != 0 && self.lvd1cr0 & 1 == 0 && self.lvd1sr & 1 != 0 {
+                    return refuse(
+                        "LVD1CR0.RIE set while LVD1SR.DET = 1 (clear DET first: UM \
+                         \"Low Voltage Detection\", FSP r_lvd)",
+                    );
+                }
                 self.lvd1cr0 = v as u8 & 0xC7;
             }
             _ => return Err(Why::Unmodelled),
@@ -336,5 +388,50 @@ impl System {
             }
             _ => Err(Why::Unmodelled),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn armed(rn: bool) -> System {
+        let mut s = System::after_bootloader(48_000_000, ResetKind::PowerOn, 0);
+        s.write(0x3FE, 2, 0xA508).unwrap();
+        s.write(0x41A, 1, 0x40 | (u32::from(rn) << 7)).unwrap();
+        s.write(0x418, 1, 0x03).unwrap();
+        s.write(0x417, 1, 1 << 5).unwrap();
+        s.write(0x0E1, 1, 0).unwrap();
+        s.write(0x41A, 1, 0x41 | (u32::from(rn) << 7)).unwrap();
+        s.write(0x41A, 1, 0x45 | (u32::from(rn) << 7)).unwrap();
+        s
+    }
+
+    /// The reset asserts on the fall below Vdet1 (3.84 V for code 3), once: not again while
+    /// VCC stays low, again after it has risen and fallen anew; DET latches the fall.
+    #[test]
+    fn voltage_monitor_1_resets_on_each_fall_below_vdet1() {
+        let mut s = armed(false);
+        assert_eq!(s.lvd1_reset_level_mv(), Some(3_840));
+        assert!(!s.lvd1_compare(5_000));
+        assert!(s.lvd1_compare(3_800));
+        assert_eq!(s.read(0x0E1, 1), Ok(0x01), "DET = 1, MON = 0");
+        assert!(!s.lvd1_compare(3_700), "still low: no new assertion");
+        assert!(!s.lvd1_compare(3_900));
+        assert!(s.lvd1_compare(3_800));
+        assert!(!s.lvd1_negation_after_assertion());
+        assert!(armed(true).lvd1_negation_after_assertion());
+    }
+
+    /// The setting procedure: LVDLVLR only with LVD1E = 0, RIE only with DET = 0.
+    #[test]
+    fn the_setting_procedure_is_enforced() {
+        let mut s = armed(false);
+        assert!(s.write(0x418, 1, 0x03).is_err(), "LVDLVLR with LVD1E = 1");
+        assert!(s.lvd1_compare(3_000));
+        s.write(0x41A, 1, 0x40).unwrap();
+        assert!(s.write(0x41A, 1, 0x41).is_err(), "RIE with DET = 1");
+        s.write(0x0E1, 1, 0).unwrap();
+        assert_eq!(s.write(0x41A, 1, 0x41), Ok(()));
     }
 }

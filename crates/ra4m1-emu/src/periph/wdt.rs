@@ -1,8 +1,9 @@
 //! The watchdog timer WDT at 0x4004_4200 (UM "Watchdog Timer (WDT)"), register-start mode
 //! (OFS0.WDTSTRT = 1): WDTCR (TOPS 1..0: 1024/4096/8192/16384 cycles; CKS 7..4: PCLKB/4, /64,
 //! /128, /512, /2048, /8192; RPES/RPSS refresh window), WDTRCR (RSTIRQS 7: reset), WDTCSTPR
-//! (SLCSTP 7: stop counting in sleep mode; reset value 1), writable once before the first
-//! refresh; WDTRR (0x00 then 0xFF refreshes; the first refresh starts the counter); WDTSR
+//! (SLCSTP 7: stop counting in sleep mode; reset value 1; WDTRCR's reset value is 0x80, reset
+//! on underflow), each writable once after a reset and not after the first refresh (a second
+//! write is ignored, as the chip does); WDTRR (0x00 then 0xFF refreshes; the first refresh starts the counter); WDTSR
 //! (CNTVAL 13..0, UNDFF 14, REFEF 15). An underflow resets the chip (RSTSR1.WDTRF).
 //! The IWDT at 0x4004_4400 (UM "Independent Watchdog Timer") is modelled as stopped
 //! (OFS0.IWDTSTRT = 1): its refresh register accepts writes, its status reads 0.
@@ -31,19 +32,25 @@ pub struct Wdt {
     since: u64,
     /// Refreshes so far.
     pub refreshes: u64,
+    /// Underflowed with the reset masked (see [`Wdt::masked_underflow`]).
+    pub underflowed: bool,
+    /// WDTCR, WDTRCR, WDTCSTPR written since the reset (each takes one write).
+    written: [bool; 3],
 }
 
 impl Default for Wdt {
     fn default() -> Self {
         Self {
             wdtcr: 0x33F3,
-            wdtrcr: 0,
+            wdtrcr: 0x80,
             wdtcstpr: 0x80,
             armed: false,
             running: false,
             left: 0,
             since: 0,
             refreshes: 0,
+            underflowed: false,
+            written: [false; 3],
         }
     }
 }
@@ -71,7 +78,7 @@ impl Wdt {
     /// Moves the counter on to `now`; `counting`: the clock ran over `since..now` (awake, or
     /// asleep with SLCSTP = 0). Returns true on underflow.
     pub fn advance(&mut self, now: u64, counting: bool) -> bool {
-        if !self.running {
+        if !self.running || self.underflowed {
             self.since = now;
             return false;
         }
@@ -89,7 +96,13 @@ impl Wdt {
 
     /// Tick of the underflow if the clock keeps counting from `now`.
     pub fn deadline(&self) -> Option<u64> {
-        self.running.then(|| self.since + self.left)
+        (self.running && !self.underflowed).then(|| self.since + self.left)
+    }
+
+    /// The underflow happened with its reset masked (on-chip-debug mode): the counter stays
+    /// at 0 until a refresh.
+    pub fn masked_underflow(&mut self) {
+        self.underflowed = true;
     }
 
     /// A read at `off` (from WDT base).
@@ -118,12 +131,15 @@ impl Wdt {
 
     /// A write at `off`.
     pub fn write(&mut self, off: u32, size: u32, v: u32, now: u64, pclkb: u32) -> R<()> {
-        let once = |s: &Self, name: &str| -> R<()> {
+        // Register-start mode: each of WDTCR, WDTRCR, WDTCSTPR takes one write after the reset
+        // and none after the first refresh (UM "Watchdog Timer": the registers can be written
+        // once; FSP r_wdt: "configuration registers can only be written to once"). A later
+        // write is ignored by the chip: `Ok(false)`.
+        let once = |s: &mut Self, i: usize, name: &str| -> R<bool> {
             if s.running {
-                refuse(format!("{name} written after the WDT started (register-start mode: ignored by the chip)"))
-            } else {
-                Ok(())
+                return refuse(format!("{name} written after the WDT started (register-start mode: ignored by the chip)"));
             }
+            Ok(!std::mem::replace(&mut s.written[i], true))
         };
         match off {
             0x0 => {
@@ -135,6 +151,7 @@ impl Wdt {
                         self.left = self.period_ticks(pclkb)?;
                         self.since = now;
                         self.running = true;
+                        self.underflowed = false;
                         self.refreshes += 1;
                     }
                     _ => self.armed = false,
@@ -142,7 +159,9 @@ impl Wdt {
             }
             0x2 => {
                 need(size, 2, "WDTCR")?;
-                once(self, "WDTCR")?;
+                if !once(self, 0, "WDTCR")? {
+                    return Ok(());
+                }
                 if (v >> 8) & 3 != 3 || (v >> 12) & 3 != 3 {
                     return refuse(
                         "WDTCR refresh window (RPES/RPSS) other than 0 %–100 % is not modelled",
@@ -156,7 +175,9 @@ impl Wdt {
             }
             0x6 => {
                 need(size, 1, "WDTRCR")?;
-                once(self, "WDTRCR")?;
+                if !once(self, 1, "WDTRCR")? {
+                    return Ok(());
+                }
                 if v & 0x80 == 0 {
                     return refuse("WDTRCR.RSTIRQS = 0 (NMI on underflow) is not modelled");
                 }
@@ -164,11 +185,68 @@ impl Wdt {
             }
             0x8 => {
                 need(size, 1, "WDTCSTPR")?;
-                once(self, "WDTCSTPR")?;
+                if !once(self, 2, "WDTCSTPR")? {
+                    return Ok(());
+                }
                 self.wdtcstpr = v as u8 & 0x80;
             }
             _ => return Err(Why::Unmodelled),
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PCLKB: u32 = 24_000_000;
+
+    /// WDTRCR's reset value is 0x80 (RSTIRQS = 1: reset on underflow), WDTCSTPR's 0x80, WDTCR's
+    /// 0x33F3 (UM "Watchdog Timer", register descriptions).
+    #[test]
+    fn reset_values() {
+        let w = Wdt::default();
+        assert_eq!(w.read(0x6, 1, PCLKB), Ok(0x80));
+        assert_eq!(w.read(0x8, 1, PCLKB), Ok(0x80));
+        assert_eq!(w.read(0x2, 2, PCLKB), Ok(0x33F3));
+    }
+
+    /// Each configuration register takes one write after the reset; a second one is ignored
+    /// (not refused: the chip ignores it), and none is taken after the first refresh.
+    #[test]
+    fn configuration_registers_are_write_once() {
+        let mut w = Wdt::default();
+        let first = 0b01 | (0b0111 << 4) | (0b11 << 8) | (0b11 << 12);
+        let second = (0b0111 << 4) | (0b11 << 8) | (0b11 << 12);
+        assert_eq!(w.write(0x2, 2, first, 0, PCLKB), Ok(()));
+        assert_eq!(w.write(0x2, 2, second, 0, PCLKB), Ok(()));
+        assert_eq!(w.read(0x2, 2, PCLKB), Ok(first), "the first write holds");
+        assert_eq!(w.write(0x8, 1, 0x00, 0, PCLKB), Ok(()));
+        assert_eq!(w.write(0x8, 1, 0x80, 0, PCLKB), Ok(()));
+        assert_eq!(w.read(0x8, 1, PCLKB), Ok(0x00));
+        w.write(0x0, 1, 0x00, 0, PCLKB).unwrap();
+        w.write(0x0, 1, 0xFF, 0, PCLKB).unwrap();
+        assert!(w.running);
+        assert!(
+            w.write(0x6, 1, 0x80, 0, PCLKB).is_err(),
+            "after the first refresh"
+        );
+    }
+
+    /// A masked underflow (on-chip-debug mode) stops the count until the next refresh.
+    #[test]
+    fn a_masked_underflow_waits_for_a_refresh() {
+        let mut w = Wdt::default();
+        w.write(0x0, 1, 0x00, 0, PCLKB).unwrap();
+        w.write(0x0, 1, 0xFF, 0, PCLKB).unwrap();
+        let d = w.deadline().unwrap();
+        assert!(w.advance(d, true));
+        w.masked_underflow();
+        assert_eq!(w.deadline(), None);
+        assert!(!w.advance(d * 3, true));
+        w.write(0x0, 1, 0x00, d * 3, PCLKB).unwrap();
+        w.write(0x0, 1, 0xFF, d * 3, PCLKB).unwrap();
+        assert_eq!(w.deadline(), Some(d * 3 + d));
     }
 }

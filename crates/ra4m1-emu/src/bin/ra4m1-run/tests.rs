@@ -127,7 +127,7 @@ fn read_str<'a>(
 /// The stimulus fixture the emulated bench has fitted (the jumpers of `docs/flashing.md`):
 /// SCI9's TXD9 looped back to RXD9 (Minima: a jumper D11–D12; WiFi: the host echoes on the
 /// bridge's port), A0 (AN009) to GND, A1 (AN000) to 3V3, A2 (AN001) to 5 V (AVCC0), and a
-/// TM1637 display on D0 (CLK, P301) and D1 (DIO, P302).
+/// TM1637 display on CLK P111 (Minima D13, WiFi D6) and DIO P302 (D1).
 #[derive(Debug, Clone, Copy)]
 pub struct Fixture;
 
@@ -229,6 +229,8 @@ fn run_case(elf: &[u8], case: &Case, settings: Settings) -> Result<(), Failed> {
             board: settings.board,
             // The display module is part of the fixture; a bare board has none.
             tm1637: settings.fixture.and(Options::default().tm1637),
+            // probe-rs runs a test with its probe attached: on-chip-debug mode.
+            probe: true,
             ..Options::default()
         },
     )

@@ -14,5 +14,7 @@ pub mod plan;
 pub mod ports;
 pub mod serve;
 pub mod states;
+pub mod station;
 pub mod status;
 pub mod stop;
+pub mod sun;

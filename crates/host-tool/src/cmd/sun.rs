@@ -120,7 +120,7 @@ pub struct Args {
     #[command(flatten)]
     pub site: SiteArgs,
     /// One instant, RFC 3339 with its offset (e.g. 2025-06-21T12:00:00-04:00); or use --date.
-    #[arg(long, conflicts_with_all = ["date", "from", "to", "every"])]
+    #[arg(long, conflicts_with_all = ["date", "tz", "from", "to", "every"])]
     pub time: Option<String>,
     #[command(flatten)]
     pub day: DayArgs,

@@ -123,6 +123,9 @@ enum Command {
     Sun(cmd::sun::Args),
     /// The solar station: which top-module states face the sun through a day, and the refolds.
     Station(cmd::station::Args),
+    /// The bend that points the tip axis (a panel) at a direction or the sun, and the error
+    /// left; computed only, nothing is sent.
+    Aim(cmd::aim::Args),
     /// Files to make a trunk: crease pattern (SVG, DXF, FOLD), printable panel (3MF, STL), kit.
     Pattern(cmd::pattern::Args),
     /// A 3D model of a stack in given states: glTF, OBJ, STL (strain of infeasible states in red).
@@ -167,6 +170,7 @@ impl Command {
             Command::Ik(a) => a.json,
             Command::Sun(a) => a.json,
             Command::Station(a) => a.json,
+            Command::Aim(a) => a.json,
             Command::Plan(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
@@ -215,6 +219,7 @@ fn main() -> ExitCode {
         Command::Ik(args) => cmd::ik::run(args),
         Command::Sun(args) => cmd::sun::run(args),
         Command::Station(args) => cmd::station::run(args),
+        Command::Aim(args) => cmd::aim::run(args),
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),

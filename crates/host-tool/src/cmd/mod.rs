@@ -1,5 +1,6 @@
 //! One module per subcommand: `Args` (clap) and `run`.
 
+pub mod aim;
 pub mod declare;
 pub mod fk;
 pub mod identify;

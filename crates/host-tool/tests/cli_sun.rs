@@ -421,3 +421,35 @@ fn fk_frames_carry_unit_normals_and_their_compass_direction() {
     ]);
     assert!((east["frames"][0]["normal_azimuth_deg"].as_f64().unwrap() - 30.0).abs() < 1e-9);
 }
+
+#[test]
+fn aim_points_within_the_limit_names_a_better_state_and_refuses_a_set_sun() {
+    let v = json(&["aim", "-j", "--toward", "135,40", "--state", "F&D"]);
+    // 50° from vertical with a 30° limit: 20° left, bending towards azimuth 135° (base 315°).
+    assert!((v["error_deg"].as_f64().unwrap() - 20.0).abs() < 1e-9);
+    assert!((v["bend_deg"].as_f64().unwrap() - 30.0).abs() < 1e-12);
+    assert!((v["bend_direction_deg"].as_f64().unwrap() - 315.0).abs() < 1e-9);
+    assert!(v["better_state"].is_null());
+    let dd = json(&["aim", "-j", "--toward", "135,80", "--state", "D&D"]);
+    assert_eq!(dd["max_bend_deg"], 0.0);
+    assert!((dd["error_deg"].as_f64().unwrap() - 10.0).abs() < 1e-9);
+    assert!(dd["better_error_deg"].as_f64().unwrap() < 1e-9);
+    let out = host_tool(&[
+        "aim",
+        "--sun",
+        "--lat",
+        "37.2296",
+        "--lon",
+        "-80.4139",
+        "--time",
+        "2025-06-21T02:00-04:00",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("below the horizon"));
+    usage_error(&["aim", "--toward", "400,10"], "AZ,EL");
+    usage_error(&["aim", "--sun", "--lat", "37"], "--lon");
+    usage_error(
+        &["aim", "--toward", "10,10", "--state", "X&Y"],
+        "trunk state",
+    );
+}

@@ -406,6 +406,19 @@ impl CraneConfig {
         h.is_finite().then_some(h)
     }
 
+    /// The bend (tip angle, degrees) at full joystick deflection in `state`, and the largest
+    /// `Bend` the controller runs there: `joystick.max_bend_deg` with a folded module,
+    /// `joystick.stiff_max_bend_deg` without one (D&P). The controller bends only the flexible
+    /// states (`TrunkState::is_flexible`).
+    pub fn max_bend_deg(&self, state: TrunkState) -> f32 {
+        let folded = state.top == TopState::Folded || state.bottom == BottomState::Folded;
+        if folded {
+            self.joystick.max_bend_deg
+        } else {
+            self.joystick.stiff_max_bend_deg
+        }
+    }
+
     /// How far every tendon hangs slack in `state` at zero shortening: tendon lengths are
     /// measured from the slack position of the fully deployed trunk, so this is
     /// H(D&D) − H(state) (0 when a height is unknown).

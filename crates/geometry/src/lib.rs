@@ -21,6 +21,8 @@
 //!   (hyperfolded) module built in 3D, d = 0 with the 2n virtual creases of §3.1.2: measures
 //!   the hyperfold angle ζ (eq 13), the inner radius r_in (eq 14) and the strain.
 //! * [`fk`] — forward kinematics of a stack (eqs 33–35), tips in units of l.
+//! * [`orient`] — each module's top-face frame and outward normal ([`orient::top_faces`]), and
+//!   the base frame on the compass ([`orient::Heading`]: azimuth of base x, default 90° = ENU).
 //! * [`tendon`] — three-tendon constant-curvature bending and the joystick map.
 //! * [`trunk`] — the crane trunk's six states `F&P` … `D&D`.
 //!
@@ -65,6 +67,7 @@ pub mod construct;
 pub mod design;
 pub mod fk;
 pub mod hyperfold;
+pub mod orient;
 pub mod popout;
 pub mod pose;
 pub mod state;

@@ -787,3 +787,144 @@ mod tendon {
         }
     }
 }
+
+// ---------------------------------------------------------------- orientation (top faces)
+
+mod orientation {
+    use super::*;
+    use geometry::orient::{self, Heading};
+
+    /// Normal of the built top polygon by the cross product of two of its edges (independent
+    /// of how the frame's rotation is read).
+    fn built_top_normal(m: &Module3d) -> Vector3<f64> {
+        let t = m.top();
+        (t[1] - t[0]).cross(&(t[2] - t[0])).normalize()
+    }
+
+    #[test]
+    fn every_catalogue_state_tilts_its_top_face_by_gamma_towards_its_hinge_side() {
+        for (n, beta) in [
+            (3, golden_beta_deg()),
+            (4, 23.362132),
+            (6, 15.104295),
+            (3, 35.0),
+        ] {
+            let d = design(n, beta);
+            for s in d.shape_states() {
+                let pose = d.pose(s);
+                let face = orient::top_faces([pose]).next().unwrap();
+                assert!((face.normal.norm() - 1.0).abs() < 1e-12);
+                // The built top boundary lies in the face's plane, with the same normal.
+                let m = d.build(s);
+                for p in m.top() {
+                    assert!((p - face.origin).dot(&face.normal).abs() < EXACT, "{n} {s}");
+                }
+                let built = built_top_normal(&m);
+                assert!((built - face.normal.into_inner()).norm() < EXACT, "{n} {s}");
+                // Tilt γ; the normal leans towards the hinge side, at angle ψ − 90°.
+                assert!((face.tilt() - pose.gamma).abs() < 1e-9, "{n} {s}");
+                if pose.gamma > 1e-6 {
+                    let lean = face.normal.y.atan2(face.normal.x);
+                    let side = pose.psi - PI / 2.0;
+                    let diff = (lean - side).rem_euclid(2.0 * PI);
+                    assert!(diff < 1e-9 || 2.0 * PI - diff < 1e-9, "{n} {s}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn edge_and_vertex_pop_outs_face_their_edge_and_vertex() {
+        let d = design(3, golden_beta_deg());
+        for i in 0..3u8 {
+            let e = orient::top_normal([d.pose(ShapeState::Edge(i))]);
+            let edge_mid = (d.bottom_vertex(i as u32) + d.bottom_vertex((i as u32 + 1) % 3).coords)
+                .coords
+                / 2.0;
+            let lean = Vector3::new(e.x, e.y, 0.0).normalize();
+            assert!((lean - edge_mid.normalize()).norm() < 1e-9);
+            let v = orient::top_normal([d.pose(ShapeState::Vertex(i))]);
+            let lean = Vector3::new(v.x, v.y, 0.0).normalize();
+            assert!((lean - d.bottom_vertex(i as u32).coords.normalize()).norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_stack_tilts_by_the_sum_of_parallel_hinges_and_matches_the_chained_build() {
+        let d = design(3, golden_beta_deg());
+        let g = d.pose(ShapeState::Edge(1)).gamma;
+        let faces: Vec<_> = orient::top_faces([
+            d.pose(ShapeState::Deployed),
+            d.pose(ShapeState::Edge(1)),
+            d.pose(ShapeState::Edge(1)),
+        ])
+        .collect();
+        assert_eq!(faces.len(), 3);
+        assert!(faces[0].tilt() < 1e-12);
+        assert!((faces[1].tilt() - g).abs() < 1e-9);
+        assert!((faces[2].tilt() - 2.0 * g).abs() < 1e-9);
+        // Origins are fk's tips.
+        let tips: Vec<_> = fk::tips([
+            d.pose(ShapeState::Deployed),
+            d.pose(ShapeState::Edge(1)),
+            d.pose(ShapeState::Edge(1)),
+        ])
+        .collect();
+        for (f, t) in faces.iter().zip(&tips) {
+            assert!((f.origin - t).norm() < 1e-12);
+        }
+        // Mixed states: the chained 3D build's top polygon has the frame's normal.
+        let states = [
+            ShapeState::Vertex(0),
+            ShapeState::Edge(2),
+            ShapeState::Vertex(1),
+        ];
+        let mut frame = nalgebra::Isometry3::identity();
+        for (k, face) in orient::top_faces(states.map(|s| d.pose(s))).enumerate() {
+            let m = d.build(states[k]);
+            let top: Vec<Point3<f64>> = m.top().iter().map(|p| frame * p).collect();
+            let built = (top[1] - top[0]).cross(&(top[2] - top[0])).normalize();
+            assert!(
+                (built - face.normal.into_inner()).norm() < EXACT,
+                "module {k}"
+            );
+            frame *= d.pose(states[k]).isometry();
+        }
+        assert!(orient::top_normal(core::iter::empty()).z == 1.0);
+    }
+
+    #[test]
+    fn heading_places_base_x_on_the_compass() {
+        let east = Heading::default();
+        assert_eq!(east.deg(), 90.0);
+        let (az, el) = east.compass_of(&Vector3::x());
+        assert!((az - 90.0).abs() < 1e-12 && el.abs() < 1e-12);
+        let (az, _) = east.compass_of(&Vector3::y());
+        assert!(az.abs() < 1e-12 || (az - 360.0).abs() < 1e-12);
+        let north = Heading::from_deg(0.0).unwrap();
+        assert!((north.base_of(0.0, 0.0).into_inner() - Vector3::x()).norm() < 1e-12);
+        // y is 90° counter-clockwise of x seen from above: heading − 90°.
+        let h = Heading::from_deg(200.0).unwrap();
+        let (az, _) = h.compass_of(&Vector3::y());
+        assert!((az - 110.0).abs() < 1e-9);
+        assert_eq!(Heading::from_deg(-90.0).unwrap().deg(), 270.0);
+        assert_eq!(Heading::from_deg(720.0).unwrap().deg(), 0.0);
+        assert!(Heading::from_deg(f64::NAN).is_err());
+        let (_, el) = east.compass_of(&Vector3::z());
+        assert!((el - 90.0).abs() < 1e-12);
+    }
+
+    proptest! {
+        #[test]
+        fn compass_directions_round_trip(h in -720.0f64..720.0, az in 0.0f64..359.999, el in -89.9f64..89.9) {
+            let heading = Heading::from_deg(h).unwrap();
+            let v = heading.base_of(az, el);
+            prop_assert!((v.norm() - 1.0).abs() < 1e-12);
+            let (az2, el2) = heading.compass_of(&v);
+            prop_assert!((el2 - el).abs() < 1e-9);
+            let daz = (az2 - az).rem_euclid(360.0);
+            prop_assert!(daz < 1e-9 || 360.0 - daz < 1e-9);
+            prop_assert!((orient::angle_deg(&v, &heading.base_of(az, el)) ).abs() < 1e-6);
+        }
+    }
+}

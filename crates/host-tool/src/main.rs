@@ -107,6 +107,7 @@ const EXAMPLES: &str = "Examples:
   host-tool plan --target 'D&F' -p /dev/ttyACM0 # a real crane
   host-tool status -j                           # one JSON object (CRANE_PORT or the only UNO R4)
   host-tool ik --n 6 --beta 35 --modules 8 --target helix:radius=1,pitch=4 --svg fit.svg
+  host-tool station --lat 37.2296 --lon -80.4139 --date 2025-06-21 --tz -04:00 --max-changes 4
   host-tool completions bash > ~/.local/share/bash-completion/completions/host-tool
 
 Exit codes: 0 success, 1 runtime failure (device, link, plan), 2 usage error, 130 interrupted.
@@ -120,6 +121,13 @@ enum Command {
     Fk(cmd::fk::Args),
     /// Inverse kinematics: fit a stacked boom to a target curve.
     Ik(cmd::ik::Args),
+    /// Where the sun is (NREL SPA): azimuth and zenith at --time, or a table through --date.
+    Sun(cmd::sun::Args),
+    /// The solar station: which top-module states face the sun through a day, and the refolds.
+    Station(cmd::station::Args),
+    /// The bend that points the tip axis (a panel) at a direction or the sun, and the error
+    /// left; computed only, nothing is sent.
+    Aim(cmd::aim::Args),
     /// Files to make a trunk: crease pattern (SVG, DXF, FOLD), printable panel (3MF, STL), kit.
     Pattern(cmd::pattern::Args),
     /// A 3D model of a stack in given states: glTF, OBJ, STL (strain of infeasible states in red).
@@ -162,6 +170,9 @@ impl Command {
             Command::States(a) => a.json,
             Command::Fk(a) => a.json,
             Command::Ik(a) => a.json,
+            Command::Sun(a) => a.json,
+            Command::Station(a) => a.json,
+            Command::Aim(a) => a.json,
             Command::Plan(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
@@ -208,6 +219,9 @@ fn main() -> ExitCode {
         Command::States(args) => cmd::states::run(args),
         Command::Fk(args) => cmd::fk::run(args),
         Command::Ik(args) => cmd::ik::run(args),
+        Command::Sun(args) => cmd::sun::run(args),
+        Command::Station(args) => cmd::station::run(args),
+        Command::Aim(args) => cmd::aim::run(args),
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),

@@ -143,7 +143,7 @@ fn fk_json_gives_one_tip_per_module_bottom_first() {
         "--json",
     ]);
     let obj = v.as_object().unwrap();
-    assert_eq!(obj.len(), 2);
+    assert_eq!(obj.len(), 4); // tips, infeasible, heading_deg, frames
     assert_eq!(v["infeasible"], serde_json::json!([]));
     let tips = v["tips"].as_array().unwrap();
     assert_eq!(tips.len(), 2);

@@ -24,10 +24,43 @@ pub struct Args {
     /// catalogue); each one used is marked with its strain. Default: only feasible states.
     #[arg(long)]
     pub all_states: bool,
-    /// Print JSON (`{"tips": [[x, y, z], …], "infeasible": [{"module", "state", "strain"}, …]}`)
-    /// instead of a table.
+    /// Print JSON (`{"tips": [[x, y, z], …], "infeasible": [{"module", "state", "strain"}, …],
+    /// "heading_deg", "frames": [{"module", "origin", "rotation", "normal",
+    /// "normal_azimuth_deg", "normal_elevation_deg"}, …]}`) instead of a table.
     #[arg(short = 'j', long)]
     pub json: bool,
+    /// Compass heading of the base frame's x axis (towards bottom vertex 0), degrees
+    /// clockwise from north; 90 puts x east and y north. Gives each top-face normal's compass
+    /// azimuth and elevation.
+    #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
+    pub heading: f64,
+}
+
+/// Each module's top-face frame (origin, rotation matrix rows, outward normal in the base
+/// frame, and the normal on the compass) as JSON.
+fn frames_json(poses: &[Pose], heading: &geometry::orient::Heading) -> String {
+    let n = |v: f64| crate::num::json(v).to_string();
+    let v3 = |x: f64, y: f64, z: f64| format!("[{},{},{}]", n(x), n(y), n(z));
+    let list: Vec<String> = geometry::orient::top_faces(poses.iter().copied())
+        .enumerate()
+        .map(|(i, f)| {
+            let r = f.rotation.to_rotation_matrix();
+            let m = r.matrix();
+            let rows: Vec<String> = (0..3)
+                .map(|k| v3(m[(k, 0)], m[(k, 1)], m[(k, 2)]))
+                .collect();
+            let (az, el) = heading.compass_of(&f.normal);
+            ordered_object(&[
+                ("module", (i + 1).to_string()),
+                ("origin", v3(f.origin.x, f.origin.y, f.origin.z)),
+                ("rotation", format!("[{}]", rows.join(","))),
+                ("normal", v3(f.normal.x, f.normal.y, f.normal.z)),
+                ("normal_azimuth_deg", n(az)),
+                ("normal_elevation_deg", n(el)),
+            ])
+        })
+        .collect();
+    format!("[{}]", list.join(","))
 }
 
 /// One module of the stack, validated.
@@ -108,6 +141,8 @@ fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
 
 /// Runs `host-tool fk`.
 pub fn run(args: Args) -> Result<(), Failure> {
+    let heading = geometry::orient::Heading::from_deg(args.heading)
+        .map_err(|e| Failure::usage(format!("--heading: {e}")))?;
     let stack = modules(&args)?;
     let tips: Vec<_> = fk::tips(stack.iter().map(|m| m.pose)).collect();
     if args.json {
@@ -137,6 +172,11 @@ pub fn run(args: Args) -> Result<(), Failure> {
         crate::cli::print_json_text(&ordered_object(&[
             ("tips", format!("[{}]", list.join(","))),
             ("infeasible", format!("[{}]", infeasible.join(","))),
+            ("heading_deg", crate::num::json(heading.deg()).to_string()),
+            (
+                "frames",
+                frames_json(&stack.iter().map(|m| m.pose).collect::<Vec<_>>(), &heading),
+            ),
         ]));
         return Ok(());
     }

@@ -1,5 +1,6 @@
 //! One module per subcommand: `Args` (clap) and `run`.
 
+pub mod aim;
 pub mod declare;
 pub mod fk;
 pub mod identify;
@@ -14,5 +15,7 @@ pub mod plan;
 pub mod ports;
 pub mod serve;
 pub mod states;
+pub mod station;
 pub mod status;
 pub mod stop;
+pub mod sun;

@@ -104,7 +104,9 @@ const EXAMPLES: &str = "Examples:
   host-tool plan --target 'D&F' --sim           # the main job, on the built-in simulator
   host-tool plan --target 'D&F' -p /dev/ttyACM0 # a real crane
   host-tool status -j                           # one JSON object (CRANE_PORT or the only UNO R4)
-  host-tool ik --n 6 --beta 35 --modules 8 --target helix:radius=1,pitch=4 --svg fit.svg
+  host-tool design --n 3..8 --png bands.png     # which β lets a module bend (pop-outs feasible)
+  host-tool ik --n 3 --beta 31.72 --modules 14 --target helix:radius=1,pitch=2 --metric ordered --svg fit.svg
+  host-tool states --crane                      # the trunk's height in each state (mm)
   host-tool completions bash > ~/.local/share/bash-completion/completions/host-tool
 
 Exit codes: 0 success, 1 runtime failure (device, link, plan), 2 usage error, 130 interrupted.
@@ -118,6 +120,9 @@ enum Command {
     Fk(cmd::fk::Args),
     /// Inverse kinematics: fit a stacked boom to a target curve.
     Ik(cmd::ik::Args),
+    /// Which β works: the β bands where each family of states is feasible for n (or a range),
+    /// heights and tilts; with --target, βs ranked by their fit.
+    Design(cmd::design::Args),
     /// Files to make a trunk: crease pattern (SVG, DXF, FOLD), printable panel (3MF, STL), kit.
     Pattern(cmd::pattern::Args),
     /// A 3D model of a stack in given states: glTF, OBJ, STL (strain of infeasible states in red).
@@ -160,6 +165,7 @@ impl Command {
             Command::States(a) => a.json,
             Command::Fk(a) => a.json,
             Command::Ik(a) => a.json,
+            Command::Design(a) => a.json,
             Command::Plan(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
@@ -206,6 +212,7 @@ fn main() -> ExitCode {
         Command::States(args) => cmd::states::run(args),
         Command::Fk(args) => cmd::fk::run(args),
         Command::Ik(args) => cmd::ik::run(args),
+        Command::Design(args) => cmd::design::run(args),
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),

@@ -86,7 +86,7 @@ pub struct Args {
     #[arg(long, value_name = "FRACTION", allow_hyphen_values = true)]
     pub gap: Option<String>,
     /// Print JSON: `{"states", "rms", "optimal", "lower_bound_rms", "gap", "stop",
-    /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible"}`.
+    /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible", "coverage", "warnings"}`.
     #[arg(short = 'j', long)]
     pub json: bool,
     /// Write the figure of the fit (target and boom in three orthographic views, one column
@@ -106,7 +106,7 @@ pub struct Args {
 
 /// Where the target came from.
 #[derive(Debug)]
-enum TargetSource {
+pub(crate) enum TargetSource {
     File(PathBuf),
     Generator(String),
 }
@@ -128,7 +128,12 @@ pub struct Config {
     gltf: Option<PathBuf>,
 }
 
-fn parse_count(flag: &str, text: &str, min: usize, max: usize) -> Result<usize, Failure> {
+pub(crate) fn parse_count(
+    flag: &str,
+    text: &str,
+    min: usize,
+    max: usize,
+) -> Result<usize, Failure> {
     let t = text.trim();
     let bad = || {
         Failure::usage(format!(
@@ -170,7 +175,7 @@ fn read_bounded_from(r: impl std::io::Read, limit: u64) -> std::io::Result<Strin
 /// Longest `--time-limit` accepted, in seconds (about 11.6 days).
 const MAX_TIME_LIMIT_S: f64 = 1e6;
 
-fn parse_time_limit(text: &str) -> Result<Duration, Failure> {
+pub(crate) fn parse_time_limit(text: &str) -> Result<Duration, Failure> {
     let v: f64 = text.trim().parse().map_err(|_| {
         Failure::usage(format!(
             "--time-limit must be a number of seconds in (0, {MAX_TIME_LIMIT_S}], got '{text}'"
@@ -197,8 +202,57 @@ fn parse_gap(text: &str) -> Result<f64, Failure> {
     Ok(v)
 }
 
+/// Reads the target from `--target-file` or `--target` (exactly one must be given).
+pub(crate) fn read_target(
+    target_file: Option<&PathBuf>,
+    target: Option<&str>,
+) -> Result<(Target, TargetSource), Failure> {
+    Ok(match (target_file, target) {
+        (Some(_), Some(_)) => {
+            return Err(Failure::usage(
+                "give either --target-file or --target, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(Failure::usage(format!(
+                "give a target: --target-file FILE (CSV rows x,y,z) or --target SPEC, one of:\n{}",
+                ik::target::generators_help()
+            )))
+        }
+        (Some(path), None) => {
+            let text = if super::output::is_stdout(path) {
+                read_bounded_from(std::io::stdin().lock(), MAX_TARGET_FILE_BYTES)
+            } else {
+                read_bounded(path, MAX_TARGET_FILE_BYTES)
+            }
+            .map_err(|e| {
+                Failure::usage(format!("cannot read --target-file {}: {e}", path.display()))
+            })?;
+            let t = ik::target::parse_csv(&text)
+                .map_err(|e| Failure::usage(format!("--target-file {}: {e}", path.display())))?;
+            (t, TargetSource::File(path.clone()))
+        }
+        (None, Some(spec)) => {
+            let t =
+                ik::target::generate(spec).map_err(|e| Failure::usage(format!("--target: {e}")))?;
+            (t, TargetSource::Generator(spec.to_string()))
+        }
+    })
+}
+
+/// Parses `--metric`.
+pub(crate) fn parse_metric(text: &str) -> Result<Metric, Failure> {
+    match text.trim() {
+        "eq36" => Ok(Metric::Eq36),
+        "ordered" => Ok(Metric::Ordered),
+        other => Err(Failure::usage(format!(
+            "unknown --metric '{other}'; valid metrics are eq36, ordered"
+        ))),
+    }
+}
+
 /// Longest boom accepted (the heuristics are linear in m; exact and exhaustive are not).
-const MAX_MODULES: usize = 10_000;
+pub(crate) const MAX_MODULES: usize = 10_000;
 
 impl Args {
     /// Parses and validates everything, reading the target file.
@@ -206,47 +260,8 @@ impl Args {
         let n = parse_n(&self.n)?;
         let m = parse_count("--modules", &self.modules, 1, MAX_MODULES)?;
         let designs = designs_from(n, &self.beta, m, &format!("--modules is {m}"))?;
-        let (target, source) = match (&self.target_file, &self.target) {
-            (Some(_), Some(_)) => {
-                return Err(Failure::usage(
-                    "give either --target-file or --target, not both",
-                ))
-            }
-            (None, None) => {
-                return Err(Failure::usage(format!(
-                "give a target: --target-file FILE (CSV rows x,y,z) or --target SPEC, one of:\n{}",
-                ik::target::generators_help()
-            )))
-            }
-            (Some(path), None) => {
-                let text = if super::output::is_stdout(path) {
-                    read_bounded_from(std::io::stdin().lock(), MAX_TARGET_FILE_BYTES)
-                } else {
-                    read_bounded(path, MAX_TARGET_FILE_BYTES)
-                }
-                .map_err(|e| {
-                    Failure::usage(format!("cannot read --target-file {}: {e}", path.display()))
-                })?;
-                let t = ik::target::parse_csv(&text).map_err(|e| {
-                    Failure::usage(format!("--target-file {}: {e}", path.display()))
-                })?;
-                (t, TargetSource::File(path.clone()))
-            }
-            (None, Some(spec)) => {
-                let t = ik::target::generate(spec)
-                    .map_err(|e| Failure::usage(format!("--target: {e}")))?;
-                (t, TargetSource::Generator(spec.clone()))
-            }
-        };
-        let metric = match self.metric.trim() {
-            "eq36" => Metric::Eq36,
-            "ordered" => Metric::Ordered,
-            other => {
-                return Err(Failure::usage(format!(
-                    "unknown --metric '{other}'; valid metrics are eq36, ordered"
-                )))
-            }
-        };
+        let (target, source) = read_target(self.target_file.as_ref(), self.target.as_deref())?;
+        let metric = parse_metric(&self.metric)?;
         let algorithm = match self.algo.trim() {
             "exact" => Algorithm::Exact,
             "exhaustive" => Algorithm::Exhaustive,
@@ -448,6 +463,26 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         ik::Stop::Gap | ik::Stop::Finished => {}
     }
+    let assess_control = Control {
+        stop: control.stop.clone(),
+        ..Control::new()
+    };
+    let report = Report {
+        coverage: ik::diagnose::problem_coverage(&problem, &solution.tips),
+        warnings: ik::diagnose::assess(
+            &problem,
+            &cfg.designs,
+            cfg.all_states,
+            &solution.tips,
+            solution.rms,
+            &assess_control,
+        ),
+    };
+    if to_stdout {
+        for w in &report.warnings {
+            crate::say!("warning: {}", w.message);
+        }
+    }
     super::model::write_ik_gltf(gltf, &cfg.designs, &solution.names)?;
     if !figure_files.is_empty() {
         let fig = figure::render(
@@ -464,9 +499,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
     }
     if cfg.json {
-        crate::cli::print_json_text(&solution_json(&cfg, &problem, &solution));
+        crate::cli::print_json_text(&solution_json(&cfg, &problem, &solution, &report));
     } else if !to_stdout {
-        print_table(&cfg, &problem, &solution);
+        print_table(&cfg, &problem, &solution, &report);
     }
     if solution.stop == ik::Stop::Interrupted {
         return Err(Failure::Interrupted(
@@ -505,11 +540,33 @@ fn infeasible_note(problem: &Problem, s: &ik::Solution) -> String {
     )
 }
 
+/// What the fit covers and what it cannot be trusted to show ([`ik::diagnose`]).
+struct Report {
+    coverage: ik::diagnose::Coverage,
+    warnings: Vec<ik::diagnose::Warning>,
+}
+
+fn warnings_json(report: &Report) -> String {
+    let list: Vec<String> = report
+        .warnings
+        .iter()
+        .map(|w| {
+            ordered_object(&[
+                ("kind", Value::from(w.kind).to_string()),
+                ("message", Value::from(w.message.as_str()).to_string()),
+                ("value", crate::num::json(w.value).to_string()),
+                ("limit", crate::num::json(w.limit).to_string()),
+            ])
+        })
+        .collect();
+    format!("[{}]", list.join(","))
+}
+
 fn opt_value(x: Option<f64>) -> String {
     x.map_or_else(|| "null".to_string(), |v| crate::num::json(v).to_string())
 }
 
-fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
+fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Report) -> String {
     let states: Vec<Value> = s.names.iter().map(|n| Value::from(n.as_str())).collect();
     let infeasible: Vec<String> = infeasible_used(problem, s)
         .into_iter()
@@ -547,6 +604,11 @@ fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
         ("tips", Value::from(tips).to_string()),
         ("all_states", Value::from(cfg.all_states).to_string()),
         ("infeasible", format!("[{}]", infeasible.join(","))),
+        (
+            "coverage",
+            crate::num::json(report.coverage.fraction()).to_string(),
+        ),
+        ("warnings", warnings_json(report)),
     ])
 }
 
@@ -592,7 +654,7 @@ fn figure_header(cfg: &Config, s: &ik::Solution) -> figure::Header {
     }
 }
 
-fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
+fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Report) {
     let status = if s.optimal {
         "proven optimal".to_string()
     } else {
@@ -630,9 +692,18 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
     }
     crate::out!("evaluated  {}", s.evaluated);
     crate::out!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
+    crate::out!(
+        "coverage   {:.1} % of the target's {:.4} l lies within one module step ({:.4} l) of a tip",
+        100.0 * report.coverage.fraction(),
+        report.coverage.length,
+        report.coverage.radius
+    );
     let note = infeasible_note(problem, s);
     if !note.is_empty() {
         crate::out!("warning    {note}");
+    }
+    for w in &report.warnings {
+        crate::out!("warning    {}", w.message);
     }
     crate::out!();
     crate::out!(

@@ -30,21 +30,26 @@ fn usage_error(args: &[&str], expect_in_message: &str) {
     assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
 }
 
-const STATE_KEYS: [&str; 7] = [
+const STATE_KEYS: [&str; 8] = [
     "name",
     "d",
+    "d_mm",
     "gamma_deg",
     "psi_deg",
     "theta_deg",
     "feasible",
     "max_strain",
 ];
-const TOP_KEYS: [&str; 11] = [
+const TOP_KEYS: [&str; 15] = [
     "n",
     "beta_deg",
+    "edge_mm",
     "w",
     "a",
     "r",
+    "w_mm",
+    "a_mm",
+    "r_mm",
     "flat_foldable_beta_deg",
     "zeta_deg",
     "r_in",

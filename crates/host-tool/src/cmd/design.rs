@@ -785,7 +785,7 @@ fn figure(spaces: &[Space], fits: Option<&[Fit]>, r: Option<&Ranking>) -> Figure
         band_rows(&mut fig, &zoom, spaces, &zoom_rows, row_h);
         top += zoom_h + Area::below();
     }
-    if let (Some(fits), Some(r)) = (fits, r) {
+    if let (Some(fits), Some(_)) = (fits, r) {
         top += 8.0;
         let lo = fits
             .iter()

@@ -38,7 +38,8 @@ pub struct Args {
     /// bottom module first (the crane trunk is `35,31.72`).
     #[arg(long, allow_hyphen_values = true)]
     pub beta: String,
-    /// Number of modules m (an integer in [1, 10000]).
+    /// Number of modules m (an integer in [1, 10000]); each module here is one layer (one
+    /// Yoshimura unit, n-gon to n-gon).
     #[arg(long, allow_hyphen_values = true)]
     pub modules: String,
     /// Target polyline as CSV: one `x,y,z` row per point in units of l, optional header row,
@@ -86,7 +87,8 @@ pub struct Args {
     #[arg(long, value_name = "FRACTION", allow_hyphen_values = true)]
     pub gap: Option<String>,
     /// Print JSON: `{"states", "rms", "optimal", "lower_bound_rms", "gap", "stop",
-    /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible", "coverage", "warnings"}`.
+    /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible", "coverage", "warnings",
+    /// "edge_mm", "rms_mm", "tips_mm"}` (the last three `null` without --edge-mm).
     #[arg(short = 'j', long)]
     pub json: bool,
     /// Write the figure of the fit (target and boom in three orthographic views, one column
@@ -99,6 +101,10 @@ pub struct Args {
     /// The same figure as PDF (vector, font embedded).
     #[arg(long, value_name = "OUT")]
     pub pdf: Option<PathBuf>,
+    /// Print lengths in millimetres too (RMS, tips), for a valley fold (polygon edge) of this
+    /// length; the target and the generators' parameters stay in units of l.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub edge_mm: Option<String>,
     /// Write a 3D model of the fitted boom as binary glTF 2.0 (l = 75 mm; strain in red).
     #[arg(long, value_name = "FILE")]
     pub gltf: Option<PathBuf>,
@@ -126,6 +132,7 @@ pub struct Config {
     /// (flag, format, path) of every figure asked for.
     figures: Vec<(&'static str, crate::figure::Format, PathBuf)>,
     gltf: Option<PathBuf>,
+    edge_mm: Option<f64>,
 }
 
 pub(crate) fn parse_count(
@@ -340,6 +347,11 @@ impl Args {
             .filter_map(|(flag, format, path)| Some((flag, format, path?)))
             .collect(),
             gltf: self.gltf,
+            edge_mm: self
+                .edge_mm
+                .as_deref()
+                .map(super::states::parse_edge_mm)
+                .transpose()?,
         })
     }
 }
@@ -609,6 +621,25 @@ fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Rep
             crate::num::json(report.coverage.fraction()).to_string(),
         ),
         ("warnings", warnings_json(report)),
+        ("edge_mm", opt_value(cfg.edge_mm)),
+        ("rms_mm", opt_value(cfg.edge_mm.map(|e| s.rms * e))),
+        (
+            "tips_mm",
+            cfg.edge_mm.map_or("null".into(), |e| {
+                let t: Vec<Value> = s
+                    .tips
+                    .iter()
+                    .map(|p| {
+                        Value::from(vec![
+                            crate::num::json(p.x * e),
+                            crate::num::json(p.y * e),
+                            crate::num::json(p.z * e),
+                        ])
+                    })
+                    .collect();
+                Value::from(t).to_string()
+            }),
+        ),
     ])
 }
 
@@ -683,7 +714,14 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Repor
             "feasible states only"
         }
     );
-    crate::out!("RMS        {:.9} l", s.rms);
+    match cfg.edge_mm {
+        Some(e) => crate::out!(
+            "RMS        {:.9} l = {:.4} mm (edge l = {e} mm)",
+            s.rms,
+            s.rms * e
+        ),
+        None => crate::out!("RMS        {:.9} l", s.rms),
+    }
     if let (Some(lb), Some(gap)) = (s.lower_bound_rms, s.gap) {
         crate::out!(
             "bound      RMS ≥ {lb:.9} l (certified; gap {:.4} %)",
@@ -706,14 +744,15 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Repor
         crate::out!("warning    {}", w.message);
     }
     crate::out!();
+    let (scale, unit) = cfg.edge_mm.map_or((1.0, "l"), |e| (e, "mm"));
     crate::out!(
         "{:>4}  {:<10} {:>10} {:>10} {:>10} {:>10}  feasibility",
         "i",
         "state",
-        "x",
-        "y",
-        "z",
-        "error"
+        format!("x ({unit})"),
+        format!("y ({unit})"),
+        format!("z ({unit})"),
+        format!("error ({unit})")
     );
     for (i, (name, p)) in s.names.iter().zip(&s.tips).enumerate() {
         let err = problem.objective.cost(i, p).sqrt();
@@ -728,10 +767,10 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Repor
             "{:>4}  {:<10} {} {} {} {}  {mark}",
             i + 1,
             name,
-            w(p.x),
-            w(p.y),
-            w(p.z),
-            w(err)
+            w(p.x * scale),
+            w(p.y * scale),
+            w(p.z * scale),
+            w(err * scale)
         );
     }
 }

@@ -426,7 +426,12 @@ mod tests {
             .expect("cannot-bend");
         assert!(cb.message.contains("--all-states"), "{}", cb.message);
         assert!(
-            cb.message.contains("host-tool design --n 6"),
+            cb.message.contains("host-tool design --n 3..8"),
+            "{}",
+            cb.message
+        );
+        assert!(
+            cb.message.contains("no pop-out of n = 6 is feasible"),
             "{}",
             cb.message
         );

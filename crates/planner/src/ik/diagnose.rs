@@ -170,7 +170,7 @@ fn tangent_at(points: &[Point3<f64>], arc: &[f64], s: f64) -> Option<Vector3<f64
 pub fn turning(target: &Target, window: f64) -> Vec<(f64, f64)> {
     let pts = target.points();
     let length = target.length();
-    if !(window > 0.0) || length < window || pts.len() < 2 {
+    if window.is_nan() || window <= 0.0 || length < window || pts.len() < 2 {
         return Vec::new();
     }
     let mut arc = Vec::with_capacity(pts.len());

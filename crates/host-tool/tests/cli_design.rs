@@ -281,6 +281,26 @@ fn bad_targets_get_a_warning_or_a_refusal_naming_the_number() {
         .unwrap()
         .contains(&format!("{reach:.4} l")));
     assert!(kinds(&v).contains(&"coverage".to_string()));
+    // A helix tighter than the tightest pop-out bends (n = 4, β = 23.36°: edge pop-outs tilt
+    // 24.9° over 0.216 l, κ = 2 sin(γ/2)/step = 2.0 /l; the helix needs 0.2/(0.2² + (0.4/2π)²)
+    // = 4.5 /l).
+    let v = json(&[
+        "ik",
+        "--n",
+        "4",
+        "--beta",
+        "23.36",
+        "--modules",
+        "6",
+        "--target",
+        "helix:radius=0.2,pitch=0.4,turns=2",
+        "--algo",
+        "beam",
+    ]);
+    let w = warning(&v, "curvature");
+    assert!(w["value"].as_f64().unwrap() > 0.9, "{w}");
+    let msg = w["message"].as_str().unwrap();
+    assert!(msg.contains("the tightest bend is 2.000 /l"), "{msg}");
     // An empty file and a one-point file are refused, saying why.
     let empty = temp_file("empty.csv", "x,y,z\n");
     let mut a = boom.to_vec();

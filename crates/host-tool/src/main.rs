@@ -105,7 +105,7 @@ const EXAMPLES: &str = "Examples:
   host-tool plan --target 'D&F' -p /dev/ttyACM0 # a real crane
   host-tool status -j                           # one JSON object (CRANE_PORT or the only UNO R4)
   host-tool design --n 3..8 --png bands.png     # which β lets a module bend (pop-outs feasible)
-  host-tool ik --n 3 --beta 31.72 --modules 14 --target helix:radius=1,pitch=2 --metric ordered --svg fit.svg
+  host-tool ik --n 3 --beta 31.72 --modules 14 --target helix:pitch=2 --metric ordered
   host-tool states --crane                      # the trunk's height in each state (mm)
   host-tool completions bash > ~/.local/share/bash-completion/completions/host-tool
 

@@ -141,6 +141,28 @@ fn the_issue_s_designs_that_cannot_bend_are_warned_in_json_and_text() {
         );
         assert!(text.contains("coverage   "), "{text}");
     }
+    // The figure says it too, under its header.
+    let svg = temp_file("column.svg", "");
+    let out = run(&[
+        "ik",
+        "--n",
+        "6",
+        "--beta",
+        "35",
+        "--modules",
+        "8",
+        "--target",
+        "helix:radius=1,pitch=4",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains("warning: no feasible state bends"), "{text}");
+    assert!(
+        text.contains("warning: the fit covers 21 % of the target"),
+        "{text}"
+    );
     // The 30-module column is 19.4 l tall against a 7.3 l sine: the boom is too long.
     let v = json(&[
         "ik",
@@ -374,6 +396,16 @@ fn design_bands_agree_with_the_geometry_s_closing_angles() {
         let sp = band("self-packed");
         assert_eq!(sp.len(), 1);
         assert!((sp[0].0 - 90.0 / n as f64).abs() < 1e-5 && (sp[0].1 - 45.0).abs() < 1e-5);
+    }
+    // --edge-mm: every height in mm too.
+    let v = json(&["design", "--n", "3", "--edge-mm", "75"]);
+    assert_eq!(v["edge_mm"], 75.0);
+    for b in v["designs"][0]["bands"].as_array().unwrap() {
+        for smp in b["samples"].as_array().unwrap() {
+            let d = smp["d"].as_f64().unwrap();
+            assert!((smp["d_mm"].as_f64().unwrap() - 75.0 * d).abs() < 1e-9);
+            assert!(smp["beta_deg"].as_f64().unwrap() <= 85.0);
+        }
     }
     let text = stdout(&["design", "--n", "6"]);
     assert!(

@@ -501,7 +501,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             &problem,
             &cfg.designs,
             &solution,
-            &figure_header(&cfg, &solution),
+            &figure_header(&cfg, &solution, &report),
         );
         for (out, (_, format, _)) in figure_files.into_iter().zip(&cfg.figures) {
             let bytes = fig.encode(*format).map_err(|e| {
@@ -669,7 +669,26 @@ fn describe_target(cfg: &Config) -> String {
     }
 }
 
-fn figure_header(cfg: &Config, s: &ik::Solution) -> figure::Header {
+/// The figure's short form of a warning.
+fn short_warning(w: &ik::diagnose::Warning) -> String {
+    match w.kind {
+        "cannot-bend" => "no feasible state bends: a straight column".to_string(),
+        "curvature" => "the target bends faster than any feasible state".to_string(),
+        "doubles-back" => format!("the target doubles back ({:.0}° turn)", w.value),
+        "too-long" => format!(
+            "the target ({:.2} l) is longer than the boom reaches ({:.2} l)",
+            w.value, w.limit
+        ),
+        "boom-too-long" => format!(
+            "the boom ({:.2} l at its shortest) is longer than the target ({:.2} l)",
+            w.value, w.limit
+        ),
+        "coverage" => format!("the fit covers {:.0} % of the target", 100.0 * w.value),
+        _ => w.message.clone(),
+    }
+}
+
+fn figure_header(cfg: &Config, s: &ik::Solution, report: &Report) -> figure::Header {
     figure::Header {
         algorithm: cfg.algorithm.name().to_string(),
         target: describe_target(cfg),
@@ -682,6 +701,7 @@ fn figure_header(cfg: &Config, s: &ik::Solution) -> figure::Header {
         } else {
             String::new()
         },
+        warnings: report.warnings.iter().map(short_warning).collect(),
     }
 }
 

@@ -13,10 +13,14 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 # docs/ik.md: the README's helix fit, and the paper's infeasible pop-outs with --all-states.
-"$ht" ik --n 3 --beta 31.72 --modules 10 --target helix:radius=1,pitch=2,turns=1 \
-  --algo exact --png "$out/ik-helix.png" >/dev/null
+"$ht" ik --n 3 --beta 31.72 --modules 14 --target helix:radius=1,pitch=2,turns=1 \
+  --metric ordered --algo exact --png "$out/ik-helix.png" >/dev/null
 "$ht" ik --n 4 --beta 35 --modules 10 --target helix:radius=1,pitch=2,turns=1 \
   --all-states --png "$out/ik-helix-all-states.png" >/dev/null
+# docs/ik.md: the feasible β bands of n = 3 … 8 (host-tool design).
+"$ht" design --n 3..8 --png "$out/design-bands.png" >/dev/null
+"$ht" design --n 3,4 --target helix:radius=1,pitch=2,turns=1 --modules 14 --metric ordered \
+  --png "$out/design-helix.png" >/dev/null
 # The crane's two β alternating along a 12-module boom fitted to a sine.
 "$ht" ik --n 3 --beta 35,31.72,35,31.72,35,31.72,35,31.72,35,31.72,35,31.72 --modules 12 \
   --target sine --png "$out/ik-sine-two-betas.png" >/dev/null

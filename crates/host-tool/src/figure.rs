@@ -490,6 +490,18 @@ impl Figure {
         );
     }
 
+    /// A filled rectangle (no outline).
+    pub fn fill_rect(&mut self, r: Rect, fill: &str) {
+        let _ = writeln!(
+            self.body,
+            r#"<rect x="{}" y="{}" width="{}" height="{}" fill="{fill}"/>"#,
+            num(r.x),
+            num(r.y),
+            num(r.w),
+            num(r.h)
+        );
+    }
+
     /// A rectangle outline.
     pub fn rect(&mut self, r: Rect, stroke: Stroke) {
         let _ = writeln!(

@@ -106,8 +106,10 @@ const EXAMPLES: &str = "Examples:
   host-tool plan --target 'D&F' --sim           # the main job, on the built-in simulator
   host-tool plan --target 'D&F' -p /dev/ttyACM0 # a real crane
   host-tool status -j                           # one JSON object (CRANE_PORT or the only UNO R4)
-  host-tool ik --n 6 --beta 35 --modules 8 --target helix:radius=1,pitch=4 --svg fit.svg
   host-tool station --lat 37.2296 --lon -80.4139 --date 2025-06-21 --tz -04:00 --max-changes 4
+  host-tool design --n 3..8 --png bands.png     # which β lets a module bend (pop-outs feasible)
+  host-tool ik --n 3 --beta 31.72 --modules 14 --target helix:pitch=2 --metric ordered
+  host-tool states --crane                      # the trunk's height in each state (mm)
   host-tool completions bash > ~/.local/share/bash-completion/completions/host-tool
 
 Exit codes: 0 success, 1 runtime failure (device, link, plan), 2 usage error, 130 interrupted.
@@ -128,6 +130,9 @@ enum Command {
     /// The bend that points the tip axis (a panel) at a direction or the sun, and the error
     /// left; computed only, nothing is sent.
     Aim(cmd::aim::Args),
+    /// Which β works: the β bands where each family of states is feasible for n (or a range),
+    /// heights and tilts; with --target, βs ranked by their fit.
+    Design(cmd::design::Args),
     /// Files to make a trunk: crease pattern (SVG, DXF, FOLD), printable panel (3MF, STL), kit.
     Pattern(cmd::pattern::Args),
     /// A 3D model of a stack in given states: glTF, OBJ, STL (strain of infeasible states in red).
@@ -173,6 +178,7 @@ impl Command {
             Command::Sun(a) => a.json,
             Command::Station(a) => a.json,
             Command::Aim(a) => a.json,
+            Command::Design(a) => a.json,
             Command::Plan(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
@@ -222,6 +228,7 @@ fn main() -> ExitCode {
         Command::Sun(args) => cmd::sun::run(args),
         Command::Station(args) => cmd::station::run(args),
         Command::Aim(args) => cmd::aim::run(args),
+        Command::Design(args) => cmd::design::run(args),
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),

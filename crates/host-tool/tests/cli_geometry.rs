@@ -30,21 +30,26 @@ fn usage_error(args: &[&str], expect_in_message: &str) {
     assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
 }
 
-const STATE_KEYS: [&str; 7] = [
+const STATE_KEYS: [&str; 8] = [
     "name",
     "d",
+    "d_mm",
     "gamma_deg",
     "psi_deg",
     "theta_deg",
     "feasible",
     "max_strain",
 ];
-const TOP_KEYS: [&str; 11] = [
+const TOP_KEYS: [&str; 15] = [
     "n",
     "beta_deg",
+    "edge_mm",
     "w",
     "a",
     "r",
+    "w_mm",
+    "a_mm",
+    "r_mm",
     "flat_foldable_beta_deg",
     "zeta_deg",
     "r_in",
@@ -143,8 +148,9 @@ fn fk_json_gives_one_tip_per_module_bottom_first() {
         "--json",
     ]);
     let obj = v.as_object().unwrap();
-    assert_eq!(obj.len(), 4); // tips, infeasible, heading_deg, frames
+    assert_eq!(obj.len(), 6); // tips, infeasible, heading_deg, frames, edge_mm, tips_mm
     assert_eq!(v["infeasible"], serde_json::json!([]));
+    assert!(v["edge_mm"].is_null() && v["tips_mm"].is_null());
     let tips = v["tips"].as_array().unwrap();
     assert_eq!(tips.len(), 2);
     let w = 35f64.to_radians().tan();

@@ -61,6 +61,8 @@ fn json_has_exactly_the_documented_keys() {
         keys,
         [
             "all_states",
+            "coverage",
+            "edge_mm",
             "elapsed_ms",
             "evaluated",
             "gap",
@@ -68,9 +70,12 @@ fn json_has_exactly_the_documented_keys() {
             "lower_bound_rms",
             "optimal",
             "rms",
+            "rms_mm",
             "states",
             "stop",
-            "tips"
+            "tips",
+            "tips_mm",
+            "warnings"
         ]
     );
     assert_eq!(v["stop"], "finished");

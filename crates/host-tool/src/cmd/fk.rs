@@ -24,9 +24,13 @@ pub struct Args {
     /// catalogue); each one used is marked with its strain. Default: only feasible states.
     #[arg(long)]
     pub all_states: bool,
+    /// Print the tips in millimetres too, for a valley fold (polygon edge) of this length.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub edge_mm: Option<String>,
     /// Print JSON (`{"tips": [[x, y, z], …], "infeasible": [{"module", "state", "strain"}, …],
     /// "heading_deg", "frames": [{"module", "origin", "rotation", "normal",
-    /// "normal_azimuth_deg", "normal_elevation_deg"}, …]}`) instead of a table.
+    /// "normal_azimuth_deg", "normal_elevation_deg"}, …], "edge_mm", "tips_mm"}`; the last two
+    /// `null` without --edge-mm) instead of a table.
     #[arg(short = 'j', long)]
     pub json: bool,
     /// Compass heading of the base frame's x axis (towards bottom vertex 0), degrees
@@ -143,19 +147,26 @@ fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
 pub fn run(args: Args) -> Result<(), Failure> {
     let heading = geometry::orient::Heading::from_deg(args.heading)
         .map_err(|e| Failure::usage(format!("--heading: {e}")))?;
+    let edge_mm = args
+        .edge_mm
+        .as_deref()
+        .map(super::states::parse_edge_mm)
+        .transpose()?;
     let stack = modules(&args)?;
     let tips: Vec<_> = fk::tips(stack.iter().map(|m| m.pose)).collect();
     if args.json {
-        let list: Vec<String> = tips
-            .iter()
-            .map(|p| {
-                let xyz: Vec<String> = [p.x, p.y, p.z]
-                    .iter()
-                    .map(|v| crate::num::json(*v).to_string())
-                    .collect();
-                format!("[{}]", xyz.join(","))
-            })
-            .collect();
+        let list_in = |scale: f64| -> Vec<String> {
+            tips.iter()
+                .map(|p| {
+                    let xyz: Vec<String> = [p.x, p.y, p.z]
+                        .iter()
+                        .map(|v| crate::num::json(*v * scale).to_string())
+                        .collect();
+                    format!("[{}]", xyz.join(","))
+                })
+                .collect()
+        };
+        let list = list_in(1.0);
         let infeasible: Vec<String> = stack
             .iter()
             .enumerate()
@@ -177,11 +188,23 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 "frames",
                 frames_json(&stack.iter().map(|m| m.pose).collect::<Vec<_>>(), &heading),
             ),
+            (
+                "edge_mm",
+                edge_mm.map_or("null".into(), |e| crate::num::json(e).to_string()),
+            ),
+            (
+                "tips_mm",
+                edge_mm.map_or("null".into(), |e| format!("[{}]", list_in(e).join(","))),
+            ),
         ]));
         return Ok(());
     }
+    let (scale, unit) = match edge_mm {
+        Some(e) => (e, format!("mm, edge l = {e} mm")),
+        None => (1.0, "units of the edge l".to_string()),
+    };
     crate::out!(
-        "tips of a {}-module stack (units of the edge l, bottom module first)",
+        "tips of a {}-module stack ({unit}, bottom module first; a module is one layer)",
         stack.len()
     );
     crate::out!(
@@ -204,9 +227,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
             k + 1,
             m.name,
             m.design.beta_deg(),
-            w(p.x),
-            w(p.y),
-            w(p.z)
+            w(p.x * scale),
+            w(p.y * scale),
+            w(p.z * scale)
         );
     }
     let used = stack.iter().filter(|m| m.infeasible.is_some()).count();

@@ -38,7 +38,8 @@ pub struct Args {
     /// bottom module first (the crane trunk is `35,31.72`).
     #[arg(long, allow_hyphen_values = true)]
     pub beta: String,
-    /// Number of modules m (an integer in [1, 10000]).
+    /// Number of modules m (an integer in [1, 10000]); each module here is one layer (one
+    /// Yoshimura unit, n-gon to n-gon).
     #[arg(long, allow_hyphen_values = true)]
     pub modules: String,
     /// Target polyline as CSV: one `x,y,z` row per point in units of l, optional header row,
@@ -86,7 +87,8 @@ pub struct Args {
     #[arg(long, value_name = "FRACTION", allow_hyphen_values = true)]
     pub gap: Option<String>,
     /// Print JSON: `{"states", "rms", "optimal", "lower_bound_rms", "gap", "stop",
-    /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible"}`.
+    /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible", "coverage", "warnings",
+    /// "edge_mm", "rms_mm", "tips_mm"}` (the last three `null` without --edge-mm).
     #[arg(short = 'j', long)]
     pub json: bool,
     /// Write the figure of the fit (target and boom in three orthographic views, one column
@@ -99,6 +101,10 @@ pub struct Args {
     /// The same figure as PDF (vector, font embedded).
     #[arg(long, value_name = "OUT")]
     pub pdf: Option<PathBuf>,
+    /// Print lengths in millimetres too (RMS, tips), for a valley fold (polygon edge) of this
+    /// length; the target and the generators' parameters stay in units of l.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub edge_mm: Option<String>,
     /// Write a 3D model of the fitted boom as binary glTF 2.0 (l = 75 mm; strain in red).
     #[arg(long, value_name = "FILE")]
     pub gltf: Option<PathBuf>,
@@ -106,7 +112,7 @@ pub struct Args {
 
 /// Where the target came from.
 #[derive(Debug)]
-enum TargetSource {
+pub(crate) enum TargetSource {
     File(PathBuf),
     Generator(String),
 }
@@ -126,9 +132,15 @@ pub struct Config {
     /// (flag, format, path) of every figure asked for.
     figures: Vec<(&'static str, crate::figure::Format, PathBuf)>,
     gltf: Option<PathBuf>,
+    edge_mm: Option<f64>,
 }
 
-fn parse_count(flag: &str, text: &str, min: usize, max: usize) -> Result<usize, Failure> {
+pub(crate) fn parse_count(
+    flag: &str,
+    text: &str,
+    min: usize,
+    max: usize,
+) -> Result<usize, Failure> {
     let t = text.trim();
     let bad = || {
         Failure::usage(format!(
@@ -170,7 +182,7 @@ fn read_bounded_from(r: impl std::io::Read, limit: u64) -> std::io::Result<Strin
 /// Longest `--time-limit` accepted, in seconds (about 11.6 days).
 const MAX_TIME_LIMIT_S: f64 = 1e6;
 
-fn parse_time_limit(text: &str) -> Result<Duration, Failure> {
+pub(crate) fn parse_time_limit(text: &str) -> Result<Duration, Failure> {
     let v: f64 = text.trim().parse().map_err(|_| {
         Failure::usage(format!(
             "--time-limit must be a number of seconds in (0, {MAX_TIME_LIMIT_S}], got '{text}'"
@@ -197,8 +209,57 @@ fn parse_gap(text: &str) -> Result<f64, Failure> {
     Ok(v)
 }
 
+/// Reads the target from `--target-file` or `--target` (exactly one must be given).
+pub(crate) fn read_target(
+    target_file: Option<&PathBuf>,
+    target: Option<&str>,
+) -> Result<(Target, TargetSource), Failure> {
+    Ok(match (target_file, target) {
+        (Some(_), Some(_)) => {
+            return Err(Failure::usage(
+                "give either --target-file or --target, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(Failure::usage(format!(
+                "give a target: --target-file FILE (CSV rows x,y,z) or --target SPEC, one of:\n{}",
+                ik::target::generators_help()
+            )))
+        }
+        (Some(path), None) => {
+            let text = if super::output::is_stdout(path) {
+                read_bounded_from(std::io::stdin().lock(), MAX_TARGET_FILE_BYTES)
+            } else {
+                read_bounded(path, MAX_TARGET_FILE_BYTES)
+            }
+            .map_err(|e| {
+                Failure::usage(format!("cannot read --target-file {}: {e}", path.display()))
+            })?;
+            let t = ik::target::parse_csv(&text)
+                .map_err(|e| Failure::usage(format!("--target-file {}: {e}", path.display())))?;
+            (t, TargetSource::File(path.clone()))
+        }
+        (None, Some(spec)) => {
+            let t =
+                ik::target::generate(spec).map_err(|e| Failure::usage(format!("--target: {e}")))?;
+            (t, TargetSource::Generator(spec.to_string()))
+        }
+    })
+}
+
+/// Parses `--metric`.
+pub(crate) fn parse_metric(text: &str) -> Result<Metric, Failure> {
+    match text.trim() {
+        "eq36" => Ok(Metric::Eq36),
+        "ordered" => Ok(Metric::Ordered),
+        other => Err(Failure::usage(format!(
+            "unknown --metric '{other}'; valid metrics are eq36, ordered"
+        ))),
+    }
+}
+
 /// Longest boom accepted (the heuristics are linear in m; exact and exhaustive are not).
-const MAX_MODULES: usize = 10_000;
+pub(crate) const MAX_MODULES: usize = 10_000;
 
 impl Args {
     /// Parses and validates everything, reading the target file.
@@ -206,47 +267,8 @@ impl Args {
         let n = parse_n(&self.n)?;
         let m = parse_count("--modules", &self.modules, 1, MAX_MODULES)?;
         let designs = designs_from(n, &self.beta, m, &format!("--modules is {m}"))?;
-        let (target, source) = match (&self.target_file, &self.target) {
-            (Some(_), Some(_)) => {
-                return Err(Failure::usage(
-                    "give either --target-file or --target, not both",
-                ))
-            }
-            (None, None) => {
-                return Err(Failure::usage(format!(
-                "give a target: --target-file FILE (CSV rows x,y,z) or --target SPEC, one of:\n{}",
-                ik::target::generators_help()
-            )))
-            }
-            (Some(path), None) => {
-                let text = if super::output::is_stdout(path) {
-                    read_bounded_from(std::io::stdin().lock(), MAX_TARGET_FILE_BYTES)
-                } else {
-                    read_bounded(path, MAX_TARGET_FILE_BYTES)
-                }
-                .map_err(|e| {
-                    Failure::usage(format!("cannot read --target-file {}: {e}", path.display()))
-                })?;
-                let t = ik::target::parse_csv(&text).map_err(|e| {
-                    Failure::usage(format!("--target-file {}: {e}", path.display()))
-                })?;
-                (t, TargetSource::File(path.clone()))
-            }
-            (None, Some(spec)) => {
-                let t = ik::target::generate(spec)
-                    .map_err(|e| Failure::usage(format!("--target: {e}")))?;
-                (t, TargetSource::Generator(spec.clone()))
-            }
-        };
-        let metric = match self.metric.trim() {
-            "eq36" => Metric::Eq36,
-            "ordered" => Metric::Ordered,
-            other => {
-                return Err(Failure::usage(format!(
-                    "unknown --metric '{other}'; valid metrics are eq36, ordered"
-                )))
-            }
-        };
+        let (target, source) = read_target(self.target_file.as_ref(), self.target.as_deref())?;
+        let metric = parse_metric(&self.metric)?;
         let algorithm = match self.algo.trim() {
             "exact" => Algorithm::Exact,
             "exhaustive" => Algorithm::Exhaustive,
@@ -325,6 +347,11 @@ impl Args {
             .filter_map(|(flag, format, path)| Some((flag, format, path?)))
             .collect(),
             gltf: self.gltf,
+            edge_mm: self
+                .edge_mm
+                .as_deref()
+                .map(super::states::parse_edge_mm)
+                .transpose()?,
         })
     }
 }
@@ -448,13 +475,36 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         ik::Stop::Gap | ik::Stop::Finished => {}
     }
+    // The `cannot-bend` warning's beam search over the full catalogue gets at most 2 s (m =
+    // 10 000 would take longer); stopped, the warning just leaves its RMS out.
+    let assess_control = Control {
+        stop: control.stop.clone(),
+        deadline: Some(Instant::now() + Duration::from_secs(2)),
+        ..Control::new()
+    };
+    let report = Report {
+        coverage: ik::diagnose::problem_coverage(&problem, &solution.tips),
+        warnings: ik::diagnose::assess(
+            &problem,
+            &cfg.designs,
+            cfg.all_states,
+            &solution.tips,
+            solution.rms,
+            &assess_control,
+        ),
+    };
+    if to_stdout {
+        for w in &report.warnings {
+            crate::say!("warning: {}", w.message);
+        }
+    }
     super::model::write_ik_gltf(gltf, &cfg.designs, &solution.names)?;
     if !figure_files.is_empty() {
         let fig = figure::render(
             &problem,
             &cfg.designs,
             &solution,
-            &figure_header(&cfg, &solution),
+            &figure_header(&cfg, &solution, &report),
         );
         for (out, (_, format, _)) in figure_files.into_iter().zip(&cfg.figures) {
             let bytes = fig.encode(*format).map_err(|e| {
@@ -464,9 +514,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
     }
     if cfg.json {
-        crate::cli::print_json_text(&solution_json(&cfg, &problem, &solution));
+        crate::cli::print_json_text(&solution_json(&cfg, &problem, &solution, &report));
     } else if !to_stdout {
-        print_table(&cfg, &problem, &solution);
+        print_table(&cfg, &problem, &solution, &report);
     }
     if solution.stop == ik::Stop::Interrupted {
         return Err(Failure::Interrupted(
@@ -505,11 +555,33 @@ fn infeasible_note(problem: &Problem, s: &ik::Solution) -> String {
     )
 }
 
+/// What the fit covers and what it cannot be trusted to show ([`ik::diagnose`]).
+struct Report {
+    coverage: ik::diagnose::Coverage,
+    warnings: Vec<ik::diagnose::Warning>,
+}
+
+fn warnings_json(report: &Report) -> String {
+    let list: Vec<String> = report
+        .warnings
+        .iter()
+        .map(|w| {
+            ordered_object(&[
+                ("kind", Value::from(w.kind).to_string()),
+                ("message", Value::from(w.message.as_str()).to_string()),
+                ("value", crate::num::json(w.value).to_string()),
+                ("limit", crate::num::json(w.limit).to_string()),
+            ])
+        })
+        .collect();
+    format!("[{}]", list.join(","))
+}
+
 fn opt_value(x: Option<f64>) -> String {
     x.map_or_else(|| "null".to_string(), |v| crate::num::json(v).to_string())
 }
 
-fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
+fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Report) -> String {
     let states: Vec<Value> = s.names.iter().map(|n| Value::from(n.as_str())).collect();
     let infeasible: Vec<String> = infeasible_used(problem, s)
         .into_iter()
@@ -547,6 +619,30 @@ fn solution_json(cfg: &Config, problem: &Problem, s: &ik::Solution) -> String {
         ("tips", Value::from(tips).to_string()),
         ("all_states", Value::from(cfg.all_states).to_string()),
         ("infeasible", format!("[{}]", infeasible.join(","))),
+        (
+            "coverage",
+            crate::num::json(report.coverage.fraction()).to_string(),
+        ),
+        ("warnings", warnings_json(report)),
+        ("edge_mm", opt_value(cfg.edge_mm)),
+        ("rms_mm", opt_value(cfg.edge_mm.map(|e| s.rms * e))),
+        (
+            "tips_mm",
+            cfg.edge_mm.map_or("null".into(), |e| {
+                let t: Vec<Value> = s
+                    .tips
+                    .iter()
+                    .map(|p| {
+                        Value::from(vec![
+                            crate::num::json(p.x * e),
+                            crate::num::json(p.y * e),
+                            crate::num::json(p.z * e),
+                        ])
+                    })
+                    .collect();
+                Value::from(t).to_string()
+            }),
+        ),
     ])
 }
 
@@ -576,7 +672,26 @@ fn describe_target(cfg: &Config) -> String {
     }
 }
 
-fn figure_header(cfg: &Config, s: &ik::Solution) -> figure::Header {
+/// The figure's short form of a warning.
+fn short_warning(w: &ik::diagnose::Warning) -> String {
+    match w.kind {
+        "cannot-bend" => "no feasible state bends: a straight column".to_string(),
+        "curvature" => "the target bends faster than any feasible state".to_string(),
+        "doubles-back" => format!("the target doubles back ({:.0}° turn)", w.value),
+        "too-long" => format!(
+            "the target ({:.2} l) is longer than the boom reaches ({:.2} l)",
+            w.value, w.limit
+        ),
+        "boom-too-long" => format!(
+            "the boom ({:.2} l at its shortest) is longer than the target ({:.2} l)",
+            w.value, w.limit
+        ),
+        "coverage" => format!("the fit covers {:.0} % of the target", 100.0 * w.value),
+        _ => w.message.clone(),
+    }
+}
+
+fn figure_header(cfg: &Config, s: &ik::Solution, report: &Report) -> figure::Header {
     figure::Header {
         algorithm: cfg.algorithm.name().to_string(),
         target: describe_target(cfg),
@@ -589,10 +704,11 @@ fn figure_header(cfg: &Config, s: &ik::Solution) -> figure::Header {
         } else {
             String::new()
         },
+        warnings: report.warnings.iter().map(short_warning).collect(),
     }
 }
 
-fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
+fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution, report: &Report) {
     let status = if s.optimal {
         "proven optimal".to_string()
     } else {
@@ -621,7 +737,14 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
             "feasible states only"
         }
     );
-    crate::out!("RMS        {:.9} l", s.rms);
+    match cfg.edge_mm {
+        Some(e) => crate::out!(
+            "RMS        {:.9} l = {:.4} mm (edge l = {e} mm)",
+            s.rms,
+            s.rms * e
+        ),
+        None => crate::out!("RMS        {:.9} l", s.rms),
+    }
     if let (Some(lb), Some(gap)) = (s.lower_bound_rms, s.gap) {
         crate::out!(
             "bound      RMS ≥ {lb:.9} l (certified; gap {:.4} %)",
@@ -630,19 +753,29 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
     }
     crate::out!("evaluated  {}", s.evaluated);
     crate::out!("elapsed    {:.3} ms", s.elapsed.as_secs_f64() * 1e3);
+    crate::out!(
+        "coverage   {:.1} % of the target's {:.4} l lies within one module step ({:.4} l) of a tip",
+        100.0 * report.coverage.fraction(),
+        report.coverage.length,
+        report.coverage.radius
+    );
     let note = infeasible_note(problem, s);
     if !note.is_empty() {
         crate::out!("warning    {note}");
     }
+    for w in &report.warnings {
+        crate::out!("warning    {}", w.message);
+    }
     crate::out!();
+    let (scale, unit) = cfg.edge_mm.map_or((1.0, "l"), |e| (e, "mm"));
     crate::out!(
         "{:>4}  {:<10} {:>10} {:>10} {:>10} {:>10}  feasibility",
         "i",
         "state",
-        "x",
-        "y",
-        "z",
-        "error"
+        format!("x ({unit})"),
+        format!("y ({unit})"),
+        format!("z ({unit})"),
+        format!("error ({unit})")
     );
     for (i, (name, p)) in s.names.iter().zip(&s.tips).enumerate() {
         let err = problem.objective.cost(i, p).sqrt();
@@ -657,10 +790,10 @@ fn print_table(cfg: &Config, problem: &Problem, s: &ik::Solution) {
             "{:>4}  {:<10} {} {} {} {}  {mark}",
             i + 1,
             name,
-            w(p.x),
-            w(p.y),
-            w(p.z),
-            w(err)
+            w(p.x * scale),
+            w(p.y * scale),
+            w(p.z * scale),
+            w(err * scale)
         );
     }
 }

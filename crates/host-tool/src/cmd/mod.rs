@@ -2,6 +2,7 @@
 
 pub mod aim;
 pub mod declare;
+pub mod design;
 pub mod fk;
 pub mod identify;
 pub mod ik;

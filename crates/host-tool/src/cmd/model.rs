@@ -19,7 +19,9 @@ pub struct Args {
     #[command(flatten)]
     pub trunk: TrunkArgs,
     /// State of every layer: one name for all (deployed, folded, edge-<i>, vertex-<i>,
-    /// self-packed, flat-folded), one per module or one per layer, comma-separated, bottom first.
+    /// self-packed, flat-folded), one per module or one per layer, comma-separated, bottom first;
+    /// or, for a two-module trunk, the crane's state name `TOP&BOTTOM` (`F&P`, `D&F`, …; `-` for
+    /// `&`). A module is a group of layers of one β (`--layers`).
     #[arg(long, default_value = "deployed", allow_hyphen_values = true)]
     pub states: String,
     /// Write binary glTF 2.0 (metres, +Y up; vertex colours: module, red = strain).
@@ -33,7 +35,36 @@ pub struct Args {
     pub stl: Option<PathBuf>,
 }
 
+/// The module states (bottom first) of a crane state name `TOP&BOTTOM`: the top module is
+/// folded or deployed, the bottom self-packed, folded or deployed.
+fn trunk_state_names(state: geometry::TrunkState) -> [&'static str; 2] {
+    use geometry::{BottomState, TopState};
+    let bottom = match state.bottom {
+        BottomState::Packed => "self-packed",
+        BottomState::Folded => "folded",
+        BottomState::Deployed => "deployed",
+    };
+    let top = match state.top {
+        TopState::Folded => "folded",
+        TopState::Deployed => "deployed",
+    };
+    [bottom, top]
+}
+
 fn parse_states(trunk: &Trunk, text: &str) -> Result<Vec<LayerState>, Failure> {
+    let t = text.trim();
+    if t.len() == 3 && matches!(t.as_bytes()[1], b'&' | b'-') {
+        let state: geometry::TrunkState = t
+            .parse()
+            .map_err(|e| Failure::usage(format!("--states '{t}': {e} (or layer state names)")))?;
+        let m = trunk.modules().len();
+        if m != 2 {
+            return Err(Failure::usage(format!(
+                "--states '{t}' is a crane state (TOP&BOTTOM), which needs a two-module trunk (bottom, top); this one has {m} modules: give layer state names instead"
+            )));
+        }
+        return parse_frame(trunk, &trunk_state_names(state).join("/"));
+    }
     let names: Vec<&str> = text.split(',').collect();
     if names.iter().any(|s| s.trim().is_empty()) {
         return Err(Failure::usage(
@@ -121,13 +152,26 @@ pub fn run(args: Args) -> Result<(), Failure> {
         names.join(","),
         model.mesh.triangles.len(),
         model.max_strain,
-        if model.feasible && model.max_strain <= geometry::STRAIN_TOLERANCE {
-            ""
-        } else {
-            " — not isometric to the flat pattern: strained faces drawn red"
-        }
+        strain_note(&states, model.feasible, model.max_strain)
     );
     Ok(())
+}
+
+/// What the largest strain means: nothing (isometric), infeasible states, or — when every
+/// layer's state is feasible on its own — the expected mismatch where a self-packed layer's
+/// boundary (bent at its edge midpoints, a smaller circumradius) meets an unpacked layer's flat
+/// n-gon (docs/fabrication.md, "3D models").
+fn strain_note(states: &[LayerState], feasible: bool, max_strain: f64) -> String {
+    if feasible && max_strain <= geometry::STRAIN_TOLERANCE {
+        return String::new();
+    }
+    let packed = |s: &LayerState| matches!(s, LayerState::SelfPacked);
+    let boundary = states.windows(2).any(|w| packed(&w[0]) != packed(&w[1]));
+    if feasible && boundary {
+        " — every layer's state is feasible; the strain is where a self-packed layer's boundary (bent at its edge midpoints) meets an unpacked layer's flat n-gon, expected at a packed boundary (the real trunk's panels flex there); strained faces drawn red".to_string()
+    } else {
+        " — not isometric to the flat pattern: strained faces drawn red".to_string()
+    }
 }
 
 /// Opens `ik --gltf FILE` before the solve.

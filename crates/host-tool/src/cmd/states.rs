@@ -9,11 +9,18 @@ use crate::failure::Failure;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of polygon sides n (an integer in [3, 64]).
-    #[arg(long, allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, allow_hyphen_values = true, required_unless_present = "crane")]
+    pub n: Option<String>,
     /// Fold angle β in degrees, strictly between 0 and 90.
-    #[arg(long, allow_hyphen_values = true)]
-    pub beta: String,
+    #[arg(long, allow_hyphen_values = true, required_unless_present = "crane")]
+    pub beta: Option<String>,
+    /// Print lengths in millimetres too, for a valley fold (polygon edge) of this length.
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub edge_mm: Option<String>,
+    /// The crane's trunk instead of one module: its height in each of its six states
+    /// (`F&P` … `D&D`), from the firmware's configuration and the geometry.
+    #[arg(long, conflicts_with_all = ["n", "beta", "edge_mm"])]
+    pub crane: bool,
     /// Print JSON instead of a table.
     #[arg(short = 'j', long)]
     pub json: bool,
@@ -37,6 +44,23 @@ pub fn parse_n(text: &str) -> Result<u32, Failure> {
         return Err(bad());
     }
     Ok(n)
+}
+
+/// Longest `--edge-mm` accepted (as `pattern --edge-mm`): 10 m.
+pub const MAX_EDGE_MM: f64 = 10_000.0;
+
+/// Parses `--edge-mm`: the valley fold (polygon edge) length l in mm, in (0, 10000].
+pub fn parse_edge_mm(text: &str) -> Result<f64, Failure> {
+    let bad = || {
+        Failure::usage(format!(
+            "--edge-mm must be a length in mm in (0, {MAX_EDGE_MM}] (the valley fold, the polygon edge l), got '{text}'"
+        ))
+    };
+    let v: f64 = text.trim().parse().map_err(|_| bad())?;
+    if !(v.is_finite() && v > 0.0 && v <= MAX_EDGE_MM) {
+        return Err(bad());
+    }
+    Ok(v)
 }
 
 /// Parses one β in degrees (any finite number; the design checks the range).
@@ -101,10 +125,11 @@ fn opt_num(x: Option<f64>) -> String {
     x.map_or_else(|| "null".to_string(), num)
 }
 
-fn state_json(info: &StateInfo) -> String {
+fn state_json(info: &StateInfo, edge_mm: Option<f64>) -> String {
     ordered_object(&[
         ("name", Value::from(info.state.to_string()).to_string()),
         ("d", num(info.pose.d)),
+        ("d_mm", opt_num(edge_mm.map(|e| info.pose.d * e))),
         ("gamma_deg", num(info.pose.gamma.to_degrees())),
         ("psi_deg", num(info.pose.psi.to_degrees())),
         ("theta_deg", opt_num(info.theta.map(f64::to_degrees))),
@@ -115,8 +140,17 @@ fn state_json(info: &StateInfo) -> String {
 
 /// Runs `host-tool states`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let n = parse_n(&args.n)?;
-    let beta = parse_beta(&args.beta)?;
+    if args.crane {
+        return crane(args.json);
+    }
+    let (Some(n_text), Some(beta_text)) = (&args.n, &args.beta) else {
+        return Err(Failure::usage(
+            "give --n N and --beta DEG for one module, or --crane for the crane's trunk",
+        ));
+    };
+    let n = parse_n(n_text)?;
+    let beta = parse_beta(beta_text)?;
+    let edge_mm = args.edge_mm.as_deref().map(parse_edge_mm).transpose()?;
     let design = design_from(n, beta)?;
     let infos: Vec<StateInfo> = design
         .shape_states()
@@ -125,13 +159,18 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let beta_in = popout::beta_in_deg(n);
     let beta_out = popout::beta_out_deg(n);
     if args.json {
-        let states: Vec<String> = infos.iter().map(state_json).collect();
+        let states: Vec<String> = infos.iter().map(|i| state_json(i, edge_mm)).collect();
+        let mm = |v: f64| opt_num(edge_mm.map(|e| v * e));
         let json = ordered_object(&[
             ("n", n.to_string()),
             ("beta_deg", num(beta)),
+            ("edge_mm", opt_num(edge_mm)),
             ("w", num(design.w())),
             ("a", num(design.a())),
             ("r", num(design.r())),
+            ("w_mm", mm(design.w())),
+            ("a_mm", mm(design.a())),
+            ("r_mm", mm(design.r())),
             (
                 "flat_foldable_beta_deg",
                 num(design.flat_foldable_beta_deg()),
@@ -145,7 +184,78 @@ pub fn run(args: Args) -> Result<(), Failure> {
         crate::cli::print_json_text(&json);
         return Ok(());
     }
-    crate::out_raw!("{}", table(&design, &infos, beta_in, beta_out));
+    crate::out_raw!("{}", table(&design, &infos, beta_in, beta_out, edge_mm));
+    Ok(())
+}
+
+/// `states --crane`: the crane trunk's height in each of its six states.
+fn crane(json: bool) -> Result<(), Failure> {
+    use geometry::trunk::TrunkState;
+    let cfg = firmware::config::CraneConfig::default();
+    let t = &cfg.trunk;
+    let heights: Vec<(TrunkState, Option<f32>)> = TrunkState::ALL
+        .iter()
+        .map(|&s| (s, cfg.trunk_height_mm(s)))
+        .collect();
+    let module = |m: &protocol::ModuleConfig| {
+        ordered_object(&[
+            ("n", m.n.to_string()),
+            ("beta_deg", crate::num::json32(m.beta_deg).to_string()),
+            ("edge_mm", crate::num::json32(m.edge_mm).to_string()),
+            ("layers", m.layers.to_string()),
+        ])
+    };
+    if json {
+        let states: Vec<String> = heights
+            .iter()
+            .map(|(s, h)| {
+                ordered_object(&[
+                    ("name", Value::from(s.name()).to_string()),
+                    (
+                        "height_mm",
+                        h.map_or("null".into(), |h| crate::num::json32(h).to_string()),
+                    ),
+                    ("flexible", Value::from(s.is_flexible()).to_string()),
+                ])
+            })
+            .collect();
+        crate::cli::print_json_text(&ordered_object(&[
+            ("top", module(&t.top)),
+            ("bottom", module(&t.bottom)),
+            (
+                "packed_layer_mm",
+                crate::num::json32(cfg.packed_layer_mm).to_string(),
+            ),
+            ("states", format!("[{}]", states.join(","))),
+        ]));
+        return Ok(());
+    }
+    crate::out!("the crane's trunk, TOP&BOTTOM (a module is a group of layers of one β):");
+    for (name, m) in [("top", &t.top), ("bottom", &t.bottom)] {
+        crate::out!(
+            "  {name:<6} module: n = {}, β = {}°, {} layers, edge {} mm",
+            m.n,
+            m.beta_deg,
+            m.layers,
+            m.edge_mm
+        );
+    }
+    crate::out!(
+        "  a self-packed layer is {} mm high (its panels stacked)",
+        cfg.packed_layer_mm
+    );
+    crate::out!();
+    crate::out!("  {:<6} {:>12}  bends (joystick)", "state", "height (mm)");
+    for (s, h) in &heights {
+        crate::out!(
+            "  {:<6} {:>12}  {}",
+            s.name(),
+            h.map_or("—".to_string(), |h| format!("{h:.1}")),
+            if s.is_flexible() { "yes" } else { "no" }
+        );
+    }
+    crate::out!();
+    crate::out!("  height = Σ layers × d (folded or deployed, `host-tool states --n 3 --beta …`) × edge, or layers × the packed layer");
     Ok(())
 }
 
@@ -158,13 +268,23 @@ fn table(
     infos: &[StateInfo],
     beta_in: Option<f64>,
     beta_out: Option<f64>,
+    edge_mm: Option<f64>,
 ) -> String {
     let mut s = String::new();
     s += &format!(
-        "Yoshimura module n = {}, β = {}°   (lengths in units of the edge l)\n",
+        "Yoshimura module n = {}, β = {}°   (lengths in units of the edge l{})\n",
         design.n(),
-        design.beta_deg()
+        design.beta_deg(),
+        edge_mm.map_or(String::new(), |e| format!(" = {e} mm"))
     );
+    if let Some(e) = edge_mm {
+        s += &format!(
+            "  w = {:.2} mm   a = {:.2} mm   r = {:.2} mm\n",
+            design.w() * e,
+            design.a() * e,
+            design.r() * e
+        );
+    }
     s += &format!(
         "  w = {:.4}   a = {:.4}   r = {:.4}   flat-foldable β = {:.4}°\n",
         design.w(),
@@ -188,14 +308,26 @@ fn table(
         fmt_opt(beta_out, "°")
     );
     s += &format!(
-        "  {:<11} {:>8} {:>9} {:>9} {:>9} {:>9} {:>10}\n",
-        "state", "d", "γ (°)", "ψ (°)", "θ (°)", "feasible", "strain"
+        "  {:<11} {:>8}{} {:>9} {:>9} {:>9} {:>9} {:>10}\n",
+        "state",
+        "d",
+        if edge_mm.is_some() {
+            format!(" {:>9}", "d (mm)")
+        } else {
+            String::new()
+        },
+        "γ (°)",
+        "ψ (°)",
+        "θ (°)",
+        "feasible",
+        "strain"
     );
     for i in infos {
         s += &format!(
-            "  {:<11} {:>8.4} {:>9.3} {:>9.3} {:>9} {:>9} {:>10.2e}\n",
+            "  {:<11} {:>8.4}{} {:>9.3} {:>9.3} {:>9} {:>9} {:>10.2e}\n",
             i.state.to_string(),
             i.pose.d,
+            edge_mm.map_or(String::new(), |e| format!(" {:>9.2}", i.pose.d * e)),
             i.pose.gamma.to_degrees(),
             i.pose.psi.to_degrees(),
             i.theta

@@ -36,7 +36,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+pub mod bands;
 pub mod beam;
+pub mod diagnose;
 pub mod dp;
 mod error;
 pub mod exact;

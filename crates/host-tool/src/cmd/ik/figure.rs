@@ -24,6 +24,8 @@ pub struct Header {
     pub rms: f64,
     /// "proven optimal", "≤ 3.2 % above the optimum", or empty.
     pub status: String,
+    /// One short line per warning of the fit (`ik::diagnose`), drawn under the header.
+    pub warnings: Vec<String>,
 }
 
 /// Module geometry in world coordinates.
@@ -220,6 +222,9 @@ fn render_views(
         SIZE_TITLE,
         inner,
     ));
+    for w in &header.warnings {
+        title.extend(wrap(&format!("warning: {w}"), SIZE_TITLE, inner));
+    }
     let title_h = title.len() as f64 * LEADING * SIZE_TITLE + 2.0;
 
     let mut legend = Legend::new();
@@ -654,6 +659,7 @@ mod tests {
             metric: "eq36".into(),
             rms: s.rms,
             status: String::new(),
+            warnings: Vec::new(),
         };
         let (fig, [top, front, side]) = render_views(&problem, &designs, &s, &header);
         let scale = |a: &Area| (a.rect.w / (a.u.1 - a.u.0), a.rect.h / (a.v.1 - a.v.0));

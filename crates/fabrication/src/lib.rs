@@ -11,6 +11,8 @@
 //! * [`panel`] — the dual-material printable panel of §5.3 (TPU base sheet, nylon facets with
 //!   a gap between neighbours) as 3MF with two objects and materials, or one STL per material;
 //! * [`kit`] — the meter-scale kit of §7: facet cut list, hinge positions, hinge/screw counts;
+//! * [`nest`] — cut sheets of the kit's facets on real sheet sizes, with insert holes and
+//!   labels, written per sheet as DXF and SVG by [`nest_out`];
 //! * [`model`] — a 3D model of a stack in given states (binary glTF 2.0, OBJ, STL), coloured by
 //!   module, with the strain of non-isometric states shown.
 //!
@@ -26,6 +28,8 @@ pub mod folded;
 pub mod kit;
 pub mod mesh;
 pub mod model;
+pub mod nest;
+pub mod nest_out;
 pub mod panel;
 pub mod pattern;
 pub mod svg;

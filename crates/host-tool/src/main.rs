@@ -160,6 +160,7 @@ impl Command {
             Command::States(a) => a.json,
             Command::Fk(a) => a.json,
             Command::Ik(a) => a.json,
+            Command::Pattern(a) => a.json,
             Command::Plan(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,

@@ -13,6 +13,7 @@
 //! * [`kit`] — the meter-scale kit of §7: facet cut list, hinge positions, hinge/screw counts;
 //! * [`nest`] — cut sheets of the kit's facets on real sheet sizes, with insert holes and
 //!   labels, written per sheet as DXF and SVG by [`nest_out`];
+//! * [`bom`] — bills of materials (the crane: printed panel and electronics; the kit) as CSV;
 //! * [`model`] — a 3D model of a stack in given states (binary glTF 2.0, OBJ, STL), coloured by
 //!   module, with the strain of non-isometric states shown.
 //!
@@ -22,6 +23,7 @@
 //! Every function that takes user input validates it and returns an `Err` with a message that
 //! says what is valid; nothing panics on any input.
 
+pub mod bom;
 pub mod dxf_out;
 pub mod fold;
 pub mod folded;

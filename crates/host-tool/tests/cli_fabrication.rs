@@ -587,3 +587,43 @@ fn nest_usage_errors_say_what_is_valid() {
         "nothing written on a usage error"
     );
 }
+
+#[test]
+fn pattern_bom_writes_the_crane_or_the_kit() {
+    let dir = TempDir::new("bom");
+    let (crane, kit) = (dir.file("crane.csv"), dir.file("kit.csv"));
+    let out = ok(&["pattern", "--bom", &crane]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("bill of materials (crane"));
+    let text = std::fs::read_to_string(&crane).unwrap();
+    assert!(text.starts_with("section,part,quantity,unit,specification\n"));
+    assert!(text.contains("electronics,tendon servo,3,pcs,"), "{text}");
+    assert!(
+        text.contains("trunk,TPU 95A filament (base sheet),"),
+        "{text}"
+    );
+    ok(&[
+        "pattern",
+        "--beta",
+        "31.72",
+        "--layers",
+        "4",
+        "--edge-mm",
+        "609.6",
+        "--nest",
+        "1220x2440",
+        "--nest-dir",
+        &dir.file("cut"),
+        "--bom",
+        &kit,
+    ]);
+    let text = std::fs::read_to_string(&kit).unwrap();
+    for want in [
+        "kit,HDPE sheet,2,pcs,",
+        "kit,hinge,180,pcs,",
+        "kit,M4 screw,720,pcs,",
+        "kit,M4 heat-set insert,720,pcs,",
+    ] {
+        assert!(text.contains(want), "{want} in\n{text}");
+    }
+    assert!(!text.contains("electronics"));
+}

@@ -167,6 +167,11 @@ pub struct Args {
     /// Finished diameter of the heat-set insert holes in mm (check your M4 insert's datasheet).
     #[arg(long, default_value_t = fabrication::nest::INSERT_HOLE_MM, allow_hyphen_values = true)]
     pub insert_hole_mm: f64,
+    /// Write a bill of materials as CSV (section, part, quantity, unit, specification): the
+    /// crane's printed panel and electronics, or with --kit/--nest the meter-scale kit (with
+    /// --nest its sheet count).
+    #[arg(long, value_name = "FILE")]
+    pub bom: Option<PathBuf>,
     /// Print what was written as one JSON object on stdout (instead of the kit's table).
     #[arg(short, long)]
     pub json: bool,
@@ -345,18 +350,21 @@ pub fn run(args: Args) -> Result<(), Failure> {
         && args.stl_dir.is_none()
         && args.kit.is_none()
         && args.nest.is_none()
+        && args.bom.is_none()
     {
         return Err(Failure::usage(
-            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET",
+            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET, --bom FILE",
         ));
     }
-    let wants_panel = args.three_mf.is_some() || args.stl_dir.is_some();
+    let kit_bom = args.kit.is_some() || args.nest.is_some();
+    let wants_panel =
+        args.three_mf.is_some() || args.stl_dir.is_some() || (args.bom.is_some() && !kit_bom);
     let panel_given = args.gap_mm.is_some()
         || args.facet_mm != Defaults::FACET_MM
         || args.base_mm != Defaults::BASE_MM;
     if panel_given && !wants_panel {
         return Err(Failure::usage(
-            "--gap-mm, --facet-mm and --base-mm shape the printed panel; give --3mf FILE or --stl-dir DIR too",
+            "--gap-mm, --facet-mm and --base-mm shape the printed panel; give --3mf FILE or --stl-dir DIR too (or --bom FILE, without --kit and --nest)",
         ));
     }
     let panel = if wants_panel {
@@ -408,6 +416,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
     if let Some(p) = &args.kit {
         paths.push(("--kit", p));
     }
+    if let Some(p) = &args.bom {
+        paths.push(("--bom", p));
+    }
     let stl_paths = args
         .stl_dir
         .as_ref()
@@ -452,7 +463,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         folded.push((name.clone(), f));
     }
-    let kit = args.kit.as_ref().map(|_| Kit::new(&trunk));
+    let kit = kit_bom.then(|| Kit::new(&trunk));
     let mut stl_meshes = panel
         .iter()
         .flat_map(|p| [(&p.base, "TPU 95A base sheet"), (&p.facets, "nylon facets")]);
@@ -506,6 +517,29 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         serde_json::json!({ "triangles": tris }),
                     );
                 }
+            }
+            "--bom" => {
+                let bom = match (&kit, &panel) {
+                    (Some(kit), _) => fabrication::bom::Bom::kit(kit, nest.as_ref()),
+                    (None, Some(panel)) => fabrication::bom::Bom::crane(panel),
+                    (None, None) => continue,
+                };
+                let text = bom.to_csv();
+                let n = out.write_counted(|w| w.write_all(text.as_bytes()))?;
+                record(
+                    n,
+                    "csv",
+                    format!(
+                        "bill of materials ({}), {} lines",
+                        if kit.is_some() {
+                            "meter-scale kit"
+                        } else {
+                            "crane: printed panel and electronics"
+                        },
+                        bom.rows.len()
+                    ),
+                    serde_json::json!({ "rows": bom.rows.len() }),
+                );
             }
             "--kit" => {
                 if let Some(kit) = &kit {

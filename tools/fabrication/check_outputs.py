@@ -7,6 +7,7 @@
   check_outputs.py kit FILE.json --hinges H --screws S
   check_outputs.py nest DIR --sheet WxH --margin-mm M --spacing-mm S --kerf-mm K --hole-mm D
                    --n N --layers L --kit KIT.json   (cut sheets: ezdxf + shapely)
+  check_outputs.py tiles FULL.svg PAGE.svg [...]   (paper tiles: 1:1, marks align, lines = the full pattern)
   check_outputs.py glb FILE.glb [...] [--expect-red yes|no] (GLB read with numpy alone)
   check_outputs.py render FILE OUT.png [--title T] (a matplotlib projection of a 3D file)
 
@@ -245,6 +246,88 @@ def cmd_nest(a):
           f"nest.json: {doc['sheets_used']} sheets, area bound {doc['area_bound_sheets']}")
 
 
+def cmd_tiles(a):
+    """Paper tiles read back with ElementTree: each page 1:1 in mm, its registration marks (the
+    crossing of each mark's two lines) put the pages together by translation, every shared mark
+    agrees within 0.1 mm, and the assembled crease lines are the full 1:1 pattern's within 0.1 mm
+    (each page line lies on a full-pattern line, each full-pattern line is covered)."""
+    ns = "{http://www.w3.org/2000/svg}"
+    kinds = ["mountain", "valley", "boundary", "cut", "virtual"]
+
+    def mm(v):
+        return float(v[:-2]) if v.endswith("mm") else None
+
+    def read(path):
+        root = ET.parse(path).getroot()
+        lines = []
+        for g in root.iter(ns + "g"):
+            if g.get("id") in kinds:
+                for ln in g.iter(ns + "line"):
+                    lines.append((g.get("id"), (float(ln.get("x1")), float(ln.get("y1"))), (float(ln.get("x2")), float(ln.get("y2")))))
+        marks = {}
+        for g in root.iter(ns + "g"):
+            if g.get("class") == "registration":
+                ls = list(g.iter(ns + "line"))
+                hx = [l for l in ls if l.get("y1") == l.get("y2")][0]
+                vy = [l for l in ls if l.get("x1") == l.get("x2")][0]
+                marks[g.get("id")] = (float(vy.get("x1")), float(hx.get("y1")))
+        return root, lines, marks
+
+    _, full, _ = read(a.full)
+    pages = []
+    for f in a.pages:
+        root, lines, marks = read(f)
+        vb = [float(x) for x in root.get("viewBox").split()]
+        w, h = mm(root.get("width")), mm(root.get("height"))
+        check(w is not None and abs(w - vb[2]) < 1e-9 and abs(h - vb[3]) < 1e-9,
+              f"{f.rsplit('/', 1)[-1]}: {w} × {h} mm page, viewBox in mm (1:1)")
+        check(any(abs(w - s[0]) < 1e-6 and abs(h - s[1]) < 1e-6 for s in [(210, 297), (297, 210), (215.9, 279.4), (279.4, 215.9)]),
+              f"{f.rsplit('/', 1)[-1]}: an A4 or Letter page")
+        pages.append((lines, marks))
+    # Translations by breadth-first search over shared marks; page 0 is the reference.
+    shift = {0: (0.0, 0.0)}
+    worst = 0.0
+    todo = [0]
+    while todo:
+        i = todo.pop()
+        for j in range(len(pages)):
+            shared = set(pages[i][1]) & set(pages[j][1])
+            if i == j or not shared:
+                continue
+            ds = [(pages[i][1][m][0] - pages[j][1][m][0] + shift[i][0], pages[i][1][m][1] - pages[j][1][m][1] + shift[i][1]) for m in shared]
+            if j not in shift:
+                shift[j] = ds[0]
+                todo.append(j)
+            worst = max([worst] + [math.dist(d, shift[j]) for d in ds])
+    check(len(shift) == len(pages), f"every page joined to the others through shared marks ({len(shift)} of {len(pages)})")
+    check(worst <= 0.1, f"shared registration marks agree within 0.1 mm (worst {worst:.2e} mm)")
+    assembled = [(k, (p[0] + shift[i][0], p[1] + shift[i][1]), (q[0] + shift[i][0], q[1] + shift[i][1]))
+                 for i, (lines, _) in enumerate(pages) if i in shift for (k, p, q) in lines]
+    # The assembled frame against the full pattern's: the offset of their top-left corners.
+    off = (min(min(p[0], q[0]) for _, p, q in full) - min(min(p[0], q[0]) for _, p, q in assembled),
+           min(min(p[1], q[1]) for _, p, q in full) - min(min(p[1], q[1]) for _, p, q in assembled))
+    assembled = [(k, (p[0] + off[0], p[1] + off[1]), (q[0] + off[0], q[1] + off[1])) for k, p, q in assembled]
+
+    def seg_dist(p, a_, b_):
+        dx, dy = b_[0] - a_[0], b_[1] - a_[1]
+        L2 = dx * dx + dy * dy
+        t = 0 if L2 == 0 else max(0, min(1, ((p[0] - a_[0]) * dx + (p[1] - a_[1]) * dy) / L2))
+        return math.dist(p, (a_[0] + t * dx, a_[1] + t * dy))
+
+    off_line = 0.0
+    for k, p, q in assembled:
+        best = min(max(seg_dist(p, fa, fb), seg_dist(q, fa, fb)) for fk, fa, fb in full if fk == k)
+        off_line = max(off_line, best)
+    check(off_line <= 0.1, f"{len(assembled)} page lines lie on the full pattern's lines of their kind within 0.1 mm (worst {off_line:.2e} mm)")
+    uncovered = 0
+    for k, fa, fb in full:
+        for t in (0.05, 0.5, 0.95):
+            pt = (fa[0] + t * (fb[0] - fa[0]), fa[1] + t * (fb[1] - fa[1]))
+            if min((seg_dist(pt, p, q) for kk, p, q in assembled if kk == k), default=1e9) > 0.1:
+                uncovered += 1
+    check(uncovered == 0, f"all {len(full)} lines of the full pattern are on the pages ({uncovered} points missing)")
+
+
 def read_glb(path):
     """Reads a binary glTF written by host-tool (non-indexed triangles, float POSITION and
     COLOR_0) with numpy alone: returns (triangles (k, 3, 3) in mm with +Z up, sRGB colours (k, 3))."""
@@ -391,6 +474,9 @@ def main():
     ne.add_argument("--n", type=int, required=True)
     ne.add_argument("--layers", type=int, required=True)
     ne.add_argument("--kit")
+    ti = sub.add_parser("tiles")
+    ti.add_argument("full")
+    ti.add_argument("pages", nargs="+")
     gl = sub.add_parser("glb")
     gl.add_argument("files", nargs="+")
     gl.add_argument("--expect-red", type=lambda x: x == "yes", default=None)
@@ -404,7 +490,7 @@ def main():
     r.add_argument("--size", type=float, default=5)
     r.add_argument("--dpi", type=int, default=110)
     a = p.parse_args()
-    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb, "nest": cmd_nest}[a.cmd](a)
+    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb, "nest": cmd_nest, "tiles": cmd_tiles}[a.cmd](a)
     print(f"check_outputs {a.cmd}: " + ("all checks passed" if FAILED == 0 else f"{FAILED} checks FAILED"))
     sys.exit(1 if FAILED else 0)
 

@@ -8,6 +8,8 @@
 //!   written as SVG ([`svg`]), DXF ([`dxf_out`]) and FOLD v1.2 ([`fold`]) with one frame per
 //!   state from [`folded`] (3D coordinates and fold angles from `geometry::Module3d` /
 //!   `geometry::SelfPacked3d`);
+//! * [`tiles`] — the 1:1 pattern tiled over A4 or Letter pages with registration marks and a
+//!   scale bar;
 //! * [`panel`] — the dual-material printable panel of §5.3 (TPU base sheet, nylon facets with
 //!   a gap between neighbours) as 3MF with two objects and materials, or one STL per material;
 //! * [`kit`] — the meter-scale kit of §7: facet cut list, hinge positions, hinge/screw counts;
@@ -35,6 +37,7 @@ pub mod nest_out;
 pub mod panel;
 pub mod pattern;
 pub mod svg;
+pub mod tiles;
 mod trunk;
 
 pub use trunk::{Defaults, FabError, Module, Trunk, MAX_LAYERS};

@@ -627,3 +627,31 @@ fn pattern_bom_writes_the_crane_or_the_kit() {
     }
     assert!(!text.contains("electronics"));
 }
+
+#[test]
+fn pattern_page_tiles_the_crease_pattern_and_refuses_other_paper() {
+    let dir = TempDir::new("pages");
+    let pages = dir.file("pages");
+    let out = ok(&["pattern", "--page", "a4", "--page-dir", &pages, "-j"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let files = v["files"].as_array().unwrap();
+    assert_eq!(files.len(), 2, "{v}");
+    assert_eq!(files[0]["pages"], 2);
+    assert_eq!(files[0]["page_mm"], serde_json::json!([210.0, 297.0]));
+    for (i, f) in files.iter().enumerate() {
+        let name = format!("page-{}.svg", i + 1);
+        assert!(f["path"].as_str().unwrap().ends_with(&name));
+        let text = std::fs::read_to_string(Path::new(&pages).join(&name)).unwrap();
+        assert!(text.contains(r#"width="210mm" height="297mm""#));
+        assert!(text.contains(r#"class="registration""#));
+    }
+    usage_error(
+        &["pattern", "--page", "a3", "--page-dir", &pages],
+        "a4 or letter",
+    );
+    usage_error(&["pattern", "--page", "a4"], "give --page-dir DIR");
+    usage_error(
+        &["pattern", "--page-dir", &pages, "--svg", &dir.file("x.svg")],
+        "give --page a4|letter too",
+    );
+}

@@ -172,6 +172,13 @@ pub struct Args {
     /// --nest its sheet count).
     #[arg(long, value_name = "FILE")]
     pub bom: Option<PathBuf>,
+    /// Tile the 1:1 crease pattern over paper pages (a4 or letter) with registration marks and
+    /// a 50 mm scale bar: page-1.svg, page-2.svg, … in --page-dir. Print at 100 %.
+    #[arg(long, value_name = "PAPER")]
+    pub page: Option<String>,
+    /// Directory for the pages of --page; created if missing.
+    #[arg(long, value_name = "DIR")]
+    pub page_dir: Option<PathBuf>,
     /// Print what was written as one JSON object on stdout (instead of the kit's table).
     #[arg(short, long)]
     pub json: bool,
@@ -351,9 +358,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
         && args.kit.is_none()
         && args.nest.is_none()
         && args.bom.is_none()
+        && args.page.is_none()
     {
         return Err(Failure::usage(
-            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET, --bom FILE",
+            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET, --bom FILE, --page PAPER",
         ));
     }
     let kit_bom = args.kit.is_some() || args.nest.is_some();
@@ -381,6 +389,24 @@ pub fn run(args: Args) -> Result<(), Failure> {
         Some(p) => Some(Nest::new(&trunk, p).map_err(|e| Failure::usage(format!("--nest: {e}")))?),
         None => None,
     };
+    let tiling = match (&args.page, &args.page_dir) {
+        (Some(p), Some(_)) => Some(fabrication::tiles::tiling(
+            &pattern,
+            fabrication::tiles::Paper::parse(p)
+                .map_err(|e| Failure::usage(format!("--page: {e}")))?,
+        )),
+        (Some(_), None) => {
+            return Err(Failure::usage(
+                "--page writes one SVG per page: give --page-dir DIR for them",
+            ))
+        }
+        (None, Some(_)) => {
+            return Err(Failure::usage(
+                "--page-dir holds the pages of --page; give --page a4|letter too",
+            ))
+        }
+        (None, None) => None,
+    };
     if args.states.is_some() && args.fold.is_none() {
         return Err(Failure::usage(
             "--states selects the frames of --fold; give --fold FILE too",
@@ -400,6 +426,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             })
             .collect::<Result<_, _>>()?,
     };
+    let title = format!("host-tool pattern: {}", trunk.describe());
     let mut paths: Vec<(&'static str, &std::path::Path)> = Vec::new();
     if let Some(p) = &args.svg {
         paths.push(("--svg", p));
@@ -450,8 +477,24 @@ pub fn run(args: Args) -> Result<(), Failure> {
     if let (Some(p), Some(_)) = (&nest_json, &nest) {
         paths.push(("--nest", p));
     }
+    let page_paths: Vec<PathBuf> = match (&tiling, &args.page_dir) {
+        (Some(t), Some(dir)) => {
+            output::ensure_dir("--page-dir", dir)?;
+            (1..=t.pages())
+                .map(|i| dir.join(format!("page-{i}.svg")))
+                .collect()
+        }
+        _ => Vec::new(),
+    };
+    for p in &page_paths {
+        paths.push(("--page", p));
+    }
     let outputs = output::open_all(&paths)?;
-    let title = format!("host-tool pattern: {}", trunk.describe());
+    let page_svgs = tiling
+        .as_ref()
+        .map(|t| fabrication::tiles::pages(&pattern, t, &title))
+        .unwrap_or_default();
+    let mut page_svgs = page_svgs.into_iter().enumerate();
     let mut folded = Vec::new();
     for (name, states) in &frames {
         let f = fold(&pattern, states).map_err(|e| Failure::usage(e.to_string()))?;
@@ -517,6 +560,27 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         serde_json::json!({ "triangles": tris }),
                     );
                 }
+            }
+            "--page" => {
+                let (Some(t), Some((i, text))) = (&tiling, page_svgs.next()) else {
+                    continue;
+                };
+                let n = out.write_counted(|w| w.write_all(text.as_bytes()))?;
+                let [pw, ph] = t.page_mm;
+                record(
+                    n,
+                    "svg",
+                    format!(
+                        "crease pattern 1:1, page {} of {} ({} {}, {} × {} pages)",
+                        i + 1,
+                        t.pages(),
+                        t.paper.name(),
+                        if pw > ph { "landscape" } else { "portrait" },
+                        t.grid[0],
+                        t.grid[1]
+                    ),
+                    serde_json::json!({ "page": i + 1, "pages": t.pages(), "page_mm": t.page_mm, "grid": t.grid }),
+                );
             }
             "--bom" => {
                 let bom = match (&kit, &panel) {

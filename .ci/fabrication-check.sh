@@ -41,6 +41,21 @@ echo "--- the paper's meter-scale build (four 2 ft golden modules): 180 hinges, 
 "$H" pattern --beta 31.72 --layers 4 --edge-mm 609.6 --kit "$OUT/kit.json"
 $PY kit "$OUT/kit.json" --hinges 180 --screws 720
 
+echo "--- cut sheets of the paper's kit on 4 x 8 ft sheets, and of a two-module n = 4 kit (ezdxf + shapely)"
+"$H" pattern --beta 31.72 --layers 4 --edge-mm 609.6 --nest 1220x2440 --nest-dir "$OUT/cut" --kit "$OUT/kit.json" -q
+$PY nest "$OUT/cut" --sheet 1220x2440 --n 3 --layers 4 --kit "$OUT/kit.json"
+"$H" pattern --n 4 --beta 35,31.72 --layers 2 --edge-mm 400 --nest 1000x1500 --kerf-mm 0.3 --margin-mm 5 \
+  --spacing-mm 2 --nest-dir "$OUT/cut4" --kit "$OUT/kit4.json" -q
+$PY nest "$OUT/cut4" --sheet 1000x1500 --kerf-mm 0.3 --margin-mm 5 --spacing-mm 2 --n 4 --layers 4 --kit "$OUT/kit4.json"
+rsvg-convert -w 800 "$OUT/cut/sheet-1.svg" -o "$OUT/sheet-1.png" && echo "ok   cut sheet SVG renders (rsvg-convert)"
+
+echo "--- the 1:1 crane pattern tiled on A4 and on Letter: reassembled from the marks = the full pattern within 0.1 mm"
+"$H" pattern --svg "$OUT/full.svg" --page a4 --page-dir "$OUT/a4" -q
+$PY tiles "$OUT/full.svg" "$OUT"/a4/page-*.svg
+"$H" pattern --beta 31.72 --layers 4 --edge-mm 200 --svg "$OUT/big.svg" --page letter --page-dir "$OUT/letter" -q
+$PY tiles "$OUT/big.svg" "$OUT"/letter/page-*.svg
+rsvg-convert -w 600 "$OUT/a4/page-1.svg" -o "$OUT/page-1.png" && echo "ok   page SVG renders (rsvg-convert)"
+
 echo "--- 3D models: glTF read with numpy alone (the gltf crate validates them in cargo test), OBJ/STL with trimesh"
 "$H" model --states deployed --gltf "$OUT/dd.glb" --obj "$OUT/dd.obj" --stl "$OUT/dd.stl"
 "$H" model --beta 31.717474411461005 --layers 4 --states edge-0,deployed,vertex-1,folded --gltf "$OUT/golden.glb"

@@ -5,6 +5,9 @@
   check_outputs.py panel FILE.3mf --stl-dir DIR
   check_outputs.py mesh FILE [FILE ...]          (STL/OBJ/GLB: watertight, consistent, volume)
   check_outputs.py kit FILE.json --hinges H --screws S
+  check_outputs.py nest DIR --sheet WxH --margin-mm M --spacing-mm S --kerf-mm K --hole-mm D
+                   --n N --layers L --kit KIT.json   (cut sheets: ezdxf + shapely)
+  check_outputs.py tiles FULL.svg PAGE.svg [...]   (paper tiles: 1:1, marks align, lines = the full pattern)
   check_outputs.py glb FILE.glb [...] [--expect-red yes|no] (GLB read with numpy alone)
   check_outputs.py render FILE OUT.png [--title T] (a matplotlib projection of a 3D file)
 
@@ -169,6 +172,162 @@ def cmd_kit(a):
     check(facets == kit["facet_count"], f"{facets} facets in the cut list")
 
 
+def cmd_nest(a):
+    """The cut sheets read back with ezdxf alone, judged with shapely: every facet once, inside
+    the sheet's margins, no two cut paths closer than the spacing, every insert hole inside its
+    facet, one hole per screw of the kit, neighbours' ids mutual."""
+    import glob
+    import os
+
+    import ezdxf
+    from shapely.geometry import Point, Polygon, box
+
+    w, h = (float(x) for x in a.sheet.lower().split("x"))
+    files = sorted(glob.glob(os.path.join(a.dir, "sheet-*.dxf")), key=lambda f: int(f.rsplit("-", 1)[1][:-4]))
+    check(len(files) > 0, f"{len(files)} sheet DXF files")
+    inner = box(a.margin_mm, a.margin_mm, w - a.margin_mm, h - a.margin_mm)
+    ids = []
+    holes_total = 0
+    neighbours = {}
+    for f in files:
+        doc = ezdxf.readfile(f)
+        name = os.path.basename(f)
+        check(doc.header.get("$INSUNITS") == 4, f"{name}: $INSUNITS = 4 (mm)")
+        msp = doc.modelspace()
+        cuts = [Polygon([(p[0], p[1]) for p in e.get_points()]) for e in msp.query("LWPOLYLINE[layer=='CUT']")]
+        check(all(len(e) == 3 and e.closed for e in msp.query("LWPOLYLINE[layer=='CUT']")),
+              f"{name}: {len(cuts)} cut paths, each a closed triangle")
+        check(all(c.is_valid and c.area > 0 for c in cuts), f"{name}: every cut path a valid polygon")
+        out = [i for i, c in enumerate(cuts) if not inner.buffer(1e-6).contains(c)]
+        check(not out, f"{name}: every cut path inside the {a.margin_mm} mm margin of the {w:g} x {h:g} mm sheet")
+        worst_overlap, closest = 0.0, float("inf")
+        for i in range(len(cuts)):
+            for j in range(i + 1, len(cuts)):
+                if cuts[i].intersects(cuts[j]):
+                    worst_overlap = max(worst_overlap, cuts[i].intersection(cuts[j]).area)
+                closest = min(closest, cuts[i].distance(cuts[j]))
+        check(worst_overlap < 1e-9, f"{name}: no two parts overlap (largest overlap {worst_overlap:.2e} mm²)")
+        if len(cuts) > 1:
+            check(closest >= a.spacing_mm - 1e-6, f"{name}: closest cut paths {closest:.4f} mm apart >= spacing {a.spacing_mm} mm")
+        circles = list(msp.query("CIRCLE[layer=='HOLES']"))
+        want_r = (a.hole_mm - a.kerf_mm) / 2
+        check(all(abs(c.dxf.radius - want_r) < 1e-9 for c in circles),
+              f"{name}: {len(circles)} hole paths of radius {want_r} mm (finished hole {a.hole_mm} mm)")
+        per = [0] * len(cuts)
+        for c in circles:
+            disc = Point(c.dxf.center.x, c.dxf.center.y).buffer(c.dxf.radius, 64)
+            owners = [i for i, p in enumerate(cuts) if p.contains(disc)]
+            if len(owners) == 1:
+                per[owners[0]] += 1
+        check(sum(per) == len(circles), f"{name}: every hole inside exactly one facet")
+        check(all(k in (8, 16) for k in per), f"{name}: each facet has 8 (trunk edge) or 16 holes: {sorted(set(per))}")
+        holes_total += len(circles)
+        texts = list(msp.query("TEXT[layer=='LABEL']"))
+        for i, c in enumerate(cuts):
+            inside = [t for t in texts if c.contains(Point(t.dxf.align_point.x, t.dxf.align_point.y))]
+            if not inside:
+                check(False, f"{name}: part {i} has no label")
+                continue
+            own = max(inside, key=lambda t: t.dxf.height)
+            ids.append(own.dxf.text)
+            neighbours[own.dxf.text] = sorted(t.dxf.text for t in inside if t is not own)
+    expected = {f"{k}{kind}{j}" for k in range(1, a.layers + 1) for kind in "AVLU" for j in range(1, a.n + 1)}
+    check(sorted(ids) == sorted(expected), f"every facet exactly once: {len(ids)} labelled parts, {len(expected)} expected")
+    mutual = all(m in neighbours and i in neighbours[m] for i, ns in neighbours.items() for m in ns)
+    check(mutual, "every neighbour label is mutual (A names B across a crease, B names A)")
+    edge = [i for i, ns in neighbours.items() if len(ns) == 2]
+    check(sorted(edge) == sorted([f"1A{j}" for j in range(1, a.n + 1)] + [f"{a.layers}V{j}" for j in range(1, a.n + 1)]),
+          f"only the trunk's bottom and top triangles lack a neighbour ({len(edge)})")
+    if a.kit:
+        kit = json.load(open(a.kit))
+        check(holes_total == kit["screws"], f"{holes_total} insert holes = the kit's {kit['screws']} screws")
+    doc = json.load(open(os.path.join(a.dir, "nest.json")))
+    check(doc["sheets_used"] == len(files) and doc["area_bound_sheets"] <= len(files),
+          f"nest.json: {doc['sheets_used']} sheets, area bound {doc['area_bound_sheets']}")
+
+
+def cmd_tiles(a):
+    """Paper tiles read back with ElementTree: each page 1:1 in mm, its registration marks (the
+    crossing of each mark's two lines) put the pages together by translation, every shared mark
+    agrees within 0.1 mm, and the assembled crease lines are the full 1:1 pattern's within 0.1 mm
+    (each page line lies on a full-pattern line, each full-pattern line is covered)."""
+    ns = "{http://www.w3.org/2000/svg}"
+    kinds = ["mountain", "valley", "boundary", "cut", "virtual"]
+
+    def mm(v):
+        return float(v[:-2]) if v.endswith("mm") else None
+
+    def read(path):
+        root = ET.parse(path).getroot()
+        lines = []
+        for g in root.iter(ns + "g"):
+            if g.get("id") in kinds:
+                for ln in g.iter(ns + "line"):
+                    lines.append((g.get("id"), (float(ln.get("x1")), float(ln.get("y1"))), (float(ln.get("x2")), float(ln.get("y2")))))
+        marks = {}
+        for g in root.iter(ns + "g"):
+            if g.get("class") == "registration":
+                ls = list(g.iter(ns + "line"))
+                hx = [l for l in ls if l.get("y1") == l.get("y2")][0]
+                vy = [l for l in ls if l.get("x1") == l.get("x2")][0]
+                marks[g.get("id")] = (float(vy.get("x1")), float(hx.get("y1")))
+        return root, lines, marks
+
+    _, full, _ = read(a.full)
+    pages = []
+    for f in a.pages:
+        root, lines, marks = read(f)
+        vb = [float(x) for x in root.get("viewBox").split()]
+        w, h = mm(root.get("width")), mm(root.get("height"))
+        check(w is not None and abs(w - vb[2]) < 1e-9 and abs(h - vb[3]) < 1e-9,
+              f"{f.rsplit('/', 1)[-1]}: {w} × {h} mm page, viewBox in mm (1:1)")
+        check(any(abs(w - s[0]) < 1e-6 and abs(h - s[1]) < 1e-6 for s in [(210, 297), (297, 210), (215.9, 279.4), (279.4, 215.9)]),
+              f"{f.rsplit('/', 1)[-1]}: an A4 or Letter page")
+        pages.append((lines, marks))
+    # Translations by breadth-first search over shared marks; page 0 is the reference.
+    shift = {0: (0.0, 0.0)}
+    worst = 0.0
+    todo = [0]
+    while todo:
+        i = todo.pop()
+        for j in range(len(pages)):
+            shared = set(pages[i][1]) & set(pages[j][1])
+            if i == j or not shared:
+                continue
+            ds = [(pages[i][1][m][0] - pages[j][1][m][0] + shift[i][0], pages[i][1][m][1] - pages[j][1][m][1] + shift[i][1]) for m in shared]
+            if j not in shift:
+                shift[j] = ds[0]
+                todo.append(j)
+            worst = max([worst] + [math.dist(d, shift[j]) for d in ds])
+    check(len(shift) == len(pages), f"every page joined to the others through shared marks ({len(shift)} of {len(pages)})")
+    check(worst <= 0.1, f"shared registration marks agree within 0.1 mm (worst {worst:.2e} mm)")
+    assembled = [(k, (p[0] + shift[i][0], p[1] + shift[i][1]), (q[0] + shift[i][0], q[1] + shift[i][1]))
+                 for i, (lines, _) in enumerate(pages) if i in shift for (k, p, q) in lines]
+    # The assembled frame against the full pattern's: the offset of their top-left corners.
+    off = (min(min(p[0], q[0]) for _, p, q in full) - min(min(p[0], q[0]) for _, p, q in assembled),
+           min(min(p[1], q[1]) for _, p, q in full) - min(min(p[1], q[1]) for _, p, q in assembled))
+    assembled = [(k, (p[0] + off[0], p[1] + off[1]), (q[0] + off[0], q[1] + off[1])) for k, p, q in assembled]
+
+    def seg_dist(p, a_, b_):
+        dx, dy = b_[0] - a_[0], b_[1] - a_[1]
+        L2 = dx * dx + dy * dy
+        t = 0 if L2 == 0 else max(0, min(1, ((p[0] - a_[0]) * dx + (p[1] - a_[1]) * dy) / L2))
+        return math.dist(p, (a_[0] + t * dx, a_[1] + t * dy))
+
+    off_line = 0.0
+    for k, p, q in assembled:
+        best = min(max(seg_dist(p, fa, fb), seg_dist(q, fa, fb)) for fk, fa, fb in full if fk == k)
+        off_line = max(off_line, best)
+    check(off_line <= 0.1, f"{len(assembled)} page lines lie on the full pattern's lines of their kind within 0.1 mm (worst {off_line:.2e} mm)")
+    uncovered = 0
+    for k, fa, fb in full:
+        for t in (0.05, 0.5, 0.95):
+            pt = (fa[0] + t * (fb[0] - fa[0]), fa[1] + t * (fb[1] - fa[1]))
+            if min((seg_dist(pt, p, q) for kk, p, q in assembled if kk == k), default=1e9) > 0.1:
+                uncovered += 1
+    check(uncovered == 0, f"all {len(full)} lines of the full pattern are on the pages ({uncovered} points missing)")
+
+
 def read_glb(path):
     """Reads a binary glTF written by host-tool (non-indexed triangles, float POSITION and
     COLOR_0) with numpy alone: returns (triangles (k, 3, 3) in mm with +Z up, sRGB colours (k, 3))."""
@@ -305,6 +464,19 @@ def main():
     k.add_argument("file")
     k.add_argument("--hinges", type=int, required=True)
     k.add_argument("--screws", type=int, required=True)
+    ne = sub.add_parser("nest")
+    ne.add_argument("dir")
+    ne.add_argument("--sheet", required=True)
+    ne.add_argument("--margin-mm", type=float, default=10.0)
+    ne.add_argument("--spacing-mm", type=float, default=3.0)
+    ne.add_argument("--kerf-mm", type=float, default=0.2)
+    ne.add_argument("--hole-mm", type=float, default=5.6)
+    ne.add_argument("--n", type=int, required=True)
+    ne.add_argument("--layers", type=int, required=True)
+    ne.add_argument("--kit")
+    ti = sub.add_parser("tiles")
+    ti.add_argument("full")
+    ti.add_argument("pages", nargs="+")
     gl = sub.add_parser("glb")
     gl.add_argument("files", nargs="+")
     gl.add_argument("--expect-red", type=lambda x: x == "yes", default=None)
@@ -318,7 +490,7 @@ def main():
     r.add_argument("--size", type=float, default=5)
     r.add_argument("--dpi", type=int, default=110)
     a = p.parse_args()
-    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb}[a.cmd](a)
+    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb, "nest": cmd_nest, "tiles": cmd_tiles}[a.cmd](a)
     print(f"check_outputs {a.cmd}: " + ("all checks passed" if FAILED == 0 else f"{FAILED} checks FAILED"))
     sys.exit(1 if FAILED else 0)
 

@@ -8,9 +8,14 @@
 //!   written as SVG ([`svg`]), DXF ([`dxf_out`]) and FOLD v1.2 ([`fold`]) with one frame per
 //!   state from [`folded`] (3D coordinates and fold angles from `geometry::Module3d` /
 //!   `geometry::SelfPacked3d`);
+//! * [`tiles`] — the 1:1 pattern tiled over A4 or Letter pages with registration marks and a
+//!   scale bar;
 //! * [`panel`] — the dual-material printable panel of §5.3 (TPU base sheet, nylon facets with
 //!   a gap between neighbours) as 3MF with two objects and materials, or one STL per material;
 //! * [`kit`] — the meter-scale kit of §7: facet cut list, hinge positions, hinge/screw counts;
+//! * [`nest`] — cut sheets of the kit's facets on real sheet sizes, with insert holes and
+//!   labels, written per sheet as DXF and SVG by [`nest_out`];
+//! * [`bom`] — bills of materials (the crane: printed panel and electronics; the kit) as CSV;
 //! * [`model`] — a 3D model of a stack in given states (binary glTF 2.0, OBJ, STL), coloured by
 //!   module, with the strain of non-isometric states shown.
 //!
@@ -21,15 +26,19 @@
 //! says what is valid; nothing panics on any input.
 #![forbid(unsafe_code)]
 
+pub mod bom;
 pub mod dxf_out;
 pub mod fold;
 pub mod folded;
 pub mod kit;
 pub mod mesh;
 pub mod model;
+pub mod nest;
+pub mod nest_out;
 pub mod panel;
 pub mod pattern;
 pub mod svg;
+pub mod tiles;
 mod trunk;
 
 pub use trunk::{Defaults, FabError, Module, Trunk, MAX_LAYERS};

@@ -53,16 +53,35 @@ fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
+const FONT_MM: f64 = 3.5;
+
+/// The page of [`render`], mm: the sheet, its margins and the legend below it.
+pub fn page_mm(pattern: &Pattern) -> [f64; 2] {
+    let l = pattern.trunk().edge_mm();
+    let sheet_w = (pattern.width() + pattern.seam()) * l;
+    let sheet_h = pattern.height() * l;
+    let legend_lines = LineKind::ALL.len() + 3;
+    let legend_h = 12.0 + legend_lines as f64 * FONT_MM * 1.6;
+    [
+        (sheet_w + 2.0 * MARGIN_MM).max(150.0),
+        sheet_h + 2.0 * MARGIN_MM + legend_h,
+    ]
+}
+
+/// Where [`render`] draws a pattern point (units of l, y up): SVG user units (mm, y down).
+pub fn to_page(pattern: &Pattern, p: [f64; 2]) -> [f64; 2] {
+    let l = pattern.trunk().edge_mm();
+    let sheet_h = pattern.height() * l;
+    [MARGIN_MM + p[0] * l, MARGIN_MM + sheet_h - p[1] * l]
+}
+
 /// Renders the pattern. `title` goes into the legend (e.g. the command line).
 pub fn render(pattern: &Pattern, title: &str) -> String {
     let l = pattern.trunk().edge_mm();
     let sheet_w = (pattern.width() + pattern.seam()) * l;
     let sheet_h = pattern.height() * l;
-    let font = 3.5_f64;
-    let legend_lines = LineKind::ALL.len() + 3;
-    let legend_h = 12.0 + legend_lines as f64 * font * 1.6;
-    let page_w = (sheet_w + 2.0 * MARGIN_MM).max(150.0);
-    let page_h = sheet_h + 2.0 * MARGIN_MM + legend_h;
+    let font = FONT_MM;
+    let [page_w, page_h] = page_mm(pattern);
     let x0 = MARGIN_MM;
     let y0 = MARGIN_MM + sheet_h; // pattern y = 0 here; pattern y grows upwards
     let tx = |p: [f64; 2]| (x0 + p[0] * l, y0 - p[1] * l);

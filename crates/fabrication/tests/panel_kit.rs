@@ -224,3 +224,97 @@ fn hinge_counts_follow_the_rule_for_any_trunk_and_sit_mirrored_on_the_creases() 
         }
     }
 }
+
+#[test]
+fn bills_of_materials_count_what_the_files_make() {
+    use fabrication::bom::{Bom, NYLON_G_PER_CM3, TPU_G_PER_CM3};
+    use fabrication::nest::{Nest, NestParams, INSERT_HOLE_MM};
+    let crane = Trunk::new(
+        vec![
+            Module {
+                design: geometry::ModuleDesign::new(3, 35.0).unwrap(),
+                layers: 2,
+            },
+            Module {
+                design: geometry::ModuleDesign::new(3, 31.72).unwrap(),
+                layers: 2,
+            },
+        ],
+        75.0,
+    )
+    .unwrap();
+    let pattern = Pattern::new(&crane, 5.0).unwrap();
+    let panel = Panel::new(
+        &pattern,
+        PanelParams {
+            gap_mm: vec![3.0, 1.5],
+            facet_mm: 0.6,
+            base_mm: 0.2,
+        },
+    )
+    .unwrap();
+    let bom = Bom::crane(&panel);
+    let grams = |part: &str| {
+        bom.rows
+            .iter()
+            .find(|r| r.part.starts_with(part))
+            .unwrap()
+            .quantity
+    };
+    // Base sheet: the sheet's area × its thickness; facets: their volume, each × its density.
+    let (w, h) = panel.sheet_mm;
+    let base_g = w * h * 0.2 / 1000.0 * TPU_G_PER_CM3;
+    assert!(
+        (grams("TPU") - base_g).abs() <= 0.05 + 1e-9,
+        "{} vs {base_g}",
+        grams("TPU")
+    );
+    let nylon_g = panel.facets.volume() / 1000.0 * NYLON_G_PER_CM3;
+    assert!((grams("nylon") - nylon_g).abs() <= 0.05 + 1e-9);
+    let pcs = |part: &str| bom.rows.iter().find(|r| r.part == part).unwrap().quantity;
+    assert_eq!(pcs("tendon servo"), 3.0);
+    assert_eq!(pcs("solenoid valve"), 2.0);
+    assert_eq!(pcs("push button"), 5.0);
+    let csv = bom.to_csv();
+    assert!(csv.starts_with("section,part,quantity,unit,specification\n"));
+    assert_eq!(csv.lines().count(), bom.rows.len() + 1);
+    // The kit: the nest's sheet count, the kit's hinges, one screw and one insert per hole.
+    let paper = Trunk::new(
+        vec![Module {
+            design: geometry::ModuleDesign::new(3, 31.72).unwrap(),
+            layers: 4,
+        }],
+        609.6,
+    )
+    .unwrap();
+    let kit = Kit::new(&paper);
+    let nest = Nest::new(
+        &paper,
+        NestParams {
+            sheet_mm: [1220.0, 2440.0],
+            kerf_mm: 0.2,
+            margin_mm: 10.0,
+            spacing_mm: 3.0,
+            hole_mm: INSERT_HOLE_MM,
+        },
+    )
+    .unwrap();
+    let bom = Bom::kit(&kit, Some(&nest));
+    let pcs = |part: &str| bom.rows.iter().find(|r| r.part == part).unwrap().quantity;
+    assert_eq!(pcs("HDPE sheet"), 2.0);
+    assert_eq!(pcs("hinge"), 180.0);
+    assert_eq!(pcs("M4 screw"), nest.hole_count() as f64);
+    assert_eq!(pcs("M4 heat-set insert"), 720.0);
+    assert_eq!(pcs("facet, module 1"), 48.0);
+    let unnested = Bom::kit(&kit, None);
+    let area = unnested
+        .rows
+        .iter()
+        .find(|r| r.unit == "m²")
+        .unwrap()
+        .quantity;
+    assert!(
+        (area - 48.0 * kit.facets[0].area_mm2 / 1e6).abs() < 1e-3,
+        "{area}"
+    );
+}

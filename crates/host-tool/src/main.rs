@@ -179,6 +179,7 @@ impl Command {
             Command::Station(a) => a.json,
             Command::Aim(a) => a.json,
             Command::Design(a) => a.json,
+            Command::Pattern(a) => a.json,
             Command::Plan(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,

@@ -435,3 +435,223 @@ fn ik_writes_the_fitted_boom_as_gltf() {
         "cannot write --gltf",
     );
 }
+
+#[test]
+fn pattern_nest_writes_every_sheet_and_says_what_it_wrote() {
+    let dir = TempDir::new("nest");
+    let (cut, kit) = (dir.file("cut"), dir.file("kit.json"));
+    let args = [
+        "pattern",
+        "--beta",
+        "31.72",
+        "--layers",
+        "4",
+        "--edge-mm",
+        "609.6",
+        "--nest",
+        "1220x2440",
+        "--nest-dir",
+        &cut,
+        "--kit",
+        &kit,
+    ];
+    // Without -j: the kit's table on stdout, one "wrote" line per file on stderr.
+    let out = ok(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("hinges 180"));
+    for f in [
+        "sheet-1.dxf",
+        "sheet-1.svg",
+        "sheet-2.dxf",
+        "sheet-2.svg",
+        "nest.json",
+    ] {
+        assert!(stderr.contains(&format!("{f} (")), "{f} in\n{stderr}");
+        assert!(Path::new(&cut).join(f).is_file());
+    }
+    assert!(!Path::new(&cut).join("sheet-3.dxf").exists());
+    assert!(
+        stderr.contains(
+            "48 facets, 720 insert holes on 2 sheets of 1220 × 2440 mm (area bound: 1 sheet"
+        ),
+        "{stderr}"
+    );
+    // With -j: one JSON object on stdout, every file with its real size; no table.
+    let mut j = args.to_vec();
+    j.push("-j");
+    let out = ok(&j);
+    let v: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let files = v["files"].as_array().unwrap();
+    assert_eq!(files.len(), 6, "{v}");
+    for f in files {
+        let len = std::fs::metadata(f["path"].as_str().unwrap())
+            .unwrap()
+            .len();
+        assert_eq!(f["bytes"].as_u64(), Some(len), "{f}");
+    }
+    assert_eq!(v["nest"]["sheets"], 2);
+    assert_eq!(v["nest"]["area_bound_sheets"], 1);
+    assert_eq!(v["nest"]["holes"], 720);
+    // kit.json and nest.json carry no float noise: 1/6 is written with 15 significant digits.
+    for f in [kit.clone(), format!("{cut}/nest.json")] {
+        let text = std::fs::read_to_string(&f).unwrap();
+        assert!(!text.contains("0.16666666666666666"), "{f}");
+        let noisy = text
+            .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .filter(|t| t.contains('.'))
+            .find(|t| {
+                let significant = t.trim_start_matches(['0', '.']);
+                significant.chars().filter(char::is_ascii_digit).count() > 15
+            });
+        assert_eq!(noisy, None, "{f}");
+    }
+    let sheet: Value =
+        serde_json::from_str(&std::fs::read_to_string(format!("{cut}/nest.json")).unwrap())
+            .unwrap();
+    assert_eq!(sheet["sheets"][0]["parts"].as_array().unwrap().len(), 36);
+}
+
+#[test]
+fn pattern_svg_json_reports_the_page() {
+    let dir = TempDir::new("svg-json");
+    let svg = dir.file("t.svg");
+    let out = ok(&["pattern", "--svg", &svg, "-j"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["files"][0]["flag"], "--svg");
+    assert_eq!(v["files"][0]["pages"], 1);
+    assert_eq!(v["files"][0]["page_mm"][0], 250.0);
+    assert_eq!(v["files"][0]["sheet_mm"][0], 230.0);
+}
+
+#[test]
+fn nest_usage_errors_say_what_is_valid() {
+    let dir = TempDir::new("nest-usage");
+    let cut = dir.file("cut");
+    let paper = ["--beta", "31.72", "--layers", "4", "--edge-mm", "609.6"];
+    let with = |extra: &[&str]| {
+        let mut a = vec!["pattern"];
+        a.extend_from_slice(&paper);
+        a.extend_from_slice(extra);
+        a.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let run = |a: Vec<String>, msg: &str| {
+        let refs: Vec<&str> = a.iter().map(String::as_str).collect();
+        usage_error(&refs, msg);
+    };
+    run(with(&["--nest", "1220x2440"]), "give --nest-dir DIR");
+    run(
+        with(&["--nest", "1220", "--nest-dir", &cut]),
+        "WIDTHxHEIGHT in mm",
+    );
+    run(
+        with(&["--nest", "600x400", "--nest-dir", &cut]),
+        "does not fit",
+    );
+    run(
+        with(&["--nest", "1220x2440", "--nest-dir", &cut, "--kerf-mm", "-1"]),
+        "--kerf-mm must be in [0, 5]",
+    );
+    run(
+        with(&[
+            "--nest",
+            "1220x2440",
+            "--nest-dir",
+            &cut,
+            "--margin-mm",
+            "700",
+        ]),
+        "--margin-mm must be",
+    );
+    run(
+        with(&[
+            "--nest",
+            "1220x2440",
+            "--nest-dir",
+            &cut,
+            "--spacing-mm",
+            "nan",
+        ]),
+        "--spacing-mm must be",
+    );
+    run(
+        with(&["--kit", &dir.file("k.json"), "--kerf-mm", "0.3"]),
+        "give --nest WIDTHxHEIGHT too",
+    );
+    // The crane's 75 mm facets are too small for M4 hinges; the message gives the smallest edge.
+    usage_error(
+        &["pattern", "--nest", "600x400", "--nest-dir", &cut],
+        "needs --edge-mm ≥ 243.3",
+    );
+    assert!(
+        !Path::new(&cut).join("sheet-1.dxf").exists(),
+        "nothing written on a usage error"
+    );
+}
+
+#[test]
+fn pattern_bom_writes_the_crane_or_the_kit() {
+    let dir = TempDir::new("bom");
+    let (crane, kit) = (dir.file("crane.csv"), dir.file("kit.csv"));
+    let out = ok(&["pattern", "--bom", &crane]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("bill of materials (crane"));
+    let text = std::fs::read_to_string(&crane).unwrap();
+    assert!(text.starts_with("section,part,quantity,unit,specification\n"));
+    assert!(text.contains("electronics,tendon servo,3,pcs,"), "{text}");
+    assert!(
+        text.contains("trunk,TPU 95A filament (base sheet),"),
+        "{text}"
+    );
+    ok(&[
+        "pattern",
+        "--beta",
+        "31.72",
+        "--layers",
+        "4",
+        "--edge-mm",
+        "609.6",
+        "--nest",
+        "1220x2440",
+        "--nest-dir",
+        &dir.file("cut"),
+        "--bom",
+        &kit,
+    ]);
+    let text = std::fs::read_to_string(&kit).unwrap();
+    for want in [
+        "kit,HDPE sheet,2,pcs,",
+        "kit,hinge,180,pcs,",
+        "kit,M4 screw,720,pcs,",
+        "kit,M4 heat-set insert,720,pcs,",
+    ] {
+        assert!(text.contains(want), "{want} in\n{text}");
+    }
+    assert!(!text.contains("electronics"));
+}
+
+#[test]
+fn pattern_page_tiles_the_crease_pattern_and_refuses_other_paper() {
+    let dir = TempDir::new("pages");
+    let pages = dir.file("pages");
+    let out = ok(&["pattern", "--page", "a4", "--page-dir", &pages, "-j"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let files = v["files"].as_array().unwrap();
+    assert_eq!(files.len(), 2, "{v}");
+    assert_eq!(files[0]["pages"], 2);
+    assert_eq!(files[0]["page_mm"], serde_json::json!([210.0, 297.0]));
+    for (i, f) in files.iter().enumerate() {
+        let name = format!("page-{}.svg", i + 1);
+        assert!(f["path"].as_str().unwrap().ends_with(&name));
+        let text = std::fs::read_to_string(Path::new(&pages).join(&name)).unwrap();
+        assert!(text.contains(r#"width="210mm" height="297mm""#));
+        assert!(text.contains(r#"class="registration""#));
+    }
+    usage_error(
+        &["pattern", "--page", "a3", "--page-dir", &pages],
+        "a4 or letter",
+    );
+    usage_error(&["pattern", "--page", "a4"], "give --page-dir DIR");
+    usage_error(
+        &["pattern", "--page-dir", &pages, "--svg", &dir.file("x.svg")],
+        "give --page a4|letter too",
+    );
+}

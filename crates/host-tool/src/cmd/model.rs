@@ -104,19 +104,29 @@ fn generator() -> String {
 }
 
 fn write_model(out: Output, model: &Model) -> Result<(), Failure> {
-    match out.flag() {
+    let path = out.path().display().to_string();
+    let tris = model.mesh.triangles.len();
+    let (n, what) = match out.flag() {
         "--gltf" => {
             let bytes = model
                 .glb(&generator())
                 .map_err(|e| Failure::Runtime(anyhow::anyhow!("glTF: {e}")))?;
-            out.write(|w| w.write_all(&bytes))
+            (
+                out.write_counted(|w| w.write_all(&bytes))?,
+                "binary glTF 2.0",
+            )
         }
         "--obj" => {
             let text = model.obj();
-            out.write(|w| w.write_all(text.as_bytes()))
+            (out.write_counted(|w| w.write_all(text.as_bytes()))?, "OBJ")
         }
-        _ => out.write(|w| model.mesh.write_stl(w)),
-    }
+        _ => (
+            out.write_counted(|w| model.mesh.write_stl(w))?,
+            "binary STL",
+        ),
+    };
+    crate::say!("wrote {path} ({n} bytes): {what}, {tris} triangles");
+    Ok(())
 }
 
 /// Runs `host-tool model`.

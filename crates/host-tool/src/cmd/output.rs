@@ -91,8 +91,37 @@ impl Output {
         self.flag
     }
 
+    /// The path it was given (`-` for stdout).
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// Replaces the file's contents with what `fill` writes.
     pub fn write(
+        self,
+        fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> Result<(), Failure> {
+        self.write_counted(fill).map(|_| ())
+    }
+
+    /// As [`Output::write`], returning the number of bytes written.
+    pub fn write_counted(
+        self,
+        fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> Result<u64, Failure> {
+        let mut count = 0u64;
+        let counted = |w: &mut dyn Write| {
+            let mut c = Counter {
+                inner: w,
+                count: &mut count,
+            };
+            fill(&mut c)
+        };
+        self.write_inner(counted)?;
+        Ok(count)
+    }
+
+    fn write_inner(
         self,
         fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
     ) -> Result<(), Failure> {
@@ -127,4 +156,22 @@ pub fn ensure_dir(flag: &str, dir: &Path) -> Result<(), Failure> {
     }
     std::fs::create_dir_all(dir)
         .map_err(|e| Failure::usage(format!("cannot create {flag} {}: {e}", dir.display())))
+}
+
+/// A writer that counts what passes through it.
+struct Counter<'a> {
+    inner: &'a mut dyn Write,
+    count: &'a mut u64,
+}
+
+impl Write for Counter<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        *self.count += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
 }

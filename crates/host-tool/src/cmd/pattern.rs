@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use fabrication::folded::{fold, LayerState};
 use fabrication::kit::Kit;
+use fabrication::nest::{Nest, NestParams};
 use fabrication::panel::{Panel, PanelParams};
 use fabrication::pattern::Pattern;
 use fabrication::{Defaults, Module, Trunk};
@@ -144,6 +145,97 @@ pub struct Args {
     /// --edge-mm 609.6 (four 2 ft modules: 180 hinges, 720 screws).
     #[arg(long, value_name = "FILE")]
     pub kit: Option<PathBuf>,
+    /// Lay the kit's facets on cut sheets of WIDTHxHEIGHT mm (e.g. 1220x2440): one DXF and one
+    /// SVG per sheet plus nest.json in --nest-dir, each facet with its hinges' insert holes, its
+    /// id and its neighbours' ids.
+    #[arg(long, value_name = "SHEET")]
+    pub nest: Option<String>,
+    /// Directory for the cut sheets of --nest (sheet-1.dxf, sheet-1.svg, …, nest.json); created
+    /// if missing.
+    #[arg(long, value_name = "DIR")]
+    pub nest_dir: Option<PathBuf>,
+    /// Width of the laser's cut in mm, [0, 5]: cut paths are offset by half of it so the parts
+    /// come out true to size.
+    #[arg(long, default_value_t = 0.2, allow_hyphen_values = true)]
+    pub kerf_mm: f64,
+    /// Clear border of each sheet in mm: no cut within it.
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
+    pub margin_mm: f64,
+    /// Least material between two parts' cut paths in mm, [0, 1000].
+    #[arg(long, default_value_t = 3.0, allow_hyphen_values = true)]
+    pub spacing_mm: f64,
+    /// Finished diameter of the heat-set insert holes in mm (check your M4 insert's datasheet).
+    #[arg(long, default_value_t = fabrication::nest::INSERT_HOLE_MM, allow_hyphen_values = true)]
+    pub insert_hole_mm: f64,
+    /// Write a bill of materials as CSV (section, part, quantity, unit, specification): the
+    /// crane's printed panel and electronics, or with --kit/--nest the meter-scale kit (with
+    /// --nest its sheet count).
+    #[arg(long, value_name = "FILE")]
+    pub bom: Option<PathBuf>,
+    /// Tile the 1:1 crease pattern over paper pages (a4 or letter) with registration marks and
+    /// a 50 mm scale bar: page-1.svg, page-2.svg, … in --page-dir. Print at 100 %.
+    #[arg(long, value_name = "PAPER")]
+    pub page: Option<String>,
+    /// Directory for the pages of --page; created if missing.
+    #[arg(long, value_name = "DIR")]
+    pub page_dir: Option<PathBuf>,
+    /// Print what was written as one JSON object on stdout (instead of the kit's table).
+    #[arg(short, long)]
+    pub json: bool,
+}
+
+/// One file written: what the command reports.
+struct Wrote {
+    flag: &'static str,
+    path: String,
+    bytes: u64,
+    format: &'static str,
+    what: String,
+    extra: serde_json::Value,
+}
+
+fn human_bytes(n: u64) -> String {
+    if n < 1000 {
+        format!("{n} B")
+    } else if n < 1_000_000 {
+        format!("{:.1} kB", n as f64 / 1e3)
+    } else {
+        format!("{:.1} MB", n as f64 / 1e6)
+    }
+}
+
+fn report(
+    trunk: &Trunk,
+    wrote: &[Wrote],
+    extra: serde_json::Map<String, serde_json::Value>,
+    json: bool,
+) {
+    if json {
+        let mut v = serde_json::json!({
+            "trunk": trunk.describe(),
+            "files": wrote.iter().map(|w| {
+                let mut o = serde_json::json!({
+                    "flag": w.flag,
+                    "path": w.path,
+                    "bytes": w.bytes,
+                    "format": w.format,
+                    "description": w.what,
+                });
+                if let (Some(o), Some(e)) = (o.as_object_mut(), w.extra.as_object()) {
+                    o.extend(e.clone());
+                }
+                o
+            }).collect::<Vec<_>>(),
+        });
+        if let Some(o) = v.as_object_mut() {
+            o.extend(extra);
+        }
+        crate::cli::print_json(crate::num::clean(v));
+    } else {
+        for w in wrote {
+            crate::say!("wrote {} ({}): {}", w.path, human_bytes(w.bytes), w.what);
+        }
+    }
 }
 
 fn parse_gaps(args: &Args, m: usize) -> Result<Vec<f64>, Failure> {
@@ -218,6 +310,41 @@ pub fn default_frames(trunk: &Trunk) -> Vec<(String, Vec<LayerState>)> {
         .collect()
 }
 
+/// The cut-sheet parameters, validated.
+fn nest_params(args: &Args) -> Result<Option<NestParams>, Failure> {
+    let Some(sheet) = &args.nest else {
+        let given = args.nest_dir.is_some()
+            || args.kerf_mm != 0.2
+            || args.margin_mm != 10.0
+            || args.spacing_mm != 3.0
+            || args.insert_hole_mm != fabrication::nest::INSERT_HOLE_MM;
+        if given {
+            return Err(Failure::usage(
+                "--nest-dir, --kerf-mm, --margin-mm, --spacing-mm and --insert-hole-mm shape the cut sheets; give --nest WIDTHxHEIGHT too",
+            ));
+        }
+        return Ok(None);
+    };
+    if args.nest_dir.is_none() {
+        return Err(Failure::usage(
+            "--nest writes one DXF and one SVG per sheet: give --nest-dir DIR for them",
+        ));
+    }
+    let sheet_mm =
+        NestParams::parse_sheet(sheet).map_err(|e| Failure::usage(format!("--nest: {e}")))?;
+    Ok(Some(NestParams {
+        sheet_mm,
+        kerf_mm: args.kerf_mm,
+        margin_mm: args.margin_mm,
+        spacing_mm: args.spacing_mm,
+        hole_mm: args.insert_hole_mm,
+    }))
+}
+
+fn runtime(what: &str, e: impl std::fmt::Display) -> Failure {
+    Failure::Runtime(anyhow::anyhow!("{what}: {e}"))
+}
+
 /// Runs `host-tool pattern`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let trunk = args.trunk.trunk()?;
@@ -229,18 +356,23 @@ pub fn run(args: Args) -> Result<(), Failure> {
         && args.three_mf.is_none()
         && args.stl_dir.is_none()
         && args.kit.is_none()
+        && args.nest.is_none()
+        && args.bom.is_none()
+        && args.page.is_none()
     {
         return Err(Failure::usage(
-            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE",
+            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET, --bom FILE, --page PAPER",
         ));
     }
-    let wants_panel = args.three_mf.is_some() || args.stl_dir.is_some();
+    let kit_bom = args.kit.is_some() || args.nest.is_some();
+    let wants_panel =
+        args.three_mf.is_some() || args.stl_dir.is_some() || (args.bom.is_some() && !kit_bom);
     let panel_given = args.gap_mm.is_some()
         || args.facet_mm != Defaults::FACET_MM
         || args.base_mm != Defaults::BASE_MM;
     if panel_given && !wants_panel {
         return Err(Failure::usage(
-            "--gap-mm, --facet-mm and --base-mm shape the printed panel; give --3mf FILE or --stl-dir DIR too",
+            "--gap-mm, --facet-mm and --base-mm shape the printed panel; give --3mf FILE or --stl-dir DIR too (or --bom FILE, without --kit and --nest)",
         ));
     }
     let panel = if wants_panel {
@@ -252,6 +384,28 @@ pub fn run(args: Args) -> Result<(), Failure> {
         Some(Panel::new(&pattern, params).map_err(|e| Failure::usage(e.to_string()))?)
     } else {
         None
+    };
+    let nest = match nest_params(&args)? {
+        Some(p) => Some(Nest::new(&trunk, p).map_err(|e| Failure::usage(format!("--nest: {e}")))?),
+        None => None,
+    };
+    let tiling = match (&args.page, &args.page_dir) {
+        (Some(p), Some(_)) => Some(fabrication::tiles::tiling(
+            &pattern,
+            fabrication::tiles::Paper::parse(p)
+                .map_err(|e| Failure::usage(format!("--page: {e}")))?,
+        )),
+        (Some(_), None) => {
+            return Err(Failure::usage(
+                "--page writes one SVG per page: give --page-dir DIR for them",
+            ))
+        }
+        (None, Some(_)) => {
+            return Err(Failure::usage(
+                "--page-dir holds the pages of --page; give --page a4|letter too",
+            ))
+        }
+        (None, None) => None,
     };
     if args.states.is_some() && args.fold.is_none() {
         return Err(Failure::usage(
@@ -272,6 +426,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             })
             .collect::<Result<_, _>>()?,
     };
+    let title = format!("host-tool pattern: {}", trunk.describe());
     let mut paths: Vec<(&'static str, &std::path::Path)> = Vec::new();
     if let Some(p) = &args.svg {
         paths.push(("--svg", p));
@@ -288,6 +443,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
     if let Some(p) = &args.kit {
         paths.push(("--kit", p));
     }
+    if let Some(p) = &args.bom {
+        paths.push(("--bom", p));
+    }
     let stl_paths = args
         .stl_dir
         .as_ref()
@@ -297,63 +455,293 @@ pub fn run(args: Args) -> Result<(), Failure> {
         paths.push(("--stl-dir", base));
         paths.push(("--stl-dir", facets));
     }
+    let nest_paths: Vec<(PathBuf, PathBuf)> = match (&nest, &args.nest_dir) {
+        (Some(nest), Some(dir)) => {
+            output::ensure_dir("--nest-dir", dir)?;
+            (1..=nest.sheets.len())
+                .map(|i| {
+                    (
+                        dir.join(format!("sheet-{i}.dxf")),
+                        dir.join(format!("sheet-{i}.svg")),
+                    )
+                })
+                .collect()
+        }
+        _ => Vec::new(),
+    };
+    let nest_json = args.nest_dir.as_ref().map(|d| d.join("nest.json"));
+    for (dxf, svg) in &nest_paths {
+        paths.push(("--nest", dxf));
+        paths.push(("--nest", svg));
+    }
+    if let (Some(p), Some(_)) = (&nest_json, &nest) {
+        paths.push(("--nest", p));
+    }
+    let page_paths: Vec<PathBuf> = match (&tiling, &args.page_dir) {
+        (Some(t), Some(dir)) => {
+            output::ensure_dir("--page-dir", dir)?;
+            (1..=t.pages())
+                .map(|i| dir.join(format!("page-{i}.svg")))
+                .collect()
+        }
+        _ => Vec::new(),
+    };
+    for p in &page_paths {
+        paths.push(("--page", p));
+    }
     let outputs = output::open_all(&paths)?;
-    let title = format!("host-tool pattern: {}", trunk.describe());
+    let page_svgs = tiling
+        .as_ref()
+        .map(|t| fabrication::tiles::pages(&pattern, t, &title))
+        .unwrap_or_default();
+    let mut page_svgs = page_svgs.into_iter().enumerate();
     let mut folded = Vec::new();
     for (name, states) in &frames {
         let f = fold(&pattern, states).map_err(|e| Failure::usage(e.to_string()))?;
         if !f.feasible || f.max_strain > geometry::STRAIN_TOLERANCE {
-            eprintln!(
+            crate::say!(
                 "warning: frame '{name}' is not isometric to the flat pattern (largest face strain {:.2} %); the FOLD frame records it",
                 100.0 * f.max_strain
             );
         }
         folded.push((name.clone(), f));
     }
-    let kit = args.kit.as_ref().map(|_| Kit::new(&trunk));
-    let mut stl_meshes = panel.iter().flat_map(|p| [&p.base, &p.facets]);
+    let kit = kit_bom.then(|| Kit::new(&trunk));
+    let mut stl_meshes = panel
+        .iter()
+        .flat_map(|p| [(&p.base, "TPU 95A base sheet"), (&p.facets, "nylon facets")]);
+    let mut nest_files = nest_paths
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (d, s))| [(i, d, "DXF"), (i, s, "SVG")]);
+    let l = trunk.edge_mm();
+    let (sheet_w, sheet_h) = ((pattern.width() + pattern.seam()) * l, pattern.height() * l);
+    let mut wrote: Vec<Wrote> = Vec::new();
+    let mut extra = serde_json::Map::new();
     for out in outputs {
-        match out.flag() {
+        let flag = out.flag();
+        let path = out.path().display().to_string();
+        let mut record = |bytes, format, what: String, extra: serde_json::Value| {
+            wrote.push(Wrote {
+                flag,
+                path: path.clone(),
+                bytes,
+                format,
+                what,
+                extra,
+            })
+        };
+        match flag {
             "--3mf" => {
                 if let Some(panel) = &panel {
                     let app = format!("host-tool {}", env!("CARGO_PKG_VERSION"));
                     let mut buf = std::io::Cursor::new(Vec::new());
                     panel
                         .write_3mf(&pattern, &app, &mut buf)
-                        .map_err(|e| Failure::Runtime(anyhow::anyhow!("3MF: {e}")))?;
-                    out.write(|w| w.write_all(buf.get_ref()))?
+                        .map_err(|e| runtime("3MF", e))?;
+                    let n = out.write_counted(|w| w.write_all(buf.get_ref()))?;
+                    let facets = panel.facet_count;
+                    record(
+                        n,
+                        "3mf",
+                        format!("printable panel, 2 objects (TPU base, {facets} nylon facets)"),
+                        serde_json::json!({ "objects": 2, "facets": facets }),
+                    );
                 }
             }
             "--stl-dir" => {
-                if let Some(mesh) = stl_meshes.next() {
-                    out.write(|w| mesh.write_stl(w))?
+                if let Some((mesh, what)) = stl_meshes.next() {
+                    let n = out.write_counted(|w| mesh.write_stl(w))?;
+                    let tris = mesh.triangles.len();
+                    record(
+                        n,
+                        "stl",
+                        format!("{what}, {tris} triangles"),
+                        serde_json::json!({ "triangles": tris }),
+                    );
                 }
+            }
+            "--page" => {
+                let (Some(t), Some((i, text))) = (&tiling, page_svgs.next()) else {
+                    continue;
+                };
+                let n = out.write_counted(|w| w.write_all(text.as_bytes()))?;
+                let [pw, ph] = t.page_mm;
+                record(
+                    n,
+                    "svg",
+                    format!(
+                        "crease pattern 1:1, page {} of {} ({} {}, {} × {} pages)",
+                        i + 1,
+                        t.pages(),
+                        t.paper.name(),
+                        if pw > ph { "landscape" } else { "portrait" },
+                        t.grid[0],
+                        t.grid[1]
+                    ),
+                    serde_json::json!({ "page": i + 1, "pages": t.pages(), "page_mm": t.page_mm, "grid": t.grid }),
+                );
+            }
+            "--bom" => {
+                let bom = match (&kit, &panel) {
+                    (Some(kit), _) => fabrication::bom::Bom::kit(kit, nest.as_ref()),
+                    (None, Some(panel)) => fabrication::bom::Bom::crane(panel),
+                    (None, None) => continue,
+                };
+                let text = bom.to_csv();
+                let n = out.write_counted(|w| w.write_all(text.as_bytes()))?;
+                record(
+                    n,
+                    "csv",
+                    format!(
+                        "bill of materials ({}), {} lines",
+                        if kit.is_some() {
+                            "meter-scale kit"
+                        } else {
+                            "crane: printed panel and electronics"
+                        },
+                        bom.rows.len()
+                    ),
+                    serde_json::json!({ "rows": bom.rows.len() }),
+                );
             }
             "--kit" => {
                 if let Some(kit) = &kit {
-                    let text = serde_json::to_string_pretty(&kit.to_json())
-                        .map_err(|e| Failure::Runtime(anyhow::anyhow!("kit JSON: {e}")))?;
-                    out.write(|w| w.write_all(text.as_bytes()))?;
-                    print!("{}", kit.table());
+                    let text = serde_json::to_string_pretty(&crate::num::clean(kit.to_json()))
+                        .map_err(|e| runtime("kit JSON", e))?;
+                    let n = out.write_counted(|w| {
+                        w.write_all(text.as_bytes())?;
+                        w.write_all(b"\n")
+                    })?;
+                    record(
+                        n,
+                        "json",
+                        format!(
+                            "meter-scale kit, {} facets, {} hinges, {} screws",
+                            kit.facet_count(),
+                            kit.hinges.len(),
+                            kit.screws()
+                        ),
+                        serde_json::json!({ "facets": kit.facet_count(), "hinges": kit.hinges.len(), "screws": kit.screws() }),
+                    );
+                    if !args.json {
+                        crate::out_raw!("{}", kit.table());
+                    }
                 }
             }
             "--svg" => {
                 let text = fabrication::svg::render(&pattern, &title);
-                out.write(|w| w.write_all(text.as_bytes()))?
+                let n = out.write_counted(|w| w.write_all(text.as_bytes()))?;
+                let [pw, ph] = fabrication::svg::page_mm(&pattern);
+                record(
+                    n,
+                    "svg",
+                    format!(
+                        "crease pattern 1:1, one {} × {} mm page (sheet {} × {} mm)",
+                        crate::num::fixed(pw, 1),
+                        crate::num::fixed(ph, 1),
+                        crate::num::fixed(sheet_w, 1),
+                        crate::num::fixed(sheet_h, 1)
+                    ),
+                    serde_json::json!({ "pages": 1, "page_mm": [pw, ph], "sheet_mm": [sheet_w, sheet_h] }),
+                );
             }
-            "--dxf" => out.write(|w| fabrication::dxf_out::write(&pattern, w))?,
+            "--dxf" => {
+                let n = out.write_counted(|w| fabrication::dxf_out::write(&pattern, w))?;
+                let lines = pattern.lines().len();
+                record(
+                    n,
+                    "dxf",
+                    format!(
+                        "crease pattern, {lines} lines, sheet {} × {} mm",
+                        crate::num::fixed(sheet_w, 1),
+                        crate::num::fixed(sheet_h, 1)
+                    ),
+                    serde_json::json!({ "lines": lines, "sheet_mm": [sheet_w, sheet_h] }),
+                );
+            }
+            "--nest" => {
+                let Some(nest) = &nest else { continue };
+                if let Some((i, _, kind)) = nest_files.next() {
+                    let parts = nest.sheets[i].len();
+                    let holes: usize = nest.sheets[i].iter().map(|p| p.holes.len()).sum();
+                    let n = if kind == "DXF" {
+                        out.write_counted(|w| fabrication::nest_out::write_dxf(nest, i, w))?
+                    } else {
+                        let text = fabrication::nest_out::svg_sheet(
+                            nest,
+                            i,
+                            &format!("{title}: sheet {} of {}", i + 1, nest.sheets.len()),
+                        );
+                        out.write_counted(|w| w.write_all(text.as_bytes()))?
+                    };
+                    let [w, h] = nest.params.sheet_mm;
+                    record(
+                        n,
+                        if kind == "DXF" { "dxf" } else { "svg" },
+                        format!(
+                            "cut sheet {} of {} ({w} × {h} mm), {parts} facets, {holes} insert holes",
+                            i + 1,
+                            nest.sheets.len()
+                        ),
+                        serde_json::json!({ "sheet": i + 1, "sheets": nest.sheets.len(), "parts": parts, "holes": holes }),
+                    );
+                } else {
+                    let files: Vec<(String, String)> = nest_paths
+                        .iter()
+                        .map(|(d, s)| (d.display().to_string(), s.display().to_string()))
+                        .collect();
+                    let doc = crate::num::clean(fabrication::nest_out::to_json(nest, &files));
+                    let text =
+                        serde_json::to_string_pretty(&doc).map_err(|e| runtime("nest JSON", e))?;
+                    let n = out.write_counted(|w| {
+                        w.write_all(text.as_bytes())?;
+                        w.write_all(b"\n")
+                    })?;
+                    record(
+                        n,
+                        "json",
+                        format!("cut-sheet layout: {}", nest.summary()),
+                        serde_json::json!({}),
+                    );
+                    extra.insert(
+                        "nest".into(),
+                        serde_json::json!({
+                            "sheet_mm": nest.params.sheet_mm,
+                            "sheets": nest.sheets.len(),
+                            "area_bound_sheets": nest.area_bound,
+                            "facets": nest.part_count(),
+                            "holes": nest.hole_count(),
+                            "utilisation": nest.utilisation(),
+                        }),
+                    );
+                }
+            }
             _ => {
                 let doc = fabrication::fold::document(
                     &pattern,
                     &folded,
                     &format!("host-tool {}", env!("CARGO_PKG_VERSION")),
                 );
-                out.write(|w| {
+                let n = out.write_counted(|w| {
                     serde_json::to_writer(&mut *w, &doc).map_err(std::io::Error::other)?;
                     w.write_all(b"\n")
-                })?
+                })?;
+                record(
+                    n,
+                    "fold",
+                    format!(
+                        "FOLD v1.2, crease pattern + {}",
+                        crate::num::plural(folded.len(), "folded frame", "folded frames")
+                    ),
+                    serde_json::json!({ "frames": folded.len() }),
+                );
             }
         }
     }
+    if let Some(nest) = &nest {
+        crate::say!("{}", nest.summary());
+    }
+    report(&trunk, &wrote, extra, args.json);
     Ok(())
 }

@@ -22,6 +22,8 @@
 //!   the hyperfold angle ζ (eq 13), the inner radius r_in (eq 14) and the strain.
 //! * [`fk`] — forward kinematics of a stack (eqs 33–35), tips in units of l.
 //! * [`tendon`] — three-tendon constant-curvature bending and the joystick map.
+//! * [`reach`] — the crane's tip pose for a trunk state and a bend (constant curvature over the
+//!   state's flexible length) and the nearest point of a state's workspace to a goal.
 //! * [`trunk`] — the crane trunk's six states `F&P` … `D&D`.
 //!
 //! Units: lengths in units of the valley fold length l = 1 unless a name says `_mm`; angles in
@@ -66,6 +68,7 @@ pub mod fk;
 pub mod hyperfold;
 pub mod popout;
 pub mod pose;
+pub mod reach;
 pub mod state;
 pub mod tendon;
 pub mod trunk;

@@ -17,6 +17,8 @@
 //! - [`swarm`]: random scenarios of the whole system checked against invariants.
 //! - [`pty`]: the simulator serving its link on a pseudo-terminal, for any serial client.
 //! - [`discovery`]: the transition graph the physics supports, as JSON or Graphviz DOT.
+//! - [`world`]: objects on the table, the gripper's capture and release, a tip load, the true
+//!   tip pose.
 //!
 //! Architecture invariant: nothing here decides what the crane does; the controller does, from
 //! what the simulated sensors tell it. The simulator never reads the wall clock except in
@@ -47,6 +49,7 @@ pub mod rng;
 pub mod servo;
 pub mod sim;
 pub mod swarm;
+pub mod world;
 
 pub use fault::{Fault, ParseFaultError};
 pub use sim::{GroundTruth, Sim, SimOptions, TruthLog};

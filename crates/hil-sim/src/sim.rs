@@ -206,6 +206,8 @@ pub struct Sim {
     /// The board ELF in the emulator (processor in the loop), when it runs instead of `ctl`.
     board: Option<Box<ElfBoard>>,
     board_error: Option<String>,
+    /// Objects, the tip load and the true tip ([`crate::world`]).
+    world: crate::world::World,
 }
 
 impl std::fmt::Debug for Sim {
@@ -323,6 +325,7 @@ impl Sim {
             pay_in: [(f64::NAN.to_bits(), f64::NAN); 3],
             board,
             board_error: None,
+            world: crate::world::World::new(),
         })
     }
 
@@ -358,6 +361,7 @@ impl Sim {
             pay_in: self.pay_in,
             board: None,
             board_error: self.board_error.clone(),
+            world: self.world.clone(),
         })
     }
 
@@ -428,6 +432,21 @@ impl Sim {
     /// Hangs an object on the tip (N; the gripper holds it).
     pub fn set_payload_n(&mut self, payload_n: f64) {
         self.payload_n = payload_n.max(0.0);
+    }
+
+    /// The world around the crane: objects, the tip load, the true tip.
+    pub fn world(&self) -> &crate::world::World {
+        &self.world
+    }
+
+    /// The tip's true pose now ([`crate::world::true_tip`]).
+    pub fn true_tip(&self) -> geometry::reach::TipPose {
+        crate::world::true_tip(&self.trunk)
+    }
+
+    /// The world, to place objects or hang a load (and to take its grasp events).
+    pub fn world_mut(&mut self) -> &mut crate::world::World {
+        &mut self.world
     }
 
     /// Starts recording a compact trace: one line every `period_ms`, plus one per event.
@@ -638,9 +657,13 @@ impl Sim {
                 self.payload_n
             } else {
                 0.0
-            },
+            } + self.world.load_n(),
         };
         let snaps = self.trunk.step(dt_s, &act);
+        if !self.world.is_empty() {
+            self.world
+                .after_step(&self.trunk, self.shell.outputs.gripper.high);
+        }
         let p = self.trunk.pressure_kpa();
         self.max_pressure_kpa = self.max_pressure_kpa.max(p);
         for s in snaps.iter() {

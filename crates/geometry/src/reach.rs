@@ -399,9 +399,15 @@ mod tests {
         // Either side of the switch to the series, the two forms agree to rounding.
         for h in [1.0, 60.0, 200.0] {
             let (a, b) = (arc_tip(h, 1e-4 - 1e-13), arc_tip(h, 1e-4 + 1e-13));
-            assert!((a.0 - b.0).abs() < 1e-9 * h && (a.1 - b.1).abs() < 1e-9 * h, "{h}");
+            assert!(
+                (a.0 - b.0).abs() < 1e-9 * h && (a.1 - b.1).abs() < 1e-9 * h,
+                "{h}"
+            );
             let (a, b) = (arc_tip(h, -1e-4 + 1e-13), arc_tip(h, -1e-4 - 1e-13));
-            assert!((a.0 - b.0).abs() < 1e-9 * h && (a.1 - b.1).abs() < 1e-9 * h, "{h}");
+            assert!(
+                (a.0 - b.0).abs() < 1e-9 * h && (a.1 - b.1).abs() < 1e-9 * h,
+                "{h}"
+            );
             assert_eq!(arc_tip(h, 0.0), (0.0, h));
         }
     }
@@ -434,6 +440,42 @@ mod tests {
             nearest(&h, st("D&D"), 0.1, [f64::NAN, 0.0, 0.0]),
             Err(ReachError::NotFinite)
         );
+    }
+
+    #[test]
+    fn the_command_for_a_bend_holds_that_bend_past_the_take_up_margin() {
+        use crate::tendon::TendonGeometry;
+        let tg = TendonGeometry::new(60.0).unwrap();
+        let m = 2.0;
+        // Without a margin the held bend is the command (all three tendons taut).
+        for (dir, ang) in [(0.3, 0.2), (2.5, 0.5), (4.0, 0.05)] {
+            let b = tg.held_bend(Bend::new(dir, ang), 0.0);
+            assert!((b.angle - ang).abs() < 1e-9 && (b.direction - dir).abs() < 1e-9);
+        }
+        // With one: a command toward a tendon pulls that tendon only, and the bend is the
+        // command less the margin.
+        let b = tg.held_bend(Bend::new(120f64.to_radians(), 0.5), m);
+        assert!((b.direction - 120f64.to_radians()).abs() < 1e-9, "{b:?}");
+        assert!((b.angle - (0.5 - m / 60.0)).abs() < 1e-9, "{b:?}");
+        // Under the margin nothing bends.
+        assert_eq!(tg.held_bend(Bend::new(1.0, 0.02), m), Bend::STRAIGHT);
+        // The command for a bend holds it exactly, in every direction, and asks at most
+        // 2·margin/r more.
+        for k in 0..72 {
+            let dir = f64::from(k) * 5f64.to_radians() + 0.01;
+            for ang in [0.01, 0.2, 0.45] {
+                let want = Bend::new(dir, ang);
+                let cmd = tg.command_for(want, m);
+                assert!(cmd.angle <= ang + 2.0 * m / 60.0 + 1e-12);
+                let got = tg.held_bend(cmd, m);
+                let (a, b) = (got.as_vector(), want.as_vector());
+                assert!(
+                    (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9,
+                    "{dir} {ang}: {got:?}"
+                );
+            }
+        }
+        assert_eq!(tg.command_for(Bend::STRAIGHT, m), Bend::STRAIGHT);
     }
 
     #[test]

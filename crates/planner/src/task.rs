@@ -159,6 +159,21 @@ impl Workspace {
         Self::new(heights, limits_deg)
     }
 
+    /// The bend limits a host plans with for a crane whose controller allows `controller_deg`
+    /// per state and keeps its tendons `margin_mm` short of taut at radius `radius_mm`: the
+    /// command for a held bend θ is at most θ + 2·margin/r ([`TendonGeometry::command_for`]),
+    /// so θ may be the controller's limit less that.
+    ///
+    /// [`TendonGeometry::command_for`]: geometry::tendon::TendonGeometry::command_for
+    pub fn held_limits(
+        controller_deg: [Option<f64>; 6],
+        margin_mm: f64,
+        radius_mm: f64,
+    ) -> [Option<f64>; 6] {
+        let extra = (2.0 * margin_mm.max(0.0) / radius_mm).to_degrees();
+        controller_deg.map(|l| l.map(|l| (l - extra).max(0.0)))
+    }
+
     /// The heights.
     pub fn heights(&self) -> &TrunkHeights {
         &self.heights

@@ -138,6 +138,10 @@ enum Command {
     Identify(cmd::identify::Args),
     /// List serial ports; recognise Arduino UNO R4 boards.
     Ports(cmd::ports::Args),
+    /// Where the tip is for a trunk state and a bend, e.g. pose --state 'D&F' --bend 20,90.
+    Pose(cmd::pose::PoseArgs),
+    /// Each state's reachable tips for the bends it allows: table, JSON, side-view figure.
+    Workspace(cmd::pose::WorkspaceArgs),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
     Log(cmd::log::Args),
     /// Own the link to a crane (or the simulator), record it, and serve other terminals'
@@ -167,6 +171,8 @@ impl Command {
             Command::Param(a) => a.json(),
             Command::Identify(a) => a.json,
             Command::Ports(a) => a.json,
+            Command::Pose(a) => a.json,
+            Command::Workspace(a) => a.json,
             _ => false,
         }
     }
@@ -217,6 +223,8 @@ fn main() -> ExitCode {
         Command::Identify(args) => cmd::identify::run(args),
         Command::Ports(args) => cmd::ports::run(args),
         Command::Log(args) => cmd::log::run(args),
+        Command::Pose(args) => cmd::pose::run_pose(args),
+        Command::Workspace(args) => cmd::pose::run_workspace(args),
         Command::Serve(args) => cmd::serve::run(args),
         Command::Completions { shell } => {
             let mut out = Vec::new();

@@ -86,10 +86,13 @@ impl fmt::Display for TaskError {
                 state,
                 angle_deg,
                 limit_deg,
-            } => write!(
-                f,
-                "a bend of {angle_deg}° is over {state}'s limit of {limit_deg}° (the controller's bend limit there); the nearest feasible bend is {limit_deg}°"
-            ),
+            } => {
+                let feasible = (limit_deg * 100.0).floor() / 100.0;
+                write!(
+                    f,
+                    "a bend of {angle_deg}° is over {state}'s limit of {feasible:.2}° (the controller's limit there less what its tendons' take-up margin costs); the nearest feasible bend is {feasible:.2}°"
+                )
+            }
             TaskError::BadInput(what) => f.write_str(what),
             TaskError::OutOfReach {
                 goal,
@@ -413,7 +416,7 @@ mod tests {
         assert!(w.check_bend(st("F&F"), -1.0, 0.0).is_err());
         assert!(w.check_bend(st("F&F"), f64::NAN, 0.0).is_err());
         let e = w.check_bend(st("D&P"), 9.0, 0.0).unwrap_err().to_string();
-        assert!(e.contains("8°") && e.contains("D&P"), "{e}");
+        assert!(e.contains("8.00°") && e.contains("D&P"), "{e}");
     }
 
     #[test]

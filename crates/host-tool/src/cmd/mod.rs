@@ -12,6 +12,7 @@ pub mod param;
 pub mod pattern;
 pub mod plan;
 pub mod ports;
+pub mod pose;
 pub mod serve;
 pub mod states;
 pub mod status;

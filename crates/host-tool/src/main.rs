@@ -142,6 +142,12 @@ enum Command {
     Pose(cmd::pose::PoseArgs),
     /// Each state's reachable tips for the bends it allows: table, JSON, side-view figure.
     Workspace(cmd::pose::WorkspaceArgs),
+    /// Open or close the gripper: grip open|close.
+    Grip(cmd::prim::GripArgs),
+    /// Bend the trunk: bend ANGLE --toward DIR (degrees); bend 0 straightens.
+    Bend(cmd::prim::BendArgs),
+    /// Let the air out while the trunk keeps its state.
+    Vent(cmd::prim::VentArgs),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
     Log(cmd::log::Args),
     /// Own the link to a crane (or the simulator), record it, and serve other terminals'
@@ -173,6 +179,9 @@ impl Command {
             Command::Ports(a) => a.json,
             Command::Pose(a) => a.json,
             Command::Workspace(a) => a.json,
+            Command::Grip(a) => a.json,
+            Command::Bend(a) => a.json,
+            Command::Vent(a) => a.json,
             _ => false,
         }
     }
@@ -225,6 +234,9 @@ fn main() -> ExitCode {
         Command::Log(args) => cmd::log::run(args),
         Command::Pose(args) => cmd::pose::run_pose(args),
         Command::Workspace(args) => cmd::pose::run_workspace(args),
+        Command::Grip(args) => cmd::prim::run_grip(args),
+        Command::Bend(args) => cmd::prim::run_bend(args),
+        Command::Vent(args) => cmd::prim::run_vent(args),
         Command::Serve(args) => cmd::serve::run(args),
         Command::Completions { shell } => {
             let mut out = Vec::new();

@@ -16,7 +16,7 @@ pub struct WorldArgs {
     #[arg(long = "object", value_name = "NAME:X,Y,Z[,MASS_KG]")]
     pub objects: Vec<String>,
     /// Simulator: a load hung on the tip, kg (0 to 50), whatever the gripper does.
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
     pub tip_load_kg: Option<String>,
 }
 

@@ -1,0 +1,308 @@
+//! The crane's tasks through the binary: `pose`, `workspace` (JSON and figure), `grip`,
+//! `bend`, `vent` on the simulator and through `serve`, and every refusal with its reason and
+//! exit code (2: usage, nothing sent; 1: refused by the device's state).
+
+#[path = "support/cli.rs"]
+mod cli;
+
+use std::process::Output;
+
+use cli::cmd;
+use serde_json::Value;
+
+fn run(dir: &std::path::Path, args: &[&str]) -> Output {
+    cmd(dir, args).output().unwrap()
+}
+
+fn code(o: &Output) -> i32 {
+    o.status.code().unwrap_or(-1)
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json(o: &Output) -> Value {
+    serde_json::from_slice(&o.stdout)
+        .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&o.stdout)))
+}
+
+fn refused(dir: &std::path::Path, args: &[&str], exit: i32, needles: &[&str]) {
+    let o = run(dir, args);
+    assert_eq!(code(&o), exit, "{args:?}: {}", stderr(&o));
+    let e = stderr(&o);
+    for n in needles {
+        assert!(e.contains(n), "{args:?}: '{n}' not in {e}");
+    }
+}
+
+#[test]
+fn pose_gives_the_geometrys_tip_and_refuses_bends_a_state_cannot_take() {
+    let dir = cli::temp("tasks-pose");
+    let o = run(&dir, &["pose", "--state", "D&F", "--bend", "20,90", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    // D&F: the folded bottom (59.43 mm) bends 20°, the deployed top (92.71 mm) rides on it.
+    let (b, t, th) = (59.427f64, 92.714f64, 20f64.to_radians());
+    let y = b * (1.0 - th.cos()) / th + t * th.sin();
+    let z = b * th.sin() / th + t * th.cos();
+    let tip = &v["tip_mm"];
+    assert!(tip[0].as_f64().unwrap().abs() < 1e-3, "{v}");
+    assert!((tip[1].as_f64().unwrap() - y).abs() < 0.01, "{v} vs {y}");
+    assert!((tip[2].as_f64().unwrap() - z).abs() < 0.01, "{v} vs {z}");
+    assert!((v["axis"][1].as_f64().unwrap() - th.sin()).abs() < 1e-5);
+    refused(
+        &dir,
+        &["pose", "--state", "D&D", "--bend", "5,0"],
+        2,
+        &["D&D is not bent"],
+    );
+    refused(
+        &dir,
+        &["pose", "--state", "D&P", "--bend", "9,0"],
+        2,
+        &[
+            "over D&P's limit of 4.18°",
+            "nearest feasible bend is 4.18°",
+        ],
+    );
+    refused(
+        &dir,
+        &["pose", "--state", "F&F", "--bend", "20"],
+        2,
+        &["expected ANGLE,DIRECTION"],
+    );
+    refused(&dir, &["pose", "--state", "X&Y"], 2, &["F&P, F&F"]);
+    refused(
+        &dir,
+        &["pose", "--state", "F&F", "--bend", "-1,0"],
+        2,
+        &["≥ 0°"],
+    );
+}
+
+#[test]
+fn workspace_lists_six_states_and_draws_their_side_view() {
+    let dir = cli::temp("tasks-workspace");
+    let fig = dir.join("ws.svg");
+    let o = run(
+        &dir,
+        &["workspace", "-j", "--figure", fig.to_str().unwrap()],
+    );
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    let states = v["states"].as_array().unwrap();
+    let names: Vec<&str> = states
+        .iter()
+        .map(|s| s["state"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["F&P", "F&F", "F&D", "D&P", "D&F", "D&D"]);
+    let get = |n: &str, k: &str| {
+        states.iter().find(|s| s["state"] == n).unwrap()[k]
+            .as_f64()
+            .unwrap_or(f64::NAN)
+    };
+    // Not bent: one point each; D&F (a folded bottom under a long deployed top) reaches
+    // furthest sideways.
+    assert_eq!(get("F&P", "reach_mm"), 0.0);
+    assert_eq!(get("D&D", "reach_mm"), 0.0);
+    assert!(get("D&F", "reach_mm") > 2.0 * get("F&F", "reach_mm"));
+    assert!(get("F&F", "reach_mm") > get("F&D", "reach_mm"));
+    // The controller's limits (30° with a folded module, 8° in D&P) less the take-up margin's
+    // 2·2 mm / 60 mm.
+    let margin = (4.0f64 / 60.0).to_degrees();
+    assert!((get("F&F", "bend_limit_deg") - (30.0 - margin)).abs() < 1e-3);
+    assert!((get("D&P", "bend_limit_deg") - (8.0 - margin)).abs() < 1e-3);
+    assert!(get("D&D", "bend_limit_deg").is_nan());
+    let svg = std::fs::read_to_string(&fig).unwrap();
+    for label in ["F&amp;P (not bent)", "D&amp;F ±26.2°", "x (mm)", "z (mm)"] {
+        assert!(svg.contains(label), "{label}");
+    }
+    refused(&dir, &["workspace", "--samples", "1"], 2, &["2 to 10000"]);
+    refused(
+        &dir,
+        &[
+            "workspace",
+            "--figure",
+            dir.join("ws.jpg").to_str().unwrap(),
+        ],
+        2,
+        &[".svg, .png or .pdf"],
+    );
+}
+
+#[test]
+fn primitives_on_the_simulator_and_their_refusals() {
+    let dir = cli::temp("tasks-prims");
+    // The gripper is fail-closed: a fresh simulator's is closed.
+    refused(&dir, &["grip", "close", "--sim"], 1, &["already closed"]);
+    let o = run(&dir, &["grip", "open", "--sim", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["gripper_closed"], false);
+    // A bend in D&F ends where the geometry says, within the simulator's stated tolerance
+    // (docs/geometry.md: 8.5 mm for D&F).
+    let o = run(
+        &dir,
+        &[
+            "bend",
+            "15",
+            "--toward",
+            "0",
+            "--sim",
+            "--sim-initial",
+            "D&F",
+            "-j",
+        ],
+    );
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["state"], "D&F");
+    assert_eq!(v["sim"]["true_state"], "D&F");
+    let d: f64 = (0..3)
+        .map(|k| v["tip_mm"][k].as_f64().unwrap() - v["sim"]["true_tip_mm"][k].as_f64().unwrap())
+        .map(|e| e * e)
+        .sum::<f64>()
+        .sqrt();
+    assert!(d < 8.5, "{v}");
+    assert!(v["sim"]["true_tip_mm"][0].as_f64().unwrap() > 20.0, "{v}");
+    // Refusals: the state, the limit, the value, the direction.
+    refused(
+        &dir,
+        &["bend", "10", "--toward", "0", "--sim"],
+        1,
+        &["F&P is not bent"],
+    );
+    refused(
+        &dir,
+        &["bend", "0", "--sim", "--sim-initial", "D&D"],
+        1,
+        &["nothing to straighten"],
+    );
+    refused(
+        &dir,
+        &[
+            "bend",
+            "5",
+            "--toward",
+            "0",
+            "--sim",
+            "--sim-initial",
+            "D&P",
+        ],
+        1,
+        &["over D&P's limit of 4.18°"],
+    );
+    refused(&dir, &["bend", "-3", "--sim"], 2, &["≥ 0°"]);
+    refused(
+        &dir,
+        &["bend", "40", "--toward", "0", "--sim"],
+        2,
+        &["26.18°"],
+    );
+    refused(&dir, &["bend", "10", "--sim"], 2, &["--toward DIR"]);
+    refused(
+        &dir,
+        &["bend", "ten", "--toward", "0", "--sim"],
+        2,
+        &["expected a number"],
+    );
+    refused(&dir, &["bend", "10", "--toward", "0"], 2, &["--sim"]);
+    // Nothing to let out at ambient pressure.
+    refused(&dir, &["vent", "--sim"], 1, &["nothing to let out"]);
+    // The world's options: checked up front, for the simulator only.
+    refused(
+        &dir,
+        &["grip", "open", "--sim", "--object", "cup"],
+        2,
+        &["NAME:X,Y,Z"],
+    );
+    refused(
+        &dir,
+        &["grip", "open", "--sim", "--object", "cup:0,0,-5"],
+        2,
+        &["z ≥ 0"],
+    );
+    refused(
+        &dir,
+        &["grip", "open", "--sim", "--tip-load-kg", "-1"],
+        2,
+        &["[0, 50]"],
+    );
+    refused(
+        &dir,
+        &[
+            "grip", "open", "--sim", "--object", "a:0,0,1", "--object", "a:0,0,2",
+        ],
+        2,
+        &["two objects are named 'a'"],
+    );
+    refused(
+        &dir,
+        &["grip", "open", "--port", "/dev/null", "--object", "a:0,0,1"],
+        2,
+        &["need --sim"],
+    );
+    // Opening drops what the closed gripper held at its tip: it falls to the table.
+    let o = run(
+        &dir,
+        &["grip", "open", "--sim", "--object", "cup:0,0,43,0.1", "-j"],
+    );
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    let events: Vec<&str> = v["grasp"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["event"].as_str().unwrap())
+        .collect();
+    assert_eq!(events, ["captured", "released"], "{v}");
+    let cup = &v["sim"]["world"]["objects"][0];
+    assert_eq!(cup["held"], false);
+    assert_eq!(cup["position_mm"][2], 0.0);
+}
+
+#[test]
+fn primitives_go_through_a_server_and_keep_its_state() {
+    let dir = cli::temp("tasks-serve");
+    struct Kill(std::process::Child);
+    impl Drop for Kill {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let (server, line) = cli::serve(
+        &dir,
+        &[
+            "serve",
+            "--sim",
+            "--sim-initial",
+            "F&F",
+            "--sim-speed",
+            "20",
+            "--no-record",
+        ],
+    );
+    let _server = Kill(server);
+    assert!(line.starts_with("serving the simulator on "), "{line}");
+    let o = run(&dir, &["grip", "open", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(json(&o)["gripper_closed"], false);
+    // The server's device remembers: opening again is refused.
+    refused(&dir, &["grip", "open"], 1, &["already open"]);
+    let o = run(&dir, &["bend", "10", "--toward", "120", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["state"], "F&F");
+    assert!(
+        v["servo_deg"][1].as_f64() > v["servo_deg"][0].as_f64(),
+        "{v}"
+    );
+    refused(
+        &dir,
+        &["grip", "close", "--object", "a:0,0,1"],
+        2,
+        &["server holds"],
+    );
+}

@@ -148,6 +148,8 @@ enum Command {
     Bend(cmd::prim::BendArgs),
     /// Let the air out while the trunk keeps its state.
     Vent(cmd::prim::VentArgs),
+    /// Put the tip at a point: reach --point X,Y,Z (mm), refused when no state reaches it.
+    Reach(cmd::reach::Args),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
     Log(cmd::log::Args),
     /// Own the link to a crane (or the simulator), record it, and serve other terminals'
@@ -182,6 +184,7 @@ impl Command {
             Command::Grip(a) => a.json,
             Command::Bend(a) => a.json,
             Command::Vent(a) => a.json,
+            Command::Reach(a) => a.json,
             _ => false,
         }
     }
@@ -237,6 +240,7 @@ fn main() -> ExitCode {
         Command::Grip(args) => cmd::prim::run_grip(args),
         Command::Bend(args) => cmd::prim::run_bend(args),
         Command::Vent(args) => cmd::prim::run_vent(args),
+        Command::Reach(args) => cmd::reach::run(args),
         Command::Serve(args) => cmd::serve::run(args),
         Command::Completions { shell } => {
             let mut out = Vec::new();

@@ -14,6 +14,7 @@ pub mod plan;
 pub mod ports;
 pub mod pose;
 pub mod prim;
+pub mod reach;
 pub mod serve;
 pub mod states;
 pub mod status;

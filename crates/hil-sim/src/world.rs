@@ -157,6 +157,12 @@ impl World {
         })
     }
 
+    /// Tells the world where the gripper is without catching or dropping anything (objects
+    /// placed at a closed gripper are not held; only closing catches).
+    pub fn set_gripper(&mut self, closed: bool) {
+        self.gripper_closed = closed;
+    }
+
     /// The objects.
     pub fn objects(&self) -> &[Object] {
         &self.objects

@@ -150,6 +150,10 @@ enum Command {
     Vent(cmd::prim::VentArgs),
     /// Put the tip at a point: reach --point X,Y,Z (mm), refused when no state reaches it.
     Reach(cmd::reach::Args),
+    /// Pick an object up and put it elsewhere: pick --at X,Y,Z --place X,Y,Z (§6.3's cycle).
+    Pick(cmd::demo::PickArgs),
+    /// The paper's demonstrations with a verdict: demo manipulation|load.
+    Demo(cmd::demo::DemoArgs),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
     Log(cmd::log::Args),
     /// Own the link to a crane (or the simulator), record it, and serve other terminals'
@@ -185,6 +189,8 @@ impl Command {
             Command::Bend(a) => a.json,
             Command::Vent(a) => a.json,
             Command::Reach(a) => a.json,
+            Command::Pick(a) => a.json,
+            Command::Demo(a) => a.json,
             _ => false,
         }
     }
@@ -241,6 +247,8 @@ fn main() -> ExitCode {
         Command::Bend(args) => cmd::prim::run_bend(args),
         Command::Vent(args) => cmd::prim::run_vent(args),
         Command::Reach(args) => cmd::reach::run(args),
+        Command::Pick(args) => cmd::demo::run_pick(args),
+        Command::Demo(args) => cmd::demo::run_demo(args),
         Command::Serve(args) => cmd::serve::run(args),
         Command::Completions { shell } => {
             let mut out = Vec::new();

@@ -243,23 +243,15 @@ fn primitives_on_the_simulator_and_their_refusals() {
         2,
         &["need --sim"],
     );
-    // Opening drops what the closed gripper held at its tip: it falls to the table.
+    // An object placed at a closed gripper is not held: only closing catches.
     let o = run(
         &dir,
         &["grip", "open", "--sim", "--object", "cup:0,0,43,0.1", "-j"],
     );
     assert_eq!(code(&o), 0, "{}", stderr(&o));
     let v = json(&o);
-    let events: Vec<&str> = v["grasp"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|e| e["event"].as_str().unwrap())
-        .collect();
-    assert_eq!(events, ["captured", "released"], "{v}");
-    let cup = &v["sim"]["world"]["objects"][0];
-    assert_eq!(cup["held"], false);
-    assert_eq!(cup["position_mm"][2], 0.0);
+    assert_eq!(v["grasp"], serde_json::json!([]), "{v}");
+    assert_eq!(v["sim"]["world"]["objects"][0]["position_mm"][2], 43.0);
 }
 
 #[test]
@@ -304,5 +296,173 @@ fn primitives_go_through_a_server_and_keep_its_state() {
         &["grip", "close", "--object", "a:0,0,1"],
         2,
         &["server holds"],
+    );
+}
+
+#[test]
+fn reach_goes_to_the_cheapest_state_or_refuses_with_the_nearest_point() {
+    let dir = cli::temp("tasks-reach");
+    // A point of D&F's workspace (12° toward 90°), from F&P: two pneumatic steps, then the
+    // bend; the simulator's true tip within the 5 mm tolerance.
+    let p = run(&dir, &["pose", "--state", "D&F", "--bend", "12,90", "-j"]);
+    let tip = json(&p)["tip_mm"].clone();
+    let point = format!("{},{},{}", tip[0], tip[1], tip[2]);
+    let o = run(&dir, &["reach", "--point", &point, "--sim", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["plan"]["state"], "D&F");
+    assert_eq!(v["plan"]["transitions"].as_array().unwrap().len(), 2);
+    assert_eq!(v["state"], "D&F");
+    assert!(v["sim"]["error_mm"].as_f64().unwrap() <= 5.0, "{v}");
+    // A dry run plans and moves nothing.
+    let o = run(
+        &dir,
+        &["reach", "--point", &point, "--sim", "--dry-run", "-j"],
+    );
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(json(&o)["dry_run"], true);
+    // Out of every workspace: refused up front with the nearest point, its state and distance.
+    refused(
+        &dir,
+        &["reach", "--point", "0,0,300", "--sim"],
+        2,
+        &[
+            "nearest reachable point is (0.0, 0.0, 197.7) mm in D&D",
+            "102.3 mm away",
+        ],
+    );
+    refused(
+        &dir,
+        &["reach", "--point", "0,30,140", "--port", "/dev/null"],
+        2,
+        &["D&F"],
+    );
+    refused(
+        &dir,
+        &["reach", "--point", "1,2", "--sim"],
+        2,
+        &["expected X,Y,Z"],
+    );
+    refused(
+        &dir,
+        &["reach", "--point", "0,0,nan", "--sim"],
+        2,
+        &["expected X,Y,Z"],
+    );
+    refused(
+        &dir,
+        &["reach", "--point", "0,0,43", "--tolerance", "0", "--sim"],
+        2,
+        &["> 0"],
+    );
+    // A point near the edge of F&F's workspace, where the simulator's stiffness split leaves
+    // the true tip short of the geometry's: the miss is reported and the exit is 1.
+    let o = run(&dir, &["reach", "--point", "20,0,90", "--sim", "-j"]);
+    assert_eq!(code(&o), 1, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["ok"], false);
+    assert!(v["sim"]["error_mm"].as_f64().unwrap() > 5.0, "{v}");
+}
+
+#[test]
+fn pick_catches_carries_and_drops_and_says_what_became_of_the_object() {
+    let dir = cli::temp("tasks-pick");
+    let place = json(&run(
+        &dir,
+        &["pose", "--state", "F&F", "--bend", "15,180", "-j"],
+    ))["tip_mm"]
+        .clone();
+    let place = format!("{},{},{}", place[0], place[1], place[2]);
+    let o = run(
+        &dir,
+        &[
+            "pick",
+            "--at",
+            "0,0,43.1",
+            "--place",
+            &place,
+            "--sim",
+            "--object",
+            "cup:0,0,43.1,0.2",
+            "-j",
+        ],
+    );
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["object"], "cup");
+    let events: Vec<&str> = v["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["event"].as_str().unwrap())
+        .collect();
+    assert_eq!(events, ["captured", "released"], "{v}");
+    let cup = &v["sim"]["objects"][0];
+    assert_eq!(cup["held"], false);
+    assert_eq!(cup["position_mm"][2], 0.0);
+    let x = cup["position_mm"][0].as_f64().unwrap();
+    assert!((x - (-12.0)).abs() < 10.0, "{v}");
+    // Nothing at the point: the gripper closes on nothing, the run fails and says so.
+    let o = run(
+        &dir,
+        &[
+            "pick",
+            "--at",
+            "0,0,43.1",
+            "--place",
+            &place,
+            "--sim",
+            "--object",
+            "cup:60,0,0",
+            "-j",
+        ],
+    );
+    assert_eq!(code(&o), 1, "{}", stderr(&o));
+    let v = json(&o);
+    assert!(
+        v["error"].as_str().unwrap().contains("nothing was caught"),
+        "{v}"
+    );
+    assert_eq!(v["object_fate"], "not held (on the table)");
+    refused(
+        &dir,
+        &["pick", "--at", "0,0,400", "--place", &place, "--sim"],
+        2,
+        &["no state reaches"],
+    );
+}
+
+#[test]
+fn the_papers_demonstrations_pass_on_the_simulator_against_the_truth() {
+    let dir = cli::temp("tasks-demo");
+    let o = run(&dir, &["demo", "manipulation", "--sim", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["ok"], true);
+    let verdict = v["verdict"].as_array().unwrap();
+    assert_eq!(verdict.len(), 3);
+    for p in verdict {
+        assert_eq!(p["placed"], true, "{v}");
+        assert!(p["from_place_mm"].as_f64().unwrap() <= 10.0);
+        assert_eq!(p["position_mm"][2], 0.0);
+    }
+    assert_eq!(v["state"], "D&F");
+    let o = run(&dir, &["demo", "load", "--sim", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["ok"], true);
+    assert_eq!(v["state"], "D&D");
+    assert_eq!(v["state_confirmed"], true);
+    assert_eq!(v["sim"]["true_state"], "D&D");
+    assert_eq!(v["sim"]["tip_load_kg"], 5.7);
+    assert!(
+        v["sim"]["pressure_kpa"].as_f64().unwrap().abs() <= 0.8,
+        "{v}"
+    );
+    refused(
+        &dir,
+        &["demo", "panel", "--sim"],
+        2,
+        &["manipulation", "load"],
     );
 }

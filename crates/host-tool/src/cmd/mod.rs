@@ -1,6 +1,7 @@
 //! One module per subcommand: `Args` (clap) and `run`.
 
 pub mod declare;
+pub mod demo;
 pub mod fk;
 pub mod identify;
 pub mod ik;

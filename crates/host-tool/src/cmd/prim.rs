@@ -104,7 +104,23 @@ impl Link {
     /// Opens the device the arguments name (a server's when one holds it), with `world` placed
     /// in the simulator.
     pub fn open(device: &DeviceArgs, world: &World) -> Result<Link, Failure> {
+        Self::open_recorded(device, world, None, "")
+    }
+
+    /// As [`Link::open`], recording the session to `record` (MCAP, `host-tool log` reads it)
+    /// under the command name `command`.
+    pub fn open_recorded(
+        device: &DeviceArgs,
+        world: &World,
+        record: Option<&std::path::Path>,
+        command: &str,
+    ) -> Result<Link, Failure> {
         if let Some(server) = crate::client::server_for(device)? {
+            if record.is_some() {
+                return Err(Failure::usage(
+                    "a server holds this device and records its session itself: --record is not needed",
+                ));
+            }
             if !world.is_empty() {
                 return Err(Failure::usage(
                     "--object and --tip-load-kg place things in the built-in simulator: a server holds this device, so give them to a command with --sim instead",
@@ -118,9 +134,15 @@ impl Link {
                 "--object and --tip-load-kg need --sim: a real crane's objects are placed by a person",
             ));
         }
-        let mut conn = cfg.connect()?;
+        let recording = record
+            .map(|p| crate::record::start(p, command, &cfg))
+            .transpose()?;
+        let mut conn = cfg.connect_recorded(recording)?;
         if let AnyIo::Sim(io) = &mut conn.session.io.inner {
+            // Placed at a closed gripper, an object is not held: only closing catches.
+            let closed = io.sim.ground_truth().gripper_closed;
             *io.sim.world_mut() = world.to_sim();
+            io.sim.world_mut().set_gripper(closed);
         }
         Ok(Link::Direct(Box::new(conn)))
     }
@@ -210,6 +232,12 @@ fn call_through(
         body: serde_json::from_value(v["body"].clone()).map_err(bad)?,
     };
     Ok(reply.accepted(name))
+}
+
+/// A step within `state` of one primitive (a tendon-kind step: the device lets no tendon out
+/// before it, as it would before a pneumatic one).
+pub fn step_for(state: TrunkState, prim: Primitive) -> protocol::Step {
+    step_within(state, StepKind::Tendon, &[prim])
 }
 
 /// Why the device cannot take a step now, if it cannot.
@@ -377,7 +405,7 @@ pub fn run_grip(args: GripArgs) -> Result<(), Failure> {
             if close { "closed" } else { "open" }
         )));
     }
-    let step = step_within(st.state, StepKind::Tendon, &[Primitive::Gripper { close }]);
+    let step = step_for(st.state, Primitive::Gripper { close });
     let end = run_step(&mut link, step)?;
     let mut grasp = Value::Null;
     if let Some(sim) = link.sim() {
@@ -544,11 +572,7 @@ pub fn run_vent(args: VentArgs) -> Result<(), Failure> {
         link.close();
         return Err(Failure::Runtime(anyhow::anyhow!("refused: {why}")));
     }
-    let step = step_within(
-        st.state,
-        StepKind::Tendon,
-        &[Primitive::Vent { pressure_kpa: 0.0 }],
-    );
+    let step = step_for(st.state, Primitive::Vent { pressure_kpa: 0.0 });
     let end = run_step(&mut link, step)?;
     let r = report(&mut link, "vented", &end, args.json, json!({}));
     link.close();

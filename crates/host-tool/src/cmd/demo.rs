@@ -260,11 +260,12 @@ fn fate(result: &Result<Picked, Failure>, world: Option<&Value>) -> &'static str
     }
 }
 
+/// One part of the manipulation demo: the object's name, where it is, where it goes (mm).
+type Part = (String, [f64; 3], [f64; 3]);
+
 /// The three objects of §6.3: one at each height, each picked in its state and placed on the
 /// other side.
-fn manipulation_set(
-    cfg: &firmware::CraneConfig,
-) -> Result<Vec<(String, [f64; 3], [f64; 3])>, Failure> {
+fn manipulation_set(cfg: &firmware::CraneConfig) -> Result<Vec<Part>, Failure> {
     let ws = crate::cmd::pose::crane_workspace(cfg)?;
     let tip = |s: &str, angle: f64, dir: f64| -> Result<[f64; 3], Failure> {
         let state: TrunkState = s.parse().map_err(|_| anyhow::anyhow!("state {s}"))?;

@@ -949,7 +949,8 @@ impl Sim {
     }
 
     /// One truth-log line: `{"t_ms", "true_state", "pressure_kpa", "actuators_safe", …}` with
-    /// `true_state` a state name or `"between"`, and what the controller believes beside it.
+    /// `true_state` a state name or `"between"`, and what the controller believes beside it;
+    /// with objects or a tip load in the world, the true tip (`tip_mm`) and the `world`.
     pub fn truth_line(&self) -> String {
         let bits = self.device_faults();
         let faults: Vec<String> = protocol::FaultCode::ALL
@@ -985,6 +986,14 @@ impl Sim {
                     .collect::<Vec<_>>()
                     .into();
             }
+        }
+        if !self.world.is_empty() {
+            v["tip_mm"] = self
+                .true_tip()
+                .position_mm
+                .map(|x| (x * 10.0).round() / 10.0)
+                .into();
+            v["world"] = self.world.to_json();
         }
         v.to_string()
     }

@@ -435,8 +435,39 @@ fn pick_catches_carries_and_drops_and_says_what_became_of_the_object() {
 #[test]
 fn the_papers_demonstrations_pass_on_the_simulator_against_the_truth() {
     let dir = cli::temp("tasks-demo");
-    let o = run(&dir, &["demo", "manipulation", "--sim", "-j"]);
+    let rec = dir.join("demo.mcap");
+    let o = run(
+        &dir,
+        &[
+            "demo",
+            "manipulation",
+            "--sim",
+            "-j",
+            "--record",
+            rec.to_str().unwrap(),
+        ],
+    );
     assert_eq!(code(&o), 0, "{}", stderr(&o));
+    // The recording's /sim/truth carries the true tip and the objects, held or not.
+    let csv = dir.join("csv");
+    let e = run(
+        &dir,
+        &[
+            "log",
+            "export",
+            rec.to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(code(&e), 0, "{}", stderr(&e));
+    let truth = std::fs::read_to_string(csv.join("sim_truth.csv")).unwrap();
+    let header = truth.lines().next().unwrap();
+    assert!(
+        header.contains("tip_mm_0") && header.contains("objects"),
+        "{header}"
+    );
+    assert!(truth.contains(r#""held"":true"#), "no object was ever held");
     let v = json(&o);
     assert_eq!(v["ok"], true);
     let verdict = v["verdict"].as_array().unwrap();

@@ -497,3 +497,48 @@ fn the_papers_demonstrations_pass_on_the_simulator_against_the_truth() {
         &["manipulation", "load"],
     );
 }
+
+#[test]
+fn a_load_over_what_the_state_holds_collapses_it_and_the_report_says_so() {
+    let dir = cli::temp("tasks-collapse");
+    // 9 kg is more than D&F holds (8.11 kg, BENCHMARKS.md): the deployed top buckles. The
+    // device's word and the truth then differ, and the command does not claim success.
+    let o = run(
+        &dir,
+        &[
+            "grip",
+            "open",
+            "--sim",
+            "--sim-initial",
+            "D&F",
+            "--tip-load-kg",
+            "9",
+            "-j",
+        ],
+    );
+    assert_eq!(code(&o), 1, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["ok"], false);
+    assert_eq!(v["sim"]["matches_device"], false);
+    assert_ne!(v["sim"]["true_state"], "D&F");
+    assert!(
+        v["error"].as_str().unwrap().contains("did not notice"),
+        "{v}"
+    );
+    // 5 kg it holds: the same command succeeds.
+    let o = run(
+        &dir,
+        &[
+            "grip",
+            "open",
+            "--sim",
+            "--sim-initial",
+            "D&F",
+            "--tip-load-kg",
+            "5",
+            "-j",
+        ],
+    );
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    assert_eq!(json(&o)["sim"]["true_state"], "D&F");
+}

@@ -328,14 +328,30 @@ fn report(
     let st = &end.status;
     let truth = link.sim().map(|sim| {
         let t = sim.true_tip();
+        let true_state = sim.trunk().state();
         json!({
             "true_state": sim.trunk().state().map(|s| s.name()),
             "true_tip_mm": t.position_mm.map(|v| (v * 10.0).round() / 10.0),
             "true_bend_deg": (sim.trunk().bend_deg().0 * 100.0).round() / 100.0,
             "pressure_kpa": (sim.trunk().pressure_kpa() * 100.0).round() / 100.0,
             "world": sim.world().to_json(),
+            "matches_device": true_state == Some(st.state),
         })
     });
+    let mismatch = truth.as_ref().is_some_and(|t| t["matches_device"] == false);
+    let end = &StepEnd {
+        status: end.status.clone(),
+        ok: end.ok && !mismatch,
+        error: end.error.clone().or_else(|| {
+            mismatch.then(|| {
+                format!(
+                    "the device reports {} but the simulator's trunk is {}: the device did not notice the change",
+                    st.state,
+                    truth.as_ref().and_then(|t| t["true_state"].as_str()).unwrap_or("between states")
+                )
+            })
+        }),
+    };
     if json_out {
         let mut v = json!({
             "ok": end.ok,

@@ -152,7 +152,7 @@ enum Command {
     Reach(cmd::reach::Args),
     /// Pick an object up and put it elsewhere: pick --at X,Y,Z --place X,Y,Z (§6.3's cycle).
     Pick(cmd::demo::PickArgs),
-    /// The paper's demonstrations with a verdict: demo manipulation|load.
+    /// The paper's demonstrations with a verdict: demo manipulation|panel|load.
     Demo(cmd::demo::DemoArgs),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
     Log(cmd::log::Args),

@@ -490,11 +490,22 @@ fn the_papers_demonstrations_pass_on_the_simulator_against_the_truth() {
         v["sim"]["pressure_kpa"].as_f64().unwrap().abs() <= 0.8,
         "{v}"
     );
+    let o = run(&dir, &["demo", "panel", "--sim", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["state"], "F&D");
+    let turns = v["turns"].as_array().unwrap();
+    assert_eq!(turns.len(), 8);
+    for t in turns {
+        assert!(t["facing_error_deg"].as_f64().unwrap() <= 15.0, "{v}");
+        assert!(t["true_tilt_deg"].as_f64().unwrap() >= 12.0, "{v}");
+    }
+    assert!(v["height_span_mm"].as_f64().unwrap() <= 4.0, "{v}");
     refused(
         &dir,
-        &["demo", "panel", "--sim"],
+        &["demo", "juggle", "--sim"],
         2,
-        &["manipulation", "load"],
+        &["manipulation", "panel", "load"],
     );
 }
 

@@ -1,5 +1,5 @@
 //! `host-tool pick --at P --place Q` (§6.3's cycle: reach P, close, carry, open at Q,
-//! straighten) and `host-tool demo manipulation|load` (the paper's demonstrations, each ending
+//! straighten) and `host-tool demo manipulation|panel|load` (the paper's demonstrations, each ending
 //! with a verdict checked against the truth on the simulator, against the device's word and a
 //! person's on a crane).
 
@@ -43,6 +43,9 @@ pub enum Which {
     /// §6.3: three objects at three heights, picked in F&P, F&F and D&F and placed again,
     /// straightening after each.
     Manipulation,
+    /// §6.4: a panel on the tip turned toward eight directions in F&D (after F&P → D&D → F&D)
+    /// without changing its height.
+    Panel,
     /// §6.5: 5.7 kg on the tip of D&D for 60 s with no air.
     Load,
 }
@@ -50,7 +53,7 @@ pub enum Which {
 /// Arguments of `host-tool demo`.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
-    /// manipulation or load.
+    /// manipulation, panel or load.
     #[arg(value_enum)]
     pub which: Which,
     #[command(flatten)]
@@ -304,6 +307,124 @@ pub fn run_demo(args: DemoArgs) -> Result<(), Failure> {
     match args.which {
         Which::Manipulation => manipulation(&args),
         Which::Load => load(&args),
+        Which::Panel => panel(&args),
+    }
+}
+
+/// The panel's tilt in the panel demo, degrees.
+pub const PANEL_TILT_DEG: f64 = 20.0;
+/// How far the panel's true facing may be from each direction asked, degrees (the simulator's
+/// bend leans up to ≈ 11° toward the tendon that carries it: docs/geometry.md).
+pub const PANEL_AZIMUTH_TOLERANCE_DEG: f64 = 15.0;
+/// How much the tip's true height may change while the panel turns, mm.
+pub const PANEL_HEIGHT_TOLERANCE_MM: f64 = 4.0;
+
+fn panel(args: &DemoArgs) -> Result<(), Failure> {
+    let cfg = crane_config(&args.device);
+    let world = WorldArgs::default().parse()?;
+    let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "demo panel")?;
+    let st = link.status()?;
+    if let Some(why) = blocked(&st) {
+        link.close();
+        return Err(Failure::Runtime(anyhow::anyhow!("refused: {why}")));
+    }
+    let fd: TrunkState = "F&D".parse().map_err(|_| anyhow::anyhow!("F&D"))?;
+    let ws = crate::cmd::pose::crane_workspace(&cfg)?;
+    note(
+        args.json,
+        "§6.4 turns the panel in F&P first: this controller does not bend F&P (not a flexible state), so the panel is turned in F&D only",
+    );
+    let mut turns = Vec::new();
+    let r = (|| -> Result<(), Failure> {
+        note(args.json, &format!("{} → F&D (by D&D)", st.state));
+        if st.state != fd {
+            crate::cmd::reach::go_to_state(
+                &mut link,
+                "D&D".parse().map_err(|_| anyhow::anyhow!("D&D"))?,
+            )?;
+            crate::cmd::reach::go_to_state(&mut link, fd)?;
+        }
+        for k in 0..8 {
+            let dir = f64::from(k) * 45.0;
+            note(
+                args.json,
+                &format!("turn the panel toward {dir:.0}° (tilt {PANEL_TILT_DEG}°)"),
+            );
+            let (step, _) = bend_step(&ws, &cfg, fd, PANEL_TILT_DEG, dir)?;
+            let end = run_step(&mut link, step)?;
+            if let Some(e) = end.error {
+                return Err(Failure::Runtime(anyhow::anyhow!(
+                    "turning toward {dir}°: {e}"
+                )));
+            }
+            let truth = link.sim().map(|sim| {
+                let t = sim.true_tip();
+                let az = t.axis[1].atan2(t.axis[0]).to_degrees().rem_euclid(360.0);
+                let tilt = t.axis[2].clamp(-1.0, 1.0).acos().to_degrees();
+                let off = ((az - dir + 540.0).rem_euclid(360.0) - 180.0).abs();
+                json!({"toward_deg": dir, "true_facing_deg": (az * 10.0).round() / 10.0,
+                       "true_tilt_deg": (tilt * 10.0).round() / 10.0,
+                       "facing_error_deg": (off * 10.0).round() / 10.0,
+                       "true_tip_z_mm": (t.position_mm[2] * 10.0).round() / 10.0,
+                       "true_state": sim.trunk().state().map(|s| s.name())})
+            });
+            turns.push(truth.unwrap_or_else(|| json!({"toward_deg": dir})));
+        }
+        straighten(&mut link, &cfg)
+    })();
+    let st = link.status().ok();
+    let sim = link.sim().is_some();
+    link.close();
+    let z: Vec<f64> = turns
+        .iter()
+        .filter_map(|t| t["true_tip_z_mm"].as_f64())
+        .collect();
+    let z_span = z.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - z.iter().copied().fold(f64::INFINITY, f64::min);
+    let truth_ok = !sim
+        || (turns.iter().all(|t| {
+            t["facing_error_deg"]
+                .as_f64()
+                .is_some_and(|e| e <= PANEL_AZIMUTH_TOLERANCE_DEG)
+                && t["true_tilt_deg"]
+                    .as_f64()
+                    .is_some_and(|a| a >= 0.6 * PANEL_TILT_DEG)
+                && t["true_state"] == "F&D"
+        }) && z_span <= PANEL_HEIGHT_TOLERANCE_MM);
+    let device_ok = st
+        .as_ref()
+        .is_some_and(|s| s.state == fd && s.state_confirmed);
+    let ok = r.is_ok() && truth_ok && device_ok;
+    if args.json {
+        crate::cli::print_json(json!({
+            "ok": ok,
+            "demo": "panel",
+            "tilt_deg": PANEL_TILT_DEG,
+            "turns": turns,
+            "height_span_mm": sim.then_some((z_span * 100.0).round() / 100.0),
+            "state": st.as_ref().map(|s| s.state.name()),
+            "error": r.as_ref().err().map(crate::cmd::reach::failure_text),
+        }));
+    } else if sim {
+        for t in &turns {
+            crate::out!(
+                "toward {:>3}°: the panel faces {}° (off by {}°), tilted {}°, tip at z = {} mm",
+                t["toward_deg"],
+                t["true_facing_deg"],
+                t["facing_error_deg"],
+                t["true_tilt_deg"],
+                t["true_tip_z_mm"]
+            );
+        }
+        crate::out!("the tip's height changed by {z_span:.2} mm while the panel turned (tolerance {PANEL_HEIGHT_TOLERANCE_MM} mm)");
+    }
+    r?;
+    if ok {
+        Ok(())
+    } else {
+        Err(Failure::Runtime(anyhow::anyhow!(
+            "the panel did not face every direction within {PANEL_AZIMUTH_TOLERANCE_DEG}° at a steady height in F&D"
+        )))
     }
 }
 

@@ -553,3 +553,34 @@ fn a_load_over_what_the_state_holds_collapses_it_and_the_report_says_so() {
     assert_eq!(code(&o), 0, "{}", stderr(&o));
     assert_eq!(json(&o)["sim"]["true_state"], "D&F");
 }
+
+#[test]
+fn a_fault_mid_pick_ends_safe_and_reports_the_objects_fate() {
+    let dir = cli::temp("tasks-fault");
+    // A leak stalls the F&P → F&F inflation that carries the caught object: the pick fails,
+    // the object is still held (the truth), the device's state is what it confirms.
+    let o = run(
+        &dir,
+        &[
+            "pick",
+            "--at",
+            "0,0,43.1",
+            "--place",
+            "-12,0,91.5",
+            "--sim",
+            "--object",
+            "cup:0,0,43.1",
+            "--sim-fault",
+            "leak",
+            "-j",
+        ],
+    );
+    assert_eq!(code(&o), 1, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["ok"], false);
+    assert!(v["error"].as_str().unwrap().contains("E-08"), "{v}");
+    assert_eq!(v["object_fate"], "held");
+    assert_eq!(v["sim"]["objects"][0]["held"], true);
+    assert_eq!(v["state"], "F&P");
+    assert_eq!(v["state_confirmed"], true);
+}

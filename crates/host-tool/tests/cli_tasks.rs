@@ -165,6 +165,29 @@ fn primitives_on_the_simulator_and_their_refusals() {
         .sum::<f64>()
         .sqrt();
     assert!(d < 11.0, "{v}");
+    // --record: the primitive's session in MCAP.
+    let rec = dir.join("bend.mcap");
+    let o = run(
+        &dir,
+        &[
+            "bend",
+            "10",
+            "--toward",
+            "0",
+            "--sim",
+            "--sim-initial",
+            "F&F",
+            "--record",
+            rec.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let s = run(&dir, &["log", "summary", rec.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&s.stdout).into_owned();
+    assert!(
+        text.contains("session.command: bend") && text.contains("/sim/truth"),
+        "{text}"
+    );
     assert!(v["sim"]["true_tip_mm"][0].as_f64().unwrap() > 20.0, "{v}");
     // Refusals: the state, the limit, the value, the direction.
     refused(
@@ -297,6 +320,22 @@ fn primitives_go_through_a_server_and_keep_its_state() {
         2,
         &["server holds"],
     );
+    refused(
+        &dir,
+        &["grip", "close", "--record", "x.mcap"],
+        2,
+        &["records its session itself"],
+    );
+    // Reach through the server: a D&F point from F&F, so the server runs the transition.
+    let p = run(&dir, &["pose", "--state", "D&F", "--bend", "10,0", "-j"]);
+    let tip = json(&p)["tip_mm"].clone();
+    let point = format!("{},{},{}", tip[0], tip[1], tip[2]);
+    let o = run(&dir, &["reach", "--point", &point, "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
+    let v = json(&o);
+    assert_eq!(v["plan"]["state"], "D&F");
+    assert_eq!(v["state"], "D&F");
+    assert_eq!(v["state_confirmed"], true);
 }
 
 #[test]

@@ -42,6 +42,9 @@ pub struct GripArgs {
     pub device: DeviceArgs,
     #[command(flatten)]
     pub world: WorldArgs,
+    /// Record the session to this MCAP file (`host-tool log` reads it).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
     #[arg(short = 'j', long)]
     pub json: bool,
@@ -61,6 +64,9 @@ pub struct BendArgs {
     pub device: DeviceArgs,
     #[command(flatten)]
     pub world: WorldArgs,
+    /// Record the session to this MCAP file (`host-tool log` reads it).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
     #[arg(short = 'j', long)]
     pub json: bool,
@@ -73,6 +79,9 @@ pub struct VentArgs {
     pub device: DeviceArgs,
     #[command(flatten)]
     pub world: WorldArgs,
+    /// Record the session to this MCAP file (`host-tool log` reads it).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
     #[arg(short = 'j', long)]
     pub json: bool,
@@ -413,7 +422,7 @@ fn ready(link: &mut Link) -> Result<Status, Failure> {
 pub fn run_grip(args: GripArgs) -> Result<(), Failure> {
     let world = args.world.parse()?;
     let close = args.action == Jaw::Close;
-    let mut link = Link::open(&args.device, &world)?;
+    let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "grip")?;
     let st = ready(&mut link)?;
     if st.gripper_closed == close {
         return Err(Failure::Runtime(anyhow::anyhow!(
@@ -495,7 +504,7 @@ pub fn run_bend(args: BendArgs) -> Result<(), Failure> {
         )));
     }
     let world = args.world.parse()?;
-    let mut link = Link::open(&args.device, &world)?;
+    let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "bend")?;
     let st = ready(&mut link)?;
     let (step, cmd) = bend_step(&ws, &cfg, st.state, angle, toward)?;
     let end = run_step(&mut link, step)?;
@@ -571,7 +580,7 @@ pub fn bend_step(
 pub fn run_vent(args: VentArgs) -> Result<(), Failure> {
     let world = args.world.parse()?;
     let cfg = crane_config(&args.device);
-    let mut link = Link::open(&args.device, &world)?;
+    let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "vent")?;
     let st = ready(&mut link)?;
     if st.pressure_kpa <= cfg.vent_tolerance_kpa {
         link.close();

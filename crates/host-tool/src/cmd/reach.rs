@@ -34,6 +34,9 @@ pub struct Args {
     pub device: DeviceArgs,
     #[command(flatten)]
     pub world: WorldArgs,
+    /// Record the session to this MCAP file (`host-tool log` reads it).
+    #[arg(long, value_name = "FILE.mcap", conflicts_with = "dry_run")]
+    pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
     #[arg(short = 'j', long)]
     pub json: bool,
@@ -232,7 +235,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let cfg = crane_config(&args.device);
     // Refused before anything is opened when no state reaches the point at all.
     plan_reach(&cfg, TrunkState::AS_MANUFACTURED, goal, tolerance)?;
-    let mut link = Link::open(&args.device, &world)?;
+    let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "reach")?;
     let st = link.status()?;
     if let Some(why) = crate::cmd::prim::blocked(&st) {
         link.close();

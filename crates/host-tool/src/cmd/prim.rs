@@ -111,12 +111,7 @@ fn session_error(e: &host::SessionError) -> Failure {
 
 impl Link {
     /// Opens the device the arguments name (a server's when one holds it), with `world` placed
-    /// in the simulator.
-    pub fn open(device: &DeviceArgs, world: &World) -> Result<Link, Failure> {
-        Self::open_recorded(device, world, None, "")
-    }
-
-    /// As [`Link::open`], recording the session to `record` (MCAP, `host-tool log` reads it)
+    /// in the simulator, recording the session to `record` (MCAP, `host-tool log` reads it)
     /// under the command name `command`.
     pub fn open_recorded(
         device: &DeviceArgs,

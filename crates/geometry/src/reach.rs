@@ -221,6 +221,20 @@ pub fn side_tip(heights: &TrunkHeights, state: TrunkState, angle: f64) -> (f64, 
     chain_in_plane(&[(b, share(b, bb)), (t, share(t, tb))])
 }
 
+/// Side view of the tip of `state` bent by a signed angle (radians) with the bend split
+/// between the modules as given: the bottom takes `bottom_share` of it, the top the rest (a
+/// calibrated split, where the geometry's own is by length over the flexible modules).
+pub fn side_tip_split(
+    heights: &TrunkHeights,
+    state: TrunkState,
+    angle: f64,
+    bottom_share: f64,
+) -> (f64, f64, f64) {
+    let [b, t] = heights.modules_mm(state);
+    let s = bottom_share.clamp(0.0, 1.0);
+    chain_in_plane(&[(b, angle * s), (t, angle * (1.0 - s))])
+}
+
 /// The tip of `state` under `bend` (the geometry's constant-curvature model, see the module
 /// text).
 pub fn tip_pose(heights: &TrunkHeights, state: TrunkState, bend: Bend) -> TipPose {
@@ -250,6 +264,16 @@ pub fn nearest(
     max_bend: f64,
     goal: [f64; 3],
 ) -> Result<Nearest, ReachError> {
+    nearest_by(|a| side_tip(heights, state, a), max_bend, goal)
+}
+
+/// [`nearest`] for any side-view model `side(θ) = (ρ, z, tilt)` of a signed bend θ (a
+/// calibrated one, say): the bend within `|θ| ≤ max_bend` whose tip is nearest `goal`.
+pub fn nearest_by(
+    side: impl Fn(f64) -> (f64, f64, f64),
+    max_bend: f64,
+    goal: [f64; 3],
+) -> Result<Nearest, ReachError> {
     if !(goal.iter().all(|v| v.is_finite()) && max_bend.is_finite() && max_bend >= 0.0) {
         return Err(ReachError::NotFinite);
     }
@@ -260,7 +284,7 @@ pub fn nearest(
         0.0
     };
     let dist2 = |a: f64| {
-        let (r, z, _) = side_tip(heights, state, a);
+        let (r, z, _) = side(a);
         (r - rho_goal) * (r - rho_goal) + (z - goal[2]) * (z - goal[2])
     };
     const CELLS: usize = 256;
@@ -305,9 +329,11 @@ pub fn nearest(
         }
     }
     let bend = Bend::new(direction, best.0);
+    let (rho, z, tilt) = side(best.0);
+    // The side view's ρ is signed along the goal's direction: a negative θ bends away from it.
     Ok(Nearest {
         bend,
-        tip: tip_pose(heights, state, bend),
+        tip: pose_from_plane(rho, z, tilt, direction),
         distance_mm: libm::sqrt(best.1.max(0.0)),
     })
 }

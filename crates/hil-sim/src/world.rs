@@ -275,6 +275,99 @@ pub fn true_tip(trunk: &Trunk) -> TipPose {
     pose_from_plane(rho, z, tilt, phi_deg.to_radians())
 }
 
+/// Calibrates each flexible state of `ws` against the simulator, as a crane would be
+/// calibrated with a tip sensor: one bend of half the state's limit toward tendon 0 (where the
+/// bend stays in its plane) through the controller, on a fresh simulator; the true tip axis
+/// gives the gain (true bend per commanded degree), the true tip's sideways offset the bottom
+/// module's share of the bend, its height the sag under the tendons' pull; a bend toward 60°
+/// (midway between two tendons) the gain there, one toward 30° the lean toward the nearer
+/// tendon. The calibrated workspace then predicts the simulator's tip
+/// (docs/geometry.md, "Tip pose and workspace").
+pub fn calibrate(
+    mut ws: planner::task::Workspace,
+    cfg: &firmware::CraneConfig,
+) -> Result<planner::task::Workspace, String> {
+    use geometry::reach::side_tip_split;
+    use geometry::TrunkState;
+    let tg = geometry::tendon::TendonGeometry::new(f64::from(cfg.tendon_radius_mm))
+        .map_err(|e| format!("the tendon radius: {e}"))?;
+    let bent = |ws: &planner::task::Workspace, state: TrunkState, angle: f64, dir: f64| {
+        let mut sim = crate::Sim::new(crate::SimOptions {
+            initial: state,
+            ..crate::SimOptions::default()
+        });
+        let mut host = crate::host::SimHost::new();
+        host.hello(&mut sim)
+            .map_err(|e| format!("{state}: {e:?}"))?;
+        let bend = ws
+            .check_bend(state, angle, dir)
+            .map_err(|e| format!("{state}: {e}"))?;
+        let cmd = tg.command_for(bend, f64::from(cfg.take_up_margin_mm));
+        let step = planner::task::step_within(
+            state,
+            protocol::StepKind::Tendon,
+            &[planner::task::bend_primitive(cmd)],
+        );
+        let (ok, _) = host
+            .run_plan(&mut sim, 1, &[step], 30_000)
+            .map_err(|e| format!("{state}: {e:?}"))?;
+        if !ok {
+            return Err(format!("{state}: the bend toward {dir}° failed"));
+        }
+        for _ in 0..1_000 {
+            let _ = host.poll(&mut sim);
+        }
+        Ok(sim.true_tip())
+    };
+    for state in TrunkState::ALL {
+        let Some(limit) = ws.limit_deg(state) else {
+            continue;
+        };
+        let angle = 0.5 * limit;
+        let a = angle.to_radians();
+        // Toward tendon 0 (the bend stays in its plane): the gain there, the split, the sag.
+        let tip = bent(&ws, state, angle, 0.0)?;
+        let tilt = tip.axis[0].atan2(tip.axis[2]);
+        let gain = tilt / a;
+        // The tip's offset grows with the bottom's share at a given total bend: bisect.
+        let heights = *ws.heights();
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if side_tip_split(&heights, state, tilt, mid).0 < tip.position_mm[0] {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let share = 0.5 * (lo + hi);
+        let sag_mm_per_rad =
+            (side_tip_split(&heights, state, tilt, share).1 - tip.position_mm[2]) / a;
+        // Toward 60° (midway between two tendons: no lean there), the gain between.
+        let t60 = bent(&ws, state, angle, 60.0)?;
+        let gain_between = t60.axis[2].clamp(-1.0, 1.0).acos() / a;
+        // Toward 30° (where sin 3φ = 1): how far the tip turns toward tendon 0.
+        let t30 = bent(&ws, state, angle, 30.0)?;
+        let lean = 30f64.to_radians() - t30.axis[1].atan2(t30.axis[0]);
+        // Where the bend snaps to the tendon (D&P: stiff, one tendon pulls) the lean model does
+        // not hold: no lean is modelled there.
+        let lean_rad = if lean.abs() < 0.3 { lean } else { 0.0 };
+        ws = ws
+            .with_calibration(
+                state,
+                planner::task::Calibration {
+                    gain,
+                    gain_between,
+                    bottom_share: share,
+                    sag_mm_per_rad,
+                    lean_rad,
+                },
+            )
+            .map_err(|e| format!("{state}: {e}"))?;
+    }
+    Ok(ws)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -188,3 +188,60 @@ fn largest_tip_load_each_state_holds() {
         }
     }
 }
+
+/// Reach error over the same grid with the workspace calibrated against the simulator
+/// (`hil_sim::world::calibrate`, what `host-tool reach|pick|demo --sim` plan with): the goals
+/// are the calibrated model's tips. Figures for BENCHMARKS.md: `cargo test --release -p hil-sim
+/// --test tip -- --nocapture calibrated`.
+#[test]
+fn calibrated_reach_error_over_a_grid_of_each_state() {
+    let sim = Sim::new(SimOptions::default());
+    let cfg = *sim.crane_config();
+    let ws = hil_sim::world::calibrate(workspace(&sim), &cfg).unwrap();
+    let tg = geometry::tendon::TendonGeometry::new(f64::from(cfg.tendon_radius_mm)).unwrap();
+    for state in TrunkState::ALL.into_iter().filter(|s| s.is_flexible()) {
+        let limit = ws.limit_deg(state).unwrap();
+        let mut errors = Vec::new();
+        for k in 1..=5 {
+            for d in 0..8 {
+                let (angle, dir) = (limit * f64::from(k) / 5.0, f64::from(d) * 45.0);
+                let goal = ws.tip(state, angle, dir).unwrap().position_mm;
+                let n = ws.nearest_in(state, goal).unwrap();
+                assert!(
+                    n.distance_mm < 1e-6,
+                    "{state} {angle} {dir}: {n:?}, goal {goal:?}, {:?}",
+                    ws.calibration(state)
+                );
+                let mut sim = Sim::new(SimOptions {
+                    initial: state,
+                    ..SimOptions::default()
+                });
+                let mut host = SimHost::new();
+                host.hello(&mut sim).unwrap();
+                let cmd = tg.command_for(n.bend, f64::from(cfg.take_up_margin_mm));
+                let step = step_within(state, StepKind::Tendon, &[bend_primitive(cmd)]);
+                let (ok, _) = host.run_plan(&mut sim, 1, &[step], 30_000).unwrap();
+                assert!(ok);
+                for _ in 0..1_000 {
+                    let _ = host.poll(&mut sim);
+                }
+                let e = dist(goal, sim.true_tip().position_mm);
+                if e > 4.0 {
+                    println!(
+                        "  {state} {angle:.1}° toward {dir}°: goal {goal:.1?}, true {:.1?}",
+                        sim.true_tip().position_mm
+                    );
+                }
+                errors.push(e);
+            }
+        }
+        errors.sort_by(f64::total_cmp);
+        let (median, max) = (errors[errors.len() / 2], errors[errors.len() - 1]);
+        let within = errors.iter().filter(|e| **e <= 5.0).count();
+        println!(
+            "calibrated reach error {state}: {} goals, median {median:.2} mm, max {max:.2} mm, {within} within 5 mm",
+            errors.len()
+        );
+        assert!(max <= 5.0, "{state}: {max:.2} mm");
+    }
+}

@@ -394,13 +394,21 @@ fn reach_goes_to_the_cheapest_state_or_refuses_with_the_nearest_point() {
         2,
         &["> 0"],
     );
-    // A point near the edge of F&F's workspace, where the simulator's stiffness split leaves
-    // the true tip short of the geometry's: the miss is reported and the exit is 1.
-    let o = run(&dir, &["reach", "--point", "20,0,90", "--sim", "-j"]);
-    assert_eq!(code(&o), 1, "{}", stderr(&o));
+    // On the simulator the host plans with the workspace calibrated against it: the geometry's
+    // F&F reaches 20.8 mm sideways, the simulated F&F only ≈ 13.5 mm, so this point is refused
+    // with F&F's nearest.
+    refused(
+        &dir,
+        &["reach", "--point", "20,0,90", "--sim"],
+        2,
+        &["nearest reachable point is", "in F&F"],
+    );
+    // Inside it, the true tip ends within the tolerance.
+    let o = run(&dir, &["reach", "--point", "12,0,90.5", "--sim", "-j"]);
+    assert_eq!(code(&o), 0, "{}", stderr(&o));
     let v = json(&o);
-    assert_eq!(v["ok"], false);
-    assert!(v["sim"]["error_mm"].as_f64().unwrap() > 5.0, "{v}");
+    assert_eq!(v["plan"]["state"], "F&F");
+    assert!(v["sim"]["error_mm"].as_f64().unwrap() <= 2.0, "{v}");
 }
 
 #[test]
@@ -440,7 +448,7 @@ fn pick_catches_carries_and_drops_and_says_what_became_of_the_object() {
     assert_eq!(cup["held"], false);
     assert_eq!(cup["position_mm"][2], 0.0);
     let x = cup["position_mm"][0].as_f64().unwrap();
-    assert!((x - (-12.0)).abs() < 10.0, "{v}");
+    assert!((x - (-12.0)).abs() < 5.0, "{v}");
     // Nothing at the point: the gripper closes on nothing, the run fails and says so.
     let o = run(
         &dir,
@@ -513,7 +521,7 @@ fn the_papers_demonstrations_pass_on_the_simulator_against_the_truth() {
     assert_eq!(verdict.len(), 3);
     for p in verdict {
         assert_eq!(p["placed"], true, "{v}");
-        assert!(p["from_place_mm"].as_f64().unwrap() <= 10.0);
+        assert!(p["from_place_mm"].as_f64().unwrap() <= 5.0);
         assert_eq!(p["position_mm"][2], 0.0);
     }
     assert_eq!(v["state"], "D&F");

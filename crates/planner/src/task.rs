@@ -126,6 +126,60 @@ pub struct Workspace {
     heights: TrunkHeights,
     /// Bend limit per state (index [`TrunkState::index`]), degrees; `None`: not bent there.
     limits_deg: [Option<f64>; 6],
+    /// A calibration per state, where one was measured.
+    calibration: [Option<Calibration>; 6],
+}
+
+/// How a state really bends, measured (on the crane with a tip sensor, or on the simulator):
+/// the bend the tip axis takes per degree commanded, and the share of it the bottom module
+/// takes. Without one the geometry's model holds (gain 1, the split by length over the flexible
+/// modules).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Calibration {
+    /// True bend / commanded bend toward a tendon.
+    pub gain: f64,
+    /// True bend / commanded bend midway between two tendons (the gain in between follows
+    /// cos 3φ).
+    pub gain_between: f64,
+    /// The bottom module's share of the bend (0–1).
+    pub bottom_share: f64,
+    /// How much lower the tip is than the bent model per radian of commanded bend, mm/rad (the
+    /// tendons' pull also shortens the trunk).
+    pub sag_mm_per_rad: f64,
+    /// How far a bend between two tendons leans toward the nearer one, rad: the tip faces
+    /// φ − lean·sin 3φ when commanded toward φ (no lean toward a tendon or midway between two).
+    pub lean_rad: f64,
+}
+
+impl Calibration {
+    /// True bend / commanded bend toward `direction` (rad).
+    pub fn gain_toward(&self, direction: f64) -> f64 {
+        let mean = 0.5 * (self.gain + self.gain_between);
+        let half = 0.5 * (self.gain - self.gain_between);
+        mean + half * (3.0 * direction).cos()
+    }
+
+    /// Where the tip faces when commanded toward `direction` (rad).
+    pub fn facing(&self, direction: f64) -> f64 {
+        direction - self.lean_rad * (3.0 * direction).sin()
+    }
+
+    /// The direction to command for the tip to face `facing` (rad): the inverse of
+    /// [`Calibration::facing`] by bisection (it is increasing for |lean| < 1/3 rad, and within
+    /// |lean| of `facing`).
+    pub fn command_toward(&self, facing: f64) -> f64 {
+        let w = self.lean_rad.abs() + 1e-9;
+        let (mut lo, mut hi) = (facing - w, facing + w);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if self.facing(mid) < facing {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        0.5 * (lo + hi)
+    }
 }
 
 impl Workspace {
@@ -141,6 +195,7 @@ impl Workspace {
         Ok(Self {
             heights,
             limits_deg,
+            calibration: [None; 6],
         })
     }
 
@@ -175,6 +230,59 @@ impl Workspace {
     ) -> [Option<f64>; 6] {
         let extra = (2.0 * margin_mm.max(0.0) / radius_mm).to_degrees();
         controller_deg.map(|l| l.map(|l| (l - extra).max(0.0)))
+    }
+
+    /// The same workspace with `state` calibrated (a finite gain in (0, 2], a share in [0, 1]).
+    pub fn with_calibration(
+        mut self,
+        state: TrunkState,
+        c: Calibration,
+    ) -> Result<Self, TaskError> {
+        if !(c.gain.is_finite()
+            && c.gain > 0.0
+            && c.gain <= 2.0
+            && c.gain_between.is_finite()
+            && c.gain_between > 0.0
+            && c.gain_between <= 2.0
+            && (0.0..=1.0).contains(&c.bottom_share)
+            && c.sag_mm_per_rad.is_finite()
+            && c.lean_rad.is_finite()
+            && c.lean_rad.abs() < 0.3)
+        {
+            return Err(TaskError::BadInput(
+                "a calibration needs gains in (0, 2], a share in [0, 1], a finite sag and a lean under 0.3 rad",
+            ));
+        }
+        self.calibration[state.index()] = Some(c);
+        Ok(self)
+    }
+
+    /// The calibration of `state`, if one was measured.
+    pub fn calibration(&self, state: TrunkState) -> Option<Calibration> {
+        self.calibration[state.index()]
+    }
+
+    /// The side view (ρ, z, tilt) of `state` under a commanded signed bend (radians) in the
+    /// plane of the commanded direction `direction` (a negative bend: toward `direction` + π):
+    /// the calibrated model where there is one, else the geometry's.
+    pub fn side(&self, state: TrunkState, commanded: f64, direction: f64) -> (f64, f64, f64) {
+        match self.calibration(state) {
+            Some(c) => {
+                let toward = if commanded >= 0.0 {
+                    direction
+                } else {
+                    direction + core::f64::consts::PI
+                };
+                let (r, z, tilt) = geometry::reach::side_tip_split(
+                    &self.heights,
+                    state,
+                    commanded * c.gain_toward(toward),
+                    c.bottom_share,
+                );
+                (r, z - c.sag_mm_per_rad * commanded.abs(), tilt)
+            }
+            None => geometry::reach::side_tip(&self.heights, state, commanded),
+        }
     }
 
     /// The heights.
@@ -233,6 +341,15 @@ impl Workspace {
         direction_deg: f64,
     ) -> Result<TipPose, TaskError> {
         let bend = self.check_bend(state, angle_deg, direction_deg)?;
+        if let Some(c) = self.calibration(state) {
+            let (r, z, tilt) = self.side(state, bend.angle, bend.direction);
+            return Ok(geometry::reach::pose_from_plane(
+                r,
+                z,
+                tilt,
+                c.facing(bend.direction),
+            ));
+        }
         Ok(tip_pose(&self.heights, state, bend))
     }
 
@@ -243,6 +360,19 @@ impl Workspace {
         goal: [f64; 3],
     ) -> Result<geometry::reach::Nearest, TaskError> {
         let max = self.limit_deg(state).unwrap_or(0.0).to_radians();
+        if let Some(c) = self.calibration(state) {
+            // In the goal's plane: the command toward the goal's azimuth (or away from it, for
+            // a negative bend) makes the tip face it.
+            let az = goal[1].atan2(goal[0]);
+            let toward = c.command_toward(az);
+            let away = c.command_toward(az + core::f64::consts::PI) - core::f64::consts::PI;
+            let side = |a: f64| self.side(state, a, if a >= 0.0 { toward } else { away });
+            let mut n = geometry::reach::nearest_by(side, max, goal)
+                .map_err(|_| TaskError::BadInput("a point must have finite coordinates (mm)"))?;
+            // The bend faces the goal; command the direction that makes it face there.
+            n.bend = Bend::new(c.command_toward(n.bend.direction), n.bend.angle);
+            return Ok(n);
+        }
         nearest(&self.heights, state, max, goal)
             .map_err(|_| TaskError::BadInput("a point must have finite coordinates (mm)"))
     }
@@ -258,7 +388,7 @@ impl Workspace {
         (0..samples)
             .map(|i| {
                 let deg = -limit + 2.0 * limit * i as f64 / (samples - 1) as f64;
-                let (r, z, _) = geometry::reach::side_tip(&self.heights, state, deg.to_radians());
+                let (r, z, _) = self.side(state, deg.to_radians(), 0.0);
                 (r, z, deg)
             })
             .collect()
@@ -444,6 +574,50 @@ mod tests {
         }
         assert!(w.reach(st("F&P"), [0.0; 3], 0.0, &g).is_err());
         assert!(w.reach(st("F&P"), [f64::NAN, 0.0, 0.0], 5.0, &g).is_err());
+    }
+
+    #[test]
+    fn a_calibration_changes_where_the_tip_is_and_reach_follows_it() {
+        let w = ws();
+        let ff = st("F&F");
+        let c = Calibration {
+            gain: 0.9,
+            gain_between: 0.9,
+            bottom_share: 0.375,
+            sag_mm_per_rad: 0.0,
+            lean_rad: 0.0,
+        };
+        let cw = w.with_calibration(ff, c).unwrap();
+        // The calibrated tip: the bottom bends 0.9·0.375 of the command, the top the rest.
+        let th = 20f64.to_radians();
+        let [b, t] = w.heights().modules_mm(ff);
+        let (r, z, _) =
+            geometry::reach::chain_in_plane(&[(b, 0.9 * th * 0.375), (t, 0.9 * th * 0.625)]);
+        let tip = cw.tip(ff, 20.0, 0.0).unwrap().position_mm;
+        assert!((tip[0] - r).abs() < 1e-9 && (tip[2] - z).abs() < 1e-9);
+        // Reaching that tip plans the same command, and it differs from the geometry's tip.
+        let n = cw.nearest_in(ff, tip).unwrap();
+        assert!(
+            n.distance_mm < 1e-6 && (n.bend.angle - th).abs() < 1e-6,
+            "{n:?}"
+        );
+        assert!((w.tip(ff, 20.0, 0.0).unwrap().position_mm[0] - r).abs() > 1.0);
+        let bad = |f: &dyn Fn(&mut Calibration)| {
+            let mut b = c;
+            f(&mut b);
+            w.with_calibration(ff, b).is_err()
+        };
+        assert!(bad(&|b| b.gain = 0.0));
+        assert!(bad(&|b| b.gain_between = f64::NAN));
+        assert!(bad(&|b| b.bottom_share = 1.5));
+        assert!(bad(&|b| b.sag_mm_per_rad = f64::INFINITY));
+        assert!(bad(&|b| b.lean_rad = 0.4));
+        // The lean's inverse: commanding `command_toward(φ)` faces φ.
+        let lean = Calibration { lean_rad: 0.2, ..c };
+        for k in 0..36 {
+            let phi = f64::from(k) * 10f64.to_radians();
+            assert!((lean.facing(lean.command_toward(phi)) - phi).abs() < 1e-9);
+        }
     }
 
     #[test]

@@ -207,6 +207,9 @@ pub fn run_pick(args: PickArgs) -> Result<(), Failure> {
     let tolerance = parse_tolerance(&args.tolerance)?;
     let world = args.world.parse()?;
     let cfg = crane_config(&args.device);
+    if args.device.sim {
+        crate::cmd::task::calibrate_for_sim(&cfg)?;
+    }
     plan_reach(&cfg, TrunkState::AS_MANUFACTURED, at, tolerance)?;
     plan_reach(&cfg, TrunkState::AS_MANUFACTURED, place, tolerance)?;
     let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "pick")?;
@@ -269,7 +272,7 @@ type Part = (String, [f64; 3], [f64; 3]);
 /// The three objects of §6.3: one at each height, each picked in its state and placed on the
 /// other side.
 fn manipulation_set(cfg: &firmware::CraneConfig) -> Result<Vec<Part>, Failure> {
-    let ws = crate::cmd::pose::crane_workspace(cfg)?;
+    let ws = crate::cmd::task::task_workspace(cfg)?;
     let tip = |s: &str, angle: f64, dir: f64| -> Result<[f64; 3], Failure> {
         let state: TrunkState = s.parse().map_err(|_| anyhow::anyhow!("state {s}"))?;
         ws.tip(state, angle, dir)
@@ -298,9 +301,9 @@ fn manipulation_set(cfg: &firmware::CraneConfig) -> Result<Vec<Part>, Failure> {
     ])
 }
 
-/// How far an object may land from below its place point, mm: the largest distance between
-/// the geometry's tip and the simulator's true tip in these states (docs/geometry.md).
-pub const PLACE_TOLERANCE_MM: f64 = 10.0;
+/// How far an object may land from below its place point, mm: the reach tolerance (the host
+/// plans with the workspace calibrated against the simulator: its tip within 2 mm).
+pub const PLACE_TOLERANCE_MM: f64 = 5.0;
 
 /// Runs `host-tool demo`.
 pub fn run_demo(args: DemoArgs) -> Result<(), Failure> {
@@ -430,6 +433,9 @@ fn panel(args: &DemoArgs) -> Result<(), Failure> {
 
 fn manipulation(args: &DemoArgs) -> Result<(), Failure> {
     let cfg = crane_config(&args.device);
+    if args.device.sim {
+        crate::cmd::task::calibrate_for_sim(&cfg)?;
+    }
     let set = manipulation_set(&cfg)?;
     let mut world = WorldArgs::default();
     if args.device.sim {

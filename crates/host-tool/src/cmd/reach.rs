@@ -81,7 +81,7 @@ pub fn plan_reach(
     goal: [f64; 3],
     tolerance: f64,
 ) -> Result<ReachPlan, Failure> {
-    let ws = crate::cmd::pose::crane_workspace(cfg)?;
+    let ws = crate::cmd::task::task_workspace(cfg)?;
     ws.reach(from, goal, tolerance, &Graph::nominal())
         .map_err(|e| match e {
             planner::task::TaskError::OutOfReach { .. } => Failure::usage(format!("refused: {e}")),
@@ -211,7 +211,7 @@ pub fn execute(
     if !plan.state.is_flexible() {
         return Ok(st);
     }
-    let ws = crate::cmd::pose::crane_workspace(cfg)?;
+    let ws = crate::cmd::task::task_workspace(cfg)?;
     let (angle, toward) = bend_degrees(plan);
     let (step, _) = bend_step(
         &ws,
@@ -233,6 +233,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let tolerance = parse_tolerance(&args.tolerance)?;
     let world = args.world.parse()?;
     let cfg = crane_config(&args.device);
+    if args.device.sim {
+        crate::cmd::task::calibrate_for_sim(&cfg)?;
+    }
     // Refused before anything is opened when no state reaches the point at all.
     plan_reach(&cfg, TrunkState::AS_MANUFACTURED, goal, tolerance)?;
     let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "reach")?;

@@ -119,3 +119,34 @@ pub fn vent_would_collapse(sim: &hil_sim::Sim, state: TrunkState) -> Option<Stri
         )
     })
 }
+
+/// The workspace `reach`, `pick` and `demo` plan with: calibrated against the simulator for
+/// `--sim` (set by [`calibrate_for_sim`]), else the geometry's.
+static TASK_WORKSPACE: std::sync::OnceLock<planner::task::Workspace> = std::sync::OnceLock::new();
+
+/// The workspace tasks plan with (see [`TASK_WORKSPACE`]).
+pub fn task_workspace(cfg: &firmware::CraneConfig) -> Result<planner::task::Workspace, Failure> {
+    match TASK_WORKSPACE.get() {
+        Some(ws) => Ok(*ws),
+        None => crate::cmd::pose::crane_workspace(cfg),
+    }
+}
+
+/// Calibrates the workspace tasks plan with against the simulator
+/// ([`hil_sim::world::calibrate`]).
+pub fn calibrate_for_sim(cfg: &firmware::CraneConfig) -> Result<(), Failure> {
+    let ws = crate::cmd::pose::crane_workspace(cfg)?;
+    let ws = hil_sim::world::calibrate(ws, cfg)
+        .map_err(|e| Failure::Runtime(anyhow::anyhow!("calibrating against the simulator: {e}")))?;
+    for s in TrunkState::ALL {
+        if let Some(c) = ws.calibration(s) {
+            crate::debug!(
+                "calibrated {s}: gain {:.3}, bottom share {:.3}",
+                c.gain,
+                c.bottom_share
+            );
+        }
+    }
+    let _ = TASK_WORKSPACE.set(ws);
+    Ok(())
+}

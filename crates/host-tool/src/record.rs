@@ -961,6 +961,16 @@ impl<I: host::Io + Truth> host::Io for Recorder<I> {
             if let Some(mut t) = self.inner.truth_json() {
                 t["host_ms"] = json!(now);
                 rec.write(Topic::Truth, now, None, &t);
+                // The simulator's world in the 3D scene, when it holds objects.
+                if t["objects"].is_array() && rec.wanted(Topic::Scene) {
+                    let ns = t["time_ms"].as_u64().unwrap_or(now) * 1_000_000;
+                    if let Some(update) = crate::scene::world_update(&t, ns) {
+                        use foxglove::Encode as _;
+                        let mut buf = Vec::new();
+                        let _ = update.encode(&mut buf);
+                        rec.write_bytes(Topic::Scene, now, None, &buf);
+                    }
+                }
             }
             self.next_truth_ms = now + 1000 / TRUTH_HZ;
         }

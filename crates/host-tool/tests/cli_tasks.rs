@@ -515,6 +515,20 @@ fn the_papers_demonstrations_pass_on_the_simulator_against_the_truth() {
         "{header}"
     );
     assert!(truth.contains(r#""held"":true"#), "no object was ever held");
+    // The 3D scene shows the objects and the gripper.
+    let bytes = std::fs::read(&rec).unwrap();
+    let mut ids = std::collections::BTreeSet::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic == "/scene" {
+            for id in ["object-low", "object-middle", "object-high", "gripper"] {
+                if m.data.windows(id.len()).any(|w| w == id.as_bytes()) {
+                    ids.insert(id);
+                }
+            }
+        }
+    }
+    assert_eq!(ids.len(), 4, "{ids:?}");
     let v = json(&o);
     assert_eq!(v["ok"], true);
     let verdict = v["verdict"].as_array().unwrap();

@@ -356,6 +356,24 @@ impl Default for CraneConfig {
 }
 
 impl CraneConfig {
+    /// The joystick's full-deflection bend in `state`, degrees: [`JoystickConfig::max_bend_deg`]
+    /// with a folded module, [`JoystickConfig::stiff_max_bend_deg`] without one.
+    pub fn max_bend_deg_in(&self, state: TrunkState) -> f32 {
+        let folded = state.top == TopState::Folded || state.bottom == BottomState::Folded;
+        if folded {
+            self.joystick.max_bend_deg
+        } else {
+            self.joystick.stiff_max_bend_deg
+        }
+    }
+
+    /// The largest bend the crane is bent by in `state` (the joystick at full deflection, a
+    /// `Bend`), degrees; `None` where it is not bent at all (`F&P`, `D&D`: not among the
+    /// flexible states, their tendons are not taken up).
+    pub fn bend_limit_deg(&self, state: TrunkState) -> Option<f32> {
+        state.is_flexible().then(|| self.max_bend_deg_in(state))
+    }
+
     /// Unloaded height of the straight trunk in `state`, mm: per module, layers × the layer's
     /// slant height d (folded or deployed, the geometry crate's Table 1) × the edge, or layers ×
     /// [`CraneConfig::packed_layer_mm`] when self-packed. `None` for a module the geometry
@@ -404,19 +422,6 @@ impl CraneConfig {
         };
         let h = module(&self.trunk.top, top)? + module(&self.trunk.bottom, bottom)?;
         h.is_finite().then_some(h)
-    }
-
-    /// The bend (tip angle, degrees) at full joystick deflection in `state`, and the largest
-    /// `Bend` the controller runs there: `joystick.max_bend_deg` with a folded module,
-    /// `joystick.stiff_max_bend_deg` without one (D&P). The controller bends only the flexible
-    /// states (`TrunkState::is_flexible`).
-    pub fn max_bend_deg(&self, state: TrunkState) -> f32 {
-        let folded = state.top == TopState::Folded || state.bottom == BottomState::Folded;
-        if folded {
-            self.joystick.max_bend_deg
-        } else {
-            self.joystick.stiff_max_bend_deg
-        }
     }
 
     /// How far every tendon hangs slack in `state` at zero shortening: tendon lengths are

@@ -24,6 +24,8 @@
 //! * [`orient`] — each module's top-face frame and outward normal ([`orient::top_faces`]), and
 //!   the base frame on the compass ([`orient::Heading`]: azimuth of base x, default 90° = ENU).
 //! * [`tendon`] — three-tendon constant-curvature bending and the joystick map.
+//! * [`reach`] — the crane's tip pose for a trunk state and a bend (constant curvature over the
+//!   state's flexible length) and the nearest point of a state's workspace to a goal.
 //! * [`trunk`] — the crane trunk's six states `F&P` … `D&D`.
 //!
 //! Units: lengths in units of the valley fold length l = 1 unless a name says `_mm`; angles in
@@ -70,6 +72,7 @@ pub mod hyperfold;
 pub mod orient;
 pub mod popout;
 pub mod pose;
+pub mod reach;
 pub mod state;
 pub mod tendon;
 pub mod trunk;

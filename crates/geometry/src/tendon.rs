@@ -149,6 +149,81 @@ impl TendonGeometry {
     }
 }
 
+/// A common shortfall of every tendon: the controller keeps the tendons `margin_mm` short of
+/// taut at zero bend (so an error in the modelled heights never compresses the trunk), and
+/// commands a bend θ toward φ as each tendon's constant-curvature shortening r_t·θ·cos(φ − φ_i)
+/// on top of that. A tendon pulls only once its shortening passes the margin; the trunk, far
+/// softer in bending than the tendons are stiff, takes the smallest bend that brings no tendon
+/// past its commanded length (the least bending energy under one-sided constraints):
+///
+/// min |b|² subject to u_i·b ≥ c_i = θ·cos(φ − φ_i) − margin/r_t, i = 0, 1, 2,
+///
+/// with b the bend vector and u_i the tendons' unit vectors. `docs/geometry.md` ("Tip pose and
+/// workspace") derives it and its inverse [`TendonGeometry::command_for`].
+impl TendonGeometry {
+    /// The bend the trunk takes under the command `commanded` with the tendons `margin_mm`
+    /// short of taut (see above). Non-finite input gives [`Bend::STRAIGHT`].
+    pub fn held_bend(&self, commanded: Bend, margin_mm: f64) -> Bend {
+        if !(commanded.angle.is_finite()
+            && commanded.direction.is_finite()
+            && margin_mm.is_finite())
+        {
+            return Bend::STRAIGHT;
+        }
+        let u = TENDON_ANGLES.map(|a| (libm::cos(a), libm::sin(a)));
+        let m = margin_mm.max(0.0) / self.radius_mm;
+        let c: [f64; 3] =
+            TENDON_ANGLES.map(|a| commanded.angle * libm::cos(commanded.direction - a) - m);
+        let feasible = |b: (f64, f64)| (0..3).all(|i| u[i].0 * b.0 + u[i].1 * b.1 >= c[i] - 1e-12);
+        let mut best: Option<(f64, (f64, f64))> = None;
+        let mut consider = |b: (f64, f64)| {
+            if feasible(b) {
+                let n = b.0 * b.0 + b.1 * b.1;
+                if best.is_none_or(|(bn, _)| n < bn) {
+                    best = Some((n, b));
+                }
+            }
+        };
+        consider((0.0, 0.0));
+        for i in 0..3 {
+            consider((c[i] * u[i].0, c[i] * u[i].1));
+            let j = (i + 1) % 3;
+            // u_i·b = c_i, u_j·b = c_j (a 2×2 system; the tendons are 120° apart).
+            let det = u[i].0 * u[j].1 - u[i].1 * u[j].0;
+            let bx = (c[i] * u[j].1 - c[j] * u[i].1) / det;
+            let by = (u[i].0 * c[j] - u[j].0 * c[i]) / det;
+            consider((bx, by));
+        }
+        let (_, (bx, by)) = best.unwrap_or((0.0, (0.0, 0.0)));
+        let angle = libm::hypot(bx, by);
+        if angle <= 1e-15 {
+            Bend::STRAIGHT
+        } else {
+            Bend::new(libm::atan2(by, bx), angle)
+        }
+    }
+
+    /// The command whose [`TendonGeometry::held_bend`] is `desired`: in tendon-shortening
+    /// terms v = r_t·b* + 2·margin·(bisector of the two tendons whose sector holds b*), so the
+    /// two tendons either side of the bend pull exactly as constant curvature asks and the
+    /// third hangs slack. Its angle is at most `desired.angle + 2·margin/r_t`. A straight
+    /// `desired` is the straight command.
+    pub fn command_for(&self, desired: Bend, margin_mm: f64) -> Bend {
+        if !(desired.angle.is_finite() && desired.direction.is_finite() && margin_mm.is_finite())
+            || desired.angle == 0.0
+        {
+            return Bend::STRAIGHT;
+        }
+        let m = margin_mm.max(0.0);
+        let phi = crate::catalogue::wrap_2pi(desired.direction);
+        let sector = libm::floor(phi / (2.0 * PI / 3.0)).clamp(0.0, 2.0);
+        let bisector = sector * 2.0 * PI / 3.0 + PI / 3.0;
+        let vx = self.radius_mm * desired.angle * libm::cos(phi) + 2.0 * m * libm::cos(bisector);
+        let vy = self.radius_mm * desired.angle * libm::sin(phi) + 2.0 * m * libm::sin(bisector);
+        Bend::new(libm::atan2(vy, vx), libm::hypot(vx, vy) / self.radius_mm)
+    }
+}
+
 /// Maps a joystick to a bend: deflection (x, y) ∈ [−1, 1]² points the bend direction
 /// φ = atan2(y, x) and its magnitude (clamped to 1) scales the bend angle up to `max_bend`.
 /// Deflections inside `deadzone` give no bend; the range outside it is rescaled so the bend

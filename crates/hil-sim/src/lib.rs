@@ -19,6 +19,8 @@
 //! - [`discovery`]: the transition graph the physics supports, as JSON or Graphviz DOT.
 //! - `elf_board` (feature `pil`, on by default): processor in the loop, the board's own ELF in
 //!   the RA4M1 emulator (`ra4m1-emu`, which links Unicorn: GPL-2.0) wired to the same parts.
+//! - [`world`]: objects on the table, the gripper's capture and release, a tip load, the true
+//!   tip pose.
 //!
 //! Architecture invariant: nothing here decides what the crane does; the controller does, from
 //! what the simulated sensors tell it. The simulator never reads the wall clock except in
@@ -51,6 +53,7 @@ pub mod rng;
 pub mod servo;
 pub mod sim;
 pub mod swarm;
+pub mod world;
 
 pub use fault::{Fault, ParseFaultError};
 pub use sim::{GroundTruth, Sim, SimOptions, TruthLog};

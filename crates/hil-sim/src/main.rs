@@ -59,6 +59,20 @@ struct Cli {
     /// {"t_ms", "true_state" (a state or "between"), "pressure_kpa", "actuators_safe", ...}.
     #[arg(long, value_name = "FILE", requires = "pty")]
     truth_log: Option<std::path::PathBuf>,
+    /// An object in the simulator's world (repeatable, with --pty): its grasp point X,Y,Z mm
+    /// (base frame, z ≥ 0 above the table) and mass (default 0.05 kg), e.g. cup:40,0,60,0.1.
+    /// Closing the gripper within 15 mm of it holds it; opening drops it to the table.
+    #[arg(long = "object", value_name = "NAME:X,Y,Z[,MASS_KG]", requires = "pty",
+          value_parser = parse_object)]
+    objects: Vec<hil_sim::world::Object>,
+    /// A load hung on the tip, kg (0 to 50; with --pty), whatever the gripper does.
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "pty",
+        allow_negative_numbers = true
+    )]
+    tip_load_kg: Option<f64>,
     /// Run this board ELF (`cargo firmware`: target/thumbv7em-none-eabihf/firmware/uno-r4) in
     /// the RA4M1 emulator instead of the host-built controller (processor in the loop).
     #[arg(long, value_name = "PATH")]
@@ -121,6 +135,10 @@ fn parse_state(s: &str) -> Result<TrunkState, String> {
 
 fn parse_fault(s: &str) -> Result<Fault, String> {
     s.parse().map_err(|e| format!("{e}"))
+}
+
+fn parse_object(s: &str) -> Result<hil_sim::world::Object, String> {
+    hil_sim::world::Object::parse(s).map_err(|e| e.to_string())
 }
 
 fn parse_speed(s: &str) -> Result<f64, String> {
@@ -204,7 +222,17 @@ fn main() -> ExitCode {
                 eprintln!("hil-sim: cannot handle signals: {e}");
                 return ExitCode::from(1);
             }
-            let sim = match PtySim::spawn_with_truth_log(opts, log) {
+            let world = match hil_sim::world::World::with(
+                cli.objects.clone(),
+                cli.tip_load_kg.unwrap_or(0.0),
+            ) {
+                Ok(w) => w,
+                Err(e) => {
+                    eprintln!("hil-sim: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let sim = match PtySim::spawn_in_world(opts, log, world) {
                 Ok(s) => s,
                 Err(e) => {
                     eprintln!("hil-sim: {e:#}");

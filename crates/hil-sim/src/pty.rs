@@ -80,6 +80,16 @@ impl PtySim {
         opts: SimOptions,
         log: Option<std::fs::File>,
     ) -> anyhow::Result<PtySim> {
+        Self::spawn_in_world(opts, log, crate::world::World::new())
+    }
+
+    /// [`PtySim::spawn_with_truth_log`] with objects and a tip load in the simulator's
+    /// [`crate::world::World`] from the start.
+    pub fn spawn_in_world(
+        opts: SimOptions,
+        log: Option<std::fs::File>,
+        world: crate::world::World,
+    ) -> anyhow::Result<PtySim> {
         check_pty_speed(opts.speed).map_err(|e| anyhow::anyhow!(e))?;
         let link_timeout_ms =
             (f64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) * opts.speed.max(1.0)).round() as u32;
@@ -105,7 +115,10 @@ impl PtySim {
                 .name("hil-sim".into())
                 .spawn(move || {
                     match Sim::try_new(opts).map(|s| s.with_link_timeout_ms(link_timeout_ms)) {
-                        Ok(sim) => {
+                        Ok(mut sim) => {
+                            let closed = sim.ground_truth().gripper_closed;
+                            *sim.world_mut() = world;
+                            sim.world_mut().set_gripper(closed);
                             truth.set(sim.ground_truth());
                             let clock = (Instant::now(), sim.now_ms());
                             let _ = tx.send(Ok(clock));

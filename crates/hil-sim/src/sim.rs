@@ -223,6 +223,8 @@ pub struct Sim {
     #[cfg(feature = "pil")]
     board: Option<Box<ElfBoard>>,
     board_error: Option<String>,
+    /// Objects, the tip load and the true tip ([`crate::world`]).
+    world: crate::world::World,
 }
 
 impl std::fmt::Debug for Sim {
@@ -346,6 +348,7 @@ impl Sim {
             #[cfg(feature = "pil")]
             board,
             board_error: None,
+            world: crate::world::World::new(),
         })
     }
 
@@ -382,6 +385,7 @@ impl Sim {
             #[cfg(feature = "pil")]
             board: None,
             board_error: self.board_error.clone(),
+            world: self.world.clone(),
         })
     }
 
@@ -455,6 +459,21 @@ impl Sim {
     /// Hangs an object on the tip (N; the gripper holds it).
     pub fn set_payload_n(&mut self, payload_n: f64) {
         self.payload_n = payload_n.max(0.0);
+    }
+
+    /// The world around the crane: objects, the tip load, the true tip.
+    pub fn world(&self) -> &crate::world::World {
+        &self.world
+    }
+
+    /// The tip's true pose now ([`crate::world::true_tip`]).
+    pub fn true_tip(&self) -> geometry::reach::TipPose {
+        crate::world::true_tip(&self.trunk)
+    }
+
+    /// The world, to place objects or hang a load (and to take its grasp events).
+    pub fn world_mut(&mut self) -> &mut crate::world::World {
+        &mut self.world
     }
 
     /// Starts recording a compact trace: one line every `period_ms`, plus one per event.
@@ -668,9 +687,13 @@ impl Sim {
                 self.payload_n
             } else {
                 0.0
-            },
+            } + self.world.load_n(),
         };
         let snaps = self.trunk.step(dt_s, &act);
+        if !self.world.is_empty() {
+            self.world
+                .after_step(&self.trunk, self.shell.outputs.gripper.high);
+        }
         let p = self.trunk.pressure_kpa();
         self.max_pressure_kpa = self.max_pressure_kpa.max(p);
         for s in snaps.iter() {
@@ -975,7 +998,8 @@ impl Sim {
     }
 
     /// One truth-log line: `{"t_ms", "true_state", "pressure_kpa", "actuators_safe", …}` with
-    /// `true_state` a state name or `"between"`, and what the controller believes beside it.
+    /// `true_state` a state name or `"between"`, and what the controller believes beside it;
+    /// with objects or a tip load in the world, the true tip (`tip_mm`) and the `world`.
     pub fn truth_line(&self) -> String {
         let bits = self.device_faults();
         let faults: Vec<String> = protocol::FaultCode::ALL
@@ -1008,6 +1032,14 @@ impl Sim {
                 .map(|s| s.name())
                 .collect::<Vec<_>>()
                 .into();
+        }
+        if !self.world.is_empty() {
+            v["tip_mm"] = self
+                .true_tip()
+                .position_mm
+                .map(|x| (x * 10.0).round() / 10.0)
+                .into();
+            v["world"] = self.world.to_json();
         }
         v.to_string()
     }

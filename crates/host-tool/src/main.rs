@@ -153,6 +153,22 @@ enum Command {
     Identify(cmd::identify::Args),
     /// List serial ports; recognise Arduino UNO R4 boards.
     Ports(cmd::ports::Args),
+    /// Where the tip is for a trunk state and a bend, e.g. pose --state 'D&F' --bend 20,90.
+    Pose(cmd::pose::PoseArgs),
+    /// Each state's reachable tips for the bends it allows: table, JSON, side-view figure.
+    Workspace(cmd::pose::WorkspaceArgs),
+    /// Open or close the gripper: grip open|close.
+    Grip(cmd::prim::GripArgs),
+    /// Bend the trunk: bend ANGLE --toward DIR (degrees); bend 0 straightens.
+    Bend(cmd::prim::BendArgs),
+    /// Let the air out while the trunk keeps its state.
+    Vent(cmd::prim::VentArgs),
+    /// Put the tip at a point: reach --point X,Y,Z (mm), refused when no state reaches it.
+    Reach(cmd::reach::Args),
+    /// Pick an object up and put it elsewhere: pick --at X,Y,Z --place X,Y,Z (§6.3's cycle).
+    Pick(cmd::demo::PickArgs),
+    /// The paper's demonstrations with a verdict: demo manipulation|panel|load.
+    Demo(cmd::demo::DemoArgs),
     /// Read a recording (MCAP): summary, CSV export, pressure/servo plot, recovery.
     Log(cmd::log::Args),
     /// Own the link to a crane (or the simulator), record it, and serve other terminals'
@@ -187,6 +203,14 @@ impl Command {
             Command::Param(a) => a.json(),
             Command::Identify(a) => a.json,
             Command::Ports(a) => a.json,
+            Command::Pose(a) => a.json,
+            Command::Workspace(a) => a.json,
+            Command::Grip(a) => a.json,
+            Command::Bend(a) => a.json,
+            Command::Vent(a) => a.json,
+            Command::Reach(a) => a.json,
+            Command::Pick(a) => a.json,
+            Command::Demo(a) => a.json,
             _ => false,
         }
     }
@@ -241,6 +265,14 @@ fn main() -> ExitCode {
         Command::Identify(args) => cmd::identify::run(args),
         Command::Ports(args) => cmd::ports::run(args),
         Command::Log(args) => cmd::log::run(args),
+        Command::Pose(args) => cmd::pose::run_pose(args),
+        Command::Workspace(args) => cmd::pose::run_workspace(args),
+        Command::Grip(args) => cmd::prim::run_grip(args),
+        Command::Bend(args) => cmd::prim::run_bend(args),
+        Command::Vent(args) => cmd::prim::run_vent(args),
+        Command::Reach(args) => cmd::reach::run(args),
+        Command::Pick(args) => cmd::demo::run_pick(args),
+        Command::Demo(args) => cmd::demo::run_demo(args),
         Command::Serve(args) => cmd::serve::run(args),
         Command::Completions { shell } => {
             out_raw!("{}", completions::script(shell, Cli::command()));

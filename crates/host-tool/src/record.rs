@@ -230,7 +230,9 @@ impl Topic {
                        "pressure_kpa": num, "module_heights_mm": {"type": "array"},
                        "bend_deg": num, "tendon_tension_n": deg3, "servo_deg": deg3,
                        "inlet_open": boolean, "exhaust_open": boolean,
-                       "believed_state": string, "snaps": int, "actuators_safe": boolean}),
+                       "believed_state": string, "snaps": int, "actuators_safe": boolean,
+                       "tip_mm": {"type": "array"}, "tip_axis": {"type": "array"},
+                       "objects": {"type": ["array", "null"]}}),
                 vec!["host_ms", "time_ms", "pressure_kpa"],
             ),
         };
@@ -846,7 +848,12 @@ impl Truth for crate::transport::AnyIo {
         match self {
             crate::transport::AnyIo::Sim(io) => {
                 let t = io.sim.ground_truth();
+                let tip = io.sim.true_tip();
+                let world = io.sim.world();
                 Some(json!({
+                    "tip_mm": tip.position_mm.map(|v| (v * 10.0).round() / 10.0),
+                    "tip_axis": tip.axis.map(|v| (v * 1e4).round() / 1e4),
+                    "objects": (!world.objects().is_empty()).then(|| world.to_json()["objects"].clone()),
                     "time_ms": t.time_ms,
                     "true_state": t.true_state.map(|s| s.name()),
                     "pressure_kpa": t.pressure_kpa,
@@ -954,6 +961,16 @@ impl<I: host::Io + Truth> host::Io for Recorder<I> {
             if let Some(mut t) = self.inner.truth_json() {
                 t["host_ms"] = json!(now);
                 rec.write(Topic::Truth, now, None, &t);
+                // The simulator's world in the 3D scene, when it holds objects.
+                if t["objects"].is_array() && rec.wanted(Topic::Scene) {
+                    let ns = t["time_ms"].as_u64().unwrap_or(now) * 1_000_000;
+                    if let Some(update) = crate::scene::world_update(&t, ns) {
+                        use foxglove::Encode as _;
+                        let mut buf = Vec::new();
+                        let _ = update.encode(&mut buf);
+                        rec.write_bytes(Topic::Scene, now, None, &buf);
+                    }
+                }
             }
             self.next_truth_ms = now + 1000 / TRUTH_HZ;
         }

@@ -15,8 +15,8 @@ use fabrication::pattern::Pattern;
 use fabrication::{Module, Trunk};
 use firmware::config::CraneConfig;
 use foxglove::messages::{
-    Color, FrameTransform, FrameTransforms, Point3, Pose, Quaternion, SceneEntity, SceneUpdate,
-    TextPrimitive, Timestamp, TriangleListPrimitive, Vector3,
+    Color, CubePrimitive, FrameTransform, FrameTransforms, Point3, Pose, Quaternion, SceneEntity,
+    SceneUpdate, SpherePrimitive, TextPrimitive, Timestamp, TriangleListPrimitive, Vector3,
 };
 use geometry::tendon::{Bend, TendonGeometry};
 use geometry::{BottomState, ModuleDesign, TopState, TrunkState};
@@ -298,6 +298,92 @@ impl Scene {
     }
 }
 
+/// The simulator's world in the scene, from a `/sim/truth` sample (`tip_mm`,
+/// `gripper_closed`, `objects`): each object a 20 mm cube at its grasp point (green while
+/// held, orange on the table or where it stands) with its name, and the gripper a sphere at the
+/// true tip (dark when closed, light when open). `None` when the sample has no tip.
+pub fn world_update(truth: &serde_json::Value, log_time_ns: u64) -> Option<SceneUpdate> {
+    let stamp = Timestamp::new(
+        (log_time_ns / 1_000_000_000) as u32,
+        (log_time_ns % 1_000_000_000) as u32,
+    );
+    let xyz = |v: &serde_json::Value| -> Option<Vector3> {
+        Some(Vector3 {
+            x: v.get(0)?.as_f64()? / 1000.0,
+            y: v.get(1)?.as_f64()? / 1000.0,
+            z: v.get(2)?.as_f64()? / 1000.0,
+        })
+    };
+    let pose = |p: Vector3| Pose {
+        position: Some(p),
+        orientation: Some(identity()),
+    };
+    let colour = |r: f64, g: f64, b: f64| Color { r, g, b, a: 1.0 };
+    let tip = xyz(&truth["tip_mm"])?;
+    let closed = truth["gripper_closed"].as_bool().unwrap_or(false);
+    let mut entities = vec![SceneEntity {
+        timestamp: Some(stamp),
+        frame_id: BASE_FRAME.into(),
+        id: "gripper".into(),
+        spheres: vec![SpherePrimitive {
+            pose: Some(pose(tip)),
+            size: Some(Vector3 {
+                x: 0.012,
+                y: 0.012,
+                z: 0.012,
+            }),
+            color: Some(if closed {
+                colour(0.15, 0.15, 0.15)
+            } else {
+                colour(0.85, 0.85, 0.85)
+            }),
+        }],
+        ..Default::default()
+    }];
+    for o in truth["objects"].as_array().into_iter().flatten() {
+        let Some(at) = xyz(&o["position_mm"]) else {
+            continue;
+        };
+        let name = o["name"].as_str().unwrap_or("object");
+        let held = o["held"].as_bool().unwrap_or(false);
+        let label = Vector3 {
+            z: at.z + 0.02,
+            ..at
+        };
+        entities.push(SceneEntity {
+            timestamp: Some(stamp),
+            frame_id: BASE_FRAME.into(),
+            id: format!("object-{name}"),
+            cubes: vec![CubePrimitive {
+                pose: Some(pose(at)),
+                size: Some(Vector3 {
+                    x: 0.02,
+                    y: 0.02,
+                    z: 0.02,
+                }),
+                color: Some(if held {
+                    colour(0.0, 0.62, 0.45)
+                } else {
+                    colour(0.9, 0.62, 0.0)
+                }),
+            }],
+            texts: vec![TextPrimitive {
+                pose: Some(pose(label)),
+                billboard: true,
+                font_size: 12.0,
+                scale_invariant: true,
+                color: Some(colour(1.0, 1.0, 1.0)),
+                text: format!("{name}{}", if held { " (held)" } else { "" }),
+            }],
+            ..Default::default()
+        });
+    }
+    Some(SceneUpdate {
+        deletions: Vec::new(),
+        entities,
+    })
+}
+
 fn identity() -> Quaternion {
     Quaternion {
         x: 0.0,
@@ -380,6 +466,27 @@ mod tests {
             .flat_map(|e| e.triangles[0].points.iter())
             .map(|p| p.z)
             .fold(f64::MIN, f64::max)
+    }
+
+    #[test]
+    fn the_world_shows_each_object_and_the_gripper() {
+        let truth = serde_json::json!({
+            "tip_mm": [0.0, 0.0, 92.5],
+            "gripper_closed": true,
+            "objects": [
+                {"name": "cup", "position_mm": [0.0, 0.0, 92.5], "held": true},
+                {"name": "box", "position_mm": [40.0, 0.0, 0.0], "held": false}
+            ]
+        });
+        let u = world_update(&truth, 1_500_000_000).unwrap();
+        let ids: Vec<&str> = u.entities.iter().map(|e| e.id.as_str()).collect();
+        assert_eq!(ids, ["gripper", "object-cup", "object-box"]);
+        let cup = &u.entities[1].cubes[0];
+        let p = cup.pose.as_ref().unwrap().position.as_ref().unwrap();
+        assert!((p.z - 0.0925).abs() < 1e-12);
+        assert_eq!(u.entities[1].texts[0].text, "cup (held)");
+        assert!(u.entities[2].cubes[0].color.as_ref().unwrap().r > 0.8);
+        assert!(world_update(&serde_json::json!({"tip_mm": null}), 0).is_none());
     }
 
     #[test]

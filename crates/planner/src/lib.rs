@@ -10,9 +10,12 @@
 //! - [`station`]: the solar station (paper §7.2): which catalogue states of the top modules
 //!   point the top face at the sun, sample by sample, and the exact best schedule with at
 //!   most K refolds (dynamic programming over time, `docs/sun.md`).
+//! - [`task`]: a goal for the tip (a point, a bend, a grip) as a plan of the device's
+//!   primitives, or a refusal with the nearest feasible value.
 #![forbid(unsafe_code)]
 
 pub use transition_graph as graph;
 pub mod ik;
 pub mod station;
 pub mod sun;
+pub mod task;

@@ -1412,7 +1412,7 @@ fn slack_angles(cfg: &CraneConfig) -> [f32; 3] {
 
 /// The largest bend in `state`: the joystick's full deflection, less where no module is folded.
 fn max_bend_deg(cfg: &CraneConfig, state: TrunkState) -> f32 {
-    cfg.max_bend_deg(state)
+    cfg.max_bend_deg_in(state)
 }
 
 /// The largest bend a stiff state takes before it buckles (D&P: no folded module), with a

@@ -66,7 +66,7 @@ pub struct Aim {
 /// The controller's bend limit in `state` (degrees): none outside the flexible states.
 pub fn limit_deg(cfg: &CraneConfig, state: TrunkState) -> f64 {
     if state.is_flexible() {
-        f64::from(cfg.max_bend_deg(state)).max(0.0)
+        f64::from(cfg.max_bend_deg_in(state)).max(0.0)
     } else {
         0.0
     }

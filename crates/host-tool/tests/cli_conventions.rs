@@ -477,6 +477,59 @@ fn the_port_comes_from_crane_port_and_p_is_port() {
     );
 }
 
+/// What bash's completion offers for `words` (the last one being completed), running the
+/// generated script in bash as a person's Tab would.
+fn bash_completes(words: &[&str]) -> Vec<String> {
+    let script = text(&host_tool(&["completions", "bash"]).stdout);
+    let dir = std::env::temp_dir().join(format!("host-tool-compl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("host-tool.bash");
+    std::fs::write(&file, script).unwrap();
+    let quoted: Vec<String> = words.iter().map(|w| format!("'{w}'")).collect();
+    let n = words.len();
+    let prev = if n >= 2 { words[n - 2] } else { "" };
+    let program = format!(
+        "source '{}'; COMP_WORDS=({}); COMP_CWORD={}; COMP_LINE='{}'; COMP_POINT=${{#COMP_LINE}}; \
+         _host__tool host-tool '{}' '{}'; printf '%s\\n' \"${{COMPREPLY[@]}}\"",
+        file.display(),
+        quoted.join(" "),
+        n - 1,
+        words.join(" "),
+        words[n - 1],
+        prev
+    );
+    let out = Command::new("bash")
+        .args(["--norc", "--noprofile", "-c", &program])
+        .output()
+        .expect("bash runs");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    text(&out.stdout).lines().map(str::to_owned).collect()
+}
+
+#[test]
+fn bash_completes_subcommand_options_and_their_values() {
+    let options = bash_completes(&["host-tool", "plan", "--"]);
+    for o in ["--target", "--sim", "--sim-fault", "--port"] {
+        assert!(options.iter().any(|x| x == o), "plan --<TAB>: {options:?}");
+    }
+    let states = bash_completes(&["host-tool", "plan", "--target", ""]);
+    assert_eq!(states, ["F-P", "F-F", "F-D", "D-P", "D-F", "D-D"]);
+    let d = bash_completes(&["host-tool", "declare", "D"]);
+    assert_eq!(d, ["D-P", "D-F", "D-D"]);
+    let faults = bash_completes(&["host-tool", "status", "--sim-fault", "l"]);
+    assert_eq!(faults, ["leak", "link-drop", "line-noise"]);
+    let algo = bash_completes(&["host-tool", "ik", "--algo", ""]);
+    assert_eq!(algo.len(), 6, "{algo:?}");
+    assert!(algo.contains(&"exact".to_owned()) && algo.contains(&"dp".to_owned()));
+    let metric = bash_completes(&["host-tool", "ik", "--metric", ""]);
+    assert_eq!(metric, ["eq36", "ordered"]);
+    // Every completed state is one the commands take.
+    for s in states {
+        let out = host_tool(&["plan", "--target", &s, "--sim", "--dry-run", "-j"]);
+        assert_eq!(out.status.code(), Some(0), "{s}: {}", text(&out.stderr));
+    }
+}
+
 #[test]
 fn completions_and_the_man_page() {
     for (shell, mark) in [

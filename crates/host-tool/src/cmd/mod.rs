@@ -2,8 +2,8 @@
 
 pub mod aim;
 pub mod declare;
-pub mod design;
 pub mod demo;
+pub mod design;
 pub mod fk;
 pub mod identify;
 pub mod ik;

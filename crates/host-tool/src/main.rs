@@ -128,8 +128,10 @@ enum Command {
     /// The solar station: which top-module states face the sun through a day, and the refolds.
     Station(cmd::station::Args),
     /// The bend that points the tip axis (a panel) at a direction or the sun, and the error
-    /// left; computed only, nothing is sent.
+    /// left; with --sim or --port the crane is bent there.
     Aim(cmd::aim::Args),
+    /// Follow the sun through a day: aim the crane's panel every --every until --until.
+    Track(cmd::track::Args),
     /// Which β works: the β bands where each family of states is feasible for n (or a range),
     /// heights and tilts; with --target, βs ranked by their fit.
     Design(cmd::design::Args),
@@ -194,6 +196,7 @@ impl Command {
             Command::Sun(a) => a.json,
             Command::Station(a) => a.json,
             Command::Aim(a) => a.json,
+            Command::Track(a) => a.json,
             Command::Design(a) => a.json,
             Command::Pattern(a) => a.json,
             Command::Plan(a) => a.json,
@@ -253,6 +256,7 @@ fn main() -> ExitCode {
         Command::Sun(args) => cmd::sun::run(args),
         Command::Station(args) => cmd::station::run(args),
         Command::Aim(args) => cmd::aim::run(args),
+        Command::Track(args) => cmd::track::run(args),
         Command::Design(args) => cmd::design::run(args),
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),

@@ -25,3 +25,4 @@ pub mod status;
 pub mod stop;
 pub mod sun;
 pub mod task;
+pub mod track;

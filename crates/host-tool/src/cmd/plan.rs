@@ -83,12 +83,18 @@ impl Args {
 /// Sets `flag` on SIGINT, SIGTERM and SIGHUP (a closed terminal): the run aborts on the
 /// device and waits for its safe state instead of dying with the crane mid-step.
 pub fn interrupt_flag() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let f = flag.clone();
-    // A second handler cannot be installed (a second run in one process): the first one's
-    // flag is then not this one; the device's link watchdog still makes the crane safe.
-    let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
-    flag
+    // One flag for the process, set by one handler: a command of several steps (a demo, a
+    // day's tracking) asks for it at each, and a Ctrl-C during any of them must be seen.
+    static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag = Arc::new(AtomicBool::new(false));
+        let f = flag.clone();
+        // Fails only when another handler is installed already; the device's link watchdog
+        // still makes the crane safe then.
+        let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
+        flag
+    })
+    .clone()
 }
 
 /// The terminal side of a run: progress, the operator's Enter for manual steps, the

@@ -184,6 +184,21 @@ impl Link {
         }
     }
 
+    /// The link's clock, ms: the simulator's virtual time when this process runs it, else the
+    /// host's monotonic clock.
+    pub fn now_ms(&mut self) -> u64 {
+        match self {
+            Link::Direct(c) => host::Io::now_ms(&mut c.session.io),
+            Link::Server(_) => {
+                static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+                START
+                    .get_or_init(std::time::Instant::now)
+                    .elapsed()
+                    .as_millis() as u64
+            }
+        }
+    }
+
     /// The simulator, when this process runs it.
     pub fn sim(&mut self) -> Option<&mut hil_sim::Sim> {
         match self {

@@ -609,9 +609,24 @@ fn ctrl_c_between_aims_ends_the_track_safely() {
     use std::process::Stdio;
     let mut child = Command::new(env!("CARGO_BIN_EXE_host-tool"))
         .args([
-            "track", "--sun", "--lat", "37.2296", "--lon", "-80.4139", "--time",
-            "2025-06-21T12:00-04:00", "--until", "20:00", "--every", "1h", "--sim",
-            "--sim-initial", "F&D", "--sim-speed", "1", "-j",
+            "track",
+            "--sun",
+            "--lat",
+            "37.2296",
+            "--lon",
+            "-80.4139",
+            "--time",
+            "2025-06-21T12:00-04:00",
+            "--until",
+            "20:00",
+            "--every",
+            "1h",
+            "--sim",
+            "--sim-initial",
+            "F&D",
+            "--sim-speed",
+            "1",
+            "-j",
         ])
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -634,7 +649,10 @@ fn ctrl_c_between_aims_ends_the_track_safely() {
     assert_eq!(summary["summary"], true);
     assert_eq!(summary["ok"], false);
     assert_eq!(summary["aims"], 1);
-    assert!(summary["error"].as_str().unwrap().contains("interrupted"), "{summary}");
+    assert!(
+        summary["error"].as_str().unwrap().contains("interrupted"),
+        "{summary}"
+    );
     assert_eq!(summary["state"], "F&D");
     assert_eq!(summary["state_confirmed"], true);
 }

@@ -216,3 +216,86 @@ fn the_socket_is_the_users_only_and_param_goes_through_the_server() {
     server.wait().unwrap();
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `param save`, then `param load` of an edited file through the server, then `param diff`:
+/// the device holds the file's values; a file of another schema is refused before anything is
+/// written, naming the parameters that differ.
+#[test]
+fn parameter_files_save_load_and_diff_through_serve() {
+    let dir = cli::temp("serve-params");
+    let rec = dir.join("serve.mcap");
+    let mut server = serve(&dir, &["--record", rec.to_str().unwrap()]);
+    let file = dir.join("crane.params.json");
+    let f = file.to_str().unwrap();
+    let out = cmd(&dir, &["param", "save", f, "-j"]).output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert_eq!(saved["format"], "yoshimura-crane-params");
+    assert_eq!(saved["schema_id"], protocol::SCHEMA_ID);
+    assert_eq!(saved["params"].as_object().unwrap().len(), 6);
+    let mut edited = saved.clone();
+    edited["params"]["telemetry-hz"] = 7.into();
+    edited["params"]["pressure-limit-kpa"] = 33.5.into();
+    std::fs::write(&file, edited.to_string()).unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let out = cmd(&dir, args).output().unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let before = json(&["param", "diff", f, "-j"]);
+    assert_eq!(before["differ"].as_array().unwrap().len(), 2, "{before}");
+    let dry = json(&["param", "load", f, "--dry-run", "-j"]);
+    assert_eq!(dry["written"], 0);
+    assert_eq!(
+        json(&["param", "diff", f, "-j"])["differ"]
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
+    let load = json(&["param", "load", f, "-j"]);
+    assert_eq!(load["written"], 2, "{load}");
+    let after = json(&["param", "diff", f, "-j"]);
+    assert_eq!(after["differ"].as_array().unwrap().len(), 0, "{after}");
+    let got = json(&["param", "get", "pressure-limit-kpa", "-j"]);
+    assert_eq!(got["params"][0]["value"], 33.5);
+    // Another firmware's file: refused (exit 1), nothing written.
+    let mut other = edited.clone();
+    other["schema_id"] = 5.into();
+    other["params"]["telemetry-hz"] = 9.into();
+    std::fs::write(&file, other.to_string()).unwrap();
+    let out = cmd(&dir, &["param", "load", f]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("schema 0x00000005") && err.contains("differ: telemetry-hz"),
+        "{err}"
+    );
+    assert_eq!(
+        json(&["param", "get", "telemetry-hz", "-j"])["params"][0]["value"],
+        7
+    );
+    // A bad file is a usage error naming the problem.
+    std::fs::write(&file, r#"{"format":"yoshimura-crane-params","version":1,"schema_id":1,"params":{"link-timeout-ms":250.5}}"#).unwrap();
+    let out = cmd(&dir, &["param", "load", f]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr)
+        .contains("link-timeout-ms = 250.5: expected a whole number"));
+    let out = cmd(&dir, &["param", "save", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    server.kill().unwrap();
+    let _ = server.wait();
+}

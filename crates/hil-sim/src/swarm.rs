@@ -294,6 +294,8 @@ pub struct Checker {
     boot_check_at: Option<u64>,
     trace: Option<String>,
     last_mode: Option<Mode>,
+    /// The trunk's wells last noted in the trace (each module's, `None` on a snap branch).
+    last_wells: Option<[Option<usize>; 2]>,
 }
 
 impl Checker {
@@ -323,6 +325,24 @@ impl Checker {
         let t = sim.now_ms();
         let truth = sim.safety();
         let status = sim.controller().status();
+        if self.trace.is_some() {
+            // The trunk's own moves, for reading a replay: each module's well as it settles.
+            let wells = sim.trunk().wells();
+            if self.last_wells != Some(wells) && wells.iter().all(Option::is_some) {
+                self.last_wells = Some(wells);
+                let [top, bottom] = wells.map(|w| w.unwrap_or(0));
+                self.note(
+                    t,
+                    &format!(
+                        "trunk: top {} bottom {} at {:.1} kPa (the device reads {:.1})",
+                        crate::physics::trunk::well_name(crate::physics::Module::Top, top),
+                        crate::physics::trunk::well_name(crate::physics::Module::Bottom, bottom),
+                        truth.pressure_kpa,
+                        sim.controller().pressure_kpa()
+                    ),
+                );
+            }
+        }
         if self.last_mode != Some(status.mode) {
             self.note(
                 t,

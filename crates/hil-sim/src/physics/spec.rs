@@ -29,6 +29,45 @@ pub const SCALE_RANGE: core::ops::RangeInclusive<f64> = 0.1..=10.0;
 /// draws the offset uniformly in `±F × 1 kPa` (the calibrated sensor reads true, offset 0).
 pub const OFFSET_SPREAD_KPA: f64 = 1.0;
 
+/// The sensor gain's spread per unit of `--trunk-spread`: a spread `F` draws the gain within
+/// `1 ± F × GAIN_SPREAD`. A pressure sensor's gain is its datasheet's class (±2.5 % for an
+/// MPX5100), not a print's variation; and a sensor that reads low by g lets the true pressure
+/// reach the cap / (1 − g), which no firmware can see (the swarm's cap is on the true pressure).
+pub const GAIN_SPREAD: f64 = 0.2;
+
+/// Smallest pressure step (kPa) of a snap under inflation that the crane can see: the
+/// firmware's snap detector needs 1.5 kPa over the filling ramp, and a snap that moves its
+/// module too little (a soft well that stretches almost to its barrier, a well close to the
+/// next) drops the sealed pressure by less. Such a trunk's inflation goes on to its next snap
+/// and takes it for the first: no firmware can tell from the pressure alone.
+pub const MIN_SNAP_STEP_KPA: f64 = 2.5;
+
+/// The pressure step (kPa) of a module snapping from well `from` under `force_n` by
+/// inflation, with the rest of the trunk `other_mm` tall: the module jumps from its tension
+/// peak to the next well's branch at the same force (through every well the force cannot
+/// hold), and the sealed gas (the plenum and the trunk) expands isothermally.
+fn snap_step_kpa(
+    c: &MultistableCurve,
+    from: usize,
+    force_n: f64,
+    other_mm: f64,
+    area_mm2: f64,
+    plenum_m3: f64,
+) -> f64 {
+    let w = c.wells();
+    let b = c.barriers();
+    let before = w[from].height_mm + force_n / w[from].stiffness_n_per_mm;
+    let mut to = from + 1;
+    while to < b.len() && b[to].tension_n < force_n {
+        to += 1;
+    }
+    let after = w[to].height_mm + force_n / w[to].stiffness_n_per_mm;
+    let p_abs_kpa = super::gas::P_ATM_PA / 1e3 + force_n / area_mm2 * 1e3;
+    let v_mm3 = plenum_m3 * 1e9 + area_mm2 * (before + other_mm);
+    let dv_mm3 = area_mm2 * (after - before).max(0.0);
+    p_abs_kpa * dv_mm3 / (v_mm3 + dv_mm3)
+}
+
 /// One module: its wells (shortest first), the barriers between them, the panels' contact and
 /// the bending stiffness in each well.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -178,6 +217,18 @@ pub enum TrunkError {
          needs it; docs/simulator.md, \"Trunks that differ\")"
     )]
     Order(&'static str),
+    /// A snap under inflation that moves the pressure too little for the crane to see.
+    #[error(
+        "{what} drops the sealed pressure by {step_kpa:.2} kPa, under the {MIN_SNAP_STEP_KPA} \
+         kPa the crane's snap detector needs (its module moves too little): the crane cannot \
+         drive this trunk"
+    )]
+    Unseen {
+        /// Which snap.
+        what: &'static str,
+        /// Its pressure step, kPa.
+        step_kpa: f64,
+    },
     /// `--sim-trunk-scale` outside its range.
     #[error("a snap-force scale must be a number from 0.1 to 10 (got {0})")]
     Scale(f64),
@@ -348,8 +399,41 @@ impl TrunkSpec {
         }
         let pn = &self.pneumatics;
         let me = &self.mechanics;
+        let (area, plenum) = (
+            positive("pneumatics.area_mm2", pn.area_mm2)?,
+            positive("pneumatics.plenum_m3", pn.plenum_m3)?,
+        );
+        // The three snaps of inflation, each from the state it is made from: unpacking under
+        // the folded top (F&P), the top's pop-out over the folded bottom (F&F), the bottom's
+        // deployment under the deployed top (D&F).
+        let (tw, bw) = (top.wells(), bottom.wells());
+        let f = t[0].tension_n;
+        let folded_top = tw[0].height_mm + b[0].tension_n / tw[0].stiffness_n_per_mm;
+        let folded_bottom = bw[2].height_mm + f / bw[2].stiffness_n_per_mm;
+        let deployed_top = tw[1].height_mm + b[2].tension_n / tw[1].stiffness_n_per_mm;
+        for (what, step) in [
+            (
+                "the bottom's unpacking",
+                snap_step_kpa(&bottom, 0, b[0].tension_n, folded_top, area, plenum),
+            ),
+            (
+                "the top's pop-out",
+                snap_step_kpa(&top, 0, f, folded_bottom, area, plenum),
+            ),
+            (
+                "the bottom's deployment",
+                snap_step_kpa(&bottom, 2, b[2].tension_n, deployed_top, area, plenum),
+            ),
+        ] {
+            if step < MIN_SNAP_STEP_KPA {
+                return Err(TrunkError::Unseen {
+                    what,
+                    step_kpa: step,
+                });
+            }
+        }
         Ok(TrunkParams {
-            area_mm2: positive("pneumatics.area_mm2", pn.area_mm2)?,
+            area_mm2: area,
             damping_n_s_per_mm: positive("mechanics.damping_n_s_per_mm", me.damping_n_s_per_mm)?,
             top_bending_n_mm_per_rad: [
                 self.top.bending_n_mm_per_rad[0],
@@ -372,7 +456,7 @@ impl TrunkSpec {
                 "mechanics.tendon_slack_length_mm",
                 me.tendon_slack_length_mm,
             )?,
-            plenum_m3: positive("pneumatics.plenum_m3", pn.plenum_m3)?,
+            plenum_m3: plenum,
             supply_gauge_pa: positive("pneumatics.supply_gauge_pa", pn.supply_gauge_pa)?,
             cd: positive("pneumatics.cd", pn.cd)?,
             inlet_diameter_mm: positive("pneumatics.inlet_diameter_mm", pn.inlet_diameter_mm)?,
@@ -451,7 +535,7 @@ impl TrunkSpec {
             k(&mut s.pneumatics.plenum_m3);
             k(&mut s.pneumatics.leak_diameter_mm);
             k(&mut s.mechanics.tendon_stiffness_n_per_mm);
-            k(&mut s.sensor.gain);
+            s.sensor.gain *= 1.0 + f * GAIN_SPREAD * rng.gen_range(-1.0..=1.0);
             s.sensor.offset_kpa += f * OFFSET_SPREAD_KPA * rng.gen_range(-1.0..=1.0);
             s.mechanics.tendon_slack_length_mm = s.top.wells[1].height_mm
                 + s.bottom.wells[3].height_mm
@@ -602,6 +686,31 @@ mod tests {
                 .unwrap_err(),
             TrunkError::Spread(1.0)
         );
+    }
+
+    #[test]
+    fn the_calibrated_snaps_are_seen_and_a_soft_top_is_refused() {
+        let pdf = TrunkSpec::pdf();
+        let p = pdf.params().unwrap();
+        let top = snap_step_kpa(
+            &p.top,
+            0,
+            62.0,
+            59.43 + 97.0 / 16.0,
+            p.area_mm2,
+            p.plenum_m3,
+        );
+        assert!((3.0..5.0).contains(&top), "{top}");
+        let mut s = pdf.clone();
+        s.top.wells[0].height_mm *= 1.24;
+        s.top.wells[1].height_mm *= 0.89;
+        assert!(matches!(
+            s.params().unwrap_err(),
+            TrunkError::Unseen {
+                what: "the top's pop-out",
+                ..
+            }
+        ));
     }
 
     #[test]

@@ -364,7 +364,16 @@ impl Controller {
     /// lengthening trunk, and the snap would not come).
     fn pre_release_needed(&self, step: Option<&Step>) -> bool {
         step.is_some_and(|s| s.kind == StepKind::Pneumatic)
-            && (0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
+            && ((0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
+                || self.vent_first(step))
+    }
+
+    /// A pneumatic transition starts from the air: its snaps are counted on a ramp from
+    /// ambient, never on a trunk left pressurised near a barrier (by a failed step or another
+    /// host's plan), whose next snap could come before the detector has a history.
+    fn vent_first(&self, step: Option<&Step>) -> bool {
+        step.is_some_and(|s| s.kind == StepKind::Pneumatic && s.from != s.to)
+            && self.pressure.filt_kpa > self.cfg.vent_tolerance_kpa
     }
 
     /// Starts the identification probe.
@@ -613,8 +622,8 @@ impl Controller {
         }
     }
 
-    /// Lets every tendon out (exhaust open: no vacuum) before a pneumatic step; returns whether
-    /// to look again at once (done).
+    /// Lets every tendon out (exhaust open: no vacuum) and vents a pressurised trunk before a
+    /// pneumatic step; returns whether to look again at once (done).
     fn pre_release(&mut self) -> bool {
         let slack = self.angles_for([0.0; 3]);
         let Some(slack) = slack else {
@@ -623,7 +632,8 @@ impl Controller {
         };
         self.servo_target_deg = slack;
         self.want_inlet = false;
-        if self.servos_at_target() {
+        let step = self.exec.as_ref().and_then(|e| e.plan.steps.get(e.step as usize));
+        if self.servos_at_target() && !self.vent_first(step) {
             self.want_exhaust = false;
             if let Some(e) = self.exec.as_mut() {
                 e.pre_release = false;
@@ -665,6 +675,14 @@ impl Controller {
         }
         if let Some(t) = targets {
             self.servo_target_deg = t;
+        }
+        if matches!(
+            prim,
+            Primitive::Inflate { snaps: 1.., .. } | Primitive::TendonPull { snaps: 1.., .. }
+        ) {
+            // Only what this primitive makes counts: a step the detector's history still holds
+            // (a snap just before, under another plan or none) is not this one's snap.
+            self.snap.reset();
         }
         let Some(e) = self.exec.as_mut() else {
             return Ok(());

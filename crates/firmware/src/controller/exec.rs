@@ -53,6 +53,9 @@ struct PullCheck {
     start_deg: [f32; 3],
     /// When the current phase began to wait (at the length, or released).
     since_ms: Option<u64>,
+    /// A snap came while the trunk was let out sealed: something else moved (a packed bottom
+    /// unpacking under the pressure the pull left): the step is not confirmed.
+    surprise: bool,
 }
 
 /// What the sealed-release check asks for now.
@@ -104,6 +107,9 @@ fn pull_check(
             let t = *c.since_ms.get_or_insert(now);
             if now.saturating_sub(t) < settle {
                 return CheckStep::Running;
+            }
+            if c.surprise {
+                return CheckStep::NotConfirmed;
             }
             // Confirmed by both: the spikes the step expects, counted under the pull (the pull
             // stops at them, so never more), and a sealed volume that shrank (a spike without
@@ -294,6 +300,11 @@ impl Exec {
             Some((_, Some(Primitive::WaitSnap { .. }))) => true,
             _ => false,
         };
+        if let Some(c) = self.pull.as_mut() {
+            if matches!(c.phase, PullPhase::Releasing | PullPhase::Settling) {
+                c.surprise = true;
+            }
+        }
         if wanted && self.prim_started {
             self.snaps = self.snaps.saturating_add(1);
         }
@@ -702,6 +713,7 @@ impl Controller {
                 relief_from_kpa: None,
                 start_deg,
                 since_ms: None,
+                surprise: false,
             }),
             _ => None,
         };

@@ -85,7 +85,14 @@ pub fn reach(step: &Step) -> StateSet {
         set = set.union(chain(step.from, step_up));
     }
     if mm {
-        set = set.union(chain(step.from, step_down));
+        let folds = chain(step.from, step_down);
+        set = set.union(folds);
+        if step.from.bottom == geometry::BottomState::Packed {
+            // The sealed spike of a fold over a packed bottom may unpack it.
+            for s in folds.iter() {
+                set = set.union(chain(s, step_up));
+            }
+        }
     }
     set
 }
@@ -221,7 +228,8 @@ mod tests {
             // Tendon: a pull whose snap went unseen goes on down its chain.
             ("D&D", "F&D", &["D&D", "F&D", "F&F", "F&P"]),
             ("D&F", "F&F", &["D&F", "F&F", "F&P"]),
-            ("D&P", "F&P", &["D&P", "F&P"]),
+            // Over a packed bottom: the fold's spike may unpack it, and the pressure go on.
+            ("D&P", "F&P", &["D&P", "F&P", "F&F", "D&F", "D&D"]),
             ("F&D", "F&F", &["F&D", "F&F", "F&P"]),
             ("F&F", "F&P", &["F&F", "F&P"]),
             // By hand: the task asked, or any other one by mistake (fold the top: F&F).

@@ -72,7 +72,9 @@ enum CheckStep {
 /// far): pull until the spikes or the length (then let the trunk settle there), release to the
 /// start sealed, settle, then compare the pressure with the one before the pull. The spikes
 /// count, and the volume confirms that a module folded: a rise of at least `min_rise_kpa`
-/// (docs/firmware.md, "Tendon steps").
+/// (docs/firmware.md, "Tendon steps"). A fold over a packed bottom (`packed`) is never
+/// confirmed: its spike may have unpacked the bottom as well.
+#[allow(clippy::too_many_arguments)]
 fn pull_check(
     c: &mut PullCheck,
     seen: u8,
@@ -81,6 +83,7 @@ fn pull_check(
     now: u64,
     p: f32,
     cfg: crate::config::TendonCheckConfig,
+    packed: bool,
 ) -> CheckStep {
     let settle = cfg.settle_ms as u64;
     match c.phase {
@@ -108,7 +111,7 @@ fn pull_check(
             if now.saturating_sub(t) < settle {
                 return CheckStep::Running;
             }
-            if c.surprise {
+            if c.surprise || packed {
                 return CheckStep::NotConfirmed;
             }
             // Confirmed by both: the spikes the step expects, counted under the pull (the pull
@@ -301,7 +304,11 @@ impl Exec {
             _ => false,
         };
         if let Some(c) = self.pull.as_mut() {
-            if matches!(c.phase, PullPhase::Releasing | PullPhase::Settling) {
+            // A drop under the pull (the trunk lengthened) or any snap while it is let out
+            // sealed: not the fold the step makes.
+            if matches!(c.phase, PullPhase::Releasing | PullPhase::Settling)
+                || (c.phase == PullPhase::Pulling && sign == SnapSign::Drop)
+            {
                 c.surprise = true;
             }
         }
@@ -937,7 +944,14 @@ impl Controller {
                             Progress::Running
                         }
                     }
-                    Some(c) => match pull_check(c, e.snaps, snaps, at_target, now, p, check) {
+                    Some(c) => match pull_check(c, e.snaps, snaps, at_target, now, p, check, {
+                        // A fold over a packed bottom: its sealed spike may unpack the bottom
+                        // (F&F), which the pressure does not tell from the fold alone (F&P).
+                        e.plan
+                            .steps
+                            .get(e.step as usize)
+                            .is_some_and(|st| st.from.bottom == geometry::BottomState::Packed)
+                    }) {
                         CheckStep::Running => Progress::Running,
                         CheckStep::Release => {
                             // Stop pulling (at the spikes or the length) and go back to where

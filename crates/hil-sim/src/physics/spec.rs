@@ -36,11 +36,12 @@ pub const OFFSET_SPREAD_KPA: f64 = 1.0;
 pub const GAIN_SPREAD: f64 = 0.2;
 
 /// Smallest pressure step (kPa) of a snap under inflation that the crane can see: the
-/// firmware's snap detector needs 1.5 kPa over the filling ramp, and a snap that moves its
+/// firmware's snap detector needs 1.5 kPa over the filling ramp (twice that: the model's
+/// estimate ignores the snap's own duration and the filter), and a snap that moves its
 /// module too little (a soft well that stretches almost to its barrier, a well close to the
 /// next) drops the sealed pressure by less. Such a trunk's inflation goes on to its next snap
 /// and takes it for the first: no firmware can tell from the pressure alone.
-pub const MIN_SNAP_STEP_KPA: f64 = 2.5;
+pub const MIN_SNAP_STEP_KPA: f64 = 3.0;
 
 /// The pressure step (kPa) of a module snapping from well `from` under `force_n` by
 /// inflation, with the rest of the trunk `other_mm` tall: the module jumps from its tension

@@ -128,6 +128,15 @@ fn pull_check(
     }
 }
 
+/// The pressure of the hold after an inflation's snaps: two regulator bands (`h`) under the
+/// pressure the trunk snapped at (`snap_kpa`, its filtered peak), never above the cap: above a
+/// half-unpacked bottom's second barrier (a cascade's is well under its first's), under the
+/// next module's barrier (above the first's, by the order; the peak overshoots it by the
+/// detection's lag).
+fn repress_kpa(snap_kpa: f32, cap: f32, h: f32) -> f32 {
+    (snap_kpa - 2.0 * h).min(cap - h).max(0.0)
+}
+
 /// Samples of the stalled-inflation watch's history: the window in `RISE_SLOTS - 1` intervals
 /// (100 ms each for the default 3 s window).
 const RISE_SLOTS: usize = 31;
@@ -851,7 +860,7 @@ impl Controller {
                             Progress::Running
                         }
                     } else {
-                        if p >= e.snap_kpa.min(cap - h) - h {
+                        if p >= repress_kpa(e.snap_kpa, cap, h) - h {
                             e.repress = Some((Some(now), seen));
                         }
                         Progress::Running
@@ -876,7 +885,7 @@ impl Controller {
                         Some(_) if elapsed >= 2 * quiet => {
                             // The drop was a snap: now the hold at the snap's pressure.
                             e.repress = Some((None, e.snaps));
-                            e.hold_kpa = Some(e.snap_kpa.min(cap - h));
+                            e.hold_kpa = Some(repress_kpa(e.snap_kpa, cap, h));
                             e.filling = true;
                             Progress::Running
                         }

@@ -128,13 +128,13 @@ fn pull_check(
     }
 }
 
-/// The pressure of the hold after an inflation's snaps: two regulator bands (`h`) under the
-/// pressure the trunk snapped at (`snap_kpa`, its filtered peak), never above the cap: above a
-/// half-unpacked bottom's second barrier (a cascade's is well under its first's), under the
-/// next module's barrier (above the first's, by the order; the peak overshoots it by the
-/// detection's lag).
+/// The pressure of the hold after an inflation's snaps: one regulator band (`h`) under the
+/// pressure the trunk snapped at (`snap_kpa`, its filtered peak, which overshoots the barrier
+/// by the detection's lag), never above the cap: above a half-unpacked bottom's second barrier
+/// (a cascade's is well under its first's), under the next module's barrier (well above the
+/// first's: the order of every trunk the crane drives, `docs/firmware.md`).
 fn repress_kpa(snap_kpa: f32, cap: f32, h: f32) -> f32 {
-    (snap_kpa - 2.0 * h).min(cap - h).max(0.0)
+    (snap_kpa - h).min(cap - h).max(0.0)
 }
 
 /// Samples of the stalled-inflation watch's history: the window in `RISE_SLOTS - 1` intervals

@@ -35,6 +35,11 @@ pub const OFFSET_SPREAD_KPA: f64 = 1.0;
 /// reach the cap / (1 − g), which no firmware can see (the swarm's cap is on the true pressure).
 pub const GAIN_SPREAD: f64 = 0.2;
 
+/// How far apart (a factor) the snaps of one actuation must be for the crane to make one
+/// without the next: the calibrated trunk's closest pair is 1.47 (the top's buckling at 75 N,
+/// the bottom's first packing snap at 110 N).
+pub const ORDER_RATIO: f64 = 1.2;
+
 /// Smallest pressure step (kPa) of a snap under inflation that the crane can see: the
 /// firmware's snap detector needs 1.5 kPa over the filling ramp (twice that: the model's
 /// estimate ignores the snap's own duration and the filter), and a snap that moves its
@@ -214,8 +219,8 @@ pub enum TrunkError {
     },
     /// The snap forces' order is not the one the crane's transitions are built on.
     #[error(
-        "the snap order is not the crane's: {0} (the state graph of protocol::transitions \
-         needs it; docs/simulator.md, \"Trunks that differ\")"
+        "the snap order is not the crane's: {0}, by a factor {ORDER_RATIO} at least (the state \
+         graph of protocol::transitions needs it; docs/simulator.md, \"Trunks that differ\")"
     )]
     Order(&'static str),
     /// A snap under inflation that moves the pressure too little for the crane to see.
@@ -377,25 +382,31 @@ impl TrunkSpec {
         let top = self.top.curve("top", 2)?;
         let bottom = self.bottom.curve("bottom", 4)?;
         let (t, b) = (top.barriers(), bottom.barriers());
-        if b[1].tension_n >= b[0].tension_n {
+        // Each snap of one actuation at least ORDER_RATIO above the one it must follow: the
+        // inlet closes (the pull stops) only once a drop (a spike) is seen, and closer
+        // barriers snap together.
+        let above = |hi: f64, lo: f64| hi >= ORDER_RATIO * lo;
+        if !above(b[0].tension_n, b[1].tension_n) {
             return Err(TrunkError::Order(
-                "the bottom's second layer must unpack at a lower force than its first \
+                "the bottom's second layer must unpack at a force well under its first's \
                  (one snap through both layers; a trunk resting half-packed has no state)",
             ));
         }
-        if b[0].tension_n >= t[0].tension_n {
+        if !above(t[0].tension_n, b[0].tension_n) {
             return Err(TrunkError::Order(
-                "under pressure the bottom must unpack before the top pops out",
+                "under pressure the bottom must unpack well before the top pops out",
             ));
         }
-        if t[0].tension_n >= b[2].tension_n {
+        if !above(b[2].tension_n, t[0].tension_n) {
             return Err(TrunkError::Order(
-                "under pressure the top must pop out before the bottom deploys",
+                "under pressure the top must pop out well before the bottom deploys",
             ));
         }
-        if t[0].compression_n >= b[2].compression_n || t[0].compression_n >= b[1].compression_n {
+        if !above(b[2].compression_n, t[0].compression_n)
+            || !above(b[1].compression_n, t[0].compression_n)
+        {
             return Err(TrunkError::Order(
-                "under the tendons the top must buckle before the bottom folds or packs",
+                "under the tendons the top must buckle well before the bottom folds or packs",
             ));
         }
         let pn = &self.pneumatics;

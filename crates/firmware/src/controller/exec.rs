@@ -659,7 +659,10 @@ impl Controller {
         };
         self.servo_target_deg = slack;
         self.want_inlet = false;
-        let step = self.exec.as_ref().and_then(|e| e.plan.steps.get(e.step as usize));
+        let step = self
+            .exec
+            .as_ref()
+            .and_then(|e| e.plan.steps.get(e.step as usize));
         if self.servos_at_target() && !self.vent_first(step) {
             self.want_exhaust = false;
             if let Some(e) = self.exec.as_mut() {

@@ -308,9 +308,10 @@ impl Default for CraneConfig {
             tendon_check: TendonCheckConfig {
                 // A module fold (46–60 mm shorter) reads +5.6 to +7.9 kPa after the sealed
                 // release in the simulator, packing one layer +3.2, no snap +0.04 (the sensor's
-                // noise is 0.15 kPa): 1.5 kPa is a volume change, not noise, on any trunk whose
-                // modules fold by a quarter of that.
-                min_rise_kpa: 1.5,
+                // noise is 0.15 kPa): 2.1 kPa is a volume change, not noise nor a leak's fall
+                // over the check, on any trunk whose modules fold by a third of that. The count
+                // of folds is the spikes', not this.
+                min_rise_kpa: 2.1,
                 settle_ms: 300,
             },
             inlet_watch: InletWatchConfig {

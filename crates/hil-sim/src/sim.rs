@@ -453,6 +453,19 @@ impl Sim {
         self
     }
 
+    /// The same simulator with the controller carrying `profile` (the identification probe's
+    /// signatures of a calibration: `identify::SIM_PROFILE` is the calibrated trunk's), booted
+    /// again. Without one (the default) the probe is no evidence and identification asks the
+    /// operator. Call before running (the firmware ELF keeps its own).
+    pub fn with_probe_profile(
+        mut self,
+        profile: Option<firmware::controller::identify::ProbeProfile>,
+    ) -> Self {
+        self.cfg.probe_profile = profile;
+        self.ctl = self.shell.boot(self.cfg, self.now_ms);
+        self
+    }
+
     /// The options it runs with.
     pub fn options(&self) -> &SimOptions {
         &self.opts

@@ -34,29 +34,6 @@ pub fn ampersand_hint(value: &str) -> String {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn seeds_are_any_integer() {
-        assert_eq!(parse_seed("0"), Ok(0));
-        assert_eq!(parse_seed("18446744073709551615"), Ok(u64::MAX));
-        assert_eq!(parse_seed("-3"), Ok(u64::MAX - 2));
-        assert_eq!(parse_seed("-9223372036854775808"), Ok(1 << 63));
-        assert!(parse_seed("1.5").unwrap_err().contains("whole number"));
-        assert!(parse_seed("x").unwrap_err().contains("any integer"));
-        assert!(parse_seed("18446744073709551616").is_err());
-    }
-
-    #[test]
-    fn a_state_cut_at_its_ampersand_gets_the_quoting_hint() {
-        assert!(ampersand_hint("D").contains("--target 'D&F'"));
-        assert!(ampersand_hint("F").contains("'F&…'"));
-        assert_eq!(ampersand_hint("X&Y"), "");
-    }
-}
-
 /// Parses a `--sim-trunk-scale` value: a number in [`crate::physics::spec::SCALE_RANGE`].
 pub fn parse_trunk_scale(s: &str) -> Result<f64, String> {
     let v = s
@@ -91,4 +68,27 @@ pub fn sim_trunk(
     };
     spec.params()?;
     Ok(spec)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seeds_are_any_integer() {
+        assert_eq!(parse_seed("0"), Ok(0));
+        assert_eq!(parse_seed("18446744073709551615"), Ok(u64::MAX));
+        assert_eq!(parse_seed("-3"), Ok(u64::MAX - 2));
+        assert_eq!(parse_seed("-9223372036854775808"), Ok(1 << 63));
+        assert!(parse_seed("1.5").unwrap_err().contains("whole number"));
+        assert!(parse_seed("x").unwrap_err().contains("any integer"));
+        assert!(parse_seed("18446744073709551616").is_err());
+    }
+
+    #[test]
+    fn a_state_cut_at_its_ampersand_gets_the_quoting_hint() {
+        assert!(ampersand_hint("D").contains("--target 'D&F'"));
+        assert!(ampersand_hint("F").contains("'F&…'"));
+        assert_eq!(ampersand_hint("X&Y"), "");
+    }
 }

@@ -136,7 +136,7 @@ impl DeviceArgs {
             speed,
             faults,
             seed: self.seed.unwrap_or(1),
-            trunk,
+            trunk: Box::new(trunk),
         }))
     }
 }
@@ -354,7 +354,7 @@ mod tests {
             panic!()
         };
         assert_eq!(
-            sim.trunk,
+            *sim.trunk,
             hil_sim::physics::TrunkSpec::pdf().scaled(1.2).unwrap()
         );
     }

@@ -26,7 +26,7 @@ pub struct SimConfig {
     /// Random seed.
     pub seed: u64,
     /// The simulated trunk (`--sim-trunk`, `--sim-trunk-scale`; checked).
-    pub trunk: hil_sim::physics::TrunkSpec,
+    pub trunk: Box<hil_sim::physics::TrunkSpec>,
 }
 
 /// What the simulator knows that the device can only estimate.
@@ -75,7 +75,7 @@ pub fn start(cfg: &SimConfig) -> SimIo {
         speed: cfg.speed.unwrap_or(f64::INFINITY),
         operator: true,
         firmware_elf: None,
-        trunk: cfg.trunk.clone(),
+        trunk: (*cfg.trunk).clone(),
     }));
     io.pace(cfg.speed);
     io

@@ -36,6 +36,7 @@ pub mod model;
 pub mod nest;
 pub mod nest_out;
 pub mod panel;
+pub mod parts;
 pub mod pattern;
 pub mod svg;
 pub mod tiles;

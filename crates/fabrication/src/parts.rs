@@ -1032,7 +1032,7 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
     }
     let mut through = vec![];
     for a in [45.0, 135.0, 225.0, 315.0] {
-        through.push((2, a, gd, HoleRole::Gripper));
+        through.push((1, a, gd, HoleRole::Gripper));
     }
     for &a in &TENDON_ANGLES_DEG {
         through.push((3, a, TENDON_KNOT_HOLE_MM, HoleRole::Tendon));
@@ -1191,6 +1191,10 @@ mod tests {
                     .filter(|h| h.role == HoleRole::Tendon)
                     .collect();
                 assert_eq!(t.len(), 3, "{}", part.name);
+                for g in part.holes.iter().filter(|h| h.role == HoleRole::Gripper) {
+                    let r = g.centre_mm[0].hypot(g.centre_mm[1]);
+                    assert!((r - 0.5 * GRIPPER_HOLES.1).abs() < 0.01, "gripper hole at r = {r}");
+                }
                 for (h, a) in t.iter().zip(TENDON_ANGLES_DEG) {
                     let a = a.to_radians();
                     assert!((h.centre_mm[0] - r_t * a.cos()).abs() < 0.01);

@@ -891,10 +891,17 @@ pub const LOCATOR_MM: f64 = 4.0;
 /// Thickness of the gripper mount, mm.
 pub const GRIPPER_MOUNT_MM: f64 = 8.0;
 
+/// The ring of tendon and magnet holes: its sectors (one hole each, centred on multiples of
+/// 60°) at least a magnet pocket plus two walls wide at the tendon radius.
 fn hole_ring(r_t: f64) -> Ring {
+    let need = MAGNET_POCKET_MM[0] + 2.0 * 1.0;
+    let sectors = [48, 24, 12, 6]
+        .into_iter()
+        .find(|&s| r_t * 2.0 * PI / s as f64 >= need)
+        .unwrap_or(6);
     Ring {
         r: [r_t - HOLE_RING_HALF_MM, r_t + HOLE_RING_HALF_MM],
-        sectors: CIRCLE_SEGMENTS / 2,
+        sectors,
         centre0_deg: 0.0,
     }
 }
@@ -1166,13 +1173,28 @@ mod tests {
             };
             check(&hinge_leaf(&p, 1).unwrap());
         }
-        for r_t in [51.31, 75.0, 200.0] {
+        for r_t in [51.31, 62.0, 75.0, 200.0] {
             let p = PartParams {
                 tendon_radius_mm: r_t,
                 ..Default::default()
             };
             for part in crane_parts(&trunk(), &p).unwrap() {
                 check(&part);
+            }
+        }
+        // Small and many-sided trunks, each at its least tendon radius and a little more.
+        for (n, edge) in [(3, 10.0), (3, 40.0), (6, 20.0), (12, 30.0)] {
+            let t = make(n, &[(31.72, 2)], edge);
+            let lo = (min_tendon_radius_mm(&t) * 100.0).ceil() / 100.0;
+            for r_t in [lo, lo + 3.0, lo + 20.0] {
+                let p = PartParams {
+                    tendon_radius_mm: r_t,
+                    ..Default::default()
+                };
+                match crane_parts(&t, &p) {
+                    Ok(parts) => parts.iter().for_each(check),
+                    Err(e) => assert!(e.to_string().contains("gripper mount"), "n {n} l {edge} r_t {r_t}: {e}"),
+                }
             }
         }
     }

@@ -700,8 +700,8 @@ pub fn hinge_leaf(p: &PartParams, hinges: usize) -> Result<Part, FabError> {
         + 0.5 * area2(c, [y0, 0.0], [y0, t])
         + 0.5 * area2(c, [y0, t], arc_start)
         - circle(PIN_HOLE_MM);
-    let nominal = (h.length_mm * (y1 - y0) - 2.0 * circle(M4_CLEARANCE_MM)) * t
-        + profile_area * knuckle_len;
+    let nominal =
+        (h.length_mm * (y1 - y0) - 2.0 * circle(M4_CLEARANCE_MM)) * t + profile_area * knuckle_len;
     let mut holes: Vec<PartHole> = [-sx, sx]
         .iter()
         .map(|&x| PartHole {
@@ -1193,7 +1193,10 @@ mod tests {
                 };
                 match crane_parts(&t, &p) {
                     Ok(parts) => parts.iter().for_each(check),
-                    Err(e) => assert!(e.to_string().contains("gripper mount"), "n {n} l {edge} r_t {r_t}: {e}"),
+                    Err(e) => assert!(
+                        e.to_string().contains("gripper mount"),
+                        "n {n} l {edge} r_t {r_t}: {e}"
+                    ),
                 }
             }
         }
@@ -1215,7 +1218,10 @@ mod tests {
                 assert_eq!(t.len(), 3, "{}", part.name);
                 for g in part.holes.iter().filter(|h| h.role == HoleRole::Gripper) {
                     let r = g.centre_mm[0].hypot(g.centre_mm[1]);
-                    assert!((r - 0.5 * GRIPPER_HOLES.1).abs() < 0.01, "gripper hole at r = {r}");
+                    assert!(
+                        (r - 0.5 * GRIPPER_HOLES.1).abs() < 0.01,
+                        "gripper hole at r = {r}"
+                    );
                 }
                 for (h, a) in t.iter().zip(TENDON_ANGLES_DEG) {
                     let a = a.to_radians();
@@ -1242,15 +1248,26 @@ mod tests {
         assert_eq!(screws.len(), 2);
         // The kit's two holes of one hinge leaf, in the hinge's frame (x along the crease
         // from the hinge centre, y into the facet).
-        let pair: Vec<_> = holes.iter().filter(|h| h.hinge_mm == holes[0].hinge_mm).collect();
+        let pair: Vec<_> = holes
+            .iter()
+            .filter(|h| h.hinge_mm == holes[0].hinge_mm)
+            .collect();
         assert_eq!(pair.len(), 2);
         let c = local_corners_dir(f, pair[0].edge);
         for (kh, lh) in pair.iter().zip(&screws) {
             let d = [kh.at_mm[0] - kh.hinge_mm[0], kh.at_mm[1] - kh.hinge_mm[1]];
             let along = d[0] * c[0] + d[1] * c[1];
             let into = -d[0] * c[1] + d[1] * c[0];
-            assert!((along - lh.centre_mm[0]).abs() < 0.01, "{along} vs {:?}", lh.centre_mm);
-            assert!((into - lh.centre_mm[1]).abs() < 0.01, "{into} vs {:?}", lh.centre_mm);
+            assert!(
+                (along - lh.centre_mm[0]).abs() < 0.01,
+                "{along} vs {:?}",
+                lh.centre_mm
+            );
+            assert!(
+                (into - lh.centre_mm[1]).abs() < 0.01,
+                "{into} vs {:?}",
+                lh.centre_mm
+            );
             assert!(ring_vertices(&leaf, lh) >= 8);
         }
     }

@@ -706,10 +706,16 @@ fn pattern_parts_writes_one_stl_per_part_and_says_what_it_wrote() {
     }
     // The paper's kit: 180 hinges, two leaves each.
     assert_eq!(files[0]["quantity"], 360);
-    assert_eq!(files[0]["dimensions"]["screw_inset_mm"].as_f64(), Some(12.0));
+    assert_eq!(
+        files[0]["dimensions"]["screw_inset_mm"].as_f64(),
+        Some(12.0)
+    );
     let out = ok(&["pattern", "--parts", &parts]);
     let text = String::from_utf8_lossy(&out.stderr);
-    assert!(text.contains("hinge-leaf.stl") && text.contains("triangles"), "{text}");
+    assert!(
+        text.contains("hinge-leaf.stl") && text.contains("triangles"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -722,7 +728,10 @@ fn parts_usage_errors_say_what_is_valid_and_write_nothing() {
             "--tendon-radius-mm must be in [51.31, 1000] mm",
         ),
         (vec!["--tendon-radius-mm", "nan"], "--tendon-radius-mm"),
-        (vec!["--panel-mm", "3"], "--panel-mm must be a sheet thickness"),
+        (
+            vec!["--panel-mm", "3"],
+            "--panel-mm must be a sheet thickness",
+        ),
         (vec!["--panel-mm", "60"], "[5.7, 50]"),
         (vec!["--fold-max-deg", "0"], "--fold-max-deg must be"),
         (vec!["--fold-max-deg", "181"], "(0, 180]"),

@@ -495,7 +495,7 @@ fn polar(
     }
     let mut hole_cells = vec![usize::MAX; holes.len()];
     for (ri, ring) in rings.iter().enumerate() {
-        if g % ring.sectors != 0 {
+        if !g.is_multiple_of(ring.sectors) {
             return Err(format!("ring {ri}: {} sectors", ring.sectors));
         }
         let per = g / ring.sectors;

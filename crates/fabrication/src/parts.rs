@@ -266,7 +266,6 @@ fn triangulate(cells: &[Cell]) -> Result<Mesh2, String> {
             on.dedup_by(|x, y| (x.0 - y.0).abs() < 1e-9);
             boundary.extend(on.into_iter().map(|(_, p)| p));
         }
-        let _ = &own[ci];
         let ids: Vec<usize> = boundary.iter().map(|&p| id(p, &mut points)).collect();
         let mut tris = Vec::new();
         let mut fills = Vec::new();
@@ -513,8 +512,8 @@ fn polar(
             for i in (0..=per).rev() {
                 poly.push(pt(ring.r[1], a0 + i as f64 * step));
             }
-            // Counter-clockwise: inner arc runs clockwise? inner arc goes with increasing
-            // angle, then the outer arc back: that is clockwise; reverse it.
+            // The inner arc with increasing angle, then the outer arc back, runs clockwise:
+            // reversed it is counter-clockwise.
             poly.reverse();
             let centre_deg = a0 + 0.5 * span;
             let mut hole = None;
@@ -777,7 +776,7 @@ fn check_tendon(trunk: &Trunk, p: &PartParams) -> Result<(), FabError> {
 
 /// A round part: z-extruded polar complex, through holes, blind pockets from the top
 /// (`from_top`) or the bottom.
-struct RoundSpec<'a> {
+struct RoundSpec {
     name: &'static str,
     centre: Option<Option<f64>>,
     rings: Vec<Ring>,
@@ -786,10 +785,9 @@ struct RoundSpec<'a> {
     thickness: f64,
     pocket_depth: f64,
     pockets_from_top: bool,
-    trunk: &'a Trunk,
 }
 
-fn round_part(s: RoundSpec<'_>) -> Result<(Mesh, Vec<PartHole>, f64), FabError> {
+fn round_part(s: RoundSpec) -> Result<(Mesh, Vec<PartHole>, f64), FabError> {
     let mut all: Vec<(usize, f64, f64)> = s.through.iter().map(|h| (h.0, h.1, h.2)).collect();
     all.extend(s.pockets.iter().map(|h| (h.0, h.1, h.2)));
     let (cells, hole_cells) =
@@ -880,7 +878,6 @@ fn round_part(s: RoundSpec<'_>) -> Result<(Mesh, Vec<PartHole>, f64), FabError> 
             depth_mm: t,
         });
     }
-    let _ = s.trunk;
     Ok((mesh, holes, vol))
 }
 
@@ -950,7 +947,6 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
         thickness: CAP_MM,
         pocket_depth: MAGNET_POCKET_MM[1],
         pockets_from_top: true,
-        trunk,
     })?;
     let mut dims = round_dims(r_t, CAP_MM);
     dims.push(("magnet_pocket_mm", MAGNET_POCKET_MM[0]));
@@ -979,7 +975,6 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
         thickness: CAP_MM,
         pocket_depth: 0.0,
         pockets_from_top: true,
-        trunk,
     })?;
     let mut dims = round_dims(r_t, CAP_MM);
     dims.push(("air_hole_mm", AIR_HOLE_MM));
@@ -1008,7 +1003,6 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
         thickness: LOCATOR_MM,
         pocket_depth: 0.0,
         pockets_from_top: true,
-        trunk,
     })?;
     let mut dims = round_dims(r_t, LOCATOR_MM);
     dims.push(("bore_diameter_mm", 2.0 * bore));
@@ -1064,7 +1058,6 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
         thickness: GRIPPER_MOUNT_MM,
         pocket_depth: MAGNET_POCKET_MM[1],
         pockets_from_top: false,
-        trunk,
     })?;
     let mut dims = round_dims(r_t, GRIPPER_MOUNT_MM);
     dims.push(("magnet_pocket_mm", MAGNET_POCKET_MM[0]));

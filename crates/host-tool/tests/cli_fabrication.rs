@@ -745,6 +745,20 @@ fn parts_usage_errors_say_what_is_valid_and_write_nothing() {
         &["pattern", "--svg", &dir.file("x.svg"), "--panel-mm", "8"],
         "give --parts DIR too",
     );
+    // A small trunk's tendons may run closer than the gripper mount's fixing circle allows.
+    usage_error(
+        &[
+            "pattern",
+            "--edge-mm",
+            "10",
+            "--parts",
+            &parts,
+            "--tendon-radius-mm",
+            "20",
+        ],
+        "needs a tendon radius of at least 33 mm",
+    );
+    assert!(!Path::new(&parts).exists());
     // A smaller trunk takes a smaller tendon radius.
     ok(&[
         "pattern",

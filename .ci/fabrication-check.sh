@@ -56,6 +56,13 @@ $PY tiles "$OUT/full.svg" "$OUT"/a4/page-*.svg
 $PY tiles "$OUT/big.svg" "$OUT"/letter/page-*.svg
 rsvg-convert -w 600 "$OUT/a4/page-1.svg" -o "$OUT/page-1.png" && echo "ok   page SVG renders (rsvg-convert)"
 
+echo "--- printable parts (hinge leaf, caps, tendon locator, gripper mount): trimesh reads each back"
+"$H" pattern --parts "$OUT/parts" -j > "$OUT/parts.json"
+$PY parts "$OUT/parts.json" --tendon-radius-mm 60
+"$H" pattern --n 6 --edge-mm 30 --beta 31.72 --parts "$OUT/parts6" --tendon-radius-mm 45 --panel-mm 10 --fold-max-deg 120 -j > "$OUT/parts6.json"
+$PY parts "$OUT/parts6.json" --tendon-radius-mm 45
+$PY render "$OUT/parts/hinge-leaf.stl" "$OUT/hinge-leaf.png" --elev 35
+
 echo "--- 3D models: glTF read with numpy alone (the gltf crate validates them in cargo test), OBJ/STL with trimesh"
 "$H" model --states deployed --gltf "$OUT/dd.glb" --obj "$OUT/dd.obj" --stl "$OUT/dd.stl"
 "$H" model --beta 31.717474411461005 --layers 4 --states edge-0,deployed,vertex-1,folded --gltf "$OUT/golden.glb"

@@ -162,6 +162,42 @@ def cmd_mesh(a):
             mesh_checks(f, m)
 
 
+def cmd_parts(a):
+    """The printable parts of `pattern --parts DIR -j`: every STL closed, consistently wound,
+    one body of positive volume (the volume host-tool reports within 0.1 %), and a circle of
+    vertices at every hole it reports; tendon holes at the tendon radius."""
+    import json
+    import math
+
+    import numpy as np
+    import trimesh
+
+    report = json.load(open(a.report))
+    files = [f for f in report["files"] if f["flag"] == "--parts"]
+    check(len(files) == len(a.expect), f"{len(files)} parts reported ({', '.join(f['part'] for f in files)})")
+    check(sorted(f["part"] for f in files) == sorted(a.expect), f"parts are {sorted(a.expect)}")
+    for f in files:
+        path = f["path"]
+        m = trimesh.load(path, force="mesh")
+        check(len(m.faces) == f["triangles"], f"{path}: {len(m.faces)} triangles as reported")
+        bodies = mesh_checks(path, m)
+        check(len(bodies) == 1, f"{path}: one body")
+        rel = abs(m.volume - f["volume_mm3"]) / f["volume_mm3"]
+        check(rel < 1e-3, f"{path}: volume {m.volume:.1f} mm^3 = the reported {f['volume_mm3']:.1f} ({100 * rel:.3f} %)")
+        v = np.asarray(m.vertices)
+        for h in f["holes"]:
+            c, ax = np.array(h["centre_mm"]), np.array(h["axis"])
+            d = v - c
+            along = d @ ax
+            radial = np.sqrt(np.maximum((d * d).sum(axis=1) - along**2, 0))
+            # STL stores float32: 1e-3 mm.
+            on = np.sum((np.abs(along) < 1e-3) & (np.abs(radial - h["diameter_mm"] / 2) < 1e-3))
+            check(on >= 8, f"{path}: {h['role']} hole d = {h['diameter_mm']} mm at {np.round(c, 3).tolist()} ({on} vertices on its rim)")
+            if h["role"] == "tendon" and a.tendon_radius_mm is not None:
+                r = math.hypot(c[0], c[1])
+                check(abs(r - a.tendon_radius_mm) < 0.01, f"{path}: tendon hole at r = {r:.3f} mm (expected {a.tendon_radius_mm})")
+
+
 def cmd_kit(a):
     kit = json.load(open(a.file))
     check(kit["hinges"] == a.hinges, f"hinges {kit['hinges']} (expected {a.hinges})")
@@ -460,6 +496,10 @@ def main():
     m = sub.add_parser("mesh")
     m.add_argument("files", nargs="+")
     m.add_argument("--closed", action="store_true")
+    pa = sub.add_parser("parts")
+    pa.add_argument("report", help="the JSON of host-tool pattern --parts DIR -j")
+    pa.add_argument("--expect", nargs="+", default=["hinge-leaf", "upper-cap", "lower-cap", "tendon-locator", "gripper-mount"])
+    pa.add_argument("--tendon-radius-mm", type=float)
     k = sub.add_parser("kit")
     k.add_argument("file")
     k.add_argument("--hinges", type=int, required=True)
@@ -490,7 +530,7 @@ def main():
     r.add_argument("--size", type=float, default=5)
     r.add_argument("--dpi", type=int, default=110)
     a = p.parse_args()
-    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb, "nest": cmd_nest, "tiles": cmd_tiles}[a.cmd](a)
+    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb, "nest": cmd_nest, "tiles": cmd_tiles, "parts": cmd_parts}[a.cmd](a)
     print(f"check_outputs {a.cmd}: " + ("all checks passed" if FAILED == 0 else f"{FAILED} checks FAILED"))
     sys.exit(1 if FAILED else 0)
 

@@ -15,6 +15,8 @@
 //! * [`kit`] — the meter-scale kit of §7: facet cut list, hinge positions, hinge/screw counts;
 //! * [`nest`] — cut sheets of the kit's facets on real sheet sizes, with insert holes and
 //!   labels, written per sheet as DXF and SVG by [`nest_out`];
+//! * [`parts`] — printable parts as closed solids (binary STL): the kit's hinge leaf, the
+//!   crane's upper and lower caps, tendon locator and gripper mount;
 //! * [`bom`] — bills of materials (the crane: printed panel and electronics; the kit) as CSV;
 //! * [`model`] — a 3D model of a stack in given states (binary glTF 2.0, OBJ, STL), coloured by
 //!   module, with the strain of non-isometric states shown.
@@ -36,6 +38,7 @@ pub mod model;
 pub mod nest;
 pub mod nest_out;
 pub mod panel;
+pub mod parts;
 pub mod pattern;
 pub mod svg;
 pub mod tiles;

@@ -655,3 +655,119 @@ fn pattern_page_tiles_the_crease_pattern_and_refuses_other_paper() {
         "give --page a4|letter too",
     );
 }
+
+#[test]
+fn pattern_parts_writes_one_stl_per_part_and_says_what_it_wrote() {
+    let dir = TempDir::new("parts");
+    let parts = dir.file("parts");
+    let out = ok(&[
+        "pattern",
+        "--beta",
+        "31.72",
+        "--layers",
+        "4",
+        "--edge-mm",
+        "609.6",
+        "--parts",
+        &parts,
+        "--tendon-radius-mm",
+        "400",
+        "-j",
+    ]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let files = v["files"].as_array().unwrap();
+    let names: Vec<&str> = files.iter().map(|f| f["part"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        [
+            "hinge-leaf",
+            "upper-cap",
+            "lower-cap",
+            "tendon-locator",
+            "gripper-mount"
+        ]
+    );
+    for f in files {
+        assert_eq!(f["flag"], "--parts");
+        assert_eq!(f["format"], "stl");
+        let path = f["path"].as_str().unwrap();
+        let bytes = std::fs::metadata(path).unwrap().len();
+        assert_eq!(f["bytes"].as_u64(), Some(bytes), "{path}");
+        // Binary STL: 84-byte header and count, 50 bytes a triangle.
+        assert_eq!(f["triangles"].as_u64(), Some((bytes - 84) / 50), "{path}");
+        assert!(f["volume_mm3"].as_f64().unwrap() > 0.0);
+        for h in f["holes"].as_array().unwrap() {
+            if h["role"] == "tendon" {
+                let c = h["centre_mm"].as_array().unwrap();
+                let r = c[0].as_f64().unwrap().hypot(c[1].as_f64().unwrap());
+                assert!((r - 400.0).abs() < 0.01, "{path}: tendon hole at r = {r}");
+            }
+        }
+    }
+    // The paper's kit: 180 hinges, two leaves each.
+    assert_eq!(files[0]["quantity"], 360);
+    assert_eq!(
+        files[0]["dimensions"]["screw_inset_mm"].as_f64(),
+        Some(12.0)
+    );
+    let out = ok(&["pattern", "--parts", &parts]);
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        text.contains("hinge-leaf.stl") && text.contains("triangles"),
+        "{text}"
+    );
+}
+
+#[test]
+fn parts_usage_errors_say_what_is_valid_and_write_nothing() {
+    let dir = TempDir::new("parts-bad");
+    let parts = dir.file("parts");
+    for (args, want) in [
+        (
+            vec!["--tendon-radius-mm", "40"],
+            "--tendon-radius-mm must be in [51.31, 1000] mm",
+        ),
+        (vec!["--tendon-radius-mm", "nan"], "--tendon-radius-mm"),
+        (
+            vec!["--panel-mm", "3"],
+            "--panel-mm must be a sheet thickness",
+        ),
+        (vec!["--panel-mm", "60"], "[5.7, 50]"),
+        (vec!["--fold-max-deg", "0"], "--fold-max-deg must be"),
+        (vec!["--fold-max-deg", "181"], "(0, 180]"),
+    ] {
+        let mut a = vec!["pattern", "--parts", &parts];
+        a.extend(args);
+        usage_error(&a, want);
+        assert!(!Path::new(&parts).exists(), "{a:?} wrote {parts}");
+    }
+    usage_error(
+        &["pattern", "--svg", &dir.file("x.svg"), "--panel-mm", "8"],
+        "give --parts DIR too",
+    );
+    // A small trunk's tendons may run closer than the gripper mount's fixing circle allows.
+    usage_error(
+        &[
+            "pattern",
+            "--edge-mm",
+            "10",
+            "--parts",
+            &parts,
+            "--tendon-radius-mm",
+            "20",
+        ],
+        "needs a tendon radius of at least 33 mm",
+    );
+    assert!(!Path::new(&parts).exists());
+    // A smaller trunk takes a smaller tendon radius.
+    ok(&[
+        "pattern",
+        "--edge-mm",
+        "40",
+        "--parts",
+        &parts,
+        "--tendon-radius-mm",
+        "37",
+        "-q",
+    ]);
+}

@@ -8,6 +8,7 @@ use fabrication::folded::{fold, LayerState};
 use fabrication::kit::Kit;
 use fabrication::nest::{Nest, NestParams};
 use fabrication::panel::{Panel, PanelParams};
+use fabrication::parts::{Part, PartParams};
 use fabrication::pattern::Pattern;
 use fabrication::{Defaults, Module, Trunk};
 
@@ -179,6 +180,23 @@ pub struct Args {
     /// Directory for the pages of --page; created if missing.
     #[arg(long, value_name = "DIR")]
     pub page_dir: Option<PathBuf>,
+    /// Write the printable parts as one binary STL each into DIR (created if missing): the
+    /// meter-scale kit's hinge leaf (hinge-leaf.stl, two and a 3 mm pin per hinge), the crane's
+    /// upper-cap.stl, lower-cap.stl, tendon-locator.stl and gripper-mount.stl.
+    #[arg(long, value_name = "DIR")]
+    pub parts: Option<PathBuf>,
+    /// Thickness of the kit's panels in mm, [5.7, 50]: the M4 heat-set inserts (5.7 mm) sit
+    /// fully in it; sets the hinge's screw length.
+    #[arg(long, default_value_t = fabrication::parts::DEFAULT_PANEL_MM, allow_hyphen_values = true)]
+    pub panel_mm: f64,
+    /// Largest fold angle (degrees, (0, 180], 0 = flat) the hinge must allow; sets the pin's
+    /// height above the facet so the screw heads clear.
+    #[arg(long, default_value_t = 180.0, allow_hyphen_values = true)]
+    pub fold_max_deg: f64,
+    /// Radius in mm at which the three tendons run (the firmware's default); the caps, the
+    /// tendon locator and the gripper mount have their tendon holes there.
+    #[arg(long, default_value_t = fabrication::parts::DEFAULT_TENDON_RADIUS_MM, allow_hyphen_values = true)]
+    pub tendon_radius_mm: f64,
     /// Print what was written as one JSON object on stdout (instead of the kit's table).
     #[arg(short, long)]
     pub json: bool,
@@ -341,6 +359,48 @@ fn nest_params(args: &Args) -> Result<Option<NestParams>, Failure> {
     }))
 }
 
+/// The printable parts of --parts, sized and validated (none without --parts).
+fn printable_parts(args: &Args, trunk: &Trunk) -> Result<Vec<Part>, Failure> {
+    let params = PartParams {
+        panel_mm: args.panel_mm,
+        fold_max_deg: args.fold_max_deg,
+        tendon_radius_mm: args.tendon_radius_mm,
+    };
+    if args.parts.is_none() {
+        if params != PartParams::default() {
+            return Err(Failure::usage(
+                "--panel-mm, --fold-max-deg and --tendon-radius-mm size the printable parts; give --parts DIR too",
+            ));
+        }
+        return Ok(Vec::new());
+    }
+    let hinges = Kit::new(trunk).hinges.len();
+    fabrication::parts::all_parts(trunk, &params, hinges).map_err(|e| Failure::usage(e.to_string()))
+}
+
+fn part_json(p: &Part) -> serde_json::Value {
+    let dims: serde_json::Map<String, serde_json::Value> = p
+        .dimensions
+        .iter()
+        .map(|(k, v)| ((*k).to_string(), serde_json::json!(v)))
+        .collect();
+    serde_json::json!({
+        "part": p.name,
+        "quantity": p.quantity,
+        "material": p.material,
+        "triangles": p.mesh.triangles.len(),
+        "volume_mm3": p.mesh.volume(),
+        "dimensions": dims,
+        "holes": p.holes.iter().map(|h| serde_json::json!({
+            "role": h.role.name(),
+            "centre_mm": h.centre_mm,
+            "axis": h.axis,
+            "diameter_mm": h.diameter_mm,
+            "depth_mm": h.depth_mm,
+        })).collect::<Vec<_>>(),
+    })
+}
+
 fn runtime(what: &str, e: impl std::fmt::Display) -> Failure {
     Failure::Runtime(anyhow::anyhow!("{what}: {e}"))
 }
@@ -359,11 +419,13 @@ pub fn run(args: Args) -> Result<(), Failure> {
         && args.nest.is_none()
         && args.bom.is_none()
         && args.page.is_none()
+        && args.parts.is_none()
     {
         return Err(Failure::usage(
-            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET, --bom FILE, --page PAPER",
+            "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET, --bom FILE, --page PAPER, --parts DIR",
         ));
     }
+    let parts = printable_parts(&args, &trunk)?;
     let kit_bom = args.kit.is_some() || args.nest.is_some();
     let wants_panel =
         args.three_mf.is_some() || args.stl_dir.is_some() || (args.bom.is_some() && !kit_bom);
@@ -489,6 +551,20 @@ pub fn run(args: Args) -> Result<(), Failure> {
     for p in &page_paths {
         paths.push(("--page", p));
     }
+    let part_paths: Vec<PathBuf> = match &args.parts {
+        Some(dir) => {
+            output::ensure_dir("--parts", dir)?;
+            parts
+                .iter()
+                .map(|p| dir.join(format!("{}.stl", p.name)))
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    for p in &part_paths {
+        paths.push(("--parts", p));
+    }
+    let mut part_iter = parts.iter();
     let outputs = output::open_all(&paths)?;
     let page_svgs = tiling
         .as_ref()
@@ -560,6 +636,25 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         serde_json::json!({ "triangles": tris }),
                     );
                 }
+            }
+            "--parts" => {
+                let Some(part) = part_iter.next() else {
+                    continue;
+                };
+                let n = out.write_counted(|w| part.mesh.write_stl(w))?;
+                record(
+                    n,
+                    "stl",
+                    format!(
+                        "{}, {} triangles, {} cm³ of {}, print {}",
+                        part.description,
+                        part.mesh.triangles.len(),
+                        crate::num::fixed(part.mesh.volume() / 1000.0, 2),
+                        part.material,
+                        part.quantity
+                    ),
+                    part_json(part),
+                );
             }
             "--page" => {
                 let (Some(t), Some((i, text))) = (&tiling, page_svgs.next()) else {

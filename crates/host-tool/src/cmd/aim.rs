@@ -30,9 +30,9 @@ use crate::failure::Failure;
 /// How far the simulator's true tip axis may be from the axis the calibrated model predicts
 /// for the bend commanded, degrees. Measured (docs/sun.md, "aim"): at most 0.46° in F&D over
 /// 24 directions at the full bend right after the state is reached, as the calibration saw
-/// it; up to 1.84° after hours at rest in the state (the trunk settles as its residual
+/// it; up to 1.88° after half an hour to hours at rest in the state (the trunk settles as its residual
 /// pressure leaks away, and the calibration does not see that).
-pub const SIM_AXIS_TOLERANCE_DEG: f64 = 2.0;
+pub const SIM_AXIS_TOLERANCE_DEG: f64 = 2.5;
 
 /// Arguments of `host-tool aim`.
 #[derive(Debug, clap::Args)]

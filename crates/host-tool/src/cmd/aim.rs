@@ -237,7 +237,8 @@ fn num(x: f64) -> Value {
     crate::num::json(x)
 }
 
-fn round(x: f64, digits: i32) -> f64 {
+/// `x` rounded to `digits` decimals.
+pub fn round(x: f64, digits: i32) -> f64 {
     let k = 10f64.powi(digits);
     (x * k).round() / k
 }
@@ -287,11 +288,7 @@ pub fn aim_crane(
 ) -> Result<Aimed, Failure> {
     let ws = crate::cmd::task::task_workspace(cfg)?;
     let target = heading.base_of(az, el).into_inner();
-    let st = link.status()?;
-    if let Some(why) = crate::cmd::prim::blocked(&st) {
-        return Err(Failure::Runtime(anyhow::anyhow!("refused: {why}")));
-    }
-    let mut state = st.state;
+    let mut state = crate::cmd::prim::ready(link)?.state;
     if change_state {
         if let Some((better, _)) = better_state(&ws, state, &target) {
             crate::say!("{better} aims closer than {state}: going there first");

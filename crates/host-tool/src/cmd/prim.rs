@@ -420,7 +420,8 @@ fn report(
 }
 
 /// The state the device is in, or why nothing may be sent.
-fn ready(link: &mut Link) -> Result<Status, Failure> {
+/// The device's status, refused with the reason when it cannot take a step now ([`blocked`]).
+pub fn ready(link: &mut Link) -> Result<Status, Failure> {
     let st = link.status()?;
     match blocked(&st) {
         Some(why) => Err(Failure::Runtime(anyhow::anyhow!("refused: {why}"))),

@@ -180,7 +180,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     emit(
                         args.json,
                         &json!({"time": at.to_rfc3339(), "sun_up": false,
-                                "sun_elevation_deg": (el * 100.0).round() / 100.0,
+                                "sun_elevation_deg": aim::round(el, 2),
                                 "straightened": straightened}),
                         &format!(
                             "{local}  the sun is below the horizon (elevation {el:.2}°){}",
@@ -199,8 +199,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         worst_true = worst_true.max(miss);
                     }
                     let mut v = json!({"time": at.to_rfc3339(), "sun_up": true,
-                                       "sun_azimuth_deg": (az * 1e3).round() / 1e3,
-                                       "sun_elevation_deg": (el * 1e3).round() / 1e3});
+                                       "sun_azimuth_deg": aim::round(az, 3),
+                                       "sun_elevation_deg": aim::round(el, 3)});
                     if let (Some(o), Value::Object(b)) =
                         (v.as_object_mut(), aim::aim_json(a.state, &a.aim, None))
                     {
@@ -239,7 +239,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             "ok": ok,
             "aims": aims,
             "missed": missed,
-            "worst_model_miss_deg": sim.then_some((worst_true * 100.0).round() / 100.0),
+            "worst_model_miss_deg": sim.then_some(aim::round(worst_true, 2)),
             "state": st.as_ref().map(|s| s.state.name()),
             "state_confirmed": st.as_ref().map(|s| s.state_confirmed),
             "error": errors.first(),

@@ -34,6 +34,42 @@ pub fn ampersand_hint(value: &str) -> String {
     }
 }
 
+/// Parses a `--sim-trunk-scale` value: a number in [`crate::physics::spec::SCALE_RANGE`].
+pub fn parse_trunk_scale(s: &str) -> Result<f64, String> {
+    let v = s
+        .trim()
+        .parse::<f64>()
+        .map_err(|_| format!("'{s}' is not a number: a snap-force scale is e.g. 0.8 or 1.2"))?;
+    crate::physics::spec::check_scale(v).map_err(|e| e.to_string())
+}
+
+/// Parses a `--trunk-spread` value: a fraction in [0, 1).
+pub fn parse_trunk_spread(s: &str) -> Result<f64, String> {
+    let v = s
+        .trim()
+        .parse::<f64>()
+        .map_err(|_| format!("'{s}' is not a number: a trunk spread is e.g. 0.25 (±25 %)"))?;
+    crate::physics::spec::check_spread(v).map_err(|e| e.to_string())
+}
+
+/// The trunk of `--sim-trunk FILE` (the calibrated `trunks/pdf.toml` without it) with every
+/// snap force times `--sim-trunk-scale K`, checked: the physics can represent it.
+pub fn sim_trunk(
+    file: Option<&std::path::Path>,
+    scale: Option<f64>,
+) -> Result<crate::physics::TrunkSpec, crate::physics::TrunkError> {
+    let spec = match file {
+        Some(path) => crate::physics::TrunkSpec::load(path)?,
+        None => crate::physics::TrunkSpec::pdf(),
+    };
+    let spec = match scale {
+        Some(k) => spec.scaled(k)?,
+        None => spec,
+    };
+    spec.params()?;
+    Ok(spec)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

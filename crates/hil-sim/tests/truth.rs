@@ -45,7 +45,8 @@ fn step_started(from: TrunkState, to: TrunkState, seed: u64, faults: &[Fault]) -
         seed,
         faults: faults.to_vec(),
         ..SimOptions::default()
-    });
+    })
+    .with_probe_profile(Some(firmware::controller::identify::SIM_PROFILE));
     let mut host = SimHost::new();
     sim.run_for(50);
     host.hello(&mut sim).expect("handshake");
@@ -221,12 +222,15 @@ fn faults_mid_step_leave_an_honest_belief() {
 
 /// A simulator in `state` whose controller booted knowing nothing (every state a candidate),
 /// with a host that shook hands.
+/// Booted with nothing known, the controller carrying the calibrated trunk's probe profile
+/// (what a calibration of this trunk writes: without one, identification asks the operator).
 fn booted_unknowing(state: TrunkState, seed: u64) -> (Sim, SimHost) {
     let mut sim = Sim::new(SimOptions {
         initial: state,
         seed,
         ..SimOptions::default()
-    });
+    })
+    .with_probe_profile(Some(firmware::controller::identify::SIM_PROFILE));
     sim.write_flash_record(&firmware::StoredState {
         state: TrunkState::AS_MANUFACTURED,
         confirmed: false,
@@ -492,7 +496,10 @@ fn a_half_packed_bottom_is_never_confirmed_as_a_named_state() {
             println!("half-packed under {s}, seed {seed}: {rate:.2} kPa/s");
             assert!((rate - want).abs() < 0.03 * want, "{s}: {rate} vs {want}");
             assert_eq!(
-                log.verdict(protocol::StateSet::ALL),
+                log.verdict(
+                    protocol::StateSet::ALL,
+                    &firmware::controller::identify::SIM_PROFILE
+                ),
                 protocol::StateSet::ALL
             );
             assert!(!status.state_confirmed, "{s} seed {seed}: {status:?}");

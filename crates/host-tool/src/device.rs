@@ -46,6 +46,16 @@ pub struct DeviceArgs {
     #[arg(long, value_name = "N", allow_negative_numbers = true,
           value_parser = hil_sim::cli::parse_seed)]
     pub seed: Option<u64>,
+    /// Simulator: the trunk's description (TOML, as trunks/pdf.toml, the calibrated default):
+    /// its snap forces, wells, pneumatics, tendons and sensor error; one the physics cannot
+    /// represent is refused with the reason.
+    #[arg(long, value_name = "FILE")]
+    pub sim_trunk: Option<std::path::PathBuf>,
+    /// Simulator: every snap force of the trunk times K [range: 0.1 to 10] (e.g. 1.35 is
+    /// refused: the top's barriers overlap).
+    #[arg(long, value_name = "K", allow_negative_numbers = true,
+          value_parser = hil_sim::cli::parse_trunk_scale)]
+    pub sim_trunk_scale: Option<f64>,
 }
 
 /// A validated device selection.
@@ -85,6 +95,8 @@ impl DeviceArgs {
                 (self.sim_speed.is_some(), "--sim-speed"),
                 (!self.sim_faults.is_empty(), "--sim-fault"),
                 (self.seed.is_some(), "--seed"),
+                (self.sim_trunk.is_some(), "--sim-trunk"),
+                (self.sim_trunk_scale.is_some(), "--sim-trunk-scale"),
             ];
             if let Some((_, flag)) = sim_only.iter().find(|(set, _)| *set) {
                 return Err(Failure::usage(format!(
@@ -114,6 +126,8 @@ impl DeviceArgs {
         for name in &self.sim_faults {
             faults.push(crate::sim::parse_fault(name).map_err(Failure::usage)?);
         }
+        let trunk = hil_sim::cli::sim_trunk(self.sim_trunk.as_deref(), self.sim_trunk_scale)
+            .map_err(|e| Failure::usage(format!("invalid simulated trunk: {e}")))?;
         if !self.sim {
             return crate::cmd::ports::detect().map(DeviceConfig::Port);
         }
@@ -122,6 +136,7 @@ impl DeviceArgs {
             speed,
             faults,
             seed: self.seed.unwrap_or(1),
+            trunk: Box::new(trunk),
         }))
     }
 }
@@ -273,6 +288,8 @@ mod tests {
             sim_speed: None,
             sim_faults: Vec::new(),
             seed: None,
+            sim_trunk: None,
+            sim_trunk_scale: None,
         }
     }
 
@@ -318,6 +335,28 @@ mod tests {
         for s in ["F&P", "F&F", "F&D", "D&P", "D&F", "D&D"] {
             assert!(msg.contains(s), "{msg}");
         }
+    }
+
+    #[test]
+    fn a_trunk_the_physics_cannot_represent_is_a_usage_error() {
+        let mut a = args();
+        a.sim = true;
+        a.sim_trunk_scale = Some(1.35);
+        let Err(Failure::Usage(msg)) = a.validate(None) else {
+            panic!()
+        };
+        assert!(
+            msg.contains("top module") && msg.contains("barrier"),
+            "{msg}"
+        );
+        a.sim_trunk_scale = Some(1.2);
+        let Ok(DeviceConfig::Sim(sim)) = a.validate(None) else {
+            panic!()
+        };
+        assert_eq!(
+            *sim.trunk,
+            hil_sim::physics::TrunkSpec::pdf().scaled(1.2).unwrap()
+        );
     }
 
     #[test]

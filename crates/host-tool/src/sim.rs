@@ -25,6 +25,8 @@ pub struct SimConfig {
     pub faults: Vec<Fault>,
     /// Random seed.
     pub seed: u64,
+    /// The simulated trunk (`--sim-trunk`, `--sim-trunk-scale`; checked).
+    pub trunk: Box<hil_sim::physics::TrunkSpec>,
 }
 
 /// What the simulator knows that the device can only estimate.
@@ -73,6 +75,7 @@ pub fn start(cfg: &SimConfig) -> SimIo {
         speed: cfg.speed.unwrap_or(f64::INFINITY),
         operator: true,
         firmware_elf: None,
+        trunk: (*cfg.trunk).clone(),
     }));
     io.pace(cfg.speed);
     io

@@ -5,34 +5,18 @@
 //! may be in, and the step that was under way when confidence was lost. Every interruption of a
 //! step after its actuation began (fault, abort, e-stop, link loss, power cut) makes it
 //! unconfirmed with the step's [`reach`] as candidates, unless the sensors decide (nothing
-//! reached the first threshold: [`untouched`]).
+//! came near any snap: [`untouched`]).
 //!
-//! The thresholds here are the simulator's calibrated physics (`hil-sim discover`,
-//! `docs/simulator.md`), the same numbers `protocol::transitions` documents; a hil-sim test holds
-//! them to the calibrated trunk. Each is the *lowest* actuation at which the edge's snap was seen;
-//! [`reach`] adds a margin above the step's largest actuation, [`untouched`] one below.
+//! Nothing here depends on where a trunk snaps (`docs/firmware.md`, "Truth without the
+//! simulator's constants"): a trunk printed from other TPU snaps at other pressures and pulls.
+//! The reach of a step is every state along its actuation's chain of the transition table
+//! (`protocol::transitions`: what more of the same actuation makes of the trunk), and a step is
+//! untouched only below [`UNTOUCHED_KPA`] and [`UNTOUCHED_MM`], far under any snap of a trunk
+//! of this design.
 
 use geometry::TrunkState;
-use protocol::{Primitive, StateSet, Step, StepKind, Transition};
-
-/// Pressure at which each pneumatic edge snaps, kPa (gauge).
-pub const PNEUMATIC_SNAP_KPA: [(usize, usize, f32); 5] = [
-    (FP, FF, 13.1),
-    (DP, DF, 13.1),
-    (FF, DF, 19.6),
-    (FD, DD, 19.6),
-    (DF, DD, 30.1),
-];
-
-/// Tendon shortening (from the slack position of the deployed trunk) at which each tendon
-/// edge's first snap comes, mm.
-pub const TENDON_SNAP_MM: [(usize, usize, f32); 5] = [
-    (DD, FD, 9.0),
-    (DF, FF, 56.0),
-    (DP, FP, 102.0),
-    (FD, FF, 92.0),
-    (FF, FP, 138.0),
-];
+use protocol::transitions::{step_down, step_up, Transition as Edge};
+use protocol::{Primitive, StateSet, Step, StepKind};
 
 /// What one hand task (fold the top, fold the bottom, pack the bottom) makes of each state, by
 /// [`TrunkState::index`] (bit per index: F&P, F&F, F&D, D&P, D&F, D&D), the state itself
@@ -40,69 +24,49 @@ pub const TENDON_SNAP_MM: [(usize, usize, f32); 5] = [
 /// D&F {D&F, F&F, D&P}, D&D {D&D, F&D, D&F, D&P} (a unit test derives it).
 pub const HAND_REACH: [u8; 6] = [0b000011, 0b000011, 0b000111, 0b011001, 0b011010, 0b111100];
 
-/// Margin above a step's largest inflation within which a further snap counts as possible
-/// (the regulator's hysteresis, sensor noise and the spread of the thresholds with load).
-pub const REACH_MARGIN_KPA: f32 = 3.0;
-/// Margin above a step's longest pull within which a further snap counts as possible.
-pub const REACH_MARGIN_MM: f32 = 10.0;
-/// Margin below an edge's threshold under which the trunk certainly did not snap.
-pub const UNTOUCHED_MARGIN_KPA: f32 = 3.0;
-/// Margin below an edge's first tendon snap under which the trunk certainly did not snap.
-pub const UNTOUCHED_MARGIN_MM: f32 = 5.0;
+/// Highest pressure (kPa) under which a step certainly left the trunk where it was: the
+/// identification probe's own fill pressure, under a third of the calibrated trunk's lowest
+/// snap (13.1 kPa); a trunk of this design that unpacks this low (its barrier under a third
+/// of the calibrated one) does not hold its states.
+pub const UNTOUCHED_KPA: f32 = super::identify::PROBE_KPA;
+/// Longest pull (mm) under which a step certainly left the trunk where it was: at D&D the
+/// tendons are taut from the first millimetre, and 1 mm compresses the deployed trunk by a
+/// few newtons (its modules' 16–20 N/mm in series), far from the top's buckling (75 N).
+pub const UNTOUCHED_MM: f32 = 1.0;
 
-const FP: usize = 0;
-const FF: usize = 1;
-const FD: usize = 2;
-const DP: usize = 3;
-const DF: usize = 4;
-const DD: usize = 5;
-
-fn next_edge(table: &[(usize, usize, f32)], from: TrunkState) -> Option<(TrunkState, f32)> {
-    table
-        .iter()
-        .find(|e| e.0 == from.index())
-        .and_then(|e| TrunkState::from_index(e.1).map(|to| (to, e.2)))
-}
-
-/// The states reached walking `table` from `from` while each edge's threshold is at most
-/// `actuation` (the states past every snap the actuation could have caused).
-fn walk(table: &[(usize, usize, f32)], from: TrunkState, actuation: f32) -> StateSet {
+/// The states reached from `from` by following `next` (the same actuation, snap after snap).
+fn chain(from: TrunkState, next: fn(TrunkState) -> Option<&'static Edge>) -> StateSet {
     let mut set = StateSet::single(from);
     let mut at = from;
-    // At most one pass per state: the tables are chains.
+    // At most one pass per state: the chains of the table end.
     for _ in 0..TrunkState::ALL.len() {
-        match next_edge(table, at) {
-            Some((to, threshold)) if threshold <= actuation => {
-                set = set.with(to);
-                at = to;
+        match next(at) {
+            Some(e) => {
+                set = set.with(e.to);
+                at = e.to;
             }
-            _ => break,
+            None => break,
         }
     }
     set
 }
 
-/// The step's largest inflation target (kPa) and longest pull (mm), `-1` where it has none.
-fn actuation(step: &Step) -> (f32, f32) {
-    let mut kpa = -1.0f32;
-    let mut mm = -1.0f32;
-    for p in &step.primitives {
-        match *p {
-            Primitive::Inflate { pressure_kpa, .. } => kpa = kpa.max(pressure_kpa),
-            Primitive::TendonPull { length_mm, .. } | Primitive::TendonRelease { length_mm } => {
-                mm = mm.max(length_mm)
-            }
-            _ => {}
-        }
-    }
-    (kpa, mm)
+/// Whether `step` inflates (`.0`) and whether it pulls the tendons (`.1`).
+fn actuation(step: &Step) -> (bool, bool) {
+    step.primitives
+        .iter()
+        .fold((false, false), |(kpa, mm), p| match p {
+            Primitive::Inflate { .. } => (true, mm),
+            Primitive::TendonPull { .. } => (kpa, true),
+            _ => (kpa, mm),
+        })
 }
 
 /// Every state an interrupted `step` may have left the trunk in: `from`, `to`, and every state
-/// further along the same actuation that its largest inflation or longest pull could reach
-/// (overshoots: a pull from `D&D` to `F&D` whose snap went unseen goes on to buckle the bottom,
-/// `F&F`). A manual step: `from`, `to`, or what any one hand task makes of `from` (a person
-/// may fold the wrong module: fold the top, fold or pack the bottom).
+/// further along the same actuation (an inflation may go on snapping up to the cap, a pull
+/// whose snap went unseen goes on to buckle the next module). A manual step: `from`, `to`, or
+/// what any one hand task makes of `from` (a person may fold the wrong module: fold the top,
+/// fold or pack the bottom).
 pub fn reach(step: &Step) -> StateSet {
     let mut set = StateSet::single(step.from).with(step.to);
     let by_hand = step.kind == StepKind::Manual
@@ -117,23 +81,28 @@ pub fn reach(step: &Step) -> StateSet {
         return set;
     }
     let (kpa, mm) = actuation(step);
-    if kpa >= 0.0 {
-        set = set.union(walk(&PNEUMATIC_SNAP_KPA, step.from, kpa + REACH_MARGIN_KPA));
+    if kpa {
+        set = set.union(chain(step.from, step_up));
     }
-    if mm >= 0.0 {
-        set = set.union(walk(&TENDON_SNAP_MM, step.from, mm + REACH_MARGIN_MM));
+    if mm {
+        let folds = chain(step.from, step_down);
+        set = set.union(folds);
+        if step.from.bottom == geometry::BottomState::Packed {
+            // The sealed spike of a fold over a packed bottom may unpack it.
+            for s in folds.iter() {
+                set = set.union(chain(s, step_up));
+            }
+        }
     }
     set
 }
 
 /// Whether a step from `from` that reached at most `peak_kpa` (filtered, valid readings
 /// throughout) and `peak_pull_mm` (commanded, which the servos never exceed) certainly left the
-/// trunk in `from`: both stayed under the first threshold by the margins.
+/// trunk in `from`: each actuation that can move `from` stayed under its bound.
 pub fn untouched(from: TrunkState, peak_kpa: f32, peak_pull_mm: f32) -> bool {
-    let p_ok = next_edge(&PNEUMATIC_SNAP_KPA, from)
-        .is_none_or(|(_, t)| peak_kpa < t - UNTOUCHED_MARGIN_KPA);
-    let l_ok = next_edge(&TENDON_SNAP_MM, from)
-        .is_none_or(|(_, t)| peak_pull_mm < t - UNTOUCHED_MARGIN_MM);
+    let p_ok = step_up(from).is_none() || peak_kpa < UNTOUCHED_KPA;
+    let l_ok = step_down(from).is_none() || peak_pull_mm < UNTOUCHED_MM;
     p_ok && l_ok
 }
 
@@ -147,7 +116,7 @@ pub struct Belief {
     /// The states the trunk may be in (`{state}` when confirmed).
     candidates: StateSet,
     /// The step under way when confidence was lost.
-    interrupted: Option<Transition>,
+    interrupted: Option<protocol::Transition>,
 }
 
 impl Belief {
@@ -166,7 +135,7 @@ impl Belief {
     pub const fn unconfirmed(
         state: TrunkState,
         candidates: StateSet,
-        interrupted: Option<Transition>,
+        interrupted: Option<protocol::Transition>,
     ) -> Self {
         Self {
             state,
@@ -197,7 +166,7 @@ impl Belief {
     }
 
     /// The step under way when confidence was lost.
-    pub const fn interrupted(&self) -> Option<Transition> {
+    pub const fn interrupted(&self) -> Option<protocol::Transition> {
         self.interrupted
     }
 
@@ -250,18 +219,18 @@ mod tests {
     #[test]
     fn the_reach_of_every_nominal_edge_holds_its_overshoots() {
         let cases = [
-            // Pneumatic: the regulator's target plus the margin stays under the next snap.
-            ("F&P", "F&F", &["F&P", "F&F"][..]),
-            ("D&P", "D&F", &["D&P", "D&F"]),
-            ("F&F", "D&F", &["F&F", "D&F"]),
+            // Pneumatic: the inflation may go on snapping up its chain to the cap.
+            ("F&P", "F&F", &["F&P", "F&F", "D&F", "D&D"][..]),
+            ("D&P", "D&F", &["D&P", "D&F", "D&D"]),
+            ("F&F", "D&F", &["F&F", "D&F", "D&D"]),
             ("F&D", "D&D", &["F&D", "D&D"]),
             ("D&F", "D&D", &["D&F", "D&D"]),
-            // Tendon: a 120 mm pull from D&D buckles the top at 9 mm and, if it goes on, the
-            // bottom at 92 mm (F&F); packing (138 mm) is out of reach.
-            ("D&D", "F&D", &["D&D", "F&D", "F&F"]),
-            ("D&F", "F&F", &["D&F", "F&F"]),
-            ("D&P", "F&P", &["D&P", "F&P"]),
-            ("F&D", "F&F", &["F&D", "F&F"]),
+            // Tendon: a pull whose snap went unseen goes on down its chain.
+            ("D&D", "F&D", &["D&D", "F&D", "F&F", "F&P"]),
+            ("D&F", "F&F", &["D&F", "F&F", "F&P"]),
+            // Over a packed bottom: the fold's spike may unpack it, and the pressure go on.
+            ("D&P", "F&P", &["D&P", "F&P", "F&F", "D&F", "D&D"]),
+            ("F&D", "F&F", &["F&D", "F&F", "F&P"]),
             ("F&F", "F&P", &["F&F", "F&P"]),
             // By hand: the task asked, or any other one by mistake (fold the top: F&F).
             ("D&F", "D&P", &["D&F", "D&P", "F&F"]),
@@ -288,15 +257,17 @@ mod tests {
     }
 
     #[test]
-    fn untouched_needs_both_actuations_under_their_first_threshold() {
-        // F&P unpacks at 13.1 kPa: 9.9 kPa is 3.2 under it, 10.2 only 2.9.
-        assert!(untouched(s("F&P"), 9.9, 0.0));
-        assert!(!untouched(s("F&P"), 10.2, 0.0));
-        // D&D buckles at 9 mm of pull: under 4 mm is untouched.
-        assert!(untouched(s("D&D"), 0.0, 3.9));
-        assert!(!untouched(s("D&D"), 0.0, 4.1));
-        // A state without a pneumatic edge (D&D) is not moved by any pressure.
+    fn untouched_needs_both_actuations_under_their_bounds() {
+        // Under the probe's 4 kPa nothing snaps; above it, whatever the trunk, it may have.
+        assert!(untouched(s("F&P"), 3.9, 0.0));
+        assert!(!untouched(s("F&P"), 4.1, 0.0));
+        // D&D's tendons are taut: under 1 mm of pull is untouched.
+        assert!(untouched(s("D&D"), 0.0, 0.9));
+        assert!(!untouched(s("D&D"), 0.0, 1.1));
+        // A state without a pneumatic edge (D&D) is not moved by any pressure, one without a
+        // tendon edge (F&P) by any pull.
         assert!(untouched(s("D&D"), 39.0, 0.0));
+        assert!(untouched(s("F&P"), 0.0, 150.0));
     }
 
     #[test]
@@ -305,14 +276,14 @@ mod tests {
         let mut b = Belief::unconfirmed(
             s("D&D"),
             reach(&step),
-            Some(Transition {
+            Some(protocol::Transition {
                 from: s("D&D"),
                 to: s("F&D"),
             }),
         );
         assert!(!b.is_confirmed());
         assert!(!b.narrow(set(&["D&P"])));
-        assert_eq!(b.candidates(), set(&["D&D", "F&D", "F&F"]));
+        assert_eq!(b.candidates(), set(&["D&D", "F&D", "F&F", "F&P"]));
         assert!(b.narrow(set(&["F&D", "F&F", "D&P"])));
         assert_eq!(b.candidates(), set(&["F&D", "F&F"]));
         assert!(!b.is_confirmed());

@@ -53,6 +53,9 @@ struct PullCheck {
     start_deg: [f32; 3],
     /// When the current phase began to wait (at the length, or released).
     since_ms: Option<u64>,
+    /// A snap came while the trunk was let out sealed: something else moved (a packed bottom
+    /// unpacking under the pressure the pull left): the step is not confirmed.
+    surprise: bool,
 }
 
 /// What the sealed-release check asks for now.
@@ -68,8 +71,10 @@ enum CheckStep {
 /// Advances the sealed-release check of a pull that expects `want` snaps (`seen` spikes so
 /// far): pull until the spikes or the length (then let the trunk settle there), release to the
 /// start sealed, settle, then compare the pressure with the one before the pull. The spikes
-/// only stop the pull early; the count is confirmed by the volume: a rise of at least
-/// `want` × `min_rise_kpa_per_snap` (docs/firmware.md, "Tendon steps").
+/// count, and the volume confirms that a module folded: a rise of at least `min_rise_kpa`
+/// (docs/firmware.md, "Tendon steps"). A fold over a packed bottom (`packed`) is never
+/// confirmed: its spike may have unpacked the bottom as well.
+#[allow(clippy::too_many_arguments)]
 fn pull_check(
     c: &mut PullCheck,
     seen: u8,
@@ -78,6 +83,7 @@ fn pull_check(
     now: u64,
     p: f32,
     cfg: crate::config::TendonCheckConfig,
+    packed: bool,
 ) -> CheckStep {
     let settle = cfg.settle_ms as u64;
     match c.phase {
@@ -105,7 +111,13 @@ fn pull_check(
             if now.saturating_sub(t) < settle {
                 return CheckStep::Running;
             }
-            if p - c.baseline_kpa + c.relieved_kpa >= want as f32 * cfg.min_rise_kpa_per_snap {
+            if c.surprise || packed {
+                return CheckStep::NotConfirmed;
+            }
+            // Confirmed by both: the spikes the step expects, counted under the pull (the pull
+            // stops at them, so never more), and a sealed volume that shrank (a spike without
+            // it was no fold). How much it shrank depends on the trunk: not compared.
+            if seen >= want && p - c.baseline_kpa + c.relieved_kpa >= cfg.min_rise_kpa {
                 c.phase = PullPhase::Venting;
                 CheckStep::Vent
             } else {
@@ -114,6 +126,15 @@ fn pull_check(
         }
         PullPhase::Venting => CheckStep::Vent,
     }
+}
+
+/// The pressure of the hold after an inflation's snaps: one regulator band (`h`) under the
+/// pressure the trunk snapped at (`snap_kpa`, its filtered peak, which overshoots the barrier
+/// by the detection's lag), never above the cap: above a half-unpacked bottom's second barrier
+/// (a cascade's is well under its first's), under the next module's barrier (well above the
+/// first's: the order of every trunk the crane drives, `docs/firmware.md`).
+fn repress_kpa(snap_kpa: f32, cap: f32, h: f32) -> f32 {
+    (snap_kpa - h).min(cap - h).max(0.0)
 }
 
 /// Samples of the stalled-inflation watch's history: the window in `RISE_SLOTS - 1` intervals
@@ -198,6 +219,11 @@ pub(super) struct Exec {
     /// inlet stays shut while the drop is checked to be a step (a snap: the sealed trunk then
     /// holds its pressure) and not the start of a fall (a leak opening).
     snapped: Option<(u64, Option<f32>)>,
+    /// Highest pressure of the current inflation before its snaps: what the trunk snapped at.
+    snap_kpa: f32,
+    /// The hold after an inflation's snaps (`docs/firmware.md`, "Pneumatic steps"): since when
+    /// the pressure is back at the snap's and nothing snapped, and the snaps counted then.
+    repress: Option<(Option<u64>, u8)>,
     /// A primitive of this step completed on sensor evidence (its snaps) or a person's word.
     evidence: bool,
     /// Pressure held by the inflate regulator for the rest of the step.
@@ -286,6 +312,15 @@ impl Exec {
             Some((_, Some(Primitive::WaitSnap { .. }))) => true,
             _ => false,
         };
+        if let Some(c) = self.pull.as_mut() {
+            // A drop under the pull (the trunk lengthened) or any snap while it is let out
+            // sealed: not the fold the step makes.
+            if matches!(c.phase, PullPhase::Releasing | PullPhase::Settling)
+                || (c.phase == PullPhase::Pulling && sign == SnapSign::Drop)
+            {
+                c.surprise = true;
+            }
+        }
         if wanted && self.prim_started {
             self.snaps = self.snaps.saturating_add(1);
         }
@@ -321,6 +356,8 @@ impl Controller {
             snaps: 0,
             reached_ms: None,
             snapped: None,
+            snap_kpa: 0.0,
+            repress: None,
             evidence: false,
             hold_kpa: None,
             filling: false,
@@ -354,7 +391,16 @@ impl Controller {
     /// lengthening trunk, and the snap would not come).
     fn pre_release_needed(&self, step: Option<&Step>) -> bool {
         step.is_some_and(|s| s.kind == StepKind::Pneumatic)
-            && (0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
+            && ((0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
+                || self.vent_first(step))
+    }
+
+    /// A pneumatic transition starts from the air: its snaps are counted on a ramp from
+    /// ambient, never on a trunk left pressurised near a barrier (by a failed step or another
+    /// host's plan), whose next snap could come before the detector has a history.
+    fn vent_first(&self, step: Option<&Step>) -> bool {
+        step.is_some_and(|s| s.kind == StepKind::Pneumatic && s.from != s.to)
+            && self.pressure.filt_kpa > self.cfg.vent_tolerance_kpa
     }
 
     /// Starts the identification probe.
@@ -375,7 +421,9 @@ impl Controller {
             return;
         }
         let mut b = self.belief;
-        b.narrow(log.verdict(b.candidates()));
+        if let Some(profile) = self.cfg.probe_profile {
+            b.narrow(log.verdict(b.candidates(), &profile));
+        }
         self.set_belief(b);
         if !b.is_confirmed() {
             self.ask_operator();
@@ -411,8 +459,8 @@ impl Controller {
             // A person's hands leave no trace in the actuation: what the check's probe
             // measured (if it ran) narrows the step's reach, nothing else.
             let mut b = Belief::unconfirmed(step.from, belief::reach(step), pending);
-            if let Some(log) = self.ident.probe {
-                b.narrow(log.verdict(b.candidates()));
+            if let (Some(log), Some(profile)) = (self.ident.probe, self.cfg.probe_profile) {
+                b.narrow(log.verdict(b.candidates(), &profile));
             }
             return Some(b);
         }
@@ -567,15 +615,17 @@ impl Controller {
             }
             Progress::Done { evidence } => {
                 let p = self.pressure.filt_kpa;
+                let profiled = self.cfg.probe_profile.is_some();
                 let at = self.exec.as_ref().and_then(Exec::probe_index);
                 if let (Some(log), Some(i)) = (self.ident.probe.as_mut(), at) {
                     log.primitive_done(i, now, p);
                 }
                 if let Some(e) = self.exec.as_mut() {
                     e.evidence |= evidence;
-                    // A person's confirm is checked by the probe before the step goes on.
+                    // A person's confirm is checked by the probe before the step goes on (with a
+                    // profile of this trunk: without one the probe is no evidence).
                     e.check = match (prim, e.check) {
-                        (Primitive::Manual(_), None) => Some(0),
+                        (Primitive::Manual(_), None) if profiled => Some(0),
                         (_, Some(i)) if (i as usize) + 1 < PROBE.len() => Some(i + 1),
                         _ => None,
                     };
@@ -599,8 +649,8 @@ impl Controller {
         }
     }
 
-    /// Lets every tendon out (exhaust open: no vacuum) before a pneumatic step; returns whether
-    /// to look again at once (done).
+    /// Lets every tendon out (exhaust open: no vacuum) and vents a pressurised trunk before a
+    /// pneumatic step; returns whether to look again at once (done).
     fn pre_release(&mut self) -> bool {
         let slack = self.angles_for([0.0; 3]);
         let Some(slack) = slack else {
@@ -609,7 +659,11 @@ impl Controller {
         };
         self.servo_target_deg = slack;
         self.want_inlet = false;
-        if self.servos_at_target() {
+        let step = self
+            .exec
+            .as_ref()
+            .and_then(|e| e.plan.steps.get(e.step as usize));
+        if self.servos_at_target() && !self.vent_first(step) {
             self.want_exhaust = false;
             if let Some(e) = self.exec.as_mut() {
                 e.pre_release = false;
@@ -652,6 +706,14 @@ impl Controller {
         if let Some(t) = targets {
             self.servo_target_deg = t;
         }
+        if matches!(
+            prim,
+            Primitive::Inflate { snaps: 1.., .. } | Primitive::TendonPull { snaps: 1.., .. }
+        ) {
+            // Only what this primitive makes counts: a step the detector's history still holds
+            // (a snap just before, under another plan or none) is not this one's snap.
+            self.snap.reset();
+        }
         let Some(e) = self.exec.as_mut() else {
             return Ok(());
         };
@@ -660,6 +722,8 @@ impl Controller {
         e.snaps = 0;
         e.reached_ms = None;
         e.snapped = None;
+        e.snap_kpa = 0.0;
+        e.repress = None;
         e.pull = match prim {
             Primitive::TendonPull { snaps, .. } if snaps > 0 => Some(PullCheck {
                 phase: PullPhase::Pulling,
@@ -668,13 +732,21 @@ impl Controller {
                 relief_from_kpa: None,
                 start_deg,
                 since_ms: None,
+                surprise: false,
             }),
             _ => None,
         };
         match prim {
-            Primitive::Inflate { pressure_kpa, .. } => {
-                // Never regulate above the cap (which may have been lowered since the upload).
-                let target = pressure_kpa.min(cap - h).max(0.0);
+            Primitive::Inflate {
+                pressure_kpa,
+                snaps,
+            } => {
+                // An inflation that waits for snaps fills until it sees them, up to the cap: where
+                // a trunk snaps is its own (a stiffer one snaps above the plan's nominal
+                // pressure), and the inlet closes at the snap. Never above the cap (which may
+                // have been lowered since the upload).
+                let target = if snaps > 0 { cap } else { pressure_kpa };
+                let target = target.min(cap - h).max(0.0);
                 e.hold_kpa = Some(target);
                 e.filling = p < target;
             }
@@ -761,7 +833,42 @@ impl Controller {
             } => {
                 let target = e.hold_kpa.unwrap_or(pressure_kpa).min(cap - h);
                 let r = reached(e, p >= target);
-                if snapped {
+                if !snapped {
+                    e.snap_kpa = e.snap_kpa.max(p);
+                }
+                // Unpacking may stop with one layer of two unpacked (the first layer's drop took
+                // the pressure under the second's barrier): the hold at the snap's pressure then
+                // unpacks the second, one snap more, and only there.
+                let unpacking = e.plan.steps.get(e.step as usize).is_some_and(|st| {
+                    st.from.bottom == geometry::BottomState::Packed
+                        && st.to.bottom != geometry::BottomState::Packed
+                });
+                let allowed = snaps.saturating_add(unpacking as u8);
+                if snapped && e.snaps > allowed {
+                    // A snap more than the step can make: the trunk went on past its target.
+                    Progress::Fail(FaultCode::TransitionNotConfirmed)
+                } else if let (true, Some((since, seen))) = (snapped, e.repress) {
+                    // The hold: back at the pressure the trunk snapped at (the regulator above
+                    // fills to it). A trunk in the step's target holds there (its next barrier
+                    // is higher: the order every trunk the crane drives has); one left between
+                    // wells goes on, and shows it by a snap.
+                    let quiet = 2 * snap_cfg.refractory_ms as u64;
+                    if e.snaps != seen {
+                        e.repress = Some((None, e.snaps));
+                        Progress::Running
+                    } else if let Some(t) = since {
+                        if now.saturating_sub(t) >= quiet {
+                            Progress::Done { evidence: true }
+                        } else {
+                            Progress::Running
+                        }
+                    } else {
+                        if p >= repress_kpa(e.snap_kpa, cap, h) - h {
+                            e.repress = Some((Some(now), seen));
+                        }
+                        Progress::Running
+                    }
+                } else if snapped {
                     // A snap's drop is a step: once it is over, the sealed trunk holds its
                     // pressure. A leak opening drops it as fast at first, then goes on
                     // falling: that drop is no evidence.
@@ -778,7 +885,13 @@ impl Controller {
                         Some(p1) if p < p1 - snap_cfg.threshold_kpa => {
                             Progress::Fail(FaultCode::Leak)
                         }
-                        Some(_) if elapsed >= 2 * quiet => Progress::Done { evidence: true },
+                        Some(_) if elapsed >= 2 * quiet => {
+                            // The drop was a snap: now the hold at the snap's pressure.
+                            e.repress = Some((None, e.snaps));
+                            e.hold_kpa = Some(repress_kpa(e.snap_kpa, cap, h));
+                            e.filling = true;
+                            Progress::Running
+                        }
                         _ => Progress::Running,
                     }
                 } else if let Some(t) = r {
@@ -843,7 +956,14 @@ impl Controller {
                             Progress::Running
                         }
                     }
-                    Some(c) => match pull_check(c, e.snaps, snaps, at_target, now, p, check) {
+                    Some(c) => match pull_check(c, e.snaps, snaps, at_target, now, p, check, {
+                        // A fold over a packed bottom: its sealed spike may unpack the bottom
+                        // (F&F), which the pressure does not tell from the fold alone (F&P).
+                        e.plan
+                            .steps
+                            .get(e.step as usize)
+                            .is_some_and(|st| st.from.bottom == geometry::BottomState::Packed)
+                    }) {
                         CheckStep::Running => Progress::Running,
                         CheckStep::Release => {
                             // Stop pulling (at the spikes or the length) and go back to where
@@ -900,6 +1020,10 @@ impl Controller {
                 }
             }
             Primitive::Manual(_) => {
+                // A person folds a trunk open to the air (unless the step holds a pressure on
+                // purpose): a sealed one, left pressurised by a failed step, would be squeezed
+                // over the cap by their hands.
+                exhaust = e.hold_kpa.is_none();
                 if e.manual_confirmed {
                     // The person's word alone is no evidence: the check follows.
                     Progress::Done { evidence: false }

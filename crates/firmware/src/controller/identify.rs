@@ -1,21 +1,27 @@
-//! Identification of an unconfirmed state: the sealed-pressure probe, and the operator where
-//! the sensing cannot decide (`docs/firmware.md`, "Identification").
+//! Identification of an unconfirmed state: the operator, and the sealed-pressure probe where a
+//! calibration profile of this crane's own trunk says what it measures (`docs/firmware.md`,
+//! "Identification").
 //!
-//! The probe is a plan step the controller runs on itself (plan id [`IDENTIFY_PLAN_ID`], so
-//! it goes through the same interlocks as any step): let the tendons out, vent, settle sealed,
-//! fill to [`PROBE_KPA`] through the inlet, vent. The gas goes into the trunk's volume plus
-//! the reservoir, so a shorter trunk fills faster: the fill rate (kPa/s from the settled
-//! baseline to the target) tells the trunk's height, and so its state where the heights differ
-//! enough. [`PROBE_SIGNATURES`] are the simulator's calibrated trunk measured through this very
-//! probe (`crates/hil-sim/tests/truth.rs` measures them on three seeds and checks them);
-//! [`RATE_TOLERANCE`] covers the seeds' spread (±2 %) and a supply ±3 % off its nominal 80 kPa.
-//! A crane with another supply or reservoir must measure its own signatures.
+//! Without a profile ([`crate::CraneConfig::probe_profile`] `None`, the default) the probe is no
+//! evidence: a fill rate depends on the trunk's volume *and* its compliance, the reservoir and
+//! the supply, which differ from trunk to trunk, so identification asks the operator at once and
+//! a manual step ends unconfirmed with its candidates (the operator is then asked).
 //!
-//! What it tells apart (the windows of ±5 % around each signature): F&P, D&P, and F&F from
-//! F&D only at the edges of their windows, which touch; D&F and D&D differ by 1 % and are never
-//! told apart: where a step may have ended in either (`D&F → D&D`), the operator is asked. The
-//! probe stays under a third of the lowest snap pressure: it cannot change the state it
-//! measures.
+//! With a profile the probe is a plan step the controller runs on itself (plan id
+//! [`IDENTIFY_PLAN_ID`], so it goes through the same interlocks as any step): let the tendons
+//! out, vent, settle sealed, fill to [`PROBE_KPA`] through the inlet, vent. The gas goes into the
+//! trunk's volume plus the reservoir, so a shorter trunk fills faster: the fill rate (kPa/s from
+//! the settled baseline to the target) tells the trunk's state where the rates differ enough.
+//! [`SIM_PROFILE`] is the simulator's calibrated trunk measured through this very probe
+//! (`crates/hil-sim/tests/truth.rs` measures it on three seeds and checks it); it is what a
+//! calibration of that trunk would write, and the tests load it. [`RATE_TOLERANCE`] covers the
+//! seeds' spread (±2 %) and a supply ±3 % off its nominal 80 kPa.
+//!
+//! What the simulator's profile tells apart (the windows of ±5 % around each signature): F&P,
+//! D&P, and F&F from F&D only at the edges of their windows, which touch; D&F and D&D differ by
+//! 1 % and are never told apart: where a step may have ended in either (`D&F → D&D`), the
+//! operator is asked. The probe stays under a third of the lowest snap pressure: it cannot
+//! change the state it measures.
 
 use geometry::TrunkState;
 use protocol::{Plan, Primitive, StateSet, Step, StepKind};
@@ -36,9 +42,26 @@ pub const SETTLE_MS: u32 = 300;
 /// Fill-rate tolerance (fraction of the signature) within which a state is kept.
 pub const RATE_TOLERANCE: f32 = 0.05;
 
+/// What a calibration measured through this probe on one trunk.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeProfile {
+    /// Fill rate (kPa/s) of each state, by [`TrunkState::index`] (F&P, F&F, F&D, D&P, D&F, D&D).
+    pub states: [f32; 6],
+    /// Fill rate of a trunk resting half-packed under the folded top and under the deployed
+    /// top (as [`BETWEEN_SIGNATURES`]).
+    pub between: [f32; 2],
+}
+
 /// Measured fill rate (kPa/s) of each state, by [`TrunkState::index`] (F&P, F&F, F&D, D&P, D&F,
 /// D&D): the mean over seeds 1–3 through this probe on the simulator's calibrated trunk.
 pub const PROBE_SIGNATURES: [f32; 6] = [11.71, 10.81, 10.24, 14.08, 12.94, 12.82];
+
+/// The simulator's calibrated trunk's profile ([`PROBE_SIGNATURES`], [`BETWEEN_SIGNATURES`]):
+/// evidence about that trunk only.
+pub const SIM_PROFILE: ProbeProfile = ProbeProfile {
+    states: PROBE_SIGNATURES,
+    between: BETWEEN_SIGNATURES,
+};
 
 /// Measured fill rate (kPa/s) of a trunk resting between named states, through this probe on
 /// the same trunk: the bottom half-packed (one layer of two, a stable well of its own) under the
@@ -155,10 +178,10 @@ impl ProbeLog {
         Some(first - last > LEAK_DROP_KPA || self.filled_kpa - last > LEAK_DROP_KPA)
     }
 
-    /// The states consistent with the measurement, for narrowing `candidates`: every state
+    /// The states consistent with the measurement under `profile`, for narrowing `candidates`: every state
     /// when it is incomplete, the trunk leaks, or the rate is also that of a trunk half-way
     /// between two of the candidates ([`BETWEEN_SIGNATURES`]: such a reading narrows nothing).
-    pub fn verdict(&self, candidates: StateSet) -> StateSet {
+    pub fn verdict(&self, candidates: StateSet, profile: &ProbeProfile) -> StateSet {
         let (Some(rate), Some(false)) = (self.rate_kpa_per_s(), self.leaking()) else {
             return StateSet::ALL;
         };
@@ -166,14 +189,14 @@ impl ProbeLog {
         // F&P and F&F (bits 0, 1) around F&P½; D&P and D&F (bits 3, 4) around D&P½.
         let between = [0b00011, 0b11000]
             .into_iter()
-            .zip(BETWEEN_SIGNATURES)
+            .zip(profile.between)
             .any(|(both, want)| candidates.0 & both == both && near(want));
         if between {
             return StateSet::ALL;
         }
         TrunkState::ALL
             .iter()
-            .filter(|s| near(PROBE_SIGNATURES[s.index()]))
+            .filter(|s| near(profile.states[s.index()]))
             .fold(StateSet::EMPTY, |set, s| set.with(*s))
     }
 }
@@ -211,39 +234,54 @@ mod tests {
     fn the_signatures_tell_what_they_can_and_no_more() {
         // Each state's own signature keeps it.
         for s in TrunkState::ALL {
-            let v = log(PROBE_SIGNATURES[s.index()]).verdict(StateSet::EMPTY);
+            let v = log(PROBE_SIGNATURES[s.index()]).verdict(StateSet::EMPTY, &SIM_PROFILE);
             assert!(v.contains(s), "{s}: {v:?}");
         }
-        assert_eq!(log(11.71).verdict(StateSet::EMPTY), set(&["F&P"]));
-        assert_eq!(log(14.08).verdict(StateSet::EMPTY), set(&["D&P"]));
+        assert_eq!(
+            log(11.71).verdict(StateSet::EMPTY, &SIM_PROFILE),
+            set(&["F&P"])
+        );
+        assert_eq!(
+            log(14.08).verdict(StateSet::EMPTY, &SIM_PROFILE),
+            set(&["D&P"])
+        );
         // D&F and D&D differ by 1 %: never told apart.
-        assert_eq!(log(12.9).verdict(StateSet::EMPTY), set(&["D&F", "D&D"]));
+        assert_eq!(
+            log(12.9).verdict(StateSet::EMPTY, &SIM_PROFILE),
+            set(&["D&F", "D&D"])
+        );
         // F&F and F&D: apart at their signatures, together where the windows touch.
-        assert_eq!(log(10.81).verdict(StateSet::EMPTY), set(&["F&F"]));
-        assert_eq!(log(10.5).verdict(StateSet::EMPTY), set(&["F&F", "F&D"]));
+        assert_eq!(
+            log(10.81).verdict(StateSet::EMPTY, &SIM_PROFILE),
+            set(&["F&F"])
+        );
+        assert_eq!(
+            log(10.5).verdict(StateSet::EMPTY, &SIM_PROFILE),
+            set(&["F&F", "F&D"])
+        );
         // A leaking trunk (1 kPa/s at 4 kPa) fills slower than its volume says: no verdict.
         assert_eq!(
-            log_leaking(11.71, 1.0).verdict(StateSet::EMPTY),
+            log_leaking(11.71, 1.0).verdict(StateSet::EMPTY, &SIM_PROFILE),
             StateSet::ALL
         );
         assert_eq!(
-            log_leaking(11.71, 0.1).verdict(StateSet::EMPTY),
+            log_leaking(11.71, 0.1).verdict(StateSet::EMPTY, &SIM_PROFILE),
             set(&["F&P"])
         );
         // A half-packed bottom reads as F&F or D&F would: not decisive where it may be.
         let all = StateSet::ALL;
-        assert_eq!(log(10.81).verdict(all), all);
-        assert_eq!(log(12.94).verdict(all), all);
-        assert_eq!(log(11.71).verdict(all), set(&["F&P"]));
-        assert_eq!(log(14.08).verdict(all), set(&["D&P"]));
+        assert_eq!(log(10.81).verdict(all, &SIM_PROFILE), all);
+        assert_eq!(log(12.94).verdict(all, &SIM_PROFILE), all);
+        assert_eq!(log(11.71).verdict(all, &SIM_PROFILE), set(&["F&P"]));
+        assert_eq!(log(14.08).verdict(all, &SIM_PROFILE), set(&["D&P"]));
         let hand = set(&["F&F", "D&F", "D&P"]);
-        assert_eq!(log(10.81).verdict(hand), set(&["F&F"]));
-        assert_eq!(log(12.94).verdict(hand), all);
+        assert_eq!(log(10.81).verdict(hand, &SIM_PROFILE), set(&["F&F"]));
+        assert_eq!(log(12.94).verdict(hand, &SIM_PROFILE), all);
         // Nothing fills this slowly.
-        assert!(log(8.0).verdict(StateSet::EMPTY).is_empty());
+        assert!(log(8.0).verdict(StateSet::EMPTY, &SIM_PROFILE).is_empty());
         // An incomplete probe says nothing.
         let mut l = ProbeLog::default();
         l.sample(1, 0, 200, 0.0);
-        assert_eq!(l.verdict(StateSet::EMPTY), StateSet::ALL);
+        assert_eq!(l.verdict(StateSet::EMPTY, &SIM_PROFILE), StateSet::ALL);
     }
 }

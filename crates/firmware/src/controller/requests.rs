@@ -449,8 +449,9 @@ impl Controller {
         if self.estop_latched {
             return reject(RejectReason::EStopLatched);
         }
-        if self.faults != 0 || !self.pressure_valid() {
-            // No probing with a fault active (reset it first, or a person tells).
+        if self.faults != 0 || !self.pressure_valid() || self.cfg.probe_profile.is_none() {
+            // No probing with a fault active (reset it first, or a person tells), nor without a
+            // profile of this trunk (the probe's readings then say nothing about it).
             self.ask_operator();
         } else {
             self.start_identify();

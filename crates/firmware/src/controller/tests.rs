@@ -299,6 +299,23 @@ impl Rig {
         r
     }
 
+    /// A rig with a completed handshake whose controller carries the simulator's probe profile
+    /// (`identify::SIM_PROFILE`, what a calibration of that trunk writes): the probe is then
+    /// evidence, for the manual step's check and for identification.
+    fn connected_profiled(state: TrunkState) -> Self {
+        let cfg = CraneConfig {
+            probe_profile: Some(identify::SIM_PROFILE),
+            ..CraneConfig::default()
+        };
+        let mut r = Self::with(
+            cfg,
+            BootRecord::Stored(StoredState::confirmed(state)),
+            state,
+        );
+        r.connect();
+        r
+    }
+
     /// A host engine that has sent nothing. It sends only what a test asks for until
     /// [`Rig::keepalive`]: the link watch is under test.
     fn new_host(&mut self) -> Session {
@@ -857,10 +874,11 @@ fn pneumatic_plan_f_and_p_to_d_and_f_is_confirmed_by_snaps() {
     // Each step is journaled ahead of its first actuation; its confirmation is the next
     // step's journal (written in the same pass, so the shell keeps only the newer) or, at the
     // end, the confirmed state.
+    // The candidates are the step's reach: its inflation's whole chain (belief::reach).
     let pending = |from: TrunkState, to: TrunkState| StoredState {
         state: from,
         confirmed: false,
-        candidates: protocol::StateSet::single(from).with(to),
+        candidates: belief::reach(&transitions::transition(from, to).unwrap().step()),
         pending: Some(protocol::Transition { from, to }),
     };
     assert_eq!(
@@ -891,38 +909,43 @@ fn pneumatic_plan_f_and_p_to_d_and_f_is_confirmed_by_snaps() {
 
 #[test]
 fn tendon_plan_d_and_d_to_f_and_p_counts_two_snaps_to_pack() {
-    let mut r = Rig::connected(DD);
-    r.keepalive();
-    r.upload_and_start(Rig::plan(3, &[DD, FD, FF, FP]));
-    r.run_until(30_000, |r| r.plan_done().is_some())
-        .expect("plan finishes");
-    assert_eq!(r.plan_done(), Some((true, FP)));
-    assert_eq!(r.plant.state, FP);
-    assert_eq!(r.ctl.status().state, FP);
-    // Released after the last pull.
-    assert!(r
-        .ctl
-        .poll_outputs()
-        .servo_deg
-        .iter()
-        .all(|d| d.abs() < 1e-3));
-    assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
+    // D&D → F&D: the top's buckling spikes (the tendons are taut); F&F → F&P: two spikes,
+    // one per layer. (F&D → F&F is blind in this plant, as in the simulator: below.)
+    for (from, to) in [(DD, FD), (FF, FP)] {
+        let mut r = Rig::connected(from);
+        r.keepalive();
+        r.upload_and_start(Rig::plan(3, &[from, to]));
+        r.run_until(30_000, |r| r.plan_done().is_some())
+            .expect("plan finishes");
+        assert_eq!(r.plan_done(), Some((true, to)));
+        assert_eq!(r.plant.state, to);
+        assert_eq!(r.ctl.status().state, to);
+        assert!(r.ctl.status().state_confirmed);
+        // Released after the pull.
+        assert!(r
+            .ctl
+            .poll_outputs()
+            .servo_deg
+            .iter()
+            .all(|d| d.abs() < 1e-3));
+        assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
+    }
 }
 
 /// The blind edges (docs/simulator.md, "Findings" 1): the tendons pin the trunk's height, the
-/// buckling makes no pressure spike, and the sealed release confirms the step by the volume.
+/// buckling makes no pressure spike. The sealed release shows the volume shrank, but how much
+/// a fold shrinks it depends on the trunk (two folds shrink it more than one): without the
+/// spikes the step expects the fold is not confirmed, and the candidates hold it.
 #[test]
-fn blind_tendon_snaps_are_confirmed_by_the_sealed_release() {
+fn blind_tendon_snaps_are_not_confirmed_by_the_volume_alone() {
     let mut r = Rig::connected(FD);
     r.plant.tendon_spike = false;
     r.keepalive();
     r.upload_and_start(Rig::plan(3, &[FD, FF, FP]));
-    let mut max_servo = 0.0f32;
     let mut sealed_releases = 0;
     let mut was_pulled = false;
     r.run_until(40_000, |r| {
         let o = r.ctl.poll_outputs();
-        max_servo = max_servo.max(o.servo_deg[0]);
         // Letting the tendons out with both valves closed.
         let pulled = r.plant.pulled_mm > 50.0;
         if was_pulled && !pulled && !o.exhaust_open {
@@ -932,18 +955,20 @@ fn blind_tendon_snaps_are_confirmed_by_the_sealed_release() {
         r.plan_done().is_some()
     })
     .expect("plan finishes");
-    assert!(r.faults_raised().is_empty(), "{:?}", r.faults_raised());
-    assert_eq!(r.plan_done(), Some((true, FP)));
-    assert_eq!(r.plant.state, FP);
+    assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
+    assert_eq!(r.plan_done().map(|d| d.0), Some(false));
+    assert_eq!(r.plant.state, FF);
     let s = r.ctl.status();
-    assert!(s.state_confirmed);
-    assert_eq!(sealed_releases, 2);
-    // No spikes: both pulls went to the catalogue's full length.
-    let full = r.cfg.servo.angle_for_length(0, transitions::PACK_BOTTOM_MM);
-    assert!((max_servo - full).abs() < 0.5, "{max_servo} vs {full}");
-    // Vented back to the pressure before the pull, tendons slack.
-    assert!(r.plant.p_kpa.abs() < 1.0, "{}", r.plant.p_kpa);
-    assert!(s.servo_deg.iter().all(|d| d.abs() < 1e-3), "{s:?}");
+    assert!(!s.state_confirmed, "{s:?}");
+    assert!(
+        s.candidates.contains(FF) && s.candidates.contains(FD),
+        "{s:?}"
+    );
+    assert_eq!(
+        s.interrupted,
+        Some(protocol::Transition { from: FD, to: FF })
+    );
+    assert_eq!(sealed_releases, 1);
 }
 
 #[test]
@@ -1070,23 +1095,28 @@ fn a_step_without_its_snap_is_not_confirmed() {
         .expect("fails in time");
     assert_eq!(r.plan_done(), Some((false, FP)));
     assert_eq!(r.faults_raised(), [FaultCode::TransitionNotConfirmed]);
-    // Held sealed at 16 kPa, past the 13.1 kPa unpacking threshold, no snap seen: it may still
-    // come. Unconfirmed, F&P or F&F.
+    // Inflated to the cap (39 kPa) without a snap: the snaps may still come, any of the
+    // inflation's chain. Unconfirmed, with the step's reach.
     let s = r.ctl.status();
     assert_eq!(
         (s.state, s.state_confirmed, s.mode),
         (FP, false, Mode::Safe)
     );
-    assert_eq!(s.candidates, protocol::StateSet::single(FP).with(FF));
+    assert_eq!(
+        s.candidates,
+        belief::reach(&transitions::transition(FP, FF).unwrap().step())
+    );
     assert_eq!(
         s.plan.unwrap().phase,
         PlanPhase::Failed(FaultCode::TransitionNotConfirmed)
     );
-    // Held at the (capped) target without venting: safe state = valves closed.
+    // Held at the cap's regulator target (cap − 1 kPa: an inflation waiting for its snap goes
+    // up to it) without venting: safe state = valves closed.
     let o = r.ctl.poll_outputs();
     assert!(!o.inlet_open && !o.exhaust_open);
+    let cfg = CraneConfig::default();
     assert!(
-        (r.plant.p_kpa - transitions::UNPACK_KPA).abs() < 1.5,
+        (r.plant.p_kpa - (cfg.pressure_limit_kpa - cfg.hysteresis_kpa)).abs() < 1.5,
         "{}",
         r.plant.p_kpa
     );
@@ -1336,7 +1366,7 @@ fn a_fault_leaves_the_servos_limp_until_reset() {
 #[test]
 fn manual_step_waits_for_the_button_or_the_host() {
     for by_button in [true, false] {
-        let mut r = Rig::connected(DF);
+        let mut r = Rig::connected_profiled(DF);
         r.keepalive();
         assert_eq!(
             r.request(RequestBody::ConfirmManual).0,
@@ -1390,7 +1420,7 @@ fn a_persons_confirm_is_checked_and_never_taken_for_the_truth() {
     // nothing.
     let hand = protocol::StateSet::EMPTY.with(DF).with(DP).with(FF);
     for (done, found, left) in [(DF, DF, hand), (FF, FF, protocol::StateSet::single(FF))] {
-        let mut r = Rig::connected(DF);
+        let mut r = Rig::connected_profiled(DF);
         r.keepalive();
         r.upload_and_start(Rig::plan(4, &[DF, DP]));
         r.run(1_000);
@@ -2380,8 +2410,14 @@ fn a_leak_the_supply_cannot_beat_is_named_leak_at_the_documented_time() {
     assert_eq!(r.faults_raised(), [FaultCode::Leak]);
     // The existing safe state: inlet and exhaust closed, servos limp, state unchanged.
     assert!(!out.inlet_open && !out.exhaust_open && !out.servos_enabled);
+    // 4 kPa is at the bound under which nothing snaps whatever the trunk (belief::UNTOUCHED_KPA):
+    // unconfirmed, F&P the guess.
     let s = r.ctl.status();
-    assert_eq!((s.state, s.state_confirmed, s.mode), (FP, true, Mode::Safe));
+    assert_eq!(
+        (s.state, s.state_confirmed, s.mode),
+        (FP, false, Mode::Safe)
+    );
+    assert!(s.candidates.contains(FP), "{s:?}");
     assert_eq!(s.plan.unwrap().phase, PlanPhase::Failed(FaultCode::Leak));
     assert_eq!(r.plan_done(), Some((false, FP)));
     assert_eq!(r.ctl.poll_display(), display::fault(8));
@@ -2796,6 +2832,8 @@ fn a_leak_opening_mid_inflation_is_not_taken_for_the_snap() {
     assert!(!wrong, "a state other than the trunk's was confirmed");
     let s = r.ctl.status();
     assert!(!s.state_confirmed || s.state == DF, "{s:?}");
-    assert_eq!(r.plan_done(), Some((false, DF)));
+    // 20 kPa may have snapped a trunk other than this plant's: unconfirmed, D&F a candidate.
+    assert!(!s.state_confirmed && s.candidates.contains(DF), "{s:?}");
+    assert_eq!(r.plan_done().map(|d| d.0), Some(false));
     assert_eq!(r.faults_raised(), [FaultCode::Leak]);
 }

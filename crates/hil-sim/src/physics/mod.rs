@@ -4,7 +4,9 @@ pub mod calibration;
 pub mod gas;
 pub mod multistable;
 pub mod params;
+pub mod spec;
 pub mod trunk;
 
 pub use params::TrunkParams;
+pub use spec::{TrunkError, TrunkSpec};
 pub use trunk::{Actuation, Module, Snap, Trunk};

@@ -13,7 +13,8 @@
 //! Forces are in newtons, tension positive; heights in millimetres.
 
 /// A stable state: its height and the stiffness around it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Well {
     /// Rest height of the element in this state.
     pub height_mm: f64,
@@ -22,7 +23,8 @@ pub struct Well {
 }
 
 /// The barriers between two neighbouring wells.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Barrier {
     /// Tension that snaps the element from the shorter well to the longer one.
     pub tension_n: f64,
@@ -161,6 +163,11 @@ impl MultistableCurve {
     /// The barriers between neighbouring wells.
     pub fn barriers(&self) -> &[Barrier] {
         &self.barriers
+    }
+
+    /// The height below which panels touch, and the stiffness of that contact.
+    pub fn contact(&self) -> (f64, f64) {
+        (self.contact_mm, self.contact_stiffness_n_per_mm)
     }
 
     /// Heights of the tension peak and the compression valley of barrier `i`.

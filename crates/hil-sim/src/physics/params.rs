@@ -97,10 +97,16 @@ pub struct TrunkParams {
     pub leak_diameter_mm: f64,
     /// The `leak` fault's equivalent orifice diameter, mm.
     pub fault_leak_diameter_mm: f64,
+    /// The simulated pressure sensor's gain error: it reads `gain × p + offset` (1: none).
+    pub sensor_gain: f64,
+    /// The simulated pressure sensor's offset error, kPa.
+    pub sensor_offset_kpa: f64,
 }
 
 impl TrunkParams {
-    /// The calibrated PDF trunk (docs/simulator.md, "Calibration").
+    /// The calibrated PDF trunk (docs/simulator.md, "Calibration"), derived from the design;
+    /// `trunks/pdf.toml` describes the same trunk (a test holds them equal) and is what the
+    /// simulator runs by default ([`super::spec::TrunkSpec::pdf`]).
     pub fn pdf() -> Result<Self, CurveError> {
         let l = EDGE_MM;
         let top_f = TOP_LAYERS as f64 * folded_d(TOP_BETA_DEG, N_SIDES) * l;
@@ -166,6 +172,8 @@ impl TrunkParams {
             exhaust_diameter_mm: 2.0,
             leak_diameter_mm: 0.04,
             fault_leak_diameter_mm: 2.5,
+            sensor_gain: 1.0,
+            sensor_offset_kpa: 0.0,
         })
     }
 }

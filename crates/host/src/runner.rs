@@ -1288,6 +1288,28 @@ impl PlanRunner {
                     );
                     return;
                 }
+                // A step the device cannot vouch for (no evidence that holds without a
+                // calibration: a fold by hand, a fold under the tendons) that may have done its
+                // work: the state is identified (the operator is asked), and the way on starts
+                // from what is identified.
+                if fault == FaultCode::TransitionNotConfirmed
+                    && !st.state_confirmed
+                    && st.candidates.contains(step.to)
+                    && self.identify_requests < 2
+                {
+                    self.following = None;
+                    self.out.replans += 1;
+                    self.events.push_back(RunEvent::Note(format!(
+                        "{message}; identifying the trunk's state to go on"
+                    )));
+                    self.last_surprise = Some(message);
+                    // A new identification: the operator is asked again.
+                    self.prompted_identify = false;
+                    self.probing_noted = false;
+                    // Reset, then the status: unconfirmed, it is identified before planning on.
+                    self.ask(session, Wait::ResetFaults, RequestBody::ResetFaults, now_ms);
+                    return;
+                }
                 self.following = None;
                 let mut fail = RunFailure::new(FailureKind::Fault, message).at(step);
                 fail.fault = Some(fault);

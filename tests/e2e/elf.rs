@@ -3,10 +3,13 @@
 //! serves), driven by the real `host-tool` binary over `--port`. The handshake and status,
 //! all 36 (initial, target) plans, and a fault that must end with the actuators safe.
 
+use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use e2e::{host_tool, parallel, STATES};
+use e2e::{binary, host_tool, parallel, STATES};
 use hil_sim::pty::PtySim;
 use hil_sim::{Fault, SimOptions};
 
@@ -42,6 +45,68 @@ fn board(initial: &str, faults: Vec<Fault>) -> PtySim {
         ..SimOptions::default()
     })
     .expect("the emulated board starts")
+}
+
+/// `host-tool plan …` over the pty with a person at its terminal: its stdin is a terminal, and
+/// when it asks for the trunk's state (the device cannot confirm a step without a calibration
+/// profile: `e2e::OPERATOR_IDENTIFIED`) the person looks at the emulated trunk and types it.
+/// Killed after `LIMIT`.
+fn plan_as_operator(args: &[&str], sim: &PtySim) -> e2e::Output {
+    let start = Instant::now();
+    let pty = nix::pty::openpty(None, None).expect("a pty for host-tool's terminal");
+    let mut keyboard = std::fs::File::from(pty.master);
+    let mut child = Command::new(binary("host-tool"))
+        .args(args)
+        .stdin(Stdio::from(std::fs::File::from(pty.slave)))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("host-tool starts");
+    let mut stdout = child.stdout.take().expect("stdout is piped");
+    let out = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut stdout, &mut s);
+        s
+    });
+    let (tx, lines) = mpsc::channel();
+    let err = BufReader::new(child.stderr.take().expect("stderr is piped"));
+    std::thread::spawn(move || {
+        for line in err.lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let deadline = start + LIMIT;
+    let mut stderr = String::new();
+    loop {
+        match lines.recv_timeout(deadline.saturating_duration_since(Instant::now())) {
+            Ok(line) => {
+                if line.contains("type its state") {
+                    let seen = sim
+                        .ground_truth()
+                        .true_state
+                        .map_or(String::new(), |s| s.to_string());
+                    writeln!(keyboard, "{seen}").expect("typed on host-tool's terminal");
+                }
+                stderr.push_str(&line);
+                stderr.push('\n');
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!("host-tool {args:?} did not finish within {LIMIT:?}:\n{stderr}");
+            }
+        }
+    }
+    let status = child.wait().expect("host-tool ends");
+    e2e::Output {
+        status,
+        stdout: out.join().unwrap_or_default(),
+        stderr,
+        elapsed: start.elapsed(),
+    }
 }
 
 #[test]
@@ -94,7 +159,7 @@ fn all_36_plans_reach_their_target_on_the_elf() {
     let results = parallel(pairs, THREADS, |(from, to)| {
         let sim = board(from, vec![]);
         let path = sim.path().display().to_string();
-        let out = host_tool(&["plan", "--target", to, "--port", &path, "--json"], LIMIT);
+        let out = plan_as_operator(&["plan", "--target", to, "--port", &path, "--json"], &sim);
         let truth = sim.stop();
         (from, to, out, truth)
     });
@@ -135,7 +200,7 @@ fn all_36_plans_reach_their_target_on_the_elf() {
         }
         let sim = board(from, vec![]);
         let path = sim.path().display().to_string();
-        let again = host_tool(&["plan", "--target", to, "--port", &path, "--json"], LIMIT);
+        let again = plan_as_operator(&["plan", "--target", to, "--port", &path, "--json"], &sim);
         let truth2 = sim.stop();
         let v2 = again.json();
         if !(again.code() == 0
@@ -193,7 +258,7 @@ fn the_fault_subset_fails_cleanly_on_the_elf_with_the_actuators_safe() {
     let results = parallel(cases, THREADS, |(fault, from, to, step, why)| {
         let sim = board(from, vec![fault]);
         let path = sim.path().display().to_string();
-        let out = host_tool(&["plan", "--target", to, "--port", &path, "--json"], LIMIT);
+        let out = plan_as_operator(&["plan", "--target", to, "--port", &path, "--json"], &sim);
         // Judge the actuators once the device's own link watch has had its whole time, on the
         // device's clock, since the host went away: a dropped link is for the device to act on.
         let gone_ms = sim.ground_truth().time_ms;

@@ -34,7 +34,9 @@ pub(super) enum PullPhase {
     Releasing,
     /// Sealed and still, the trunk settles before the pressure is compared.
     Settling,
-    /// Confirmed: venting what the smaller volume added, back to the pressure before the pull.
+    /// Checked: venting what the smaller volume added, back to the pressure before the pull
+    /// (also when not confirmed: no air is left sealed in a trunk the step could not vouch
+    /// for; letting it out changes no state).
     Venting,
 }
 
@@ -56,6 +58,8 @@ struct PullCheck {
     /// A snap came while the trunk was let out sealed: something else moved (a packed bottom
     /// unpacking under the pressure the pull left): the step is not confirmed.
     surprise: bool,
+    /// The check did not confirm the fold: after the vent, the step fails unconfirmed.
+    unconfirmed: bool,
 }
 
 /// What the sealed-release check asks for now.
@@ -63,9 +67,9 @@ enum CheckStep {
     Running,
     /// Stop pulling; release to the start angles.
     Release,
-    /// Confirmed: vent back to the pressure before the pull.
+    /// Checked: vent back to the pressure before the pull, then end the step (confirmed or
+    /// not, as [`PullCheck::unconfirmed`] says).
     Vent,
-    NotConfirmed,
 }
 
 /// Advances the sealed-release check of a pull that expects `want` snaps (`seen` spikes so
@@ -111,18 +115,13 @@ fn pull_check(
             if now.saturating_sub(t) < settle {
                 return CheckStep::Running;
             }
-            if c.surprise || packed {
-                return CheckStep::NotConfirmed;
-            }
             // Confirmed by both: the spikes the step expects, counted under the pull (the pull
             // stops at them, so never more), and a sealed volume that shrank (a spike without
             // it was no fold). How much it shrank depends on the trunk: not compared.
-            if seen >= want && p - c.baseline_kpa + c.relieved_kpa >= cfg.min_rise_kpa {
-                c.phase = PullPhase::Venting;
-                CheckStep::Vent
-            } else {
-                CheckStep::NotConfirmed
-            }
+            let folded = seen >= want && p - c.baseline_kpa + c.relieved_kpa >= cfg.min_rise_kpa;
+            c.unconfirmed = c.surprise || packed || !folded;
+            c.phase = PullPhase::Venting;
+            CheckStep::Vent
         }
         PullPhase::Venting => CheckStep::Vent,
     }
@@ -733,6 +732,7 @@ impl Controller {
                 start_deg,
                 since_ms: None,
                 surprise: false,
+                unconfirmed: false,
             }),
             _ => None,
         };
@@ -980,15 +980,14 @@ impl Controller {
                             } else {
                                 c.baseline_kpa
                             };
-                            if p <= to + vent_tol {
-                                Progress::Done { evidence: true }
-                            } else {
+                            if p > to + vent_tol {
                                 exhaust = true;
                                 Progress::Running
+                            } else if c.unconfirmed {
+                                Progress::Fail(FaultCode::TransitionNotConfirmed)
+                            } else {
+                                Progress::Done { evidence: true }
                             }
-                        }
-                        CheckStep::NotConfirmed => {
-                            Progress::Fail(FaultCode::TransitionNotConfirmed)
                         }
                     },
                 }

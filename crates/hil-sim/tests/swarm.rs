@@ -104,7 +104,11 @@ fn a_wrong_fold_is_found_by_the_check_and_the_run_goes_on_from_the_truth() {
         "{}",
         rep.trace
     );
-    assert!(rep.trace.contains("operator identifies F&F"), "{}", rep.trace);
+    assert!(
+        rep.trace.contains("operator identifies F&F"),
+        "{}",
+        rep.trace
+    );
     assert_eq!(rep.reached, rep.scenario.targets.len(), "{}", rep.trace);
 }
 

@@ -68,7 +68,10 @@ fn a_recorded_plan_survives_a_writer_cut_short() {
     // The trunk's scene: at every state change, at most 20 Hz while it moves, ≥ 1 Hz.
     let scenes = count(&text, "/scene");
     let at_most = steps_ms / 50 + 30;
-    assert!((10..=at_most).contains(&scenes), "{scenes} > {at_most}: {text}");
+    assert!(
+        (10..=at_most).contains(&scenes),
+        "{scenes} > {at_most}: {text}"
+    );
     assert_eq!(count(&text, "/tf"), scenes);
     let requests = count(&text, "/link/requests");
     let responses = count(&text, "/link/responses");

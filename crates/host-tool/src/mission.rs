@@ -103,10 +103,8 @@ pub enum OnFailure {
 /// One step of a mission.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
-    /// The line of the file its `[[step]]` starts on.
+    /// The line of the file its kind's key is on (`bend = …`).
     pub line: usize,
-    /// The line of its kind's key.
-    pub kind_line: usize,
     /// What it does.
     pub action: Action,
     /// The most it may take on the link's clock, ms.
@@ -404,9 +402,8 @@ fn parse_step(text: &str, n: usize, raw: &Spanned<RawStep>) -> Result<Step, Vec<
         }
     }
     match action {
-        Some((action, kind_line)) if refusals.is_empty() => Ok(Step {
-            line: line_of(text, raw.span().start),
-            kind_line,
+        Some((action, line)) if refusals.is_empty() => Ok(Step {
+            line,
             action,
             time_limit_ms,
             on_failure,
@@ -773,10 +770,12 @@ pub fn check(mission: &Mission, crane: &Crane<'_>) -> Vec<Refusal> {
         .iter()
         .filter_map(|s| ws.limit_deg(*s))
         .fold(0.0, f64::max);
+    // The state the trunk is in before each step, where known, and the step that left it so.
     let mut state: Option<TrunkState> = None;
+    let mut by = 0usize;
     for (i, step) in mission.steps.iter().enumerate() {
         let refuse = |why: String| Refusal {
-            line: step.kind_line,
+            line: step.line,
             reason: format!("step {} ({}): {why}", i + 1, step.kind()),
         };
         let strip = |e: crate::failure::Failure| {
@@ -793,6 +792,7 @@ pub fn check(mission: &Mission, crane: &Crane<'_>) -> Vec<Refusal> {
                     refusals.push(refuse(format!("{target} cannot be reached: {e}")));
                 }
                 state = Some(*target);
+                by = i + 1;
             }
             Action::Bend { angle, toward } => {
                 if *angle > widest {
@@ -803,7 +803,7 @@ pub fn check(mission: &Mission, crane: &Crane<'_>) -> Vec<Refusal> {
                 } else if let Some(s) = state {
                     if let Err(e) = bend_step(&ws, crane.cfg, s, *angle, *toward) {
                         refusals.push(refuse(format!(
-                            "in {s} (the state step(s) before leave it there): {}",
+                            "in {s}, where step {by} leaves the trunk: {}",
                             strip(e)
                         )));
                     }
@@ -816,7 +816,10 @@ pub fn check(mission: &Mission, crane: &Crane<'_>) -> Vec<Refusal> {
                     *point,
                     *tolerance,
                 ) {
-                    Ok(p) => state = state.map(|_| p.state),
+                    Ok(p) => {
+                        state = state.map(|_| p.state);
+                        by = i + 1;
+                    }
                     Err(e) => refusals.push(refuse(strip(e))),
                 }
             }
@@ -828,6 +831,7 @@ pub fn check(mission: &Mission, crane: &Crane<'_>) -> Vec<Refusal> {
                             (Some(s), Some((az, el))) => {
                                 let ws = crate::cmd::task::task_workspace(crane.cfg).unwrap_or(ws);
                                 let target = a.heading.base_of(az, el).into_inner();
+                                by = i + 1;
                                 Some(
                                     crate::cmd::aim::better_state(&ws, s, &target)
                                         .map_or(s, |b| b.0),
@@ -902,8 +906,7 @@ mod tests {
         .unwrap();
         let kinds: Vec<&str> = m.steps.iter().map(Step::kind).collect();
         assert_eq!(kinds, KINDS);
-        assert_eq!(m.steps[0].line, 2);
-        assert_eq!(m.steps[0].kind_line, 3);
+        assert_eq!(m.steps[0].line, 3);
         assert_eq!(m.steps[0].time_limit_ms, Some(120_000));
         assert_eq!(m.steps[1].on_failure, OnFailure::Skip);
         assert_eq!(m.steps[5].action, Action::Wait(90_000));

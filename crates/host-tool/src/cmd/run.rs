@@ -569,9 +569,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
     } else {
         match &stopped {
             None => crate::out!(
-                "mission {title}: {} of {} done{}{}",
-                crate::num::plural(done, "step", "steps"),
-                m.steps.len() - start,
+                "mission {title}: {done} of {} done{}{}",
+                crate::num::plural(m.steps.len() - start, "step", "steps"),
                 if skipped.is_empty() {
                     String::new()
                 } else {

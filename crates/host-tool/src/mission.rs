@@ -103,6 +103,8 @@ pub enum OnFailure {
 /// One step of a mission.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
+    /// Its place in the mission, from 1.
+    pub number: usize,
     /// The line of the file its kind's key is on (`bend = …`).
     pub line: usize,
     /// What it does.
@@ -122,8 +124,10 @@ pub struct Mission {
     pub name: Option<String>,
     /// Its `description`, if it has one.
     pub description: Option<String>,
-    /// The steps, in order.
+    /// The steps that parsed, in order (all of them when `refusals` is empty).
     pub steps: Vec<Step>,
+    /// The problems of the steps that did not parse, by line.
+    pub refusals: Vec<Refusal>,
     /// A hash of the file's text (FNV-1a, 64 bits): a progress file belongs to this text.
     pub hash: u64,
 }
@@ -211,7 +215,9 @@ impl Step {
 }
 
 /// Reads a mission's text: its structure and each step's parameters (the ranges of the
-/// commands of the same names). Every refusal found is returned, sorted by line.
+/// commands of the same names). A text that is no TOML, or not a mission's shape, is refused
+/// whole; a step's problems are kept in [`Mission::refusals`] (that step left out of
+/// [`Mission::steps`]), so that [`check`] can add those of the others.
 pub fn parse(text: &str) -> Result<Mission, Vec<Refusal>> {
     let raw: RawFile = toml::from_str(text).map_err(|e| {
         vec![Refusal {
@@ -234,14 +240,12 @@ pub fn parse(text: &str) -> Result<Mission, Vec<Refusal>> {
             Err(mut r) => refusals.append(&mut r),
         }
     }
-    if !refusals.is_empty() {
-        refusals.sort();
-        return Err(refusals);
-    }
+    refusals.sort();
     Ok(Mission {
         name: raw.name,
         description: raw.description,
         steps,
+        refusals,
         hash: fnv1a(text),
     })
 }
@@ -282,10 +286,12 @@ fn parse_step(text: &str, n: usize, raw: &Spanned<RawStep>) -> Result<Step, Vec<
     let at = At { text, n };
     let map = raw.get_ref();
     let mut refusals = Vec::new();
-    let kinds: Vec<&Spanned<String>> = map
+    let mut kinds: Vec<&Spanned<String>> = map
         .keys()
         .filter(|k| KINDS.contains(&k.get_ref().as_str()))
         .collect();
+    // In the file's order: a second kind is refused where it stands.
+    kinds.sort_by_key(|k| k.span().start);
     for k in map.keys() {
         let key = k.get_ref().as_str();
         if KINDS.contains(&key) || COMMON.contains(&key) {
@@ -403,6 +409,7 @@ fn parse_step(text: &str, n: usize, raw: &Spanned<RawStep>) -> Result<Step, Vec<
     }
     match action {
         Some((action, line)) if refusals.is_empty() => Ok(Step {
+            number: n,
             line,
             action,
             time_limit_ms,
@@ -773,7 +780,14 @@ pub fn check(mission: &Mission, crane: &Crane<'_>) -> Vec<Refusal> {
     // The state the trunk is in before each step, where known, and the step that left it so.
     let mut state: Option<TrunkState> = None;
     let mut by = 0usize;
-    for (i, step) in mission.steps.iter().enumerate() {
+    let mut previous = 0usize;
+    for step in &mission.steps {
+        let i = step.number - 1;
+        if step.number != previous + 1 {
+            // A step before it did not parse: where the trunk is is not known.
+            state = None;
+        }
+        previous = step.number;
         let refuse = |why: String| Refusal {
             line: step.line,
             reason: format!("step {} ({}): {why}", i + 1, step.kind()),
@@ -886,7 +900,10 @@ mod tests {
     use super::*;
 
     fn refusals(text: &str) -> Vec<Refusal> {
-        parse(text).expect_err("refused")
+        match parse(text) {
+            Ok(m) => m.refusals,
+            Err(r) => r,
+        }
     }
 
     #[test]
@@ -904,6 +921,7 @@ mod tests {
              [[step]]\nprompt = { text = \"hang it\", tip_load_kg = 1.5 }\n",
         )
         .unwrap();
+        assert!(m.refusals.is_empty(), "{:?}", m.refusals);
         let kinds: Vec<&str> = m.steps.iter().map(Step::kind).collect();
         assert_eq!(kinds, KINDS);
         assert_eq!(m.steps[0].line, 3);

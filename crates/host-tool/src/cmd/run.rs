@@ -359,7 +359,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
         server: server.is_some(),
         terminal: std::io::stdin().is_terminal(),
     };
-    let refusals = mission::check(&m, &crane);
+    let mut refusals = m.refusals.clone();
+    refusals.extend(mission::check(&m, &crane));
+    refusals.sort();
     if !refusals.is_empty() {
         return Err(Failure::usage(mission::refusal_text(&file, &refusals)));
     }
@@ -438,9 +440,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             break;
         }
         let head = format!("step {}/{} (line {})", i + 1, m.steps.len(), step.line);
-        if !args.json {
-            crate::say!("{head}: {}", step.describe());
-        }
+        crate::say!("{head}: {}", step.describe());
         link.log(Level::Info, &format!("{head} starts: {}", step.describe()));
         let ended = match run_one(&mut link, &cfg, step, args.json) {
             Ok(e) => e,
@@ -484,7 +484,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     stopped = Some(Stopped {
                         index: i,
                         error: format!(
-                            "step {} ({}, line {}) {}",
+                            "step {} ({}, line {}): {}",
                             i + 1,
                             step.kind(),
                             step.line,

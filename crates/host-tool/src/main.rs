@@ -73,6 +73,7 @@ mod device;
 mod failure;
 mod figure;
 mod live;
+mod mission;
 mod num;
 mod progress;
 mod record;
@@ -141,6 +142,9 @@ enum Command {
     Model(cmd::model::Args),
     /// Take the crane (--port) or the simulator (--sim) to a trunk state, e.g. --target 'D&F'.
     Plan(cmd::plan::Args),
+    /// Run a mission: a TOML file of steps (state, bend, grip, reach, vent, wait, aim,
+    /// identify, prompt), validated whole first; resumable after a stop.
+    Run(cmd::run::Args),
     /// One status snapshot of the crane (or the simulator).
     Status(cmd::status::Args),
     /// Live telemetry until Ctrl-C or --duration.
@@ -200,6 +204,7 @@ impl Command {
             Command::Design(a) => a.json,
             Command::Pattern(a) => a.json,
             Command::Plan(a) => a.json,
+            Command::Run(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
             Command::Declare(a) => a.json,
@@ -261,6 +266,7 @@ fn main() -> ExitCode {
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Run(args) => cmd::run::run(args),
         Command::Status(args) => cmd::status::run(args),
         Command::Monitor(args) => cmd::monitor::run(args),
         Command::Declare(args) => cmd::declare::run(args),

@@ -75,6 +75,11 @@ pub fn fixed_w(x: f64, decimals: usize, width: usize) -> String {
     format!("{:>width$}", fixed(x, decimals))
 }
 
+/// A duration of `ms` milliseconds in seconds: `1.5 s`.
+pub fn seconds(ms: u64) -> String {
+    format!("{} s", tidy(ms as f64 / 1000.0))
+}
+
 /// `n thing` or `n things`.
 pub fn plural(n: usize, one: &str, many: &str) -> String {
     format!("{n} {}", if n == 1 { one } else { many })

@@ -189,11 +189,22 @@ fn parse_toward(text: &str) -> Result<(f64, f64), Failure> {
         a.trim().parse().map_err(|_| bad())?,
         e.trim().parse().map_err(|_| bad())?,
     );
-    if !(a.is_finite() && e.is_finite() && (0.0..360.0).contains(&a) && (-90.0..=90.0).contains(&e))
+    direction(a, e).map_err(|_| bad())
+}
+
+/// A compass direction checked: azimuth in [0, 360), elevation in [-90, 90], degrees.
+pub fn direction(az: f64, el: f64) -> Result<(f64, f64), String> {
+    if az.is_finite()
+        && el.is_finite()
+        && (0.0..360.0).contains(&az)
+        && (-90.0..=90.0).contains(&el)
     {
-        return Err(bad());
+        Ok((az, el))
+    } else {
+        Err(format!(
+            "the direction must be AZ, EL in degrees (azimuth [0, 360) clockwise from north, elevation [-90, 90]), got {az}, {el}"
+        ))
     }
-    Ok((a, e))
 }
 
 /// The site of `--lat`/`--lon` at sea level, in the standard air.

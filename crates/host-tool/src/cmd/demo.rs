@@ -81,7 +81,9 @@ fn note(json: bool, text: &str) {
     }
 }
 
-fn grip(link: &mut Link, close: bool) -> Result<Vec<Value>, Failure> {
+/// Opens or closes the gripper (nothing to do when it is there already) and returns the
+/// simulator's grasp events.
+pub fn grip(link: &mut Link, close: bool) -> Result<Vec<Value>, Failure> {
     let st = link.status()?;
     if let Some(why) = blocked(&st) {
         return Err(Failure::Runtime(anyhow::anyhow!("{why}")));
@@ -185,7 +187,7 @@ pub fn pick(
 }
 
 /// Asks the person at the crane to do something, and waits for Enter (a terminal is needed).
-fn ask_person(what: &str) -> Result<(), Failure> {
+pub fn ask_person(what: &str) -> Result<(), Failure> {
     use std::io::IsTerminal;
     if !std::io::stdin().is_terminal() {
         return Err(Failure::Runtime(anyhow::anyhow!(
@@ -561,11 +563,7 @@ fn load(args: &DemoArgs) -> Result<(), Failure> {
         crate::cmd::reach::go_to_state(&mut link, dd)?;
         match link.sim() {
             Some(sim) => {
-                let objects = sim.world().objects().to_vec();
-                let closed = sim.ground_truth().gripper_closed;
-                *sim.world_mut() = hil_sim::world::World::with(objects, PAPER_LOAD_KG)
-                    .map_err(|e| anyhow::anyhow!("{e}"))?;
-                sim.world_mut().set_gripper(closed);
+                crate::cmd::task::hang_load(sim, PAPER_LOAD_KG)?;
                 note(args.json, &format!("{PAPER_LOAD_KG} kg hung on the tip"));
             }
             None => ask_person(&format!("hang {PAPER_LOAD_KG} kg on the tip"))?,

@@ -7,7 +7,7 @@ use planner::graph::Graph;
 use serde_json::json;
 
 use crate::cmd::plan::{interrupt_flag, CliShell};
-use crate::device::DeviceArgs;
+use crate::device::{Connection, DeviceArgs};
 use crate::failure::Failure;
 
 /// Arguments of `host-tool identify`.
@@ -20,23 +20,28 @@ pub struct Args {
     pub json: bool,
 }
 
-/// Runs `host-tool identify`.
-pub fn run(args: Args) -> Result<(), Failure> {
-    let device = args.device.validate(None)?;
-    let interrupted = interrupt_flag();
-    let mut conn = device.connect()?;
-    let mut shell = CliShell::new(interrupted);
+/// Has the device on `conn` identify its state (its probes, then the operator; Ctrl-C
+/// aborts): the outcome's `final_state` is the state it then confirms.
+pub fn identify(conn: &mut Connection) -> host::Outcome {
+    let mut shell = CliShell::new(interrupt_flag());
     let options = RunOptions {
         identify_only: true,
         ..RunOptions::default()
     };
     // The target is replaced by whatever the device confirms.
-    let out = conn.session.run_plan(
+    conn.session.run_plan(
         Graph::nominal(),
         geometry::TrunkState::AS_MANUFACTURED,
         options,
         &mut shell,
-    );
+    )
+}
+
+/// Runs `host-tool identify`.
+pub fn run(args: Args) -> Result<(), Failure> {
+    let device = args.device.validate(None)?;
+    let mut conn = device.connect()?;
+    let out = identify(&mut conn);
     let truth = conn.close();
     let candidates: Vec<&str> = out
         .last_status

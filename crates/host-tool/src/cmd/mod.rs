@@ -18,6 +18,7 @@ pub mod ports;
 pub mod pose;
 pub mod prim;
 pub mod reach;
+pub mod run;
 pub mod serve;
 pub mod states;
 pub mod station;

@@ -190,11 +190,17 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
         }
     }
 
-    fn poll(&mut self, _io: &mut Recorder<AnyIo>) -> Option<ShellAction> {
+    fn poll(&mut self, io: &mut Recorder<AnyIo>) -> Option<ShellAction> {
         if self.interrupted.load(Ordering::SeqCst) && !self.cancel_sent {
             self.cancel_sent = true;
             return Some(ShellAction::Cancel(
                 "interrupted: Ctrl-C, SIGTERM or SIGHUP".into(),
+            ));
+        }
+        if !self.cancel_sent && crate::cmd::prim::deadline_passed(io.now_ms()) {
+            self.cancel_sent = true;
+            return Some(ShellAction::Cancel(
+                crate::cmd::prim::TIME_LIMIT_ABORT.into(),
             ));
         }
         if let Some(a) = self.pending.take() {

@@ -9,7 +9,7 @@
 //! The objects of the simulator's world (`--object`, `--tip-load-kg`) and the truth: see
 //! `crate::cmd::task`.
 
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use geometry::tendon::TendonGeometry;
 use geometry::TrunkState;
@@ -210,6 +210,16 @@ impl Link {
         }
     }
 
+    /// A line in the recording, when this process records the session.
+    pub fn log(&mut self, level: crate::record::Level, message: &str) {
+        if let Link::Direct(c) = self {
+            let now = host::Io::now_ms(&mut c.session.io);
+            if let Some(rec) = c.session.io.recording() {
+                rec.log(now, level, "host-tool", message);
+            }
+        }
+    }
+
     /// Ends the session.
     pub fn close(self) {
         if let Link::Direct(c) = self {
@@ -292,15 +302,40 @@ pub struct StepEnd {
     pub error: Option<String>,
 }
 
-/// Runs `step` on the device and waits for its end (Ctrl-C aborts it).
+/// The link-clock time (ms) by which what runs now must have ended (a mission step's time
+/// limit), `u64::MAX` for none. Process-wide like the interrupt flag: a step that runs past
+/// it is aborted, the device left in its safe state ([`run_step`], and a plan's shell).
+static DEADLINE_MS: AtomicU64 = AtomicU64::new(u64::MAX);
+
+/// Sets (or with `None` clears) the time by which what runs now must end, on the link's clock.
+pub fn set_deadline(at_ms: Option<u64>) {
+    DEADLINE_MS.store(at_ms.unwrap_or(u64::MAX), Ordering::SeqCst);
+}
+
+/// Whether the time set by [`set_deadline`] has come at `now_ms`.
+pub fn deadline_passed(now_ms: u64) -> bool {
+    now_ms >= DEADLINE_MS.load(Ordering::SeqCst)
+}
+
+/// What a step aborted at its time limit reports.
+pub const TIME_LIMIT_ABORT: &str =
+    "its time limit ran out: the step was aborted, the device is in its safe state";
+
+/// Runs `step` on the device and waits for its end (Ctrl-C aborts it, and so does the time
+/// set by [`set_deadline`]: then the step ends not ok, [`TIME_LIMIT_ABORT`]).
 pub fn run_step(link: &mut Link, step: protocol::Step) -> Result<StepEnd, Failure> {
     let interrupted = crate::cmd::plan::interrupt_flag();
     link.command(RequestBody::RunStep(step))?;
     let mut aborted = false;
+    let mut timed_out = false;
     loop {
         link.wait(50)?;
         if interrupted.load(Ordering::SeqCst) && !aborted {
             aborted = true;
+            link.command(RequestBody::Abort)?;
+        }
+        if !aborted && !timed_out && deadline_passed(link.now_ms()) {
+            timed_out = true;
             link.command(RequestBody::Abort)?;
         }
         let st = link.status()?;
@@ -327,6 +362,13 @@ pub fn run_step(link: &mut Link, step: protocol::Step) -> Result<StepEnd, Failur
             return Err(Failure::Interrupted(
                 "interrupted: the step was aborted, the device is in its safe state".into(),
             ));
+        }
+        if timed_out && !ok {
+            return Ok(StepEnd {
+                status: st,
+                ok,
+                error: Some(TIME_LIMIT_ABORT.into()),
+            });
         }
         return Ok(StepEnd {
             status: st,
@@ -587,28 +629,50 @@ pub fn bend_step(
     ))
 }
 
+/// The vent step for the device's state `st`: `Ok(None)` when the trunk is within the vent
+/// tolerance of ambient already (nothing to let out), refused where the simulator's physics
+/// says the trunk would collapse.
+pub fn vent_step(
+    link: &mut Link,
+    cfg: &firmware::CraneConfig,
+    st: &Status,
+) -> Result<Option<protocol::Step>, Failure> {
+    if st.pressure_kpa <= cfg.vent_tolerance_kpa {
+        return Ok(None);
+    }
+    if let Some(why) = link
+        .sim()
+        .and_then(|sim| crate::cmd::task::vent_would_collapse(sim, st.state))
+    {
+        return Err(Failure::Runtime(anyhow::anyhow!("refused: {why}")));
+    }
+    Ok(Some(step_for(
+        st.state,
+        Primitive::Vent { pressure_kpa: 0.0 },
+    )))
+}
+
 /// Runs `host-tool vent`.
 pub fn run_vent(args: VentArgs) -> Result<(), Failure> {
     let world = args.world.parse()?;
     let cfg = crane_config(&args.device);
     let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "vent")?;
     let st = ready(&mut link)?;
-    if st.pressure_kpa <= cfg.vent_tolerance_kpa {
-        link.close();
-        return Err(Failure::Runtime(anyhow::anyhow!(
-            "refused: the trunk is at {} kPa, within {} kPa of ambient: nothing to let out",
-            crate::num::fixed(f64::from(st.pressure_kpa), 1),
-            cfg.vent_tolerance_kpa
-        )));
-    }
-    if let Some(why) = link
-        .sim()
-        .and_then(|sim| crate::cmd::task::vent_would_collapse(sim, st.state))
-    {
-        link.close();
-        return Err(Failure::Runtime(anyhow::anyhow!("refused: {why}")));
-    }
-    let step = step_for(st.state, Primitive::Vent { pressure_kpa: 0.0 });
+    let step = match vent_step(&mut link, &cfg, &st) {
+        Ok(Some(step)) => step,
+        Ok(None) => {
+            link.close();
+            return Err(Failure::Runtime(anyhow::anyhow!(
+                "refused: the trunk is at {} kPa, within {} kPa of ambient: nothing to let out",
+                crate::num::fixed(f64::from(st.pressure_kpa), 1),
+                cfg.vent_tolerance_kpa
+            )));
+        }
+        Err(e) => {
+            link.close();
+            return Err(e);
+        }
+    };
     let end = run_step(&mut link, step)?;
     let r = report(&mut link, "vented", &end, args.json, json!({}));
     link.close();

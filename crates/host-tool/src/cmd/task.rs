@@ -81,6 +81,16 @@ pub fn grasp_json(g: &Grasp) -> Value {
     }
 }
 
+/// Hangs `kg` on the simulator's tip (the objects stay where they are, the gripper as it is).
+pub fn hang_load(sim: &mut hil_sim::Sim, kg: f64) -> Result<(), Failure> {
+    let objects = sim.world().objects().to_vec();
+    let closed = sim.ground_truth().gripper_closed;
+    *sim.world_mut() = hil_sim::world::World::with(objects, kg)
+        .map_err(|e| Failure::usage(format!("tip load {kg} kg: {e}")))?;
+    sim.world_mut().set_gripper(closed);
+    Ok(())
+}
+
 /// The largest axial load (N) each module of `state` holds without air before it buckles into
 /// the well below (the physics' compression barriers), `[top, bottom]`; `None` where a module
 /// has no well below.

@@ -100,14 +100,15 @@ pub fn parse_until(
     Ok(end)
 }
 
-/// Lets the link's clock reach `at_ms`, in slices that notice Ctrl-C.
-fn wait_until(link: &mut Link, at_ms: u64) -> Result<(), Failure> {
+/// Lets the link's clock reach `at_ms`, in slices that notice Ctrl-C (then the failure says
+/// `interrupted {during}: nothing was moving; …`).
+pub fn wait_until(link: &mut Link, at_ms: u64, during: &str) -> Result<(), Failure> {
     let interrupted = crate::cmd::plan::interrupt_flag();
     loop {
         if interrupted.load(Ordering::SeqCst) {
-            return Err(Failure::Interrupted(
-                "interrupted between aims: nothing was moving; the crane holds its bend".into(),
-            ));
+            return Err(Failure::Interrupted(format!(
+                "interrupted {during}: nothing was moving; the crane holds its bend"
+            )));
         }
         let now = link.now_ms();
         if now >= at_ms {
@@ -162,7 +163,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             if at > end {
                 return Ok(());
             }
-            wait_until(&mut link, t0 + k * every_ms)?;
+            wait_until(&mut link, t0 + k * every_ms, "between aims")?;
             let utc = at.with_timezone(&Utc);
             let local = at.format("%Y-%m-%d %H:%M:%S%:z").to_string();
             match aim::sun_at(&site, &air, &utc)? {

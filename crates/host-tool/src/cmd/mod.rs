@@ -1,10 +1,12 @@
 //! One module per subcommand: `Args` (clap) and `run`.
 
 pub mod aim;
+pub mod check;
 pub mod declare;
 pub mod demo;
 pub mod design;
 pub mod fk;
+pub mod flash;
 pub mod identify;
 pub mod ik;
 pub mod log;

@@ -223,6 +223,9 @@ fn runtime(msg: impl std::fmt::Display) -> Failure {
 /// pulses, the bootloader's start, and a USB re-open.
 const BOOTLOADER_WAIT: Duration = Duration::from_secs(5);
 
+/// How long the touch's resets take before the bootloader listens.
+const TOUCH_SETTLE: Duration = Duration::from_millis(500);
+
 /// The 1200-baud touch: opening the port at 1200 Bd makes the WiFi's bridge reset the RA4M1
 /// twice (its double tap: the bootloader stays); bossac drops DTR and closes, so does this.
 fn touch(path: &str) -> Result<(), Failure> {
@@ -232,6 +235,11 @@ fn touch(path: &str) -> Result<(), Failure> {
         .map_err(|e| runtime(format!("cannot open {path} at 1200 Bd for the touch: {e}")))?;
     // A pseudo-terminal has no modem lines: nothing to drop.
     let _ = serialport::SerialPort::write_data_terminal_ready(&mut port, false);
+    drop(port);
+    // The bridge pulses the reset for 3 × 100 ms inside its line-coding callback, then the
+    // bootloader starts: a port opened at another rate before that would only change the
+    // rate under a board still in reset.
+    std::thread::sleep(TOUCH_SETTLE);
     Ok(())
 }
 
@@ -334,6 +342,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     crate::debug!("bootloader: {version}; chip id {chip:?}");
     let started = Instant::now();
+    let progress = {
+        use std::io::IsTerminal as _;
+        std::io::stderr().is_terminal()
+    };
     sb.erase().map_err(sam)?;
     for (i, chunk) in image.bytes.chunks(BLOCK).enumerate() {
         let offset = (i * BLOCK) as u32;
@@ -345,9 +357,13 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 image::FLASH_ORIGIN + offset
             ))
         })?;
-        crate::say_raw!("\rwritten {}/{blocks} blocks", i + 1);
+        if progress {
+            crate::say_raw!("\rwritten {}/{blocks} blocks", i + 1);
+        }
     }
-    crate::say!("");
+    if progress {
+        crate::say!("");
+    }
     let written_ms = started.elapsed().as_millis();
     let mut bad = Vec::new();
     for (i, chunk) in image.bytes.chunks(BLOCK).enumerate() {
@@ -376,12 +392,14 @@ pub fn run(args: Args) -> Result<(), Failure> {
         )));
     }
     crate::say!(
-        "verified {blocks} blocks by CRC-16 ({} ms writing); resetting into the firmware",
+        "wrote {blocks} blocks in {} ms, verified each by CRC-16; resetting into the firmware",
         written_ms
     );
     sb.reset().map_err(sam)?;
     drop(sb);
-    // The bootloader waits 500 ms after a reset before it starts the application.
+    // The bootloader waits 500 ms after the reset before it starts the application; the
+    // port stays at the bootloader's rate until `K#` has left.
+    std::thread::sleep(TOUCH_SETTLE);
     let conn = handshake(&path)?;
     let info = conn.info.clone();
     let _ = conn.close();

@@ -157,9 +157,6 @@ enum Command {
     Ports(cmd::ports::Args),
     /// Write the firmware to an UNO R4 through its bootloader, verify it, and handshake.
     Flash(cmd::flash::Args),
-    /// Pre-flight check with a person watching: sensor zero, valves, servos, gripper, e-stop
-    /// and buttons; a pass/fail table (exit 0 only if every line passes).
-    Check(cmd::check::Args),
     /// Where the tip is for a trunk state and a bend, e.g. pose --state 'D&F' --bend 20,90.
     Pose(cmd::pose::PoseArgs),
     /// Each state's reachable tips for the bends it allows: table, JSON, side-view figure.
@@ -212,7 +209,6 @@ impl Command {
             Command::Identify(a) => a.json,
             Command::Ports(a) => a.json,
             Command::Flash(a) => a.json,
-            Command::Check(a) => a.json,
             Command::Pose(a) => a.json,
             Command::Workspace(a) => a.json,
             Command::Grip(a) => a.json,
@@ -276,7 +272,6 @@ fn main() -> ExitCode {
         Command::Identify(args) => cmd::identify::run(args),
         Command::Ports(args) => cmd::ports::run(args),
         Command::Flash(args) => cmd::flash::run(args),
-        Command::Check(args) => cmd::check::run(args),
         Command::Log(args) => cmd::log::run(args),
         Command::Pose(args) => cmd::pose::run_pose(args),
         Command::Workspace(args) => cmd::pose::run_workspace(args),

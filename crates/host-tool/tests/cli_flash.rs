@@ -8,8 +8,8 @@ mod bootloader;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
-use protocol::{PROTOCOL_VERSION, SCHEMA_ID};
 use bootloader::{Board, Faults};
+use protocol::{PROTOCOL_VERSION, SCHEMA_ID};
 
 /// A 10 340-byte image (two whole 4 KiB blocks and a part): a vector table for 0x4000 (stack
 /// at the top of SRAM, a Thumb reset vector inside), then deterministic bytes.
@@ -60,7 +60,13 @@ fn an_image_is_written_verified_and_the_firmware_then_answers_the_handshake() {
         "-j",
     ]);
     let log = board.stop();
-    assert_eq!(out.status.code(), Some(0), "{} {:?}", text(&out.stderr), log.commands);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{} {:?}",
+        text(&out.stderr),
+        log.commands
+    );
     assert_eq!(log.bauds, [1200, 230_400, 115_200]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
     assert_eq!(v["ok"], true);
@@ -134,7 +140,10 @@ fn a_write_the_bootloader_never_acknowledges_fails_naming_the_block() {
     assert_eq!(out.status.code(), Some(1));
     let e = text(&out.stderr);
     assert!(e.contains("writing block 2/3 at 0x05000"), "{e}");
-    assert!(e.contains("no answer to Y00001000,00001000# within 5000 ms"), "{e}");
+    assert!(
+        e.contains("no answer to Y00001000,00001000# within 5000 ms"),
+        "{e}"
+    );
     assert!(e.contains("run flash again"), "{e}");
     assert_eq!(log.resets, 0);
 }
@@ -164,7 +173,9 @@ fn a_write_that_did_not_take_fails_the_verify_and_the_board_is_not_started() {
     let erased = bootloader::crc16(&vec![0xFF; img.len() - 0x2000]);
     assert!(e.contains("verify failed: 1 of 3 blocks differ"), "{e}");
     assert!(
-        e.contains(&format!("0x06000 (flash CRC {erased:#06x}, image {want:#06x})")),
+        e.contains(&format!(
+            "0x06000 (flash CRC {erased:#06x}, image {want:#06x})"
+        )),
         "{e}"
     );
     assert!(e.contains("stays in its bootloader"), "{e}");
@@ -172,7 +183,10 @@ fn a_write_that_did_not_take_fails_the_verify_and_the_board_is_not_started() {
     assert_eq!(log.resets, 0);
     assert!(!log.commands.iter().any(|c| c == "K#"));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
-    assert_eq!((v["ok"].clone(), v["exit_code"].clone()), (false.into(), 1.into()));
+    assert_eq!(
+        (v["ok"].clone(), v["exit_code"].clone()),
+        (false.into(), 1.into())
+    );
 }
 
 #[test]
@@ -198,7 +212,9 @@ fn another_boards_bootloader_is_refused_before_anything_is_written() {
     assert!(e.contains("v2.0 [Arduino:XYZ]"), "{e}");
     assert!(e.contains("nothing was written"), "{e}");
     assert!(
-        !log.commands.iter().any(|c| c.starts_with('S') || c.starts_with('Y')),
+        !log.commands
+            .iter()
+            .any(|c| c.starts_with('S') || c.starts_with('Y')),
         "{:?}",
         log.commands
     );
@@ -211,27 +227,59 @@ fn images_that_are_not_for_this_flash_map_are_refused_before_the_board_is_touche
     let mut at_zero = image_bytes();
     at_zero[4..8].copy_from_slice(&0x0000_0101u32.to_le_bytes());
     let p = write_image("origin", &at_zero);
-    let out = flash(&["--port", &board.path, "--board", "wifi", "--image", p.to_str().unwrap()]);
+    let out = flash(&[
+        "--port",
+        &board.path,
+        "--board",
+        "wifi",
+        "--image",
+        p.to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(2));
     let e = text(&out.stderr);
-    assert!(e.contains("another flash origin") && e.contains("nothing was sent"), "{e}");
+    assert!(
+        e.contains("another flash origin") && e.contains("nothing was sent"),
+        "{e}"
+    );
     // Larger than the 240 KiB behind the bootloader.
     let mut big = image_bytes();
     big.resize(240 * 1024 + 1, 0);
     let p = write_image("big", &big);
-    let out = flash(&["--port", &board.path, "--board", "wifi", "--image", p.to_str().unwrap()]);
+    let out = flash(&[
+        "--port",
+        &board.path,
+        "--board",
+        "wifi",
+        "--image",
+        p.to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(text(&out.stderr).contains("do not fit"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("do not fit"),
+        "{}",
+        text(&out.stderr)
+    );
     // The Minima: refused with dfu-util's line.
     let p = write_image("minima", &image_bytes());
-    let out = flash(&["--port", &board.path, "--board", "minima", "--image", p.to_str().unwrap()]);
+    let out = flash(&[
+        "--port",
+        &board.path,
+        "--board",
+        "minima",
+        "--image",
+        p.to_str().unwrap(),
+    ]);
     assert_eq!(out.status.code(), Some(2));
     let e = text(&out.stderr);
     assert!(e.contains("dfu-util --device 0x2341:0x0369 -a 0 -D"), "{e}");
     // A pty has no USB id: the board must be named.
     let out = flash(&["--port", &board.path, "--image", p.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(text(&out.stderr).contains("--board wifi"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("--board wifi"),
+        "{}",
+        text(&out.stderr)
+    );
     let log = board.stop();
     assert_eq!(log.touches, 0);
     assert!(log.commands.is_empty(), "{:?}", log.commands);

@@ -42,6 +42,13 @@ pub struct Args {
     /// target/thumbv7em-none-eabihf/firmware/uno-r4].
     #[arg(long, value_name = "FILE")]
     pub image: Option<PathBuf>,
+    /// Also write the checked flat image (what goes to 0x4000) to FILE: an ELF's `.bin`
+    /// without objcopy.
+    #[arg(long, value_name = "FILE.bin")]
+    pub save_bin: Option<PathBuf>,
+    /// Check the image (and write --save-bin) only: no board is looked for or touched.
+    #[arg(long)]
+    pub dry_run: bool,
     /// Print one JSON object.
     #[arg(short = 'j', long)]
     pub json: bool,
@@ -109,7 +116,9 @@ pub fn resolve(
                2341:0369)";
     if let Some(path) = port {
         if path.trim().is_empty() {
-            return Err(Failure::usage("--port needs a device path, e.g. /dev/ttyACM0"));
+            return Err(Failure::usage(
+                "--port needs a device path, e.g. /dev/ttyACM0",
+            ));
         }
         let listed = ports.iter().find(|p| p.port_name == path).and_then(usb_id);
         return match (listed, board) {
@@ -285,10 +294,44 @@ pub fn run(args: Args) -> Result<(), Failure> {
         )));
     }
     let image = image::load(&image_path).map_err(|e| {
-        Failure::usage(format!("refusing the image: {e}; nothing was sent to a board"))
+        Failure::usage(format!(
+            "refusing the image: {e}; nothing was sent to a board"
+        ))
     })?;
+    let blocks = image.bytes.len().div_ceil(BLOCK);
+    if let Some(out) = &args.save_bin {
+        std::fs::write(out, &image.bytes)
+            .map_err(|e| Failure::usage(format!("cannot write {}: {e}", out.display())))?;
+        crate::say!("wrote {} ({} bytes)", out.display(), image.bytes.len());
+    }
+    if args.dry_run {
+        let crc = samba::crc16(&image.bytes);
+        if args.json {
+            crate::cli::print_json(json!({
+                "ok": true,
+                "image": {"path": image_path.display().to_string(), "bytes": image.bytes.len(),
+                          "blocks": blocks, "crc16": format!("{crc:#06x}"),
+                          "initial_sp": format!("{:#010x}", image.initial_sp),
+                          "reset_vector": format!("{:#010x}", image.reset_vector)},
+                "saved": args.save_bin.as_ref().map(|p| p.display().to_string()),
+            }));
+        } else {
+            crate::out!(
+                "{}: {} bytes ({blocks} blocks of 4 KiB) for {:#06x}, stack {:#010x}, reset \
+                 {:#010x}, CRC-16 {crc:#06x}: a valid image (dry run: no board touched)",
+                image_path.display(),
+                image.bytes.len(),
+                image::FLASH_ORIGIN,
+                image.initial_sp,
+                image.reset_vector
+            );
+        }
+        return Ok(());
+    }
     if args.board == Some(BoardKind::Minima) {
-        return Err(Failure::usage(minima_refusal(&image_path.display().to_string())));
+        return Err(Failure::usage(minima_refusal(
+            &image_path.display().to_string(),
+        )));
     }
     let port = args.port.clone().or_else(|| {
         std::env::var(crate::device::PORT_ENV)
@@ -320,7 +363,6 @@ pub fn run(args: Args) -> Result<(), Failure> {
         )));
     }
     let path = target.path.clone();
-    let blocks = image.bytes.len().div_ceil(BLOCK);
     crate::say!(
         "flashing {} ({} bytes, {blocks} blocks of 4 KiB from {:#06x}) to the {} on {path}",
         image_path.display(),
@@ -433,7 +475,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
             "versions_match": same_fw,
         }));
     } else {
-        crate::out!("flashed and verified: {} bytes on {path}", image.bytes.len());
+        crate::out!(
+            "flashed and verified: {} bytes on {path}",
+            image.bytes.len()
+        );
         crate::out!(
             "device: firmware {fw}, protocol {}, schema {:#010x}, {}",
             info.protocol_version,
@@ -463,10 +508,12 @@ fn handshake(path: &str) -> Result<crate::device::Connection, Failure> {
         match cfg.connect() {
             Ok(c) => return Ok(c),
             // Another protocol or schema: the answer is final.
-            Err(e @ crate::device::ConnectError::Handshake {
-                source: host::SessionError::VersionMismatch(_),
-                ..
-            }) => {
+            Err(
+                e @ crate::device::ConnectError::Handshake {
+                    source: host::SessionError::VersionMismatch(_),
+                    ..
+                },
+            ) => {
                 return Err(runtime(format!(
                     "the image was written and verified, but the firmware it runs is not this \
                      host's: {e}"
@@ -527,7 +574,10 @@ mod tests {
         let Err(Failure::Usage(none)) = resolve(&[], None, None, None) else {
             panic!("no port is a usage error")
         };
-        assert!(none.contains("no serial port at all") && none.contains("2341:1002"), "{none}");
+        assert!(
+            none.contains("no serial port at all") && none.contains("2341:1002"),
+            "{none}"
+        );
         // An Arduino Uno R3 (2341:0043) and a CH340: neither is an UNO R4.
         let other = [
             usb("/dev/ttyACM0", 0x2341, 0x0043),

@@ -1,7 +1,6 @@
 //! One module per subcommand: `Args` (clap) and `run`.
 
 pub mod aim;
-pub mod check;
 pub mod declare;
 pub mod demo;
 pub mod design;

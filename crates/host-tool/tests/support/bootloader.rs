@@ -180,10 +180,7 @@ fn run(
                 });
             }
         }
-        let n = match master.read(&mut buf) {
-            Ok(n) => n,
-            Err(_) => 0,
-        };
+        let n: usize = master.read(&mut buf).unwrap_or_default();
         let input = &buf[..n];
         match &mut mode {
             Mode::Dead => {}

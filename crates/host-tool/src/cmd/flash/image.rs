@@ -120,7 +120,9 @@ pub fn check(bytes: Vec<u8>) -> Result<Image, String> {
         ));
     }
     let end = FLASH_ORIGIN as u64 + bytes.len() as u64;
-    if reset & 1 == 0 || u64::from(reset & !1) < u64::from(FLASH_ORIGIN) || u64::from(reset & !1) >= end
+    if reset & 1 == 0
+        || u64::from(reset & !1) < u64::from(FLASH_ORIGIN)
+        || u64::from(reset & !1) >= end
     {
         return Err(format!(
             "its reset vector {reset:#010x} is not a Thumb address inside the image \

@@ -158,7 +158,10 @@ impl<P: Read + Write> Samba<P> {
     fn line(&mut self, command: &str, limit: Duration) -> Result<String, SambaError> {
         self.send(command.as_bytes())?;
         let got = self.read_until(command, limit, |g| g.windows(2).any(|w| w == b"\n\r"))?;
-        let end = got.windows(2).position(|w| w == b"\n\r").unwrap_or(got.len());
+        let end = got
+            .windows(2)
+            .position(|w| w == b"\n\r")
+            .unwrap_or(got.len());
         Ok(String::from_utf8_lossy(&got[..end]).into_owned())
     }
 

@@ -159,6 +159,8 @@ enum Command {
     Identify(cmd::identify::Args),
     /// List serial ports; recognise Arduino UNO R4 boards.
     Ports(cmd::ports::Args),
+    /// Write the firmware to an UNO R4 through its bootloader, verify it, and handshake.
+    Flash(cmd::flash::Args),
     /// Where the tip is for a trunk state and a bend, e.g. pose --state 'D&F' --bend 20,90.
     Pose(cmd::pose::PoseArgs),
     /// Each state's reachable tips for the bends it allows: table, JSON, side-view figure.
@@ -211,6 +213,7 @@ impl Command {
             Command::Param(a) => a.json(),
             Command::Identify(a) => a.json,
             Command::Ports(a) => a.json,
+            Command::Flash(a) => a.json,
             Command::Pose(a) => a.json,
             Command::Workspace(a) => a.json,
             Command::Grip(a) => a.json,
@@ -274,6 +277,7 @@ fn main() -> ExitCode {
         Command::Stop(args) => cmd::stop::run(args),
         Command::Identify(args) => cmd::identify::run(args),
         Command::Ports(args) => cmd::ports::run(args),
+        Command::Flash(args) => cmd::flash::run(args),
         Command::Log(args) => cmd::log::run(args),
         Command::Pose(args) => cmd::pose::run_pose(args),
         Command::Workspace(args) => cmd::pose::run_workspace(args),

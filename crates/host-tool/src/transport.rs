@@ -108,7 +108,12 @@ impl host::Io for AnyIo {
 /// Opens the serial device at `path` (8N1, no flow control, 115200 baud). A port held by
 /// another process is named with that process, if the system tells.
 pub fn open(path: &str) -> anyhow::Result<Port> {
-    let port = serialport::new(path, BAUD)
+    open_at(path, BAUD)
+}
+
+/// As [`open`], at `baud` (the bootloader's rate for `flash`).
+pub fn open_at(path: &str, baud: u32) -> anyhow::Result<Port> {
+    let port = serialport::new(path, baud)
         .data_bits(serialport::DataBits::Eight)
         .parity(serialport::Parity::None)
         .stop_bits(serialport::StopBits::One)

@@ -5,6 +5,7 @@ pub mod declare;
 pub mod demo;
 pub mod design;
 pub mod fk;
+pub mod flash;
 pub mod identify;
 pub mod ik;
 pub mod log;

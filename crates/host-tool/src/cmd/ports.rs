@@ -17,7 +17,7 @@ pub struct Args {
 }
 
 /// The serial ports of this machine.
-fn list() -> Result<Vec<serialport::SerialPortInfo>, Failure> {
+pub fn list() -> Result<Vec<serialport::SerialPortInfo>, Failure> {
     // serialport's sysfs scan panics when /sys/class/tty is missing (containers): check first.
     if cfg!(target_os = "linux") && !std::path::Path::new("/sys/class/tty").is_dir() {
         return Ok(Vec::new());
@@ -55,7 +55,7 @@ pub fn detect() -> Result<String, Failure> {
 pub type Ask<'a> = dyn FnMut(&str) -> Option<String> + 'a;
 
 /// Reads the operator's choice after showing `prompt`.
-fn ask(prompt: &str) -> Option<String> {
+pub fn ask(prompt: &str) -> Option<String> {
     let _ = write!(std::io::stderr(), "{prompt}");
     let mut line = String::new();
     std::io::stdin().read_line(&mut line).ok()?;

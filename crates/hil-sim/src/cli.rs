@@ -20,18 +20,31 @@ pub fn parse_seed(s: &str) -> Result<u64, String> {
 }
 
 /// For a state argument that is a state's first half (`D` of `D&F`: an unquoted `&` made the
-/// shell run the rest as another command), a hint to quote it; otherwise empty.
+/// shell run the rest as another command), a hint to quote it; for one that is a state's two
+/// letters with something else (or nothing) between them (`DF`, `d/f`, `D F`), the state it
+/// names; otherwise empty.
 pub fn ampersand_hint(value: &str) -> String {
     let v = value.trim();
     if matches!(v, "F" | "D" | "f" | "d") {
-        format!(
+        return format!(
             ". An unquoted & ends a shell command: did you mean '{}&…'? Quote state names, \
              e.g. --target 'D&F'",
             v.to_ascii_uppercase()
-        )
-    } else {
-        String::new()
+        );
     }
+    let letters: Vec<char> = v
+        .chars()
+        .filter(char::is_ascii_alphabetic)
+        .map(|c| c.to_ascii_uppercase())
+        .collect();
+    let others = v.chars().filter(|c| !c.is_ascii_alphabetic()).count();
+    if let ([top, bottom], 0..=1) = (letters.as_slice(), others) {
+        let guess = format!("{top}&{bottom}");
+        if guess.parse::<geometry::TrunkState>().is_ok() && guess != v {
+            return format!(". Did you mean '{guess}'?");
+        }
+    }
+    String::new()
 }
 
 /// Parses a `--sim-trunk-scale` value: a number in [`crate::physics::spec::SCALE_RANGE`].
@@ -90,5 +103,12 @@ mod tests {
         assert!(ampersand_hint("D").contains("--target 'D&F'"));
         assert!(ampersand_hint("F").contains("'F&…'"));
         assert_eq!(ampersand_hint("X&Y"), "");
+        assert_eq!(ampersand_hint("DF"), ". Did you mean 'D&F'?");
+        assert_eq!(ampersand_hint("f/p"), ". Did you mean 'F&P'?");
+        assert_eq!(ampersand_hint(" d f "), ". Did you mean 'D&F'?");
+        // Letters that name no state (P is only a bottom state), or too much in between.
+        assert_eq!(ampersand_hint("PD"), "");
+        assert_eq!(ampersand_hint("D&&F"), "");
+        assert_eq!(ampersand_hint("DFF"), "");
     }
 }

@@ -35,7 +35,8 @@ pub struct DeviceArgs {
     pub sim_initial: Option<String>,
     /// Simulator: pace virtual time at X times wall time [range: 0.1–1000] [default: as fast
     /// as the CPU allows; `monitor`: 1].
-    #[arg(long, value_name = "X", value_parser = crate::num::number_in(0.1, 1000.0))]
+    #[arg(long, value_name = "X", allow_hyphen_values = true,
+          value_parser = crate::num::number_in(0.1, 1000.0))]
     pub sim_speed: Option<f64>,
     /// Simulator: inject a fault (repeatable): valve-stuck-closed, valve-stuck-open, leak,
     /// servo-stall, tendon-break, sensor-dropout, link-drop, line-noise.

@@ -243,6 +243,72 @@ fn help_examples_are_quoted_and_an_unquoted_ampersand_gets_a_hint() {
         "{}",
         text(&out.stderr)
     );
+    // A state's two letters without the `&`, or with another separator: the state they name.
+    for (typed, meant) in [("DF", "D&F"), ("f/p", "F&P"), ("d d", "D&D")] {
+        let out = host_tool(&["plan", "--target", typed, "--sim"]);
+        assert_eq!(out.status.code(), Some(2), "{typed}");
+        let err = text(&out.stderr);
+        assert!(
+            err.contains(&format!("Did you mean '{meant}'?")),
+            "{typed}: {err}"
+        );
+    }
+    // Letters that name no state get the list and no guess.
+    let err = text(&host_tool(&["plan", "--target", "PD", "--sim"]).stderr);
+    assert!(
+        err.contains("F&P, F&F, F&D, D&P, D&F, D&D") && !err.contains("Did you mean"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_negative_speed_is_refused_with_the_range_not_as_an_unknown_argument() {
+    for bad in ["-1", "0", "1001"] {
+        let out = host_tool(&["plan", "--target", "D&F", "--sim", "--sim-speed", bad]);
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        let err = text(&out.stderr);
+        assert!(
+            err.contains("expected a number from 0.1 to 1000"),
+            "{bad}: {err}"
+        );
+    }
+    // The range's ends are accepted (a dry run moves nothing and paces nothing).
+    for edge in ["0.1", "1000"] {
+        let out = host_tool(&[
+            "plan",
+            "--target",
+            "D&F",
+            "--sim",
+            "--sim-speed",
+            edge,
+            "--dry-run",
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{edge}: {}", text(&out.stderr));
+    }
+}
+
+#[test]
+fn ports_prints_a_header_and_says_when_no_uno_r4_is_found() {
+    let out = host_tool(&["ports"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let shown = text(&out.stdout);
+    let listed: Value = serde_json::from_slice(&host_tool(&["ports", "-j"]).stdout).unwrap();
+    let rows = listed.as_array().unwrap();
+    if rows.is_empty() {
+        assert!(shown.starts_with("no serial ports found"), "{shown}");
+        return;
+    }
+    assert!(shown.starts_with("PORT "), "{shown}");
+    assert_eq!(
+        shown.lines().count(),
+        rows.len() + 1 + usize::from(!rows.iter().any(|r| r["uno_r4"] == true))
+    );
+    let no_board = shown.contains("no UNO R4 found");
+    assert_eq!(
+        no_board,
+        !rows.iter().any(|r| r["uno_r4"] == true),
+        "{shown}"
+    );
 }
 
 /// A solve that takes its whole time limit (exact, n = 4, m = 30: far from proven in 5 s).

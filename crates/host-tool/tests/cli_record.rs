@@ -134,9 +134,176 @@ fn a_file_that_is_not_mcap_is_refused_with_the_reason() {
     let out = host_tool(&["log", "summary", path.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("not an MCAP file"));
-    let out = host_tool(&["log", "summary", "/nonexistent/x.mcap"]);
-    assert_eq!(out.status.code(), Some(1));
+    // A missing input is a usage error, as in every command (`ik --target-file` too).
+    for args in [
+        &["log", "summary", "/nonexistent/x.mcap"][..],
+        &["log", "export", "/nonexistent/x.mcap", "--csv", "/tmp"][..],
+        &[
+            "ik",
+            "--n",
+            "4",
+            "--beta",
+            "35",
+            "--modules",
+            "4",
+            "--target-file",
+            "/nonexistent/x.csv",
+        ][..],
+    ] {
+        let out = host_tool(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("/nonexistent/x."),
+            "{args:?}"
+        );
+    }
     let _ = std::fs::remove_file(&path);
+}
+
+/// `log export --topic`, `--from/--to` and `--csv -`, and `log plot` with a declared state and
+/// a fault, on a plan whose last step the operator's word decides (F&D → F&F: the device
+/// cannot confirm it; the simulated operator declares the truth) — the plot must not draw the
+/// declaration as the device's confirmation.
+#[test]
+fn export_selects_channels_and_a_window_and_the_plot_tells_a_declaration_from_a_confirmation() {
+    let dir = std::env::temp_dir().join(format!("cli-record-sel-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mcap = dir.join("declared.mcap");
+    let m = mcap.to_str().unwrap();
+    let out = host_tool(&[
+        "plan",
+        "--target",
+        "F&F",
+        "--sim",
+        "--sim-initial",
+        "F&D",
+        "--record",
+        m,
+        "-q",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // One channel to stdout: the header and one row per telemetry sample in the window.
+    let all = host_tool(&["log", "export", m, "--csv", "-", "--topic", "/telemetry"]);
+    assert_eq!(all.status.code(), Some(0));
+    let rows_all = stdout(&all).lines().count() - 1;
+    assert!(rows_all > 150, "{rows_all} rows");
+    let win = host_tool(&[
+        "log",
+        "export",
+        m,
+        "--csv",
+        "-",
+        "--topic",
+        "/telemetry",
+        "--from",
+        "1",
+        "--to",
+        "2",
+    ]);
+    assert_eq!(win.status.code(), Some(0));
+    let text = stdout(&win);
+    let times: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    // 50 Hz telemetry: 1 s holds 50 ± 2 samples, all inside the window (the first message
+    // is at t ≈ 0).
+    assert!((48..=52).contains(&times.len()), "{} rows", times.len());
+    let t0: f64 = stdout(&all)
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        times
+            .iter()
+            .all(|t| (t0 + 1.0 - 1e-6..=t0 + 2.0 + 1e-6).contains(t)),
+        "{times:?}"
+    );
+
+    // A directory export of two channels writes exactly those two files.
+    let csv = dir.join("csv");
+    let out = host_tool(&[
+        "log",
+        "export",
+        m,
+        "--csv",
+        csv.to_str().unwrap(),
+        "--topic",
+        "/faults",
+        "--topic",
+        "/state",
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    let mut names: Vec<String> = std::fs::read_dir(&csv)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["faults.csv", "state.csv"]);
+
+    // Refusals, before anything is written.
+    for (args, says) in [
+        (
+            &["log", "export", m, "--csv", "-"][..],
+            "name it with --topic",
+        ),
+        (
+            &["log", "export", m, "--csv", "-", "--topic", "/nope"][..],
+            "no such channel",
+        ),
+        (
+            &["log", "export", m, "--csv", "-", "--topic", "/scene"][..],
+            "not exported to CSV",
+        ),
+        (
+            &[
+                "log", "export", m, "--csv", "-", "--topic", "/state", "--from", "2", "--to", "1",
+            ][..],
+            "later than --from",
+        ),
+        (
+            &[
+                "log", "export", m, "--csv", "-", "--topic", "/state", "--from", "-1",
+            ][..],
+            "expected a number from 0",
+        ),
+    ] {
+        let out = host_tool(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    assert!(
+        !std::path::Path::new("-").exists(),
+        "--csv - made a directory named -"
+    );
+
+    // The plot: the declared F&F drawn as declared, the E-04 of the unconfirmable step as a
+    // fault; nothing drawn as confirmed by the device.
+    let svg = dir.join("declared.svg");
+    let out = host_tool(&["log", "plot", m, "--out", svg.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0));
+    let said = stdout(&out);
+    assert!(
+        said.contains("0 confirmed states, 1 declared, 1 faults raised"),
+        "{said}"
+    );
+    let drawn = std::fs::read_to_string(&svg).unwrap();
+    assert!(drawn.contains("F&amp;F (declared)"), "no declared label");
+    assert!(drawn.contains(">E-04<"), "no fault label");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

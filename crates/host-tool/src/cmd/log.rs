@@ -35,9 +35,15 @@ pub enum LogCommand {
     Export {
         /// The MCAP file.
         file: PathBuf,
-        /// The directory to write the CSV files into (created if missing).
-        #[arg(long, value_name = "DIR")]
+        /// The directory to write the CSV files into (created if missing); `-`: the one
+        /// channel --topic selects, to stdout.
+        #[arg(long, value_name = "DIR|-")]
         csv: PathBuf,
+        /// Only this channel (repeatable), e.g. --topic /telemetry (`log summary` lists them).
+        #[arg(long = "topic", value_name = "TOPIC")]
+        topics: Vec<String>,
+        #[command(flatten)]
+        window: Window,
     },
     /// Pressure and servo traces with the snap-throughs marked, one journal column wide:
     /// SVG, PNG (600 dpi) or PDF, by the extension of --out or by --format.
@@ -50,6 +56,8 @@ pub enum LogCommand {
         /// The format (svg, png, pdf) when the extension of --out does not name one.
         #[arg(long, value_name = "FORMAT")]
         format: Option<String>,
+        #[command(flatten)]
+        window: Window,
     },
     /// Rewrites a recording whose writer died (no summary) as a complete file.
     Recover {
@@ -59,6 +67,19 @@ pub enum LogCommand {
         #[arg(long, value_name = "FILE.mcap")]
         out: PathBuf,
     },
+}
+
+/// A time window of a recording, in seconds after its first message.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct Window {
+    /// From S seconds after the recording's first message [default: its start].
+    #[arg(long, value_name = "S", allow_hyphen_values = true,
+          value_parser = crate::num::number_in(0.0, 1e9))]
+    from: Option<f64>,
+    /// Up to S seconds after the recording's first message [default: its end].
+    #[arg(long, value_name = "S", allow_hyphen_values = true,
+          value_parser = crate::num::number_in(0.0, 1e9))]
+    to: Option<f64>,
 }
 
 /// One message, decoded.
@@ -94,8 +115,9 @@ impl Log {
 }
 
 fn load(path: &Path) -> Result<Log, Failure> {
-    let buf =
-        std::fs::read(path).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    // An input that cannot be read is the caller's to fix, as for every command's input file.
+    let buf = std::fs::read(path)
+        .map_err(|e| Failure::usage(format!("cannot read {}: {e}", path.display())))?;
     if !buf.starts_with(mcap::MAGIC) {
         return Err(Failure::Runtime(anyhow::anyhow!(
             "{} is not an MCAP file (it does not start with the MCAP magic)",
@@ -155,10 +177,68 @@ fn load(path: &Path) -> Result<Log, Failure> {
 pub fn run(args: Args) -> Result<(), Failure> {
     match args.command {
         LogCommand::Summary { file } => summary(&file),
-        LogCommand::Export { file, csv } => export(&file, &csv),
-        LogCommand::Plot { file, out, format } => plot(&file, &out, format.as_deref()),
+        LogCommand::Export {
+            file,
+            csv,
+            topics,
+            window,
+        } => export(&file, &csv, &topics, window),
+        LogCommand::Plot {
+            file,
+            out,
+            format,
+            window,
+        } => plot(&file, &out, format.as_deref(), window),
         LogCommand::Recover { file, out } => recover(&file, &out),
     }
+}
+
+impl Window {
+    /// Refuses a window that ends before it starts.
+    fn check(self) -> Result<Self, Failure> {
+        match (self.from, self.to) {
+            (Some(a), Some(b)) if b <= a => Err(Failure::usage(format!(
+                "--to {b} must be later than --from {a} (seconds after the recording's first message)"
+            ))),
+            _ => Ok(self),
+        }
+    }
+
+    /// Keeps the messages inside the window; says what it kept when it cut anything.
+    fn apply(self, log: &mut Log) {
+        if self.from.is_none() && self.to.is_none() {
+            return;
+        }
+        let t0 = log.messages.iter().map(|m| m.log_ns).min().unwrap_or(0);
+        let from = t0 + (self.from.unwrap_or(0.0) * 1e9) as u64;
+        let to = self.to.map_or(u64::MAX, |s| t0 + (s * 1e9) as u64);
+        let before = log.messages.len();
+        log.messages.retain(|m| (from..=to).contains(&m.log_ns));
+        crate::say!(
+            "window {:.3} s – {}: {} of {before} messages",
+            secs(from - t0),
+            self.to
+                .map_or("the end".to_string(), |s| format!("{s:.3} s")),
+            log.messages.len()
+        );
+    }
+}
+
+/// Keeps only the channels named by `topics` (all when empty); an unknown name is refused
+/// with the channels the recording has.
+fn select_topics(log: &mut Log, topics: &[String]) -> Result<(), Failure> {
+    if topics.is_empty() {
+        return Ok(());
+    }
+    let known: Vec<&str> = log.channels.values().map(|c| c.0.as_str()).collect();
+    if let Some(bad) = topics.iter().find(|t| !known.contains(&t.as_str())) {
+        return Err(Failure::usage(format!(
+            "--topic {bad}: the recording has no such channel; it has {}",
+            known.join(", ")
+        )));
+    }
+    log.channels.retain(|_, c| topics.contains(&c.0));
+    Ok(())
 }
 
 fn secs(ns: u64) -> f64 {
@@ -244,10 +324,29 @@ fn csv_cell(s: &str) -> String {
     }
 }
 
-fn export(path: &Path, dir: &Path) -> Result<(), Failure> {
-    let log = load(path)?;
-    std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+fn export(path: &Path, dir: &Path, topics: &[String], window: Window) -> Result<(), Failure> {
+    let window = window.check()?;
+    let to_stdout = dir.as_os_str() == "-";
+    if to_stdout && topics.len() != 1 {
+        return Err(Failure::usage(
+            "--csv - writes one channel to stdout: name it with --topic (e.g. --topic /telemetry); give a directory for several",
+        ));
+    }
+    let mut log = load(path)?;
+    select_topics(&mut log, topics)?;
+    window.apply(&mut log);
+    if to_stdout {
+        if let Some((topic, (.., enc))) = log.channels.iter().next().map(|(_, c)| (&c.0, c)) {
+            if enc != "json" {
+                return Err(Failure::usage(format!(
+                    "--topic {topic}: {enc} messages (the 3D scene) are not exported to CSV"
+                )));
+            }
+        }
+    } else {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
     if let Some(why) = &log.truncated {
         crate::say!(
             "note: {} is incomplete ({why}): exporting what is readable",
@@ -294,6 +393,11 @@ fn export(path: &Path, dir: &Path) -> Result<(), Failure> {
                 text.push_str(&csv_cell(cells.get(c.as_str()).copied().unwrap_or("")));
             }
             text.push('\n');
+        }
+        if to_stdout {
+            crate::out!("{}", text.trim_end());
+            crate::say!("{topic}: {} rows", rows.len());
+            continue;
         }
         let name = format!("{}.csv", topic.trim_start_matches('/').replace('/', "_"));
         let file = dir.join(&name);
@@ -380,16 +484,18 @@ fn figure_format(out: &Path, format: Option<&str>) -> Result<Format, Failure> {
     }
 }
 
-fn plot(path: &Path, out: &Path, format: Option<&str>) -> Result<(), Failure> {
+fn plot(path: &Path, out: &Path, format: Option<&str>, window: Window) -> Result<(), Failure> {
     let format = figure_format(out, format)?;
+    let window = window.check()?;
     let file = super::output::open_all(&[("--out", out)])?;
-    let log = match load(path) {
+    let mut log = match load(path) {
         Ok(log) => log,
         Err(e) => {
             super::output::discard(file);
             return Err(e);
         }
     };
+    window.apply(&mut log);
     let t = plot::traces(&log);
     let Some(fig) = plot::render(&t, &plot::title(path, &log)) else {
         super::output::discard(file);
@@ -407,11 +513,13 @@ fn plot(path: &Path, out: &Path, format: Option<&str>) -> Result<(), Failure> {
         o.write(|w| w.write_all(&bytes))?;
     }
     crate::out!(
-        "{}: {} samples, {} snap-throughs, {} confirmed states",
+        "{}: {} samples, {} snap-throughs, {} confirmed states, {} declared, {} faults raised",
         out.display(),
         t.telemetry.len(),
         t.snaps.len(),
-        t.reached.len()
+        t.reached.len(),
+        t.declared.len(),
+        t.faults.len()
     );
     Ok(())
 }

@@ -145,14 +145,22 @@ pub fn run(args: Args) -> Result<(), Failure> {
         crate::out!("no serial ports found (use --sim to try host-tool without hardware)");
         return Ok(());
     }
+    crate::out!(
+        "{:<20} {:<7} {:<9} {}",
+        "PORT",
+        "TYPE",
+        "VID:PID",
+        "PRODUCT / BOARD"
+    );
     for r in &rows {
         let mut line = format!(
-            "{:<20} {}",
+            "{:<20} {:<7}",
             r["path"].as_str().unwrap_or("?"),
             r["type"].as_str().unwrap_or("?")
         );
-        if let (Some(vid), Some(pid)) = (r["vid"].as_str(), r["pid"].as_str()) {
-            line += &format!(" {vid}:{pid}");
+        match (r["vid"].as_str(), r["pid"].as_str()) {
+            (Some(vid), Some(pid)) => line += &format!(" {vid}:{pid}"),
+            _ => line += "          ",
         }
         if let Some(product) = r["product"].as_str() {
             line += &format!(" \"{product}\"");
@@ -163,7 +171,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 line += " (a crane's board: used when no --port is given)";
             }
         }
-        crate::out!("{line}");
+        crate::out!("{}", line.trim_end());
+    }
+    if !rows.iter().any(|r| r["uno_r4"] == true) {
+        crate::out!(
+            "no UNO R4 found: plug the crane's board in (USB), or give --port PATH; --sim runs the built-in simulator"
+        );
     }
     Ok(())
 }

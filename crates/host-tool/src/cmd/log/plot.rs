@@ -1,6 +1,7 @@
 //! `host-tool log plot`: the pressure and servo traces of a recording against device time,
-//! one journal column wide, with the snap-throughs (the simulator's truth) and the states the
-//! device confirmed marked through both panels.
+//! one journal column wide, with the snap-throughs (the simulator's truth), the states the
+//! device confirmed, the states a person or the host declared (drawn apart: a declaration is
+//! not the device's evidence) and the faults raised marked through both panels.
 
 use std::path::Path;
 
@@ -20,7 +21,16 @@ pub struct Traces {
     pub snaps: Vec<f64>,
     /// (device time s, state) the device confirmed.
     pub reached: Vec<(f64, String)>,
+    /// (device time s, state) declared (`DeclareState`: the operator, or the host on the
+    /// operator's word): the device holds it as confirmed, the plot does not.
+    pub declared: Vec<(f64, String)>,
+    /// (device time s, `E-04`) faults raised.
+    pub faults: Vec<(f64, String)>,
 }
+
+/// How long after a `DeclareState` request the device's `StateReached` for that state counts
+/// as the declaration's (the request's round trip and the device's next loop pass).
+const DECLARE_WINDOW_S: f64 = 2.0;
 
 /// Reads the traces from a recording.
 pub fn traces(log: &Log) -> Traces {
@@ -51,26 +61,45 @@ pub fn traces(log: &Log) -> Traces {
         .filter(|w| w[1].2 > w[0].2)
         .map(|w| w[1].0)
         .collect();
-    let reached = log
+    let declares: Vec<(f64, &serde_json::Value)> = log
+        .topic("/link/requests")
+        .filter(|m| m.data["name"] == "DeclareState")
+        .map(|m| (secs(m.log_ns), &m.data["body"]["DeclareState"]))
+        .collect();
+    let (mut reached, mut declared) = (Vec::new(), Vec::new());
+    for m in log
         .topic("/events")
         .filter(|m| m.data["kind"] == "state-reached")
         .filter(|m| m.data["event"]["StateReached"]["confirmed"] == true)
-        .map(|m| {
-            (
-                secs(m.log_ns),
-                m.data["text"]
-                    .as_str()
-                    .unwrap_or("")
-                    .trim_start_matches("state ")
-                    .to_string(),
-            )
-        })
+    {
+        let ts = secs(m.log_ns);
+        let name = m.data["text"]
+            .as_str()
+            .unwrap_or("")
+            .trim_start_matches("state ")
+            .to_string();
+        let state = &m.data["event"]["StateReached"]["state"];
+        let by_declaration = declares
+            .iter()
+            .any(|(td, s)| *s == state && *td <= ts && ts - td <= DECLARE_WINDOW_S);
+        if by_declaration {
+            declared.push((ts, name));
+        } else {
+            reached.push((ts, name));
+        }
+    }
+    let faults = log
+        .topic("/faults")
+        .filter(|m| m.data["raised"] == true)
+        .filter_map(|m| Some((secs(m.log_ns), m.data["code"].as_str()?.to_string())))
         .collect();
     Traces {
         telemetry,
         truth,
         snaps,
         reached,
+        declared,
+        faults,
     }
 }
 
@@ -119,6 +148,8 @@ const MEASURED: Stroke = Stroke::solid(colour::BLUE, 0.9);
 const TRUE_P: Stroke = Stroke::dashed(colour::BLACK, 0.6, "2 1.5");
 const SNAP: Stroke = Stroke::solid(colour::VERMILLION, 0.6);
 const REACHED: Stroke = Stroke::dashed(colour::GREEN, 0.7, "3 2");
+const DECLARED: Stroke = Stroke::dashed(colour::GREY, 0.7, "1 1.5");
+const FAULT: Stroke = Stroke::solid(colour::PURPLE, 1.0);
 
 /// Draws the figure of `t`; `title` names the recording. `None` when there is too little
 /// telemetry to plot.
@@ -188,6 +219,15 @@ pub fn render(t: &Traces, title: &str) -> Option<Figure> {
     if !t.reached.is_empty() {
         legend.add(Swatch::Line(REACHED), "state confirmed by the device");
     }
+    if !t.declared.is_empty() {
+        legend.add(
+            Swatch::Line(DECLARED),
+            "state declared (a person's or the host's word)",
+        );
+    }
+    if !t.faults.is_empty() {
+        legend.add(Swatch::Line(FAULT), "fault raised (its code below)");
+    }
     let mut notes = Vec::new();
     if let Some(v) = constant {
         notes.push(format!(
@@ -206,7 +246,7 @@ pub fn render(t: &Traces, title: &str) -> Option<Figure> {
         + sub.len() as f64 * LEADING * SIZE_LABEL
         + 2.0;
     // Room above the pressure panel for the state labels.
-    let label_h = if t.reached.is_empty() {
+    let label_h = if t.reached.is_empty() && t.declared.is_empty() {
         2.0
     } else {
         LEADING * SIZE_TICK
@@ -265,26 +305,58 @@ pub fn render(t: &Traces, title: &str) -> Option<Figure> {
             fig.line((x, top), (x, bottom), SNAP);
         }
         fig.end();
-        fig.begin("states-confirmed");
-        for (ts, _) in &t.reached {
-            let (x, _) = area.map(*ts, 0.0);
-            fig.line((x, top), (x, bottom), REACHED);
+        for (class, marks, stroke) in [
+            ("states-confirmed", &t.reached, REACHED),
+            ("states-declared", &t.declared, DECLARED),
+            ("faults", &t.faults, FAULT),
+        ] {
+            fig.begin(class);
+            for (ts, _) in marks {
+                let (x, _) = area.map(*ts, 0.0);
+                fig.line((x, top), (x, bottom), stroke);
+            }
+            fig.end();
         }
-        fig.end();
     }
+    // Fault codes inside the pressure panel's foot, right of their line, clear of each other.
+    fig.begin("fault-labels");
+    let mut last_right = f64::NEG_INFINITY;
+    let foot = p_area.rect.y + p_area.rect.h - 1.5 - DESCENT * SIZE_TICK;
+    for (ts, code) in &t.faults {
+        let (x, _) = p_area.map(*ts, 0.0);
+        let w = crate::figure::text_width(code, SIZE_TICK);
+        let lx = (x + 1.0).min(p_area.rect.x + p_area.rect.w - w - 1.0);
+        if lx < last_right + 2.0 {
+            continue;
+        }
+        fig.text(lx, foot, SIZE_TICK, Anchor::Start, colour::PURPLE, code);
+        last_right = lx + w;
+    }
+    fig.end();
     // State labels above the pressure panel, centred on their line, kept inside the canvas
     // and clear of each other.
     fig.begin("state-labels");
     let mut last_right = f64::NEG_INFINITY;
     let base = p_area.rect.y - 1.5 - DESCENT * SIZE_TICK;
-    for (ts, name) in &t.reached {
+    let mut labels: Vec<(f64, String, &str)> = t
+        .reached
+        .iter()
+        .map(|(ts, n)| (*ts, n.clone(), colour::GREEN))
+        .chain(
+            t.declared
+                .iter()
+                .map(|(ts, n)| (*ts, format!("{n} (declared)"), colour::GREY)),
+        )
+        .collect();
+    labels.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (ts, name, ink) in &labels {
         let (x, _) = p_area.map(*ts, 0.0);
         let w = crate::figure::text_width(name, SIZE_TICK);
         let cx = x.clamp(MARGIN + w / 2.0, width - MARGIN - w / 2.0);
         if cx - w / 2.0 < last_right + 2.0 {
             continue;
         }
-        fig.text(cx, base, SIZE_TICK, Anchor::Middle, colour::GREEN, name);
+        fig.text(cx, base, SIZE_TICK, Anchor::Middle, ink, name);
         last_right = cx + w / 2.0;
     }
     fig.end();

@@ -32,7 +32,7 @@ fn the_slowest_accepted_speed_answers_status() {
 
 #[test]
 fn speeds_the_pty_cannot_hold_are_refused_with_the_reason() {
-    for bad in ["20.5", "1000", "inf", "0", "-3", "fast"] {
+    for bad in ["20.5", "1000", "inf", "0", "-3", "fast", "0.09", "1e-9"] {
         let out = run(
             &binary("hil-sim"),
             &["--pty", "--speed", bad],

@@ -46,7 +46,7 @@ struct Cli {
     /// tendon-break, sensor-dropout, link-drop, line-noise.
     #[arg(long = "sim-fault", alias = "fault", value_name = "NAME", value_parser = parse_fault)]
     faults: Vec<Fault>,
-    /// Virtual seconds per wall second [range: (0, 20]]: a pty client keeps the hardware's
+    /// Virtual seconds per wall second [range: 0.1–20]: a pty client keeps the hardware's
     /// wall-clock timing, and the controller's link timeout (3 s × speed) goes up to 60 s.
     /// Default 1: real time, as the crane.
     #[arg(long, alias = "speed", value_name = "X", default_value = "1", value_parser = parse_speed, allow_negative_numbers = true)]

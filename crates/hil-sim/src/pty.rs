@@ -36,12 +36,25 @@ const MAX_CATCH_UP_MS: u64 = 2_000;
 /// link timeout of 3 s × speed reaches its 60 s maximum).
 pub const MAX_PTY_SPEED: f64 = 20.0;
 
+/// The slowest speed the pty serves, the slowest `host-tool --sim-speed` takes. Slower, a
+/// client on the hardware's timing stops being answered: at ×0.001 a request's bytes and the
+/// device's loop pass take longer in wall time than a client's 13 retries over 3.25 s
+/// (measured: `host-tool status` answered at ×0.005 in 0.5 s and never at ×0.001).
+pub const MIN_PTY_SPEED: f64 = 0.1;
+
 /// Why a speed cannot be served on the pty, if it cannot.
 pub fn check_pty_speed(speed: f64) -> Result<(), String> {
     if !(speed.is_finite() && speed > 0.0) {
         return Err(format!(
             "speed {speed} cannot be served on a pty: a client there keeps wall-clock time \
-             (give a number in (0, {MAX_PTY_SPEED}])"
+             (give a number from {MIN_PTY_SPEED} to {MAX_PTY_SPEED})"
+        ));
+    }
+    if speed < MIN_PTY_SPEED {
+        return Err(format!(
+            "speed {speed} is too slow to serve a pty client: the device's answers would come \
+             later in wall time than a client waits for them; give {MIN_PTY_SPEED} to \
+             {MAX_PTY_SPEED}"
         ));
     }
     if speed > MAX_PTY_SPEED {

@@ -87,7 +87,8 @@ mod transport;
 #[command(
     name = "host-tool",
     version,
-    about,
+    about = "Plan, command and inspect a Yoshimura crane (or its simulator); design it, make its \
+             parts, and answer geometry and inverse-kinematics queries",
     propagate_version = true,
     after_help = EXAMPLES
 )]
@@ -100,6 +101,72 @@ struct Cli {
     quiet: bool,
     #[command(subcommand)]
     command: Command,
+}
+
+/// `host-tool man`: the page of `path` (a subcommand, its subcommand …; none: host-tool's own)
+/// to stdout, or with `dir` every page into that directory, each named as the SUBCOMMANDS
+/// sections refer to them (`host-tool-plan(1)` is `host-tool-plan.1`).
+fn man(
+    root: clap::Command,
+    path: &[String],
+    dir: Option<&std::path::Path>,
+) -> Result<(), failure::Failure> {
+    let root = root.disable_help_subcommand(true);
+    if let Some(dir) = dir {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            failure::Failure::usage(format!("cannot create {}: {e}", dir.display()))
+        })?;
+        clap_mangen::generate_to(root, dir).map_err(|e| {
+            failure::Failure::Runtime(anyhow::anyhow!("writing into {}: {e}", dir.display()))
+        })?;
+        let mut pages: Vec<String> = std::fs::read_dir(dir)
+            .map(|it| {
+                it.filter_map(|e| e.ok())
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .filter(|n| n.starts_with("host-tool") && n.ends_with(".1"))
+                    .collect()
+            })
+            .unwrap_or_default();
+        pages.sort();
+        say!("{}: {} pages", dir.display(), pages.len());
+        for p in pages {
+            out!("{}", dir.join(p).display());
+        }
+        return Ok(());
+    }
+    let mut cmd = root;
+    cmd.build();
+    let mut walked = vec![cmd.get_name().to_string()];
+    for name in path {
+        let next = cmd.find_subcommand(name).cloned();
+        let Some(sub) = next else {
+            let names: Vec<&str> = cmd
+                .get_subcommands()
+                .filter(|s| !s.is_hide_set())
+                .map(|s| s.get_name())
+                .collect();
+            return Err(failure::Failure::usage(if names.is_empty() {
+                format!(
+                    "{} has no subcommands: no page for '{name}'",
+                    walked.join(" ")
+                )
+            } else {
+                format!(
+                    "{} has no subcommand '{name}'; it has {}",
+                    walked.join(" "),
+                    names.join(", ")
+                )
+            }));
+        };
+        walked.push(sub.get_name().to_string());
+        cmd = sub;
+    }
+    let mut out = Vec::new();
+    clap_mangen::Man::new(cmd)
+        .render(&mut out)
+        .map_err(|e| failure::Failure::Runtime(anyhow::anyhow!("rendering the man page: {e}")))?;
+    out_raw!("{}", String::from_utf8_lossy(&out));
+    Ok(())
 }
 
 /// Examples for `--help`: quoted where a shell would split them (`&` backgrounds a command).
@@ -188,8 +255,16 @@ enum Command {
         #[arg(value_enum)]
         shell: clap_complete::Shell,
     },
-    /// Print the man page (roff): `host-tool man | man -l -`.
-    Man,
+    /// Print a man page (roff): `host-tool man | man -l -`, `host-tool man plan`, or write
+    /// every page with `--dir DIR`.
+    Man {
+        /// The subcommand whose page to print (e.g. `plan`, `log export`) [default: host-tool's].
+        #[arg(value_name = "SUBCOMMAND")]
+        path: Vec<String>,
+        /// Write every page (host-tool.1, host-tool-plan.1, …) into DIR (created if missing).
+        #[arg(long, value_name = "DIR", conflicts_with = "path")]
+        dir: Option<std::path::PathBuf>,
+    },
 }
 
 impl Command {
@@ -292,18 +367,7 @@ fn main() -> ExitCode {
             out_raw!("{}", completions::script(shell, Cli::command()));
             Ok(())
         }
-        Command::Man => {
-            let mut out = Vec::new();
-            match clap_mangen::Man::new(Cli::command().version(version)).render(&mut out) {
-                Ok(()) => {
-                    out_raw!("{}", String::from_utf8_lossy(&out));
-                    Ok(())
-                }
-                Err(e) => Err(failure::Failure::Runtime(anyhow::anyhow!(
-                    "rendering the man page: {e}"
-                ))),
-            }
-        }
+        Command::Man { path, dir } => man(Cli::command().version(version), &path, dir.as_deref()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

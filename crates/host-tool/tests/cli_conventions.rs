@@ -620,6 +620,58 @@ fn completions_and_the_man_page() {
         man.contains("completions") && man.contains("protocol 2"),
         "man"
     );
+    // NAME says the name once, then what it does.
+    let name = man.lines().skip_while(|l| *l != ".SH NAME").nth(1).unwrap();
+    assert!(name.starts_with("host\\-tool \\- Plan"), "{name}");
+    assert_eq!(name.matches("host\\-tool").count(), 1, "{name}");
+    // Every page SUBCOMMANDS points to can be made: with --dir they are all written, named as
+    // the references name them; one is printed by its path.
+    let dir = std::env::temp_dir().join(format!("man-{}", std::process::id()));
+    let out = host_tool(&["man", "--dir", dir.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let pages: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(text(&out.stdout).lines().count(), pages.len());
+    let mut referenced = 0;
+    for page in &pages {
+        let roff = std::fs::read_to_string(dir.join(page)).unwrap();
+        for r in roff.lines().filter(|l| l.ends_with("(1)")) {
+            let file = format!("{}.1", r.trim_end_matches("(1)").replace("\\-", "-"));
+            assert!(pages.contains(&file), "{page} refers to {r}: no {file}");
+            referenced += 1;
+        }
+    }
+    // Every subcommand but the top page is referenced from its parent's page.
+    assert_eq!(referenced, pages.len() - 1, "{pages:?}");
+    let plan = text(&host_tool(&["man", "plan"]).stdout);
+    assert!(
+        plan.contains(".TH host-tool-plan 1") && plan.contains("\\-\\-target"),
+        "{plan}"
+    );
+    let export = text(&host_tool(&["man", "log", "export"]).stdout);
+    assert!(export.contains(".TH host-tool-log-export 1"), "{export}");
+    for (args, says) in [
+        (
+            &["man", "nope"][..],
+            "has no subcommand 'nope'; it has states",
+        ),
+        (
+            &["man", "log", "nope"][..],
+            "it has summary, export, plot, recover",
+        ),
+        (&["man", "plan", "x"][..], "plan has no subcommands"),
+    ] {
+        let out = host_tool(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(
+            text(&out.stderr).contains(says),
+            "{args:?}: {}",
+            text(&out.stderr)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -163,8 +163,8 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
             } => {
                 let names: Vec<&str> = candidates.iter().map(|s| s.name()).collect();
                 self.ui.note(&format!(
-                    "the device has not confirmed its state (last confirmed: {believed}); \
-                     it may be any of {}",
+                    "the device has not confirmed its state (it reports {believed}, \
+                     unconfirmed); it may be any of {}",
                     names.join(", ")
                 ));
                 if let AnyIo::Sim(sim) = io {

@@ -93,6 +93,31 @@ pub fn server_for(args: &DeviceArgs) -> Result<Option<PathBuf>, Failure> {
     }
 }
 
+/// The devices whose server socket is left behind by a server that no longer runs (killed
+/// before it could remove it): the device (`the simulator` or the port) and the socket.
+pub fn stale_servers() -> Vec<(String, PathBuf)> {
+    let Ok(entries) = std::fs::read_dir(socket_dir()) else {
+        return Vec::new();
+    };
+    let mut stale: Vec<(String, PathBuf)> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "sock"))
+        .filter(|p| UnixStream::connect(p).is_err())
+        .filter_map(|p| {
+            let stem = p.file_stem()?.to_string_lossy().into_owned();
+            let device = if stem == "sim" {
+                "the simulator".to_string()
+            } else {
+                stem.replace('_', "/")
+            };
+            Some((device, p))
+        })
+        .collect();
+    stale.sort();
+    stale
+}
+
 /// A connection to a server.
 pub struct Client {
     reader: BufReader<UnixStream>,

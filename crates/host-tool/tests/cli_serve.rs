@@ -114,13 +114,14 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
     assert!((1..=2).contains(&step), "{outcome}");
     assert_eq!(outcome["sim"]["actuators_safe"], true, "{outcome}");
 
-    // SIGTERM: the server ends cleanly and its recording is complete.
+    // SIGTERM: the server ends cleanly (exit 130, as every interrupted command) and its
+    // recording is complete.
     let term = Command::new("kill")
         .args(["-TERM", &server.id().to_string()])
         .status()
         .unwrap();
     assert!(term.success());
-    assert_eq!(server.wait().unwrap().code(), Some(0));
+    assert_eq!(server.wait().unwrap().code(), Some(130));
     let sum = cmd(&dir, &["log", "summary", rec.to_str().unwrap()])
         .output()
         .unwrap();
@@ -147,10 +148,79 @@ fn clients_say_the_server_went_away_when_it_dies() {
     let rest = wait_for(&mut progress, "error");
     assert!(rest.contains("the server went away"), "{rest}");
     assert_eq!(planner.wait().unwrap().code(), Some(1));
-    // No server: a command without --port/--sim is the usual usage error again.
+    // No server: a command without --port/--sim is the usual usage error again, and it names
+    // the server that is gone (its socket is left behind by the kill) rather than only the
+    // missing board.
     let out = cmd(&dir, &["status"]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("the server of the simulator is not running (a killed `host-tool serve` left")
+            && err.contains("start `host-tool serve` again"),
+        "{err}"
+    );
+    // A new server replaces the stale socket and serves again.
+    let mut again = serve(&dir, &["--no-record"]);
+    let out = cmd(&dir, &["status", "-j"]).output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    again.kill().unwrap();
+    again.wait().unwrap();
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `serve` ended by a signal says so and exits 130: with nothing running, and with a plan it
+/// aborts (the plan's client then reports the abort).
+#[test]
+fn a_signalled_server_says_why_it_stopped_and_exits_130() {
+    use nix::sys::signal::{kill, Signal};
+    use nix::unistd::Pid;
+    for (signal, with_plan) in [(Signal::SIGINT, false), (Signal::SIGTERM, true)] {
+        let dir = cli::temp(&format!("serve-signal-{with_plan}"));
+        let mut server = cmd(
+            &dir,
+            &[
+                "serve",
+                "--sim",
+                "--seed",
+                "7",
+                "--sim-speed",
+                "2",
+                "--no-record",
+            ],
+        )
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+        let mut err = BufReader::new(server.stderr.take().unwrap());
+        wait_for(&mut err, "serving the simulator on ");
+        let planner = with_plan.then(|| {
+            let (p, mut progress) = plan(&dir);
+            wait_for(&mut progress, "step 1/3 started");
+            (p, progress)
+        });
+        kill(Pid::from_raw(server.id() as i32), signal).unwrap();
+        let said = wait_for(&mut err, "interrupted");
+        assert_eq!(server.wait().unwrap().code(), Some(130), "{signal}: {said}");
+        if let Some((mut p, mut progress)) = planner {
+            assert!(
+                said.contains("was aborted and the device is in its safe state"),
+                "{said}"
+            );
+            let rest = wait_for(&mut progress, "error");
+            assert_ne!(p.wait().unwrap().code(), Some(0), "{rest}");
+        } else {
+            assert!(
+                said.contains("the server stopped (nothing was running)"),
+                "{said}"
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
 
 #[test]

@@ -74,11 +74,33 @@ pub fn choose(found: &[(String, &str)], ask: Option<&mut Ask<'_>>) -> Result<Str
             .join("\n")
     };
     match (found, ask) {
-        ([], _) => Err(Failure::usage(
-            "this command acts on a crane and no UNO R4 is plugged in: give --port PATH (or \
-             set CRANE_PORT; `host-tool ports` lists the ports) or --sim for the built-in \
-             simulator",
-        )),
+        ([], _) => {
+            // A killed server leaves its socket: say so, rather than only that no board is here.
+            let dead: Vec<String> = crate::client::stale_servers()
+                .into_iter()
+                .map(|(device, sock)| {
+                    format!(
+                        "the server of {device} is not running (a killed `host-tool serve` left {})",
+                        sock.display()
+                    )
+                })
+                .collect();
+            Err(Failure::usage(format!(
+                "this command acts on a crane and no UNO R4 is plugged in{}: give --port PATH \
+                 (or set CRANE_PORT; `host-tool ports` lists the ports) or --sim for the \
+                 built-in simulator{}",
+                if dead.is_empty() {
+                    String::new()
+                } else {
+                    format!(", and no server answers: {}", dead.join("; "))
+                },
+                if dead.is_empty() {
+                    ""
+                } else {
+                    "; start `host-tool serve` again to serve that device (it replaces the old socket)"
+                }
+            )))
+        }
         ([(path, board)], _) => {
             crate::say!("using {path} ({board}), the only UNO R4 found");
             Ok(path.clone())

@@ -199,11 +199,16 @@ impl Server {
         interrupted: &std::sync::atomic::AtomicBool,
     ) -> Result<(), Failure> {
         let mut stopping_since: Option<u64> = None;
+        let mut aborting: Option<String> = None;
         loop {
             if interrupted.load(Ordering::SeqCst) && stopping_since.is_none() {
                 let now = self.now();
                 stopping_since = Some(now);
                 if self.plan_running() {
+                    aborting = Some(
+                        self.plan_client
+                            .map_or("a plan".into(), |c| format!("client {c}'s plan")),
+                    );
                     self.conn
                         .session
                         .host
@@ -212,8 +217,24 @@ impl Server {
             }
             if let Some(since) = stopping_since {
                 // Wait for a cancelled plan's safe end, at most 10 s.
-                if !self.plan_running() || self.now() > since + 10_000 {
-                    return Ok(());
+                let running = self.plan_running();
+                if !running || self.now() > since + 10_000 {
+                    return Err(Failure::Interrupted(if let Some(aborted) = aborting {
+                        if running {
+                            format!(
+                                "interrupted: the server stopped; the plan it ran ({aborted}) was \
+                                 aborted but did not end within 10 s: the crane's link watchdog \
+                                 stops it"
+                            )
+                        } else {
+                            format!(
+                                "interrupted: the server stopped; the plan it ran ({aborted}) was \
+                                 aborted and the device is in its safe state"
+                            )
+                        }
+                    } else {
+                        "interrupted: the server stopped (nothing was running)".into()
+                    }));
                 }
             }
             while let Ok((stream, _)) = listener.accept() {

@@ -859,7 +859,7 @@ pub fn check(mission: &Mission, crane: &Crane<'_>) -> Vec<Refusal> {
             Action::Identify => {
                 if crane.server {
                     refusals.push(refuse(
-                        "identify does not go through a `host-tool serve` server: stop the server, or identify with the device's own buttons first".into(),
+                        "a mission's identify step does not go through a `host-tool serve` server: run `host-tool identify` (it does) from another terminal first, or stop the server".into(),
                     ));
                 }
                 state = None;

@@ -20,7 +20,9 @@ pub trait Progress {
     /// A manual step waits for a person; `enter_confirms`: Enter on stdin works too.
     fn manual_prompt(&mut self, index: usize, task: ManualTask, enter_confirms: bool);
     /// Step `index` ended.
-    fn step_finished(&mut self, index: usize, report: &StepReport);
+    /// A step ended; `aborted`: it ended because this host cancelled the run (an operator's
+    /// stop, a signal, a time limit), not by a failure of its own.
+    fn step_finished(&mut self, index: usize, report: &StepReport, aborted: bool);
     /// Anything else worth a line.
     fn note(&mut self, message: &str);
 }
@@ -41,7 +43,9 @@ fn step_line(plan: &Plan, index: usize) -> String {
     )
 }
 
-fn finished_line(index: usize, r: &StepReport) -> String {
+/// The line of a step that ended: `step 2 pneumatic F&P → F&F: done in 5.2 s` (`FAILED`, or
+/// `aborted` when the host cancelled the run).
+pub fn finished_line(index: usize, r: &StepReport, aborted: bool) -> String {
     let took = r.duration_ms.map_or(String::new(), |ms| {
         format!(" in {:.1} s", f64::from(ms) / 1000.0)
     });
@@ -51,7 +55,11 @@ fn finished_line(index: usize, r: &StepReport) -> String {
         kind_name(r.kind),
         r.from,
         r.to,
-        if r.ok { "done" } else { "FAILED" }
+        match (r.ok, aborted) {
+            (true, _) => "done",
+            (false, true) => "aborted",
+            (false, false) => "FAILED",
+        }
     )
 }
 
@@ -81,8 +89,8 @@ impl Progress for Lines {
         crate::say!("{}", manual_line(task, enter_confirms));
     }
 
-    fn step_finished(&mut self, index: usize, report: &StepReport) {
-        crate::say!("{}", finished_line(index, report));
+    fn step_finished(&mut self, index: usize, report: &StepReport, aborted: bool) {
+        crate::say!("{}", finished_line(index, report, aborted));
     }
 
     fn note(&mut self, message: &str) {
@@ -148,8 +156,8 @@ impl Progress for Bars {
         }
     }
 
-    fn step_finished(&mut self, index: usize, report: &StepReport) {
-        let line = finished_line(index, report);
+    fn step_finished(&mut self, index: usize, report: &StepReport, aborted: bool) {
+        let line = finished_line(index, report, aborted);
         match self.done() {
             Some(bar) => {
                 bar.finish_and_clear();

@@ -552,7 +552,9 @@ fn a_mission_runs_through_serve() {
     let bad = write(&dir, "identify.toml", "[[step]]\nidentify = true\n");
     let o = run(&dir, &["run", s(&bad)]);
     assert_eq!(code(&o), 2, "{}", stderr(&o));
-    assert!(stderr(&o).contains(":2: step 1 (identify): identify does not go through"));
+    assert!(
+        stderr(&o).contains(":2: step 1 (identify): a mission's identify step does not go through")
+    );
     server.kill().unwrap();
     server.wait().unwrap();
 }

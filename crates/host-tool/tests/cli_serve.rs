@@ -53,12 +53,54 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
     let rec = dir.join("serve.mcap");
     let mut server = serve(&dir, &["--record", rec.to_str().unwrap()]);
     let (mut planner, mut progress) = plan(&dir);
-    wait_for(&mut progress, "step 2/3 started");
+    let before = wait_for(&mut progress, "step 2/3 started");
+    assert!(
+        before
+            .lines()
+            .any(|l| l.starts_with("step 1 ") && l.contains(": done in ")),
+        "{before}"
+    );
 
-    // A third terminal: monitor prints telemetry samples (50 Hz device time, paced 2×).
-    let out = cmd(&dir, &["monitor", "--duration", "0.5", "--json"])
+    // A third terminal: monitor at 5 Hz keeps to its rate though the server streams at 50 Hz:
+    // a header, then samples at least 200 ms of device time apart.
+    let out = cmd(&dir, &["monitor", "--duration", "0.5", "--rate", "5"])
         .output()
         .unwrap();
+    let shown = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert_eq!(out.status.code(), Some(0), "{shown}");
+    let mut shown_lines = shown.lines();
+    assert!(
+        shown_lines.next().is_some_and(|h| h.contains("pressure")),
+        "no header: {shown}"
+    );
+    // 0.5 s of wall time at 2× is 1 s of device time: 5 samples at 5 Hz (± the ends).
+    let samples = shown_lines.filter(|l| l.contains("kPa")).count();
+    assert!(
+        (2..=7).contains(&samples),
+        "{samples} samples at 5 Hz:\n{shown}"
+    );
+    let out = cmd(
+        &dir,
+        &["monitor", "--duration", "0.5", "--rate", "5", "--json"],
+    )
+    .output()
+    .unwrap();
+    let t: Vec<u64> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|v| v["type"] == "telemetry")
+        .map(|v| v["uptime_ms"].as_u64().unwrap())
+        .collect();
+    assert!(t.len() >= 2, "{t:?}");
+    assert!(t.windows(2).all(|w| w[1] - w[0] >= 200), "{t:?}");
+
+    // At 50 Hz it prints the server's every sample (50 Hz device time, paced 2×).
+    let out = cmd(
+        &dir,
+        &["monitor", "--duration", "0.5", "--rate", "50", "--json"],
+    )
+    .output()
+    .unwrap();
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -101,9 +143,17 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
         .expect("latency through the server");
     assert!(latency <= 200, "stop took {latency} ms of device time");
 
-    // The plan ends: aborted, not reached.
+    // The plan ends: aborted, not reached; its cut step's line says so, with its duration.
     let status = planner.wait().unwrap();
     assert_eq!(status.code(), Some(1));
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut progress, &mut rest).unwrap();
+    assert!(
+        rest.lines()
+            .any(|l| l.starts_with("step ") && l.contains(": aborted in ") && l.ends_with(" s")),
+        "{rest}"
+    );
+    assert!(!rest.contains("FAILED"), "{rest}");
     let mut stdout = String::new();
     std::io::Read::read_to_string(&mut planner.stdout.take().unwrap(), &mut stdout).unwrap();
     let outcome: serde_json::Value = serde_json::from_str(&stdout).unwrap();
@@ -368,4 +418,51 @@ fn parameter_files_save_load_and_diff_through_serve() {
     assert_eq!(out.status.code(), Some(2));
     server.kill().unwrap();
     let _ = server.wait();
+}
+
+/// `identify` through a server: after a plan the leak made fail, the device's state is
+/// unconfirmed; the server identifies it (its probes, then the simulated operator) and the
+/// client reports what the direct command would.
+#[test]
+fn identify_goes_through_the_server() {
+    let dir = cli::temp("serve-identify");
+    let (mut server, line) = cli::serve(
+        &dir,
+        &[
+            "serve",
+            "--sim",
+            "--sim-fault",
+            "leak",
+            "--no-record",
+            "--sim-speed",
+            "1000",
+        ],
+    );
+    assert!(line.starts_with("serving the simulator on "), "{line}");
+    let out = cmd(&dir, &["plan", "--target", "D&F", "-j"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["state_confirmed"], false, "{v}");
+    let out = cmd(&dir, &["identify", "-j"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["identified"], true, "{v}");
+    assert_eq!(v["state_confirmed"], true, "{v}");
+    assert_eq!(v["state"], v["sim"]["true_state"], "{v}");
+    assert_eq!(v["candidates"], serde_json::json!([v["state"]]), "{v}");
+    assert!(err.contains("simulated operator: the trunk is"), "{err}");
+    // Confirmed now: a second identify says so at once.
+    let out = cmd(&dir, &["identify"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("(confirmed already)"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -37,8 +37,84 @@ pub fn identify(conn: &mut Connection) -> host::Outcome {
     )
 }
 
+/// What `identify` prints for the state the device reports after identifying: JSON, or the
+/// line that says it is confirmed; an unconfirmed end is the error.
+fn report(
+    json: bool,
+    ok: bool,
+    state: Option<&str>,
+    identified: bool,
+    v: serde_json::Value,
+    error: Option<&str>,
+) -> Result<(), Failure> {
+    if json {
+        crate::cli::print_json(v);
+    } else if ok {
+        crate::out!(
+            "the trunk is {} (confirmed{})",
+            state.unwrap_or("?"),
+            if identified {
+                ", just identified"
+            } else {
+                " already"
+            }
+        );
+    }
+    if ok {
+        Ok(())
+    } else {
+        Err(Failure::Runtime(anyhow::anyhow!(
+            "{}",
+            error.unwrap_or("the device's state is still unconfirmed")
+        )))
+    }
+}
+
+/// `identify` through a `serve` server: it runs the identification (its simulated operator
+/// answers on `--sim`; on a crane, the crane's confirm button or `host-tool declare` from
+/// another terminal), this client prints its notes and the outcome.
+fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> {
+    let mut c = crate::client::Client::connect(server)?;
+    c.send(&json!({"op": "identify"}))?;
+    loop {
+        let v = c.recv_ok()?;
+        if let Some(n) = v["note"].as_str() {
+            crate::say!("{}", n.trim_end());
+        }
+        if let Some(o) = v.get("outcome") {
+            let ok = v["ok"] == true;
+            let state = o["final_state"].as_str();
+            let out = json!({
+                "ok": ok,
+                "state": o["final_state"],
+                "state_confirmed": o["state_confirmed"],
+                "identified": o["identified"],
+                // A confirmed state's candidates are that state, as the device reports them.
+                "candidates": if o["candidates"].is_null() && o["state_confirmed"] == true {
+                    json!([o["final_state"]])
+                } else {
+                    o["candidates"].clone()
+                },
+                "error": o["error"],
+                "sim": o["sim"],
+            });
+            return report(
+                args.json,
+                ok,
+                state,
+                o["identified"] == true,
+                out,
+                o["error"].as_str(),
+            );
+        }
+    }
+}
+
 /// Runs `host-tool identify`.
 pub fn run(args: Args) -> Result<(), Failure> {
+    if let Some(server) = crate::client::server_for(&args.device)? {
+        return through_server(&server, &args);
+    }
     let device = args.device.validate(None)?;
     let mut conn = device.connect()?;
     let out = identify(&mut conn);
@@ -48,34 +124,21 @@ pub fn run(args: Args) -> Result<(), Failure> {
         .as_ref()
         .map(|s| s.candidates.iter().map(|c| c.name()).collect())
         .unwrap_or_default();
-    if args.json {
-        crate::cli::print_json(json!({
-            "ok": out.ok(),
-            "state": out.final_state.map(|s| s.name()),
-            "state_confirmed": out.state_confirmed,
-            "identified": out.identified,
-            "candidates": candidates,
-            "error": out.error(),
-            "sim": truth.as_ref().map(crate::sim::SimTruth::to_json),
-        }));
-    } else if out.ok() {
-        crate::out!(
-            "the trunk is {} (confirmed{})",
-            out.final_state.map_or("?", |s| s.name()),
-            if out.identified {
-                ", just identified"
-            } else {
-                " already"
-            }
-        );
-    }
-    if out.ok() {
-        Ok(())
-    } else {
-        Err(Failure::Runtime(anyhow::anyhow!(
-            "{}",
-            out.error()
-                .unwrap_or("the device's state is still unconfirmed")
-        )))
-    }
+    let v = json!({
+        "ok": out.ok(),
+        "state": out.final_state.map(|s| s.name()),
+        "state_confirmed": out.state_confirmed,
+        "identified": out.identified,
+        "candidates": candidates,
+        "error": out.error(),
+        "sim": truth.as_ref().map(crate::sim::SimTruth::to_json),
+    });
+    report(
+        args.json,
+        out.ok(),
+        out.final_state.map(|s| s.name()),
+        out.identified,
+        v,
+        out.error(),
+    )
 }

@@ -206,7 +206,13 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
     let mut c = crate::client::Client::connect(server)?;
     c.send(&serde_json::json!({"op": "monitor"}))?;
     let start = std::time::Instant::now();
+    // The server streams at its own rate (`serve --rate`): samples closer than 1/--rate in
+    // device time are dropped here, so the output keeps to --rate as it does directly.
+    let gap_ms = 1000 / args.rate.max(1);
+    let mut last_kept: Option<u32> = None;
+    let mut lines = Lines::new(args.json, args.rate);
     while !cancel.load(Ordering::SeqCst)
+        && !crate::cli::stdout_closed()
         && args
             .duration
             .is_none_or(|d| start.elapsed().as_secs_f64() < d)
@@ -216,9 +222,20 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
                 return Err(Failure::Runtime(anyhow::anyhow!("{e}")));
             }
             if let Ok(ev) = serde_json::from_value::<Event>(v["event"].clone()) {
-                print_event(args.json, &ev);
+                if let Event::Telemetry(t) = &ev {
+                    if last_kept.is_some_and(|k| t.uptime_ms.saturating_sub(k) < gap_ms) {
+                        continue;
+                    }
+                    last_kept = Some(t.uptime_ms);
+                }
+                lines.event(&ev);
             }
         }
+    }
+    if cancel.load(Ordering::SeqCst) {
+        return Err(Failure::Interrupted(
+            "monitor stopped by Ctrl-C, SIGTERM or SIGHUP (the server keeps serving)".into(),
+        ));
     }
     Ok(())
 }

@@ -155,7 +155,10 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
             RunEvent::ManualPrompt { index, task } => {
                 self.ui.manual_prompt(*index, *task, self.confirm.is_some())
             }
-            RunEvent::StepFinished { index, report } => self.ui.step_finished(*index, report),
+            RunEvent::StepFinished { index, report } => {
+                self.ui
+                    .step_finished(*index, report, self.cancel_sent && !report.ok)
+            }
             RunEvent::Note(m) => self.ui.note(m),
             RunEvent::IdentifyPrompt {
                 believed,

@@ -87,6 +87,9 @@ struct Server {
     next_client: u64,
     pending: HashMap<RequestId, (u64, Stage)>,
     plan_client: Option<u64>,
+    /// Whether this server cancelled the running plan (a stop, a signal): its cut step is
+    /// "aborted", not "FAILED".
+    cancelled: bool,
     buf: Vec<u8>,
 }
 
@@ -177,6 +180,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         next_client: 0,
         pending: HashMap::new(),
         plan_client: None,
+        cancelled: false,
         buf: Vec::new(),
     };
     let result = server.serve(&listener, &interrupted);
@@ -213,6 +217,7 @@ impl Server {
                         .session
                         .host
                         .cancel("the server was interrupted", now);
+                    self.cancelled = true;
                 }
             }
             if let Some(since) = stopping_since {
@@ -222,18 +227,18 @@ impl Server {
                     return Err(Failure::Interrupted(if let Some(aborted) = aborting {
                         if running {
                             format!(
-                                "interrupted: the server stopped; the plan it ran ({aborted}) was \
+                                "the server stopped; the plan it ran ({aborted}) was \
                                  aborted but did not end within 10 s: the crane's link watchdog \
                                  stops it"
                             )
                         } else {
                             format!(
-                                "interrupted: the server stopped; the plan it ran ({aborted}) was \
+                                "the server stopped; the plan it ran ({aborted}) was \
                                  aborted and the device is in its safe state"
                             )
                         }
                     } else {
-                        "interrupted: the server stopped (nothing was running)".into()
+                        "the server stopped (nothing was running)".into()
                     }));
                 }
             }
@@ -421,10 +426,31 @@ impl Server {
                     );
                 }
                 self.plan_client = Some(client);
+                self.cancelled = false;
                 self.conn.session.host.run_plan(
                     Graph::nominal(),
                     target,
                     RunOptions::default(),
+                    now,
+                );
+            }
+            Some("identify") => {
+                if self.plan_running() {
+                    return self.reply(
+                        client,
+                        &json!({"error": "a plan is already running on this server"}),
+                    );
+                }
+                self.plan_client = Some(client);
+                self.cancelled = false;
+                // The target is replaced by whatever the device confirms.
+                self.conn.session.host.run_plan(
+                    Graph::nominal(),
+                    TrunkState::AS_MANUFACTURED,
+                    RunOptions {
+                        identify_only: true,
+                        ..RunOptions::default()
+                    },
                     now,
                 );
             }
@@ -454,6 +480,7 @@ impl Server {
                                 .session
                                 .host
                                 .cancel("stopped from another terminal (host-tool stop)", now);
+                            self.cancelled = true;
                         }
                         let id = self.conn.session.host.request(RequestBody::GetStatus, now);
                         self.pending.insert(
@@ -542,12 +569,10 @@ impl Server {
                     }
                 ))
             }
-            RunEvent::StepFinished { index, report } => Some(format!(
-                "step {} {} → {}: {}",
-                index + 1,
-                report.from,
-                report.to,
-                if report.ok { "done" } else { "FAILED" }
+            RunEvent::StepFinished { index, report } => Some(crate::progress::finished_line(
+                *index,
+                report,
+                self.cancelled && !report.ok,
             )),
             RunEvent::Note(m) => Some(m.clone()),
             RunEvent::Finished => {

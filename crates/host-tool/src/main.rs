@@ -93,7 +93,8 @@ mod transport;
     after_help = EXAMPLES
 )]
 struct Cli {
-    /// Say more on stderr: each protocol frame decoded (-vv: and its bytes), retries, timings.
+    /// Say more on stderr, on commands that talk to a crane (or the simulator): each protocol
+    /// frame decoded (-vv: and its bytes), retries, timings. The others have no more to say.
     #[arg(short, long, global = true, action = clap::ArgAction::Count, conflicts_with = "quiet")]
     verbose: u8,
     /// Say nothing but errors (and the output asked for).

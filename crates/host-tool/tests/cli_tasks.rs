@@ -470,7 +470,10 @@ fn pick_catches_carries_and_drops_and_says_what_became_of_the_object() {
         v["error"].as_str().unwrap().contains("nothing was caught"),
         "{v}"
     );
-    assert_eq!(v["object_fate"], "not held (on the table)");
+    assert_eq!(
+        v["object_fate"],
+        "not caught (the simulator's world: nothing at the grasp point)"
+    );
     refused(
         &dir,
         &["pick", "--at", "0,0,400", "--place", &place, "--sim"],
@@ -640,7 +643,8 @@ fn a_fault_mid_pick_ends_safe_and_reports_the_objects_fate() {
     let v = json(&o);
     assert_eq!(v["ok"], false);
     assert!(v["error"].as_str().unwrap().contains("E-08"), "{v}");
-    assert_eq!(v["object_fate"], "held");
+    // What the crane can tell (its gripper is closed), and the truth beside it.
+    assert_eq!(v["object_fate"], "held (the gripper is closed)");
     assert_eq!(v["sim"]["objects"][0]["held"], true);
     // The inflation went above the pressure under which nothing snaps (4 kPa), so the device
     // cannot vouch that the trunk stayed at F&P: it says so (the truth is F&P: the tip is
@@ -649,4 +653,92 @@ fn a_fault_mid_pick_ends_safe_and_reports_the_objects_fate() {
     assert_eq!(v["state_confirmed"], false);
     let z = v["sim"]["tip_mm"][2].as_f64().unwrap();
     assert!((43.1..53.1).contains(&z), "{v}");
+}
+
+#[test]
+fn a_lost_link_mid_pick_leaves_the_objects_fate_unknown() {
+    let dir = cli::temp("tasks-link");
+    // The link falls silent 1 s into the carry's step, with the cup in the gripper: the host
+    // cannot tell what became of it (the simulator's truth: still held, the device safe).
+    let o = run(
+        &dir,
+        &[
+            "pick",
+            "--at",
+            "0,0,43.1",
+            "--place",
+            "-12,0,91.5",
+            "--sim",
+            "--object",
+            "cup:0,0,43.1",
+            "--sim-fault",
+            "link-drop",
+            "-j",
+        ],
+    );
+    assert_eq!(code(&o), 1, "{}", stderr(&o));
+    let v = json(&o);
+    assert!(v["error"].as_str().unwrap().contains("link lost"), "{v}");
+    assert_eq!(
+        v["object_fate"],
+        "unknown (the device does not answer: look at the crane)"
+    );
+    assert_eq!(v["state"], Value::Null, "no state is claimed: {v}");
+    assert_eq!(v["sim"]["objects"][0]["held"], true);
+}
+
+#[test]
+fn ctrl_c_mid_pick_ends_safe_with_130_and_reports_the_objects_fate() {
+    use std::io::{BufRead, BufReader, Read};
+    let dir = cli::temp("tasks-sigint");
+    // Paced at ×5 so the carry's inflation (≈ 4 s) is still running when the signal comes.
+    let mut child = cmd(
+        &dir,
+        &[
+            "pick",
+            "--at",
+            "0,0,43.1",
+            "--place",
+            "-12,0,91.5",
+            "--sim",
+            "--sim-speed",
+            "5",
+            "--object",
+            "cup:0,0,43.1",
+            "-j",
+        ],
+    )
+    .stdout(std::process::Stdio::piped())
+    .stderr(std::process::Stdio::piped())
+    .spawn()
+    .unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        assert!(
+            err.read_line(&mut line).unwrap() > 0,
+            "the carry never started:\n{seen}"
+        );
+        seen.push_str(&line);
+        if line.starts_with("step 1/1 pneumatic F&P → F&F") {
+            break;
+        }
+    }
+    let pid = nix::unistd::Pid::from_raw(child.id() as i32);
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).unwrap();
+    err.read_to_string(&mut seen).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{seen}");
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {seen}"));
+    assert_eq!(v["ok"], false);
+    assert!(v["error"].as_str().unwrap().contains("interrupted"), "{v}");
+    // The device is in its safe state and the gripper stayed closed on the cup: what the crane
+    // reports is what the simulator's truth shows.
+    assert_eq!(v["object_fate"], "held (the gripper is closed)", "{v}");
+    assert_eq!(v["sim"]["objects"][0]["held"], true, "{v}");
+    assert!(
+        seen.contains("aborted"),
+        "the cut step says it was aborted:\n{seen}"
+    );
 }

@@ -11,7 +11,7 @@ use crate::cmd::reach::{execute, parse_point, parse_tolerance, plan_reach};
 use crate::cmd::task::{grasp_json, WorldArgs};
 use crate::device::DeviceArgs;
 use crate::failure::Failure;
-use protocol::Primitive;
+use protocol::{Primitive, Status};
 
 /// Arguments of `host-tool pick`.
 #[derive(Debug, clap::Args)]
@@ -120,6 +120,9 @@ fn straighten(link: &mut Link, cfg: &firmware::CraneConfig) -> Result<(), Failur
     })
 }
 
+/// How a pick whose close caught nothing (the simulator's world says so) fails.
+const NOTHING_CAUGHT: &str = "nothing was caught";
+
 /// §6.3's cycle on an open link: open the gripper, reach `at`, close, reach `place`, open,
 /// straighten. With a crane (no simulator) a person is asked to place the object first.
 pub fn pick(
@@ -159,7 +162,7 @@ pub fn pick(
     events.extend(caught);
     if link.sim().is_some() && object.is_none() {
         return Err(Failure::Runtime(anyhow::anyhow!(
-            "nothing was caught at ({:.1}, {:.1}, {:.1}) mm: {}",
+            "{NOTHING_CAUGHT} at ({:.1}, {:.1}, {:.1}) mm: {}",
             at[0],
             at[1],
             at[2],
@@ -224,7 +227,7 @@ pub fn run_pick(args: PickArgs) -> Result<(), Failure> {
     let world_json = link.sim().map(|s| s.world().to_json());
     let st = link.status().ok();
     link.close();
-    let fate = fate(&result, world_json.as_ref());
+    let fate = fate(&result, st.as_ref());
     if args.json {
         crate::cli::print_json(json!({
             "ok": result.is_ok(),
@@ -250,21 +253,18 @@ pub fn run_pick(args: PickArgs) -> Result<(), Failure> {
     result.map(|_| ())
 }
 
-/// What became of the object, as far as is known: held, dropped (on the table) or unknown.
-fn fate(result: &Result<Picked, Failure>, world: Option<&Value>) -> &'static str {
-    match world {
-        Some(w) => {
-            let objects = w["objects"].as_array().cloned().unwrap_or_default();
-            if objects.iter().any(|o| o["held"] == true) {
-                "held"
-            } else if result.is_ok() {
-                "placed"
-            } else {
-                "not held (on the table)"
-            }
+/// What became of the object, as far as the crane can tell — no sensor sees the object, so
+/// after a failure it is the gripper's state the device last reported, or unknown when the
+/// device no longer answers. (On `--sim`, the simulator's truth is beside it, under `sim`.)
+fn fate(result: &Result<Picked, Failure>, st: Option<&Status>) -> &'static str {
+    match (result, st) {
+        (Ok(_), _) => "placed",
+        (Err(e), _) if crate::cmd::reach::failure_text(e).starts_with(NOTHING_CAUGHT) => {
+            "not caught (the simulator's world: nothing at the grasp point)"
         }
-        None if result.is_ok() => "placed (the person's word)",
-        None => "unknown (no sensor sees it: look at the crane)",
+        (Err(_), Some(s)) if s.gripper_closed => "held (the gripper is closed)",
+        (Err(_), Some(_)) => "released (the gripper is open)",
+        (Err(_), None) => "unknown (the device does not answer: look at the crane)",
     }
 }
 

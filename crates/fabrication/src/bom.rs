@@ -221,7 +221,11 @@ impl Bom {
             ));
         }
         if let Some(cap) = parts.iter().find(|p| p.name == "upper-cap") {
-            let tendons = cap.holes.iter().filter(|h| h.role == HoleRole::Tendon).count();
+            let tendons = cap
+                .holes
+                .iter()
+                .filter(|h| h.role == HoleRole::Tendon)
+                .count();
             rows.push(row(
                 "hardware",
                 "tendon line",

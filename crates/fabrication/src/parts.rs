@@ -24,8 +24,8 @@ use std::f64::consts::PI;
 
 use crate::bom::{Filament, NYLON, PLA, PLA_CF};
 use crate::mesh::Mesh;
-use crate::threemf;
 use crate::nest::{SCREW_INSET_MM, SCREW_PITCH_MM};
+use crate::threemf;
 use crate::trunk::{FabError, Trunk};
 
 /// Segments of a full circle (holes and round outlines): the polygon's area is within

@@ -171,7 +171,10 @@ impl LegendBlock {
             }
         }
         text(title, &mut lines);
-        let bar_mm = scale_bar_mm(sheet_w);
+        // A round bar of about a quarter of the sheet, its label beside it within the width.
+        let width = width_mm.max(40.0);
+        let label = text_mm("1000 mm") + 2.0;
+        let bar_mm = scale_bar_mm(sheet_w.min(4.0 * (width - label)));
         let bar_line = bar_mm + 2.0 + text_mm(&format!("{bar_mm} mm"));
         let widest = lines
             .iter()
@@ -276,10 +279,7 @@ pub fn layout(pattern: &Pattern, title: &str, legend: Legend) -> Layout {
             let [w, h] = block.size_mm;
             let at = [MARGIN_MM, MARGIN_MM + sheet_h + GAP_BELOW_MM];
             Layout {
-                page_mm: [
-                    sheet_w.max(w) + 2.0 * MARGIN_MM,
-                    at[1] + h + MARGIN_MM,
-                ],
+                page_mm: [sheet_w.max(w) + 2.0 * MARGIN_MM, at[1] + h + MARGIN_MM],
                 sheet_box_mm,
                 legend: Some((block, [at[0], at[1], w, h])),
             }

@@ -52,7 +52,11 @@ pub struct Model<'a> {
 impl Model<'_> {
     /// Writes the package.
     pub fn write<W: Write + Seek>(&self, out: W) -> std::io::Result<()> {
-        if let Some(o) = self.objects.iter().find(|o| o.material >= self.materials.len()) {
+        if let Some(o) = self
+            .objects
+            .iter()
+            .find(|o| o.material >= self.materials.len())
+        {
             return Err(std::io::Error::other(format!(
                 "3MF object '{}' names material {} of {}",
                 o.mesh.name,

@@ -14,7 +14,9 @@
 use std::fmt::Write as _;
 
 use crate::pattern::Pattern;
-use crate::svg::{line_groups, to_page, Legend, LegendBlock, GAP_BELOW_MM, GAP_RIGHT_MM, RIGHT_COLUMN_MM};
+use crate::svg::{
+    line_groups, to_page, Legend, LegendBlock, GAP_BELOW_MM, GAP_RIGHT_MM, RIGHT_COLUMN_MM,
+};
 use crate::trunk::FabError;
 
 /// Unprinted border of every page, mm (most printers cannot print closer to the edge).
@@ -106,14 +108,23 @@ fn count(length: f64, window: f64, pitch: f64) -> usize {
 /// (start, end) from the region's origin.
 fn exclusive(i: usize, count: usize, window: f64, pitch: f64) -> (f64, f64) {
     let start = i as f64 * pitch;
-    let lo = if i > 0 { start + OVERLAP_MM } else { start };
+    let lo = if i > 0 {
+        start + OVERLAP_MM + MARK_CLEARANCE_MM
+    } else {
+        start
+    };
     let hi = if i + 1 < count {
-        start + window - OVERLAP_MM
+        start + window - OVERLAP_MM - MARK_CLEARANCE_MM
     } else {
         start + window
     };
     (lo, hi)
 }
+
+/// Clear space kept between the legend and an overlap strip, mm: a registration mark's id is
+/// written right of its cross and may reach past the strip (up to 4 mm + 10 characters of
+/// 2.5 mm text beyond the mark's centre, 10 mm inside the strip).
+pub const MARK_CLEARANCE_MM: f64 = 10.0;
 
 /// The tiling of `pattern` on `paper`, with the legend (of `title`) at `legend`: below or
 /// right of the sheet as on the `--svg` page, moved further down (right) if needed so that it
@@ -132,7 +143,7 @@ pub fn tiling(pattern: &Pattern, paper: Paper, legend: Legend, title: &str) -> T
         ];
         let pitch = [window[0] - OVERLAP_MM, window[1] - OVERLAP_MM];
         // The widest legend that fits between a window's two overlaps.
-        let room = window[0] - 2.0 * OVERLAP_MM - 1.0;
+        let room = window[0] - 2.0 * (OVERLAP_MM + MARK_CLEARANCE_MM) - 1.0;
         let block = match legend {
             Legend::None => None,
             Legend::Below => Some(LegendBlock::new(pattern, title, room)),
@@ -317,7 +328,9 @@ pub fn pages(pattern: &Pattern, t: &Tiling, title: &str) -> Vec<String> {
                 s,
                 r##"<rect id="paper" x="0" y="0" width="{pw}" height="{ph}" fill="#ffffff"/>"##
             );
-            s += &line_groups(pattern, &|p| [p[0] + dx, p[1] + dy], &|a, b| clip(a, b, window));
+            s += &line_groups(pattern, &|p| [p[0] + dx, p[1] + dy], &|a, b| {
+                clip(a, b, window)
+            });
             if let Some((block, [lx, ly, _, _], page)) = &t.legend {
                 if *page + 1 == index {
                     s += &block.svg(lx + dx, ly + dy);

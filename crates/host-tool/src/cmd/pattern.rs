@@ -740,10 +740,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 };
                 let (n, format) = if *ext == "3mf" {
                     let app = format!("host-tool {}", env!("CARGO_PKG_VERSION"));
-                    let bytes = part
-                        .model(&app)
-                        .to_bytes()
-                        .map_err(|e| runtime("3MF", e))?;
+                    let bytes = part.model(&app).to_bytes().map_err(|e| runtime("3MF", e))?;
                     (out.write_counted(|w| w.write_all(&bytes))?, "3mf")
                 } else {
                     (out.write_counted(|w| part.mesh.write_stl(w))?, "stl")
@@ -795,9 +792,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     (Some(kit), _, Some(leaf)) => {
                         fabrication::bom::Bom::kit(kit, nest.as_ref(), leaf)
                     }
-                    (None, Some(panel), _) => {
-                        fabrication::bom::Bom::crane(panel, &printable.crane)
-                    }
+                    (None, Some(panel), _) => fabrication::bom::Bom::crane(panel, &printable.crane),
                     _ => continue,
                 };
                 let text = bom.to_csv();

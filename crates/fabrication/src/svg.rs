@@ -305,12 +305,15 @@ pub fn to_page(pattern: &Pattern, p: [f64; 2]) -> [f64; 2] {
     [MARGIN_MM + p[0] * l, MARGIN_MM + sheet_h - p[1] * l]
 }
 
+/// A segment clipper: the part of a–b to draw, if any.
+pub(crate) type Clip<'a> = &'a dyn Fn([f64; 2], [f64; 2]) -> Option<([f64; 2], [f64; 2])>;
+
 /// The crease lines, one `<g>` per kind, mapped by `at` (a pattern point in page mm → the
 /// SVG's frame) and clipped by `clip`.
 pub(crate) fn line_groups(
     pattern: &Pattern,
     at: &dyn Fn([f64; 2]) -> [f64; 2],
-    clip: &dyn Fn([f64; 2], [f64; 2]) -> Option<([f64; 2], [f64; 2])>,
+    clip: Clip<'_>,
 ) -> String {
     let mut s = String::new();
     let lines = pattern.lines();

@@ -426,12 +426,13 @@ fn printable_parts(args: &Args, trunk: &Trunk, kit_bom: bool) -> Result<Printabl
         }
         let hinge_given =
             params.panel_mm != defaults.panel_mm || params.fold_max_deg != defaults.fold_max_deg;
+        let crane_bom = bom && !kit_bom;
         if hinge_given && !(bom && kit_bom) {
             return Err(Failure::usage(
                 "--panel-mm and --fold-max-deg size the kit's hinge leaf; give --parts DIR too (or --bom FILE with --kit or --nest)",
             ));
         }
-        if params.tendon_radius_mm != defaults.tendon_radius_mm && !(bom && !kit_bom) {
+        if params.tendon_radius_mm != defaults.tendon_radius_mm && !crane_bom {
             return Err(Failure::usage(
                 "--tendon-radius-mm sizes the crane's caps, tendon locator and gripper mount; give --parts DIR too (or --bom FILE, without --kit and --nest)",
             ));

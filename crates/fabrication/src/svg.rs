@@ -57,8 +57,9 @@ fn esc(s: &str) -> String {
 pub const FONT_MM: f64 = 3.5;
 /// Baseline to baseline, mm.
 const LINE_MM: f64 = FONT_MM * 1.6;
-/// Advance of one character, mm: 0.62 em, wider than the mean advance of DejaVu Sans, Liberation
-/// Sans or Helvetica for mixed text, so the estimated width of a line is an upper bound.
+/// Advance of one character, mm: 0.62 em, a deliberately wide estimate of a sans-serif font's
+/// mean advance for mixed text, so the estimated width of a line bounds the drawn one
+/// (`tools/fabrication/check_outputs.py legend` checks it on rsvg-convert's rendering).
 pub const CHAR_MM: f64 = 0.62 * FONT_MM;
 /// Clear space between the sheet and a legend below it, mm.
 pub const GAP_BELOW_MM: f64 = 4.0;

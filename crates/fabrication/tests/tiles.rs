@@ -195,12 +195,19 @@ fn inside(inner: [f64; 4], outer: [f64; 4]) -> bool {
 }
 
 fn patterns() -> Vec<Pattern> {
-    vec![
+    let mut v = vec![
         pattern(&[(35.0, 2), (31.72, 2)], 75.0),
         pattern(&[(31.72, 4)], 200.0),
         pattern(&[(31.72, 1)], 20.0),
         pattern(&[(31.72, 6)], 40.0),
-    ]
+    ];
+    // Sheets from a few millimetres to metres, so the legend lands on every kind of page.
+    for edge in [10.0, 12.0, 33.0, 58.0, 90.0, 130.0, 260.0, 609.6] {
+        for layers in [1, 3, 7] {
+            v.push(pattern(&[(31.72, layers)], edge));
+        }
+    }
+    v
 }
 
 #[test]

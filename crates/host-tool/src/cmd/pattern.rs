@@ -410,7 +410,12 @@ struct Printable {
     leaf: Option<Part>,
 }
 
-fn printable_parts(args: &Args, trunk: &Trunk, kit_bom: bool) -> Result<Printable, Failure> {
+fn printable_parts(
+    args: &Args,
+    trunk: &Trunk,
+    kit_bom: bool,
+    format: PartsFormat,
+) -> Result<Printable, Failure> {
     let params = PartParams {
         panel_mm: args.panel_mm,
         fold_max_deg: args.fold_max_deg,
@@ -419,7 +424,7 @@ fn printable_parts(args: &Args, trunk: &Trunk, kit_bom: bool) -> Result<Printabl
     let defaults = PartParams::default();
     let bom = args.bom.is_some();
     if args.parts.is_none() {
-        if args.parts_format != "both" {
+        if format != PartsFormat::Both {
             return Err(Failure::usage(
                 "--parts-format chooses the files of --parts; give --parts DIR too",
             ));
@@ -511,12 +516,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let parts_format = PartsFormat::parse(&args.parts_format)?;
     let legend = fabrication::svg::Legend::parse(&args.legend)
         .map_err(|e| Failure::usage(format!("--legend: {e}")))?;
-    if args.legend != "below" && args.svg.is_none() && args.page.is_none() {
+    if legend != fabrication::svg::Legend::Below && args.svg.is_none() && args.page.is_none() {
         return Err(Failure::usage(
             "--legend places the legend of --svg and --page; give --svg FILE or --page PAPER too",
         ));
     }
-    let printable = printable_parts(&args, &trunk, kit_bom)?;
+    let printable = printable_parts(&args, &trunk, kit_bom, parts_format)?;
     let parts = &printable.files;
     let wants_panel =
         args.three_mf.is_some() || args.stl_dir.is_some() || (args.bom.is_some() && !kit_bom);

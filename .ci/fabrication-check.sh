@@ -56,11 +56,35 @@ $PY tiles "$OUT/full.svg" "$OUT"/a4/page-*.svg
 $PY tiles "$OUT/big.svg" "$OUT"/letter/page-*.svg
 rsvg-convert -w 600 "$OUT/a4/page-1.svg" -o "$OUT/page-1.png" && echo "ok   page SVG renders (rsvg-convert)"
 
-echo "--- printable parts (hinge leaf, caps, tendon locator, gripper mount): trimesh reads each back"
+echo "--- the legend below, right of or off the sheet, on the --svg page and on the tiles: rendered inside its box, clear of every crease line"
+$PY legend "$OUT/crane.svg" "$OUT/full.svg" "$OUT/big.svg"
+for place in right none; do
+  "$H" pattern --svg "$OUT/legend-$place.svg" --legend "$place" --page a4 --page-dir "$OUT/a4-$place" -j > "$OUT/a4-$place.json"
+  "$H" pattern --beta 31.72 --layers 4 --edge-mm 200 --svg "$OUT/big-$place.svg" --legend "$place" --page letter --page-dir "$OUT/letter-$place" -q
+  $PY tiles "$OUT/legend-$place.svg" "$OUT"/a4-$place/page-*.svg
+  $PY tiles "$OUT/big-$place.svg" "$OUT"/letter-$place/page-*.svg
+done
+$PY legend "$OUT/legend-right.svg" "$OUT/big-right.svg"
+$PY legend "$OUT/legend-none.svg" "$OUT/big-none.svg" "$OUT"/a4-none/page-*.svg "$OUT"/letter-none/page-*.svg --expect none
+# The one tile of each that prints the legend (grep: the others have none).
+$PY legend $(grep -l 'id="legend"' "$OUT"/a4/page-*.svg "$OUT"/letter/page-*.svg "$OUT"/a4-right/page-*.svg "$OUT"/letter-right/page-*.svg) --footer-mm 14
+
+echo "--- printable parts (hinge leaf, caps, tendon locator, gripper mount): trimesh reads each STL and 3MF back"
 "$H" pattern --parts "$OUT/parts" -j > "$OUT/parts.json"
 $PY parts "$OUT/parts.json" --tendon-radius-mm 60
 "$H" pattern --n 6 --edge-mm 30 --beta 31.72 --parts "$OUT/parts6" --tendon-radius-mm 45 --panel-mm 10 --fold-max-deg 120 -j > "$OUT/parts6.json"
 $PY parts "$OUT/parts6.json" --tendon-radius-mm 45
+"$H" pattern --parts "$OUT/parts-stl" --parts-format stl -j > "$OUT/parts-stl.json"
+$PY parts "$OUT/parts-stl.json" --tendon-radius-mm 60 --formats stl
+
+echo "--- the printed parts in the bills of materials: quantities and filament = quantity x STL volume x density"
+"$H" pattern --bom "$OUT/crane-bom.csv" -q
+$PY bom "$OUT/crane-bom.csv" --parts "$OUT/parts.json"
+"$H" pattern --n 6 --edge-mm 30 --beta 31.72 --tendon-radius-mm 45 --bom "$OUT/crane6-bom.csv" -q
+$PY bom "$OUT/crane6-bom.csv" --parts "$OUT/parts6.json"
+"$H" pattern --beta 31.72 --layers 4 --edge-mm 609.6 --kit "$OUT/kit.json" --bom "$OUT/kit-bom.csv" \
+  --parts "$OUT/kit-parts" --tendon-radius-mm 400 -j > "$OUT/kit-parts.json"
+$PY bom "$OUT/kit-bom.csv" --parts "$OUT/kit-parts.json" --expect hinge-leaf
 $PY render "$OUT/parts/hinge-leaf.stl" "$OUT/hinge-leaf.png" --elev 35
 
 echo "--- 3D models: glTF read with numpy alone (the gltf crate validates them in cargo test), OBJ/STL with trimesh"

@@ -8,6 +8,9 @@
   check_outputs.py nest DIR --sheet WxH --margin-mm M --spacing-mm S --kerf-mm K --hole-mm D
                    --n N --layers L --kit KIT.json   (cut sheets: ezdxf + shapely)
   check_outputs.py tiles FULL.svg PAGE.svg [...]   (paper tiles: 1:1, marks align, lines = the full pattern)
+  check_outputs.py parts REPORT.json [--tendon-radius-mm R] [--formats stl|both]  (STL + 3MF parts: trimesh)
+  check_outputs.py bom FILE.csv --parts REPORT.json [--expect PART ...]  (printed parts and filament in a BOM)
+  check_outputs.py legend FILE.svg [...] [--expect legend|none] [--footer-mm F]  (legend rendered inside its box)
   check_outputs.py glb FILE.glb [...] [--expect-red yes|no] (GLB read with numpy alone)
   check_outputs.py render FILE OUT.png [--title T] (a matplotlib projection of a 3D file)
 
@@ -165,17 +168,25 @@ def cmd_mesh(a):
 def cmd_parts(a):
     """The printable parts of `pattern --parts DIR -j`: every STL closed, consistently wound,
     one body of positive volume (the volume host-tool reports within 0.1 %), and a circle of
-    vertices at every hole it reports; tendon holes at the tendon radius."""
+    vertices at every hole it reports; tendon holes at the tendon radius. Every 3MF beside it
+    read by trimesh: watertight, consistently wound, one body, its volume the STL's within
+    1e-6 relative; its model in millimetres with one object and one build item, its metadata
+    naming the part, the quantity and the material host-tool reports."""
     import json
     import math
+    import os
 
     import numpy as np
     import trimesh
 
     report = json.load(open(a.report))
-    files = [f for f in report["files"] if f["flag"] == "--parts"]
+    entries = [f for f in report["files"] if f["flag"] == "--parts"]
+    files = [f for f in entries if f["format"] == "stl"]
+    threemfs = {f["part"]: f for f in entries if f["format"] == "3mf"}
     check(len(files) == len(a.expect), f"{len(files)} parts reported ({', '.join(f['part'] for f in files)})")
     check(sorted(f["part"] for f in files) == sorted(a.expect), f"parts are {sorted(a.expect)}")
+    if a.formats == "both":
+        check(sorted(threemfs) == sorted(a.expect), f"a 3MF beside every STL ({len(threemfs)})")
     for f in files:
         path = f["path"]
         m = trimesh.load(path, force="mesh")
@@ -196,6 +207,142 @@ def cmd_parts(a):
             if h["role"] == "tendon" and a.tendon_radius_mm is not None:
                 r = math.hypot(c[0], c[1])
                 check(abs(r - a.tendon_radius_mm) < 0.01, f"{path}: tendon hole at r = {r:.3f} mm (expected {a.tendon_radius_mm})")
+        t = threemfs.get(f["part"])
+        if t is None:
+            continue
+        tpath = t["path"]
+        check(os.path.splitext(tpath)[0] == os.path.splitext(path)[0], f"{tpath}: beside {os.path.basename(path)}")
+        g = trimesh.load(tpath, force="mesh")
+        gb = mesh_checks(tpath, g)
+        check(len(gb) == 1 and len(g.faces) == len(m.faces), f"{tpath}: one body, {len(g.faces)} triangles like the STL")
+        rel = abs(g.volume - m.volume) / m.volume
+        check(rel < 1e-6, f"{tpath}: volume {g.volume:.3f} mm^3 = the STL's {m.volume:.3f} (relative {rel:.1e} < 1e-6)")
+        root = ET.fromstring(zipfile.ZipFile(tpath).read("3D/3dmodel.model"))
+        ns = {"c": "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"}
+        meta = {e.get("name"): (e.text or "") for e in root.findall("c:metadata", ns)}
+        check(root.get("unit") == "millimeter", f"{tpath}: unit millimeter")
+        check(len(root.findall("c:resources/c:object", ns)) == 1 and len(root.findall("c:build/c:item", ns)) == 1,
+              f"{tpath}: one object, one build item")
+        mats = [b.get("name") for b in root.findall("c:resources/c:basematerials/c:base", ns)]
+        check(mats == [f["material"]], f"{tpath}: base material {mats}")
+        want = {"ys:part": f["part"], "ys:quantity": str(f["quantity"]), "ys:material": f["material"]}
+        check(all(meta.get(k) == v for k, v in want.items()),
+              f"{tpath}: metadata part {meta.get('ys:part')!r}, quantity {meta.get('ys:quantity')}, material {meta.get('ys:material')!r}")
+        mass = float(meta.get("ys:mass_g", "nan"))
+        dens = float(meta.get("ys:density_g_per_cm3", "nan"))
+        check(abs(mass - g.volume / 1000 * dens) <= 0.005 + 1e-9,
+              f"{tpath}: mass {mass} g = volume x {dens} g/cm^3")
+
+
+def cmd_bom(a):
+    """A bill of materials against the parts' report (`pattern --parts DIR -j`): every printed
+    part the BOM names is one of the report's parts with its quantity, and each filament row's
+    grams are the sum of quantity x trimesh's volume of the STL x the report's density, within
+    0.05 g (the BOM rounds to 0.1 g)."""
+    import csv
+    import re
+
+    import trimesh
+
+    rows = list(csv.DictReader(open(a.file, newline="")))
+    check(rows and list(rows[0].keys()) == ["section", "part", "quantity", "unit", "specification"], f"{a.file}: header")
+    report = json.load(open(a.parts))
+    parts = {f["part"]: f for f in report["files"] if f["flag"] == "--parts" and f["format"] == "stl"}
+    named = []
+    for r in rows:
+        m = re.search(r"\(([a-z-]+)\.stl / \.3mf\)$", r["part"])
+        if r["section"] == "printed" and m:
+            f = parts.get(m.group(1))
+            check(f is not None and float(r["quantity"]) == f["quantity"],
+                  f"{a.file}: {m.group(1)} x {r['quantity']} (the report: {f and f['quantity']})")
+            if f is not None:
+                named.append(f)
+    check(sorted(f["part"] for f in named) == sorted(a.expect), f"{a.file}: printed parts {sorted(f['part'] for f in named)}")
+    volumes = {f["part"]: trimesh.load(f["path"], force="mesh").volume for f in named}
+    for material in sorted({f["material"] for f in named}):
+        want = sum(f["quantity"] * volumes[f["part"]] / 1000 * f["density_g_per_cm3"] for f in named if f["material"] == material)
+        row = [r for r in rows if r["part"] == f"{material} filament (printed parts)"]
+        got = float(row[0]["quantity"]) if row else float("nan")
+        check(row and row[0]["unit"] == "g" and abs(got - want) <= 0.05 + 1e-9,
+              f"{a.file}: {material} filament {got} g = sum of quantity x STL volume x density {want:.2f} g")
+    for r in rows:
+        if r["part"] == "disc magnet":
+            want = sum(f["quantity"] * sum(1 for h in f["holes"] if h["role"] == "magnet") for f in named)
+            check(float(r["quantity"]) == want, f"{a.file}: {r['quantity']} magnets = the parts' {want} magnet pockets")
+
+
+def cmd_legend(a):
+    """The legend of an SVG page (`--svg` or a `--page` tile): rendered alone with rsvg-convert,
+    every drawn pixel lies inside the box the SVG declares (`data-box` of `<g id="legend">`),
+    the box is inside the page's printable area, and no crease line of the page crosses it."""
+    import os
+    import subprocess
+    import tempfile
+
+    import numpy as np
+    from matplotlib.image import imread
+
+    ns = "{http://www.w3.org/2000/svg}"
+    for path in a.files:
+        name = os.path.basename(path)
+        tree = ET.parse(path)
+        root = tree.getroot()
+        vb = [float(x) for x in root.get("viewBox").split()]
+        legend = [g for g in root.iter(ns + "g") if g.get("id") == "legend"]
+        if a.expect == "none":
+            check(not legend, f"{name}: no legend")
+            continue
+        check(len(legend) == 1, f"{name}: one legend")
+        if not legend:
+            continue
+        x, y, w, h = (float(v) for v in legend[0].get("data-box").split())
+        m = a.margin_mm
+        check(x >= m - 1e-3 and y >= m - 1e-3 and x + w <= vb[2] - m + 1e-3 and y + h <= vb[3] - m - a.footer_mm + 1e-3,
+              f"{name}: legend box {x:.1f} {y:.1f} {w:.1f} x {h:.1f} inside the {vb[2]:.1f} x {vb[3]:.1f} page's printable area")
+
+        def crosses(p, q):
+            # Liang-Barsky against the box.
+            dx, dy = q[0] - p[0], q[1] - p[1]
+            t0, t1 = 0.0, 1.0
+            for pp, qq in ((-dx, p[0] - x), (dx, x + w - p[0]), (-dy, p[1] - y), (dy, y + h - p[1])):
+                if pp == 0:
+                    if qq < 0:
+                        return False
+                else:
+                    t = qq / pp
+                    if pp < 0:
+                        t0 = max(t0, t)
+                    else:
+                        t1 = min(t1, t)
+            return t0 <= t1
+
+        lines = [(g.get("id"), ln) for g in root.iter(ns + "g") if g.get("id") in ("mountain", "valley", "boundary", "cut", "virtual") for ln in g.iter(ns + "line")]
+        bad = [k for k, ln in lines if crosses((float(ln.get("x1")), float(ln.get("y1"))), (float(ln.get("x2")), float(ln.get("y2"))))]
+        check(lines and not bad, f"{name}: none of {len(lines)} crease lines crosses the legend ({len(bad)} do)")
+        # Only the legend and its scale bar, rendered at 10 px/mm.
+        for parent in list(root.iter()):
+            for child in list(parent):
+                if child.tag == ns + "g" and child.get("id") not in ("legend", "annotation"):
+                    parent.remove(child)
+                elif child.tag == ns + "rect":
+                    parent.remove(child)
+        with tempfile.TemporaryDirectory() as tmp:
+            svg, png = os.path.join(tmp, "l.svg"), os.path.join(tmp, "l.png")
+            tree.write(svg)
+            px = 10.0
+            subprocess.run(["rsvg-convert", "-w", str(int(round(vb[2] * px))), "-b", "white", svg, "-o", png], check=True)
+            img = imread(png)[:, :, :3]
+        scale = img.shape[1] / vb[2]
+        ink = np.argwhere(img.min(axis=2) < 0.9)
+        if len(ink) == 0:
+            check(False, f"{name}: the legend renders")
+            continue
+        (r0, c0), (r1, c1) = ink.min(axis=0), ink.max(axis=0)
+        got = (c0 / scale, r0 / scale, (c1 + 1) / scale, (r1 + 1) / scale)
+        # The scale bar's 0.5 mm stroke may stand 0.25 mm outside the box; one pixel of rounding.
+        tol = 0.25 + 1 / scale
+        check(got[0] >= x - tol and got[1] >= y - tol and got[2] <= x + w + tol and got[3] <= y + h + tol,
+              f"{name}: rendered legend {got[0]:.1f}..{got[2]:.1f} x {got[1]:.1f}..{got[3]:.1f} mm inside its box {x:.1f}..{x + w:.1f} x {y:.1f}..{y + h:.1f}")
 
 
 def cmd_kit(a):
@@ -500,6 +647,16 @@ def main():
     pa.add_argument("report", help="the JSON of host-tool pattern --parts DIR -j")
     pa.add_argument("--expect", nargs="+", default=["hinge-leaf", "upper-cap", "lower-cap", "tendon-locator", "gripper-mount"])
     pa.add_argument("--tendon-radius-mm", type=float)
+    pa.add_argument("--formats", choices=["stl", "both"], default="both", help="the --parts-format the report was made with")
+    bo = sub.add_parser("bom")
+    bo.add_argument("file")
+    bo.add_argument("--parts", required=True, help="the JSON of host-tool pattern --parts DIR -j")
+    bo.add_argument("--expect", nargs="+", default=["upper-cap", "lower-cap", "tendon-locator", "gripper-mount"])
+    lg = sub.add_parser("legend")
+    lg.add_argument("files", nargs="+")
+    lg.add_argument("--expect", choices=["legend", "none"], default="legend")
+    lg.add_argument("--margin-mm", type=float, default=10.0)
+    lg.add_argument("--footer-mm", type=float, default=0.0)
     k = sub.add_parser("kit")
     k.add_argument("file")
     k.add_argument("--hinges", type=int, required=True)
@@ -530,7 +687,7 @@ def main():
     r.add_argument("--size", type=float, default=5)
     r.add_argument("--dpi", type=int, default=110)
     a = p.parse_args()
-    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb, "nest": cmd_nest, "tiles": cmd_tiles, "parts": cmd_parts}[a.cmd](a)
+    {"dxf": cmd_dxf, "panel": cmd_panel, "mesh": cmd_mesh, "kit": cmd_kit, "render": cmd_render, "glb": cmd_glb, "nest": cmd_nest, "tiles": cmd_tiles, "parts": cmd_parts, "bom": cmd_bom, "legend": cmd_legend}[a.cmd](a)
     print(f"check_outputs {a.cmd}: " + ("all checks passed" if FAILED == 0 else f"{FAILED} checks FAILED"))
     sys.exit(1 if FAILED else 0)
 

@@ -15,9 +15,12 @@
 //! * [`kit`] — the meter-scale kit of §7: facet cut list, hinge positions, hinge/screw counts;
 //! * [`nest`] — cut sheets of the kit's facets on real sheet sizes, with insert holes and
 //!   labels, written per sheet as DXF and SVG by [`nest_out`];
-//! * [`parts`] — printable parts as closed solids (binary STL): the kit's hinge leaf, the
-//!   crane's upper and lower caps, tendon locator and gripper mount;
-//! * [`bom`] — bills of materials (the crane: printed panel and electronics; the kit) as CSV;
+//! * [`parts`] — printable parts as closed solids (binary STL, and a slicer-ready 3MF each with
+//!   its material, quantity and dimensions): the kit's hinge leaf, the crane's upper and lower
+//!   caps, tendon locator and gripper mount;
+//! * [`threemf`] — the 3MF package writer the panel and the parts share;
+//! * [`bom`] — bills of materials (the crane: printed panel, printed parts, magnets and
+//!   electronics; the kit: sheets, facets, printed hinge leaves, pins, screws, inserts) as CSV;
 //! * [`model`] — a 3D model of a stack in given states (binary glTF 2.0, OBJ, STL), coloured by
 //!   module, with the strain of non-isometric states shown.
 //!
@@ -41,6 +44,7 @@ pub mod panel;
 pub mod parts;
 pub mod pattern;
 pub mod svg;
+pub mod threemf;
 pub mod tiles;
 mod trunk;
 

@@ -9,15 +9,13 @@
 //! interface are half a gap from each side, and no facet reaches the sheet edge or the tab.
 //! The virtual creases are not gapped: the paper prints whole triangular facets.
 //!
-//! Two objects, two materials, one 3MF (the 3MF core specification, written directly: a zip
-//! of three XML parts; the `threemf` crate puts `basematerials` in the materials-extension
-//! namespace after the objects that use it and cannot declare a namespace for custom
-//! metadata, so it cannot say what a slicer needs here).
+//! Two objects, two materials, one 3MF (written by [`crate::threemf`]).
 
 use std::io::{Seek, Write};
 
 use crate::mesh::{inradius, inset, Mesh};
 use crate::pattern::Pattern;
+use crate::threemf;
 use crate::trunk::FabError;
 
 /// Panel parameters (mm).
@@ -149,27 +147,15 @@ impl Panel {
         })
     }
 
-    /// Writes the 3MF package: two objects (base, facets), each with its base material, and
-    /// the print parameters as metadata.
+    /// Writes the 3MF package ([`crate::threemf`]): two objects (base, facets), each with its
+    /// base material, and the print parameters as metadata.
     pub fn write_3mf<W: Write + Seek>(
         &self,
         pattern: &Pattern,
         application: &str,
         out: W,
     ) -> std::io::Result<()> {
-        let mut zip = zip::ZipWriter::new(out);
-        let opts = zip::write::SimpleFileOptions::default()
-            .compression_method(zip::CompressionMethod::Deflated)
-            .last_modified_time(zip::DateTime::default());
-        let zerr = |e: zip::result::ZipError| std::io::Error::other(e.to_string());
-        zip.start_file("[Content_Types].xml", opts).map_err(zerr)?;
-        zip.write_all(CONTENT_TYPES.as_bytes())?;
-        zip.start_file("_rels/.rels", opts).map_err(zerr)?;
-        zip.write_all(RELS.as_bytes())?;
-        zip.start_file("3D/3dmodel.model", opts).map_err(zerr)?;
-        zip.write_all(self.model_xml(pattern, application).as_bytes())?;
-        zip.finish().map_err(zerr)?;
-        Ok(())
+        self.model(pattern, application).write(out)
     }
 
     /// The print parameters written to the 3MF metadata (name, value).
@@ -212,15 +198,8 @@ impl Panel {
         ]
     }
 
-    fn model_xml(&self, pattern: &Pattern, application: &str) -> String {
-        use std::fmt::Write as _;
-        let mut s = String::new();
-        s += r#"<?xml version="1.0" encoding="UTF-8"?>"#;
-        s += "\n";
-        let _ = writeln!(
-            s,
-            r#"<model unit="millimeter" xml:lang="en-US" xmlns="{CORE_NS}" xmlns:ys="{YS_NS}">"#
-        );
+    /// The 3MF model: metadata, the two materials, the two objects.
+    pub fn model(&self, pattern: &Pattern, application: &str) -> threemf::Model<'_> {
         let title = format!("Yoshimura trunk panel: {}", pattern.trunk().describe());
         let desc = format!(
             "Dual-material panel (paper §5.3): print the base object in TPU 95A and the facets object in nylon, \
@@ -233,77 +212,33 @@ impl Panel {
             self.params.facet_mm,
             self.params.gap_mm.iter().map(|g| g.to_string()).collect::<Vec<_>>().join(",")
         );
-        let mut meta = vec![
+        let mut metadata = vec![
             ("Title".to_string(), title),
             ("Designer".to_string(), "host-tool pattern".to_string()),
             ("Application".to_string(), application.to_string()),
             ("Description".to_string(), desc),
         ];
-        meta.extend(self.metadata(pattern));
-        for (k, v) in meta {
-            let _ = writeln!(s, r#" <metadata name="{}">{}</metadata>"#, xml(&k), xml(&v));
+        metadata.extend(self.metadata(pattern));
+        let material = |name: &str, colour: &str| threemf::Material {
+            name: name.to_string(),
+            colour: colour.to_string(),
+        };
+        threemf::Model {
+            metadata,
+            materials: vec![
+                material("TPU 95A (base sheet)", "#3A3A3AFF"),
+                material("Nylon (facets)", "#EDE8D8FF"),
+            ],
+            objects: vec![
+                threemf::Object {
+                    mesh: &self.base,
+                    material: 0,
+                },
+                threemf::Object {
+                    mesh: &self.facets,
+                    material: 1,
+                },
+            ],
         }
-        s += " <resources>\n";
-        s += "  <basematerials id=\"1\">\n";
-        s += "   <base name=\"TPU 95A (base sheet)\" displaycolor=\"#3A3A3AFF\"/>\n";
-        s += "   <base name=\"Nylon (facets)\" displaycolor=\"#EDE8D8FF\"/>\n";
-        s += "  </basematerials>\n";
-        for (id, (mesh, pindex)) in [(&self.base, 0), (&self.facets, 1)].into_iter().enumerate() {
-            let _ = writeln!(
-                s,
-                r#"  <object id="{}" type="model" name="{}" pid="1" pindex="{pindex}">"#,
-                id + 2,
-                xml(&mesh.name)
-            );
-            s += "   <mesh>\n    <vertices>\n";
-            for v in &mesh.vertices {
-                let _ = writeln!(
-                    s,
-                    r#"     <vertex x="{}" y="{}" z="{}"/>"#,
-                    num(v[0]),
-                    num(v[1]),
-                    num(v[2])
-                );
-            }
-            s += "    </vertices>\n    <triangles>\n";
-            for t in &mesh.triangles {
-                let _ = writeln!(
-                    s,
-                    r#"     <triangle v1="{}" v2="{}" v3="{}"/>"#,
-                    t[0], t[1], t[2]
-                );
-            }
-            s += "    </triangles>\n   </mesh>\n  </object>\n";
-        }
-        s += " </resources>\n <build>\n  <item objectid=\"2\"/>\n  <item objectid=\"3\"/>\n </build>\n</model>\n";
-        s
     }
 }
-
-fn num(x: f64) -> String {
-    let r = (x * 1e6).round() / 1e6;
-    format!("{}", if r == 0.0 { 0.0 } else { r })
-}
-
-fn xml(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
-const CORE_NS: &str = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";
-const YS_NS: &str = "https://github.com/yoshimura-space-crane/crane/fabrication";
-
-const CONTENT_TYPES: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
-<Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types">
- <Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/>
- <Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/>
-</Types>
-"#;
-
-const RELS: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
-<Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">
- <Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/>
-</Relationships>
-"#;

@@ -22,8 +22,10 @@
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
+use crate::bom::{Filament, NYLON, PLA, PLA_CF};
 use crate::mesh::Mesh;
 use crate::nest::{SCREW_INSET_MM, SCREW_PITCH_MM};
+use crate::threemf;
 use crate::trunk::{FabError, Trunk};
 
 /// Segments of a full circle (holes and round outlines): the polygon's area is within
@@ -126,7 +128,7 @@ pub struct Part {
     /// How many to print.
     pub quantity: usize,
     /// Filament.
-    pub material: &'static str,
+    pub material: Filament,
     /// The solid.
     pub mesh: Mesh,
     /// Holes, from the dimensions.
@@ -154,6 +156,82 @@ impl Default for PartParams {
             panel_mm: DEFAULT_PANEL_MM,
             fold_max_deg: 180.0,
             tendon_radius_mm: DEFAULT_TENDON_RADIUS_MM,
+        }
+    }
+}
+
+impl Part {
+    /// A named dimension (mm or degrees), if the part has it.
+    pub fn dimension(&self, name: &str) -> Option<f64> {
+        self.dimensions
+            .iter()
+            .find(|(k, _)| *k == name)
+            .map(|(_, v)| *v)
+    }
+
+    /// The solid's volume from its mesh, mm³.
+    pub fn volume_mm3(&self) -> f64 {
+        self.mesh.volume()
+    }
+
+    /// The filament mass of one part printed solid (the mesh volume × the filament's nominal
+    /// density), g.
+    pub fn mass_g(&self) -> f64 {
+        self.volume_mm3() / 1000.0 * self.material.g_per_cm3
+    }
+
+    /// What the 3MF's metadata says (name, value): the part, how many to print, the filament
+    /// and its nominal density, the solid's volume and mass, and every named dimension.
+    pub fn metadata(&self) -> Vec<(String, String)> {
+        let mut m = vec![
+            ("ys:part".to_string(), self.name.to_string()),
+            ("ys:quantity".to_string(), self.quantity.to_string()),
+            ("ys:material".to_string(), self.material.name.to_string()),
+            (
+                "ys:density_g_per_cm3".to_string(),
+                self.material.g_per_cm3.to_string(),
+            ),
+            (
+                "ys:volume_mm3".to_string(),
+                format!("{:.3}", self.volume_mm3()),
+            ),
+            ("ys:mass_g".to_string(), format!("{:.2}", self.mass_g())),
+        ];
+        for (k, v) in &self.dimensions {
+            m.push((format!("ys:{k}"), format!("{}", (v * 1e6).round() / 1e6)));
+        }
+        m
+    }
+
+    /// The slicer-ready 3MF model of the part ([`crate::threemf`]): one object in its
+    /// material, millimetres, at the STL's coordinates, with [`Part::metadata`].
+    pub fn model(&self, application: &str) -> threemf::Model<'_> {
+        let mut metadata = vec![
+            ("Title".to_string(), self.description.clone()),
+            ("Designer".to_string(), "host-tool pattern".to_string()),
+            ("Application".to_string(), application.to_string()),
+            (
+                "Description".to_string(),
+                format!(
+                    "Print {} in {} (nominal {} g/cm³: {:.1} g each printed solid), millimetres, 1:1.",
+                    self.quantity,
+                    self.material.name,
+                    self.material.g_per_cm3,
+                    self.mass_g()
+                ),
+            ),
+        ];
+        metadata.extend(self.metadata());
+        threemf::Model {
+            metadata,
+            materials: vec![threemf::Material {
+                name: self.material.name.to_string(),
+                colour: self.material.colour.to_string(),
+            }],
+            objects: vec![threemf::Object {
+                mesh: &self.mesh,
+                material: 0,
+            }],
         }
     }
 }
@@ -725,7 +803,7 @@ pub fn hinge_leaf(p: &PartParams, hinges: usize) -> Result<Part, FabError> {
             h.screw_mm.floor()
         ),
         quantity: 2 * hinges,
-        material: "PLA-CF",
+        material: PLA_CF,
         mesh,
         holes,
         nominal_volume_mm3: nominal,
@@ -737,6 +815,7 @@ pub fn hinge_leaf(p: &PartParams, hinges: usize) -> Result<Part, FabError> {
             ("knuckle_radius_mm", r),
             ("knuckle_length_mm", knuckle_len),
             ("pin_hole_mm", PIN_HOLE_MM),
+            ("pin_length_mm", pin_length_mm(h.length_mm)),
             ("screw_hole_mm", M4_CLEARANCE_MM),
             ("screw_pitch_mm", SCREW_PITCH_MM),
             ("screw_inset_mm", SCREW_INSET_MM),
@@ -745,6 +824,22 @@ pub fn hinge_leaf(p: &PartParams, hinges: usize) -> Result<Part, FabError> {
             ("fold_max_deg", p.fold_max_deg),
         ],
     })
+}
+
+/// Stock lengths of 3 mm dowel pins (ISO 2338) and M3 screws, mm.
+pub const PIN_STOCK_MM: [f64; 14] = [
+    10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 60.0,
+];
+
+/// The hinge pin: the longest stock length that stays within both leaves' knuckles (the
+/// hinge's length along the crease), mm.
+pub fn pin_length_mm(hinge_length_mm: f64) -> f64 {
+    PIN_STOCK_MM
+        .iter()
+        .rev()
+        .copied()
+        .find(|&l| l <= hinge_length_mm)
+        .unwrap_or(PIN_STOCK_MM[0])
 }
 
 /// The trunk's circumradius (its n-gon's, deployed), mm.
@@ -956,10 +1051,10 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
     parts.push(Part {
         name: "upper-cap",
         description: format!(
-            "upper cap: closes the trunk's top, anchors the 3 tendons at r = {r_t} mm, 3 pockets for 6 × 3 mm magnets (the add-on connector)"
+            "upper cap: closes the trunk's top, anchors the 3 tendons at r = {r_t} mm, 3 pockets for 6 × 3 mm magnets (the add-on connector); nylon, as it is installed before the trunk's last 140 °C heat treatment (§5.3)"
         ),
         quantity: 1,
-        material: "PLA",
+        material: NYLON,
         mesh,
         holes,
         nominal_volume_mm3: vol,
@@ -986,7 +1081,7 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
             "lower cap: closes the trunk's base around the {AIR_HOLE_MM} mm air line, guides the 3 tendons down at r = {r_t} mm"
         ),
         quantity: 1,
-        material: "PLA",
+        material: PLA,
         mesh,
         holes,
         nominal_volume_mm3: vol,
@@ -1014,7 +1109,7 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
             2.0 * bore
         ),
         quantity: 2,
-        material: "PLA",
+        material: PLA,
         mesh,
         holes,
         nominal_volume_mm3: vol,
@@ -1071,7 +1166,7 @@ pub fn crane_parts(trunk: &Trunk, p: &PartParams) -> Result<Vec<Part>, FabError>
             "gripper mount: 3 magnet pockets underneath onto the upper cap's, 4 × M3 on a {pcd} mm circle for the gripper, clearance over the tendon knots"
         ),
         quantity: 1,
-        material: "PLA",
+        material: PLA,
         mesh,
         holes,
         nominal_volume_mm3: vol,

@@ -8,12 +8,15 @@
 //! on both pages at the same place of the pattern, so laying one page over the other with the
 //! marks on top of each other puts the pattern together 1:1. The footer's bar is 50 mm: measure
 //! it to check the printer did not scale the page. The page is portrait or landscape, whichever
-//! needs fewer pages.
+//! needs fewer pages. The legend of the `--svg` page (unless [`Legend::None`]) is printed once,
+//! below or right of the sheet, on a page whose window holds it whole outside the overlaps.
 
 use std::fmt::Write as _;
 
-use crate::pattern::{LineKind, Pattern};
-use crate::svg::{colour, to_page};
+use crate::pattern::Pattern;
+use crate::svg::{
+    line_groups, to_page, Legend, LegendBlock, GAP_BELOW_MM, GAP_RIGHT_MM, RIGHT_COLUMN_MM,
+};
 use crate::trunk::FabError;
 
 /// Unprinted border of every page, mm (most printers cannot print closer to the edge).
@@ -76,8 +79,14 @@ pub struct Tiling {
     pub window_mm: [f64; 2],
     /// Step from one window to the next (window − overlap), mm.
     pub pitch_mm: [f64; 2],
-    /// The tiled region (the sheet) in the full SVG's frame: origin and size, mm.
+    /// The tiled region (the sheet, and the legend's box beside it) in the full SVG's frame:
+    /// origin and size, mm.
     pub region_mm: [f64; 4],
+    /// The sheet in the full SVG's frame: origin and size, mm.
+    pub sheet_mm: [f64; 4],
+    /// The legend, its box in the full SVG's frame (x, y, width, height, mm) and the index of
+    /// the one page that prints it (row by row from the top left).
+    pub legend: Option<(LegendBlock, [f64; 4], usize)>,
 }
 
 impl Tiling {
@@ -95,8 +104,33 @@ fn count(length: f64, window: f64, pitch: f64) -> usize {
     }
 }
 
-/// The tiling of `pattern` on `paper`.
-pub fn tiling(pattern: &Pattern, paper: Paper) -> Tiling {
+/// The part of window `i` of `count` along one axis that no neighbouring window overlaps:
+/// (start, end) from the region's origin.
+fn exclusive(i: usize, count: usize, window: f64, pitch: f64) -> (f64, f64) {
+    let start = i as f64 * pitch;
+    let lo = if i > 0 {
+        start + OVERLAP_MM + MARK_CLEARANCE_MM
+    } else {
+        start
+    };
+    let hi = if i + 1 < count {
+        start + window - OVERLAP_MM - MARK_CLEARANCE_MM
+    } else {
+        start + window
+    };
+    (lo, hi)
+}
+
+/// Clear space kept between the legend and an overlap strip, mm: a registration mark's id is
+/// written right of its cross and may reach past the strip (up to 4 mm + 10 characters of
+/// 2.5 mm text beyond the mark's centre, 10 mm inside the strip).
+pub const MARK_CLEARANCE_MM: f64 = 10.0;
+
+/// The tiling of `pattern` on `paper`, with the legend (of `title`) at `legend`: below or
+/// right of the sheet as on the `--svg` page, moved further down (right) if needed so that it
+/// lies whole in one page's window, clear of the overlaps (and so of every registration mark
+/// and of every other page).
+pub fn tiling(pattern: &Pattern, paper: Paper, legend: Legend, title: &str) -> Tiling {
     let l = pattern.trunk().edge_mm();
     let sheet = [(pattern.width() + pattern.seam()) * l, pattern.height() * l];
     // The sheet's top-left corner in the full SVG's frame (pattern x = 0, y = height).
@@ -108,17 +142,81 @@ pub fn tiling(pattern: &Pattern, paper: Paper) -> Tiling {
             page[1] - 2.0 * PRINT_MARGIN_MM - FOOTER_MM,
         ];
         let pitch = [window[0] - OVERLAP_MM, window[1] - OVERLAP_MM];
-        let grid = [
-            count(sheet[0], window[0], pitch[0]),
-            count(sheet[1], window[1], pitch[1]),
-        ];
+        // The widest legend that fits between a window's two overlaps.
+        let room = window[0] - 2.0 * (OVERLAP_MM + MARK_CLEARANCE_MM) - 1.0;
+        let block = match legend {
+            Legend::None => None,
+            Legend::Below => Some(LegendBlock::new(pattern, title, room)),
+            Legend::Right => Some(LegendBlock::new(pattern, title, room.min(RIGHT_COLUMN_MM))),
+        };
+        // The legend's corner from the region's origin; the axis it may move along.
+        let (mut at, axis) = match legend {
+            Legend::Right => ([sheet[0] + GAP_RIGHT_MM, 0.0], 0),
+            _ => ([0.0, sheet[1] + GAP_BELOW_MM], 1),
+        };
+        let mut grid = [1, 1];
+        let mut page_index = 0;
+        for _ in 0..8 {
+            let size = block.as_ref().map(|b| b.size_mm).unwrap_or([0.0, 0.0]);
+            let extent = if block.is_some() {
+                [sheet[0].max(at[0] + size[0]), sheet[1].max(at[1] + size[1])]
+            } else {
+                sheet
+            };
+            grid = [
+                count(extent[0], window[0], pitch[0]),
+                count(extent[1], window[1], pitch[1]),
+            ];
+            if block.is_none() {
+                break;
+            }
+            // The page whose exclusive part holds the legend, or the next one along the axis.
+            let mut cell = [0usize; 2];
+            let mut fits = true;
+            for k in 0..2 {
+                let found = (0..grid[k]).find(|&i| {
+                    let (lo, hi) = exclusive(i, grid[k], window[k], pitch[k]);
+                    at[k] >= lo - 1e-9 && at[k] + size[k] <= hi + 1e-9
+                });
+                match found {
+                    Some(i) => cell[k] = i,
+                    None => {
+                        fits = false;
+                        if k == axis {
+                            // Move to the start of the next window's exclusive part.
+                            let next = (0..grid[k] + 1)
+                                .map(|i| exclusive(i, grid[k] + 1, window[k], pitch[k]).0)
+                                .find(|&lo| lo > at[k] + 1e-9);
+                            if let Some(lo) = next {
+                                at[k] = lo;
+                            }
+                        }
+                    }
+                }
+            }
+            if fits {
+                page_index = cell[1] * grid[0] + cell[0];
+                break;
+            }
+        }
+        let size = block.as_ref().map(|b| b.size_mm).unwrap_or([0.0, 0.0]);
+        let region = if block.is_some() {
+            [sheet[0].max(at[0] + size[0]), sheet[1].max(at[1] + size[1])]
+        } else {
+            sheet
+        };
         Tiling {
             paper,
             page_mm: page,
             grid,
             window_mm: window,
             pitch_mm: pitch,
-            region_mm: [origin[0], origin[1], sheet[0], sheet[1]],
+            region_mm: [origin[0], origin[1], region[0], region[1]],
+            sheet_mm: [origin[0], origin[1], sheet[0], sheet[1]],
+            legend: block.map(|b| {
+                let bx = [origin[0] + at[0], origin[1] + at[1], size[0], size[1]];
+                (b, bx, page_index)
+            }),
         }
     };
     let portrait = layout([pw, ph]);
@@ -204,11 +302,6 @@ pub fn marks(t: &Tiling) -> Vec<Mark> {
 pub fn pages(pattern: &Pattern, t: &Tiling, title: &str) -> Vec<String> {
     let [x0, y0, _, _] = t.region_mm;
     let [pw, ph] = t.page_mm;
-    let lines: Vec<([f64; 2], [f64; 2], LineKind)> = pattern
-        .lines()
-        .into_iter()
-        .map(|(a, b, k)| (to_page(pattern, a), to_page(pattern, b), k))
-        .collect();
     let all_marks = marks(t);
     let total = t.pages();
     let mut out = Vec::with_capacity(total);
@@ -235,34 +328,12 @@ pub fn pages(pattern: &Pattern, t: &Tiling, title: &str) -> Vec<String> {
                 s,
                 r##"<rect id="paper" x="0" y="0" width="{pw}" height="{ph}" fill="#ffffff"/>"##
             );
-            for kind in LineKind::ALL {
-                let mut g = String::new();
-                for (a, b, k) in &lines {
-                    if *k != kind {
-                        continue;
-                    }
-                    if let Some((p, q)) = clip(*a, *b, window) {
-                        let ((ax, ay), (bx, by)) = (at(p), at(q));
-                        let _ = writeln!(
-                            g,
-                            r#"<line x1="{ax:.4}" y1="{ay:.4}" x2="{bx:.4}" y2="{by:.4}"/>"#
-                        );
-                    }
-                }
-                if !g.is_empty() {
-                    let dash = if kind == LineKind::Virtual {
-                        r#" stroke-dasharray="1.5,1.5""#
-                    } else {
-                        ""
-                    };
-                    let _ = writeln!(
-                        s,
-                        r#"<g id="{}" fill="none" stroke="{}" stroke-width="0.25"{dash}>"#,
-                        kind.layer_name().to_ascii_lowercase(),
-                        colour(kind)
-                    );
-                    s += &g;
-                    s += "</g>\n";
+            s += &line_groups(pattern, &|p| [p[0] + dx, p[1] + dy], &|a, b| {
+                clip(a, b, window)
+            });
+            if let Some((block, [lx, ly, _, _], page)) = &t.legend {
+                if *page + 1 == index {
+                    s += &block.svg(lx + dx, ly + dy);
                 }
             }
             // The window's outline, thin grey: where this page's part of the pattern ends.

@@ -3,6 +3,7 @@
 
 use fabrication::kit::Kit;
 use fabrication::panel::{facet_triangles, Panel, PanelParams};
+use fabrication::parts::{hinge_leaf, PartParams};
 use fabrication::pattern::Pattern;
 use fabrication::{Module, Trunk};
 use geometry::ModuleDesign;
@@ -253,7 +254,8 @@ fn bills_of_materials_count_what_the_files_make() {
         },
     )
     .unwrap();
-    let bom = Bom::crane(&panel);
+    let parts = fabrication::parts::crane_parts(&crane, &PartParams::default()).unwrap();
+    let bom = Bom::crane(&panel, &parts);
     let grams = |part: &str| {
         bom.rows
             .iter()
@@ -299,14 +301,15 @@ fn bills_of_materials_count_what_the_files_make() {
         },
     )
     .unwrap();
-    let bom = Bom::kit(&kit, Some(&nest));
+    let leaf = hinge_leaf(&PartParams::default(), kit.hinges.len()).unwrap();
+    let bom = Bom::kit(&kit, Some(&nest), &leaf);
     let pcs = |part: &str| bom.rows.iter().find(|r| r.part == part).unwrap().quantity;
     assert_eq!(pcs("HDPE sheet"), 2.0);
     assert_eq!(pcs("hinge"), 180.0);
     assert_eq!(pcs("M4 screw"), nest.hole_count() as f64);
     assert_eq!(pcs("M4 heat-set insert"), 720.0);
     assert_eq!(pcs("facet, module 1"), 48.0);
-    let unnested = Bom::kit(&kit, None);
+    let unnested = Bom::kit(&kit, None, &leaf);
     let area = unnested
         .rows
         .iter()
@@ -316,5 +319,236 @@ fn bills_of_materials_count_what_the_files_make() {
     assert!(
         (area - 48.0 * kit.facets[0].area_mm2 / 1e6).abs() < 1e-3,
         "{area}"
+    );
+}
+
+/// One row of a BOM by its part name.
+fn bom_row<'a>(bom: &'a fabrication::bom::Bom, part: &str) -> &'a fabrication::bom::BomRow {
+    bom.rows
+        .iter()
+        .find(|r| r.part == part)
+        .unwrap_or_else(|| panic!("no row '{part}' in\n{}", bom.to_csv()))
+}
+
+#[test]
+fn the_boms_list_every_printed_part_with_its_filament_mass_and_hardware() {
+    use fabrication::bom::{Bom, NYLON_G_PER_CM3, PLA_CF_G_PER_CM3, PLA_G_PER_CM3};
+    // The crane at two tendon radii: the parts' rows follow the parts' meshes.
+    let (_, panel) = crane_panel();
+    let crane = trunk(3, &[(35.0, 2), (31.72, 2)], 75.0);
+    for r_t in [60.0, 80.0] {
+        let params = PartParams {
+            tendon_radius_mm: r_t,
+            ..Default::default()
+        };
+        let parts = fabrication::parts::crane_parts(&crane, &params).unwrap();
+        let bom = Bom::crane(&panel, &parts);
+        let printed: Vec<(&str, f64)> = bom
+            .rows
+            .iter()
+            .filter(|r| r.section == "printed" && r.unit == "pcs")
+            .map(|r| (r.part.as_str(), r.quantity))
+            .collect();
+        assert_eq!(
+            printed,
+            [
+                ("upper cap (upper-cap.stl / .3mf)", 1.0),
+                ("lower cap (lower-cap.stl / .3mf)", 1.0),
+                ("tendon locator (tendon-locator.stl / .3mf)", 2.0),
+                ("gripper mount (gripper-mount.stl / .3mf)", 1.0),
+            ]
+        );
+        // Filament: Σ quantity × mesh volume × density, rounded to 0.1 g.
+        let mass = |name: &str, density: f64| -> f64 {
+            parts
+                .iter()
+                .filter(|p| p.material.name == name)
+                .map(|p| p.quantity as f64 * p.mesh.volume() / 1000.0 * density)
+                .sum()
+        };
+        let pla = bom_row(&bom, "PLA filament (printed parts)");
+        assert_eq!(pla.unit, "g");
+        let want = mass("PLA", PLA_G_PER_CM3);
+        assert!(
+            (pla.quantity - want).abs() <= 0.05 + 1e-9,
+            "{} vs {want}",
+            pla.quantity
+        );
+        let nylon = bom_row(&bom, "nylon (PA) filament (printed parts)");
+        let want = mass("nylon (PA)", NYLON_G_PER_CM3);
+        assert!(
+            (nylon.quantity - want).abs() <= 0.05 + 1e-9,
+            "{} vs {want}",
+            nylon.quantity
+        );
+        // The upper cap's mass against its dimensions: a disc of outer radius r_t + 5 mm, 6 mm
+        // thick, less three ⌀2 tendon holes and three ⌀6.2 × 3.2 magnet pockets (the mesh's
+        // 96-gon circles are within 0.07 % of the area).
+        let cap = parts.iter().find(|p| p.name == "upper-cap").unwrap();
+        let disc = std::f64::consts::PI * (r_t + 5.0).powi(2) * 6.0;
+        let holes = 3.0 * std::f64::consts::PI * (1.0f64.powi(2) * 6.0 + 3.1f64.powi(2) * 3.2);
+        let nominal_g = (disc - holes) / 1000.0 * NYLON_G_PER_CM3;
+        assert!(
+            (cap.mass_g() - nominal_g).abs() / nominal_g < 1e-3,
+            "{} vs {nominal_g}",
+            cap.mass_g()
+        );
+        assert!((nylon.quantity - cap.mass_g()).abs() <= 0.05 + 1e-9);
+        // Hardware: three magnets in the upper cap and three in the gripper mount, the
+        // gripper's four M3 screws, three tendons.
+        assert_eq!(bom_row(&bom, "disc magnet").quantity, 6.0);
+        assert_eq!(bom_row(&bom, "M3 screw").quantity, 4.0);
+        let line = bom_row(&bom, "tendon line");
+        assert_eq!(line.quantity, 3.0);
+        assert!(
+            line.specification.contains(&format!("r = {r_t} mm")),
+            "{}",
+            line.specification
+        );
+    }
+    // The kit: two leaves per hinge, their PLA-CF, one pin per hinge, screws sized from the
+    // panel thickness.
+    let paper = trunk(3, &[(31.72, 4)], 609.6);
+    let kit = Kit::new(&paper);
+    for panel_mm in [6.0, 10.0] {
+        let params = PartParams {
+            panel_mm,
+            ..Default::default()
+        };
+        let leaf = hinge_leaf(&params, kit.hinges.len()).unwrap();
+        let bom = Bom::kit(&kit, None, &leaf);
+        assert_eq!(bom_row(&bom, "hinge").quantity, 180.0);
+        let leaves = bom_row(&bom, "hinge leaf (hinge-leaf.stl / .3mf)");
+        assert_eq!((leaves.quantity, leaves.section), (360.0, "printed"));
+        assert!(
+            leaves.specification.starts_with("PLA-CF: "),
+            "{}",
+            leaves.specification
+        );
+        let filament = bom_row(&bom, "PLA-CF filament (printed parts)");
+        let want = 360.0 * leaf.mesh.volume() / 1000.0 * PLA_CF_G_PER_CM3;
+        assert!(
+            (filament.quantity - want).abs() <= 0.05 + 1e-9,
+            "{} vs {want}",
+            filament.quantity
+        );
+        // A leaf's volume from its dimensions (`Part::nominal_volume_mm3`) within 0.1 %.
+        assert!(
+            (leaf.mesh.volume() - leaf.nominal_volume_mm3).abs() / leaf.nominal_volume_mm3 < 1e-3
+        );
+        let pin = bom_row(&bom, "hinge pin");
+        assert_eq!(pin.quantity, 180.0);
+        // The hinge is 35.6 mm along the crease: the longest stock pin within it is 35 mm.
+        assert!(
+            pin.specification.contains("⌀3 × 35 mm"),
+            "{}",
+            pin.specification
+        );
+        let screw = bom_row(&bom, "M4 screw");
+        assert_eq!(screw.quantity, 720.0);
+        // Leaf 3 mm + insert 5.7 mm = 8.7, rounded down to the stock M4 × 8.
+        assert!(
+            screw.specification.contains("M4 × 8 "),
+            "{}",
+            screw.specification
+        );
+        let insert = bom_row(&bom, "M4 heat-set insert");
+        assert!(
+            insert
+                .specification
+                .contains(&format!("the {panel_mm} mm HDPE")),
+            "{}",
+            insert.specification
+        );
+        assert!(bom.rows.iter().all(|r| r.section != "electronics"));
+    }
+}
+
+/// Vertices and triangles of the first object of a 3MF model's XML.
+fn read_3mf_mesh(model: &str) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let attr = |tag: &str, key: &str| -> f64 {
+        let tag = format!(" {tag}");
+        let i = tag.find(&format!(" {key}=\"")).unwrap() + key.len() + 3;
+        tag[i..i + tag[i..].find('"').unwrap()].parse().unwrap()
+    };
+    let vertices = model
+        .split("<vertex ")
+        .skip(1)
+        .map(|t| [attr(t, "x"), attr(t, "y"), attr(t, "z")])
+        .collect();
+    let triangles = model
+        .split("<triangle ")
+        .skip(1)
+        .map(|t| {
+            [
+                attr(t, "v1") as usize,
+                attr(t, "v2") as usize,
+                attr(t, "v3") as usize,
+            ]
+        })
+        .collect();
+    (vertices, triangles)
+}
+
+#[test]
+fn every_part_3mf_holds_its_mesh_in_mm_with_its_material_and_quantity() {
+    let crane = trunk(3, &[(35.0, 2), (31.72, 2)], 75.0);
+    let parts = fabrication::parts::all_parts(&crane, &PartParams::default(), 180).unwrap();
+    for part in &parts {
+        let bytes = part.model("test").to_bytes().unwrap();
+        let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes)).unwrap();
+        let mut model = String::new();
+        std::io::Read::read_to_string(&mut zip.by_name("3D/3dmodel.model").unwrap(), &mut model)
+            .unwrap();
+        assert!(model.contains(r#"<model unit="millimeter""#));
+        assert_eq!(model.matches("<object ").count(), 1);
+        assert_eq!(model.matches("<item ").count(), 1);
+        assert!(model.contains(&format!(r#"<base name="{}""#, part.material.name)));
+        for (k, v) in [
+            ("ys:part", part.name.to_string()),
+            ("ys:quantity", part.quantity.to_string()),
+            ("ys:material", part.material.name.to_string()),
+            ("ys:density_g_per_cm3", part.material.g_per_cm3.to_string()),
+        ] {
+            assert!(
+                model.contains(&format!(r#"<metadata name="{k}">{v}</metadata>"#)),
+                "{}: {k}",
+                part.name
+            );
+        }
+        // The mesh read back from the XML: the same triangles, the volume within 1e-6
+        // relative (coordinates are written to 1e-6 mm).
+        let (v, t) = read_3mf_mesh(&model);
+        assert_eq!(
+            (v.len(), t.len()),
+            (part.mesh.vertices.len(), part.mesh.triangles.len())
+        );
+        let volume: f64 = t
+            .iter()
+            .map(|&[i, j, k]| {
+                let (a, b, c) = (v[i], v[j], v[k]);
+                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0
+            })
+            .sum();
+        let rel = (volume - part.mesh.volume()).abs() / part.mesh.volume();
+        assert!(
+            rel < 1e-6,
+            "{}: {volume} vs {} ({rel:e})",
+            part.name,
+            part.mesh.volume()
+        );
+    }
+    let materials: Vec<(&str, &str)> = parts.iter().map(|p| (p.name, p.material.name)).collect();
+    assert_eq!(
+        materials,
+        [
+            ("hinge-leaf", "PLA-CF"),
+            ("upper-cap", "nylon (PA)"),
+            ("lower-cap", "PLA"),
+            ("tendon-locator", "PLA"),
+            ("gripper-mount", "PLA"),
+        ]
     );
 }

@@ -521,6 +521,49 @@ fn pattern_svg_json_reports_the_page() {
     assert_eq!(v["files"][0]["pages"], 1);
     assert_eq!(v["files"][0]["page_mm"][0], 250.0);
     assert_eq!(v["files"][0]["sheet_mm"][0], 230.0);
+    assert_eq!(v["files"][0]["legend"], "below");
+    // The legend's box: below the 197.7 mm sheet (10 mm margin + 4 mm gap), inside the page.
+    let bx: Vec<f64> = v["files"][0]["legend_box_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let ph = v["files"][0]["page_mm"][1].as_f64().unwrap();
+    assert!((bx[1] - (10.0 + 197.745 + 4.0)).abs() < 1e-2, "{bx:?}");
+    assert!(bx[0] >= 10.0 && bx[0] + bx[2] <= 240.0 && bx[1] + bx[3] <= ph - 10.0 + 1e-9);
+    // Right of the sheet: the page widens, the sheet keeps its place; none: the sheet alone.
+    for (legend, page_w, page_h) in [
+        ("right", None, Some(197.745 + 20.0)),
+        ("none", Some(250.0), Some(217.745)),
+    ] {
+        let out = ok(&["pattern", "--svg", &svg, "--legend", legend, "-j"]);
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        let f = &v["files"][0];
+        assert_eq!(f["legend"], legend);
+        let [pw, ph] = [0, 1].map(|k| f["page_mm"][k].as_f64().unwrap());
+        if let Some(w) = page_w {
+            assert!((pw - w).abs() < 1e-3, "{legend}: {pw}");
+        } else {
+            let bx = f["legend_box_mm"].as_array().unwrap();
+            let x = bx[0].as_f64().unwrap();
+            assert!((x - (10.0 + 230.0 + 8.0)).abs() < 1e-9, "{legend}: {bx:?}");
+            assert!((pw - (x + bx[2].as_f64().unwrap() + 10.0)).abs() < 1e-3);
+        }
+        if let Some(h) = page_h {
+            assert!((ph - h).abs() < 1e-2, "{legend}: {ph}");
+        }
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert_eq!(text.contains(r#"<g id="legend""#), legend != "none");
+    }
+    usage_error(
+        &["pattern", "--svg", &svg, "--legend", "left"],
+        "--legend: the legend goes below, right or none, got 'left'",
+    );
+    usage_error(
+        &["pattern", "--bom", &dir.file("b.csv"), "--legend", "right"],
+        "give --svg FILE or --page PAPER too",
+    );
 }
 
 #[test]
@@ -601,6 +644,27 @@ fn pattern_bom_writes_the_crane_or_the_kit() {
         text.contains("trunk,TPU 95A filament (base sheet),"),
         "{text}"
     );
+    // The printed parts are in the crane's BOM without --parts, sized by --tendon-radius-mm.
+    for want in [
+        "printed,upper cap (upper-cap.stl / .3mf),1,pcs,\"nylon (PA): ",
+        "printed,lower cap (lower-cap.stl / .3mf),1,pcs,\"PLA: ",
+        "printed,tendon locator (tendon-locator.stl / .3mf),2,pcs,",
+        "printed,gripper mount (gripper-mount.stl / .3mf),1,pcs,",
+        "printed,PLA filament (printed parts),",
+        "hardware,disc magnet,6,pcs,",
+        "hardware,M3 screw,4,pcs,",
+        "hardware,tendon line,3,pcs,",
+    ] {
+        assert!(text.contains(want), "{want} in\n{text}");
+    }
+    assert!(text.contains("at r = 60 mm"), "{text}");
+    ok(&["pattern", "--bom", &crane, "--tendon-radius-mm", "80", "-q"]);
+    let text = std::fs::read_to_string(&crane).unwrap();
+    assert!(text.contains("at r = 80 mm"), "{text}");
+    usage_error(
+        &["pattern", "--bom", &crane, "--panel-mm", "8"],
+        "--panel-mm and --fold-max-deg size the kit's hinge leaf",
+    );
     ok(&[
         "pattern",
         "--beta",
@@ -620,24 +684,105 @@ fn pattern_bom_writes_the_crane_or_the_kit() {
     for want in [
         "kit,HDPE sheet,2,pcs,",
         "kit,hinge,180,pcs,",
-        "kit,M4 screw,720,pcs,",
-        "kit,M4 heat-set insert,720,pcs,",
+        "printed,hinge leaf (hinge-leaf.stl / .3mf),360,pcs,\"PLA-CF: ",
+        "printed,PLA-CF filament (printed parts),",
+        "kit,hinge pin,180,pcs,\"⌀3 × 35 mm steel dowel",
+        "kit,M4 screw,720,pcs,\"M4 × 8 button head",
+        "kit,M4 heat-set insert,720,pcs,\"M4 × 5.7 mm, set into the 6 mm HDPE facets\"",
     ] {
         assert!(text.contains(want), "{want} in\n{text}");
     }
-    assert!(!text.contains("electronics"));
+    assert!(!text.contains("electronics") && !text.contains("upper cap"));
+    // The hinge leaf is sized by --panel-mm: a 12 mm panel takes M4 × 8 still (leaf 3 +
+    // insert 5.7), the inserts sit in 12 mm.
+    let kit_json = dir.file("kit.json");
+    let paper = ["--beta", "31.72", "--layers", "4", "--edge-mm", "609.6"];
+    let mut a = vec![
+        "pattern",
+        "--kit",
+        &kit_json,
+        "--bom",
+        &kit,
+        "--panel-mm",
+        "12",
+        "-q",
+    ];
+    a.extend(paper);
+    ok(&a);
+    let text = std::fs::read_to_string(&kit).unwrap();
+    assert!(text.contains("set into the 12 mm HDPE facets"), "{text}");
+    let mut a = vec![
+        "pattern",
+        "--kit",
+        &kit_json,
+        "--bom",
+        &kit,
+        "--tendon-radius-mm",
+        "400",
+    ];
+    a.extend(paper);
+    usage_error(&a, "--tendon-radius-mm sizes the crane's caps");
 }
 
 #[test]
 fn pattern_page_tiles_the_crease_pattern_and_refuses_other_paper() {
     let dir = TempDir::new("pages");
     let pages = dir.file("pages");
-    let out = ok(&["pattern", "--page", "a4", "--page-dir", &pages, "-j"]);
+    // Without a legend the 230 × 197.7 mm sheet takes two portrait pages; with the legend
+    // below it, two landscape pages (the legend on the second, below the sheet).
+    let out = ok(&[
+        "pattern",
+        "--page",
+        "a4",
+        "--page-dir",
+        &pages,
+        "--legend",
+        "below",
+        "-j",
+    ]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let files = v["files"].as_array().unwrap();
+    assert_eq!(files.len(), 2, "{v}");
+    assert_eq!(files[0]["page_mm"], serde_json::json!([297.0, 210.0]));
+    let legend: Vec<bool> = files
+        .iter()
+        .map(|f| f["legend"].as_bool().unwrap())
+        .collect();
+    assert_eq!(legend, [false, true]);
+    let out = ok(&[
+        "pattern",
+        "--page",
+        "a4",
+        "--page-dir",
+        &pages,
+        "--legend",
+        "right",
+        "-j",
+    ]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let legend: Vec<bool> = v["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["legend"].as_bool().unwrap())
+        .collect();
+    assert_eq!(legend.iter().filter(|x| **x).count(), 1, "{v}");
+    let out = ok(&[
+        "pattern",
+        "--page",
+        "a4",
+        "--page-dir",
+        &pages,
+        "--legend",
+        "none",
+        "-j",
+    ]);
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     let files = v["files"].as_array().unwrap();
     assert_eq!(files.len(), 2, "{v}");
     assert_eq!(files[0]["pages"], 2);
     assert_eq!(files[0]["page_mm"], serde_json::json!([210.0, 297.0]));
+    assert!(files.iter().all(|f| f["legend"] == false));
     for (i, f) in files.iter().enumerate() {
         let name = format!("page-{}.svg", i + 1);
         assert!(f["path"].as_str().unwrap().ends_with(&name));
@@ -675,21 +820,40 @@ fn pattern_parts_writes_one_stl_per_part_and_says_what_it_wrote() {
         "-j",
     ]);
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-    let files = v["files"].as_array().unwrap();
-    let names: Vec<&str> = files.iter().map(|f| f["part"].as_str().unwrap()).collect();
+    let all = v["files"].as_array().unwrap();
+    // By default an STL and a 3MF of every part, side by side.
+    let names: Vec<(&str, &str)> = all
+        .iter()
+        .map(|f| (f["part"].as_str().unwrap(), f["format"].as_str().unwrap()))
+        .collect();
+    let expect = [
+        "hinge-leaf",
+        "upper-cap",
+        "lower-cap",
+        "tendon-locator",
+        "gripper-mount",
+    ];
     assert_eq!(
         names,
-        [
-            "hinge-leaf",
-            "upper-cap",
-            "lower-cap",
-            "tendon-locator",
-            "gripper-mount"
-        ]
+        expect
+            .iter()
+            .flat_map(|p| [(*p, "stl"), (*p, "3mf")])
+            .collect::<Vec<_>>()
     );
-    for f in files {
+    for f in all.iter().filter(|f| f["format"] == "3mf") {
+        let path = f["path"].as_str().unwrap();
+        assert!(path.ends_with(&format!("{}.3mf", f["part"].as_str().unwrap())));
+        let bytes = std::fs::read(path).unwrap();
+        assert_eq!(f["bytes"].as_u64(), Some(bytes.len() as u64));
+        assert_eq!(&bytes[..2], b"PK", "{path}: a zip package");
+        let mass = f["mass_g"].as_f64().unwrap();
+        let want =
+            f["volume_mm3"].as_f64().unwrap() / 1000.0 * f["density_g_per_cm3"].as_f64().unwrap();
+        assert!((mass - want).abs() < 1e-9, "{path}: {mass} g vs {want}");
+    }
+    let files: Vec<&Value> = all.iter().filter(|f| f["format"] == "stl").collect();
+    for f in files.iter().copied() {
         assert_eq!(f["flag"], "--parts");
-        assert_eq!(f["format"], "stl");
         let path = f["path"].as_str().unwrap();
         let bytes = std::fs::metadata(path).unwrap().len();
         assert_eq!(f["bytes"].as_u64(), Some(bytes), "{path}");
@@ -710,12 +874,39 @@ fn pattern_parts_writes_one_stl_per_part_and_says_what_it_wrote() {
         files[0]["dimensions"]["screw_inset_mm"].as_f64(),
         Some(12.0)
     );
-    let out = ok(&["pattern", "--parts", &parts]);
+    assert_eq!(files[0]["material"], "PLA-CF");
+    assert_eq!(files[1]["material"], "nylon (PA)");
+    assert_eq!(files[2]["material"], "PLA");
+    let _ = std::fs::remove_dir_all(&parts);
+    let out = ok(&["pattern", "--parts", &parts, "--parts-format", "stl"]);
     let text = String::from_utf8_lossy(&out.stderr);
     assert!(
-        text.contains("hinge-leaf.stl") && text.contains("triangles"),
+        text.contains("hinge-leaf.stl") && text.contains("triangles") && !text.contains(".3mf"),
         "{text}"
     );
+    let mut written: Vec<String> = std::fs::read_dir(&parts)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        [
+            "gripper-mount.stl",
+            "hinge-leaf.stl",
+            "lower-cap.stl",
+            "tendon-locator.stl",
+            "upper-cap.stl"
+        ]
+    );
+    let out = ok(&["pattern", "--parts", &parts, "--parts-format", "3MF", "-j"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|f| f["format"] == "3mf"));
+    assert_eq!(v["files"].as_array().unwrap().len(), 5);
 }
 
 #[test]
@@ -744,6 +935,31 @@ fn parts_usage_errors_say_what_is_valid_and_write_nothing() {
     usage_error(
         &["pattern", "--svg", &dir.file("x.svg"), "--panel-mm", "8"],
         "give --parts DIR too",
+    );
+    usage_error(
+        &[
+            "pattern",
+            "--svg",
+            &dir.file("x.svg"),
+            "--tendon-radius-mm",
+            "70",
+        ],
+        "give --parts DIR too (or --bom FILE, without --kit and --nest)",
+    );
+    usage_error(
+        &["pattern", "--parts", &parts, "--parts-format", "obj"],
+        "--parts-format must be stl, 3mf or both, got 'obj'",
+    );
+    assert!(!Path::new(&parts).exists());
+    usage_error(
+        &[
+            "pattern",
+            "--svg",
+            &dir.file("x.svg"),
+            "--parts-format",
+            "stl",
+        ],
+        "--parts-format chooses the files of --parts; give --parts DIR too",
     );
     // A small trunk's tendons may run closer than the gripper mount's fixing circle allows.
     usage_error(

@@ -173,6 +173,12 @@ pub struct Args {
     /// --nest its sheet count).
     #[arg(long, value_name = "FILE")]
     pub bom: Option<PathBuf>,
+    /// Where the legend (scale bar, trunk, line kinds, command) goes on the --svg page and the
+    /// --page tiles: below the sheet, right of it, or none (crease lines only, e.g. for a
+    /// laser cutter's import). On tiles it is printed once, on a page where it clears every
+    /// crease line and registration mark.
+    #[arg(long, value_name = "PLACE", default_value = "below")]
+    pub legend: String,
     /// Tile the 1:1 crease pattern over paper pages (a4 or letter) with registration marks and
     /// a 50 mm scale bar: page-1.svg, page-2.svg, … in --page-dir. Print at 100 %.
     #[arg(long, value_name = "PAPER")]
@@ -180,11 +186,15 @@ pub struct Args {
     /// Directory for the pages of --page; created if missing.
     #[arg(long, value_name = "DIR")]
     pub page_dir: Option<PathBuf>,
-    /// Write the printable parts as one binary STL each into DIR (created if missing): the
-    /// meter-scale kit's hinge leaf (hinge-leaf.stl, two and a 3 mm pin per hinge), the crane's
-    /// upper-cap.stl, lower-cap.stl, tendon-locator.stl and gripper-mount.stl.
+    /// Write the printable parts into DIR (created if missing), each as binary STL and as a
+    /// slicer-ready 3MF (mm, its material, quantity and dimensions in the metadata): the
+    /// meter-scale kit's hinge leaf (hinge-leaf, two and a 3 mm pin per hinge), the crane's
+    /// upper-cap, lower-cap, tendon-locator and gripper-mount.
     #[arg(long, value_name = "DIR")]
     pub parts: Option<PathBuf>,
+    /// File format of --parts: stl, 3mf or both (PART.stl and PART.3mf side by side).
+    #[arg(long, value_name = "FORMAT", default_value = "both")]
+    pub parts_format: String,
     /// Thickness of the kit's panels in mm, [5.7, 50]: the M4 heat-set inserts (5.7 mm) sit
     /// fully in it; sets the hinge's screw length.
     #[arg(long, default_value_t = fabrication::parts::DEFAULT_PANEL_MM, allow_hyphen_values = true)]
@@ -359,23 +369,98 @@ fn nest_params(args: &Args) -> Result<Option<NestParams>, Failure> {
     }))
 }
 
-/// The printable parts of --parts, sized and validated (none without --parts).
-fn printable_parts(args: &Args, trunk: &Trunk) -> Result<Vec<Part>, Failure> {
+/// Which files --parts writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PartsFormat {
+    Stl,
+    ThreeMf,
+    Both,
+}
+
+impl PartsFormat {
+    fn parse(text: &str) -> Result<Self, Failure> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "stl" => Ok(PartsFormat::Stl),
+            "3mf" => Ok(PartsFormat::ThreeMf),
+            "both" => Ok(PartsFormat::Both),
+            _ => Err(Failure::usage(format!(
+                "--parts-format must be stl, 3mf or both, got '{text}'"
+            ))),
+        }
+    }
+
+    fn extensions(self) -> &'static [&'static str] {
+        match self {
+            PartsFormat::Stl => &["stl"],
+            PartsFormat::ThreeMf => &["3mf"],
+            PartsFormat::Both => &["stl", "3mf"],
+        }
+    }
+}
+
+/// The printable parts: every part for --parts; for --bom, the parts of its build (the hinge
+/// leaf for the kit, the crane's parts for the crane). Sizing flags that nothing uses are
+/// refused.
+struct Printable {
+    /// Written by --parts.
+    files: Vec<Part>,
+    /// The crane's parts for its BOM.
+    crane: Vec<Part>,
+    /// The kit's hinge leaf for its BOM.
+    leaf: Option<Part>,
+}
+
+fn printable_parts(
+    args: &Args,
+    trunk: &Trunk,
+    kit_bom: bool,
+    format: PartsFormat,
+) -> Result<Printable, Failure> {
     let params = PartParams {
         panel_mm: args.panel_mm,
         fold_max_deg: args.fold_max_deg,
         tendon_radius_mm: args.tendon_radius_mm,
     };
+    let defaults = PartParams::default();
+    let bom = args.bom.is_some();
     if args.parts.is_none() {
-        if params != PartParams::default() {
+        if format != PartsFormat::Both {
             return Err(Failure::usage(
-                "--panel-mm, --fold-max-deg and --tendon-radius-mm size the printable parts; give --parts DIR too",
+                "--parts-format chooses the files of --parts; give --parts DIR too",
             ));
         }
-        return Ok(Vec::new());
+        let hinge_given =
+            params.panel_mm != defaults.panel_mm || params.fold_max_deg != defaults.fold_max_deg;
+        let crane_bom = bom && !kit_bom;
+        if hinge_given && !(bom && kit_bom) {
+            return Err(Failure::usage(
+                "--panel-mm and --fold-max-deg size the kit's hinge leaf; give --parts DIR too (or --bom FILE with --kit or --nest)",
+            ));
+        }
+        if params.tendon_radius_mm != defaults.tendon_radius_mm && !crane_bom {
+            return Err(Failure::usage(
+                "--tendon-radius-mm sizes the crane's caps, tendon locator and gripper mount; give --parts DIR too (or --bom FILE, without --kit and --nest)",
+            ));
+        }
     }
+    let usage = |e: fabrication::FabError| Failure::usage(e.to_string());
     let hinges = Kit::new(trunk).hinges.len();
-    fabrication::parts::all_parts(trunk, &params, hinges).map_err(|e| Failure::usage(e.to_string()))
+    let files = if args.parts.is_some() {
+        fabrication::parts::all_parts(trunk, &params, hinges).map_err(usage)?
+    } else {
+        Vec::new()
+    };
+    let crane = if bom && !kit_bom {
+        fabrication::parts::crane_parts(trunk, &params).map_err(usage)?
+    } else {
+        Vec::new()
+    };
+    let leaf = if bom && kit_bom {
+        Some(fabrication::parts::hinge_leaf(&params, hinges).map_err(usage)?)
+    } else {
+        None
+    };
+    Ok(Printable { files, crane, leaf })
 }
 
 fn part_json(p: &Part) -> serde_json::Value {
@@ -387,7 +472,9 @@ fn part_json(p: &Part) -> serde_json::Value {
     serde_json::json!({
         "part": p.name,
         "quantity": p.quantity,
-        "material": p.material,
+        "material": p.material.name,
+        "density_g_per_cm3": p.material.g_per_cm3,
+        "mass_g": p.mass_g(),
         "triangles": p.mesh.triangles.len(),
         "volume_mm3": p.mesh.volume(),
         "dimensions": dims,
@@ -425,8 +512,17 @@ pub fn run(args: Args) -> Result<(), Failure> {
             "nothing to write: give at least one of --svg FILE, --dxf FILE, --fold FILE, --3mf FILE, --stl-dir DIR, --kit FILE, --nest SHEET, --bom FILE, --page PAPER, --parts DIR",
         ));
     }
-    let parts = printable_parts(&args, &trunk)?;
     let kit_bom = args.kit.is_some() || args.nest.is_some();
+    let parts_format = PartsFormat::parse(&args.parts_format)?;
+    let legend = fabrication::svg::Legend::parse(&args.legend)
+        .map_err(|e| Failure::usage(format!("--legend: {e}")))?;
+    if legend != fabrication::svg::Legend::Below && args.svg.is_none() && args.page.is_none() {
+        return Err(Failure::usage(
+            "--legend places the legend of --svg and --page; give --svg FILE or --page PAPER too",
+        ));
+    }
+    let printable = printable_parts(&args, &trunk, kit_bom, parts_format)?;
+    let parts = &printable.files;
     let wants_panel =
         args.three_mf.is_some() || args.stl_dir.is_some() || (args.bom.is_some() && !kit_bom);
     let panel_given = args.gap_mm.is_some()
@@ -451,11 +547,14 @@ pub fn run(args: Args) -> Result<(), Failure> {
         Some(p) => Some(Nest::new(&trunk, p).map_err(|e| Failure::usage(format!("--nest: {e}")))?),
         None => None,
     };
+    let title = format!("host-tool pattern: {}", trunk.describe());
     let tiling = match (&args.page, &args.page_dir) {
         (Some(p), Some(_)) => Some(fabrication::tiles::tiling(
             &pattern,
             fabrication::tiles::Paper::parse(p)
                 .map_err(|e| Failure::usage(format!("--page: {e}")))?,
+            legend,
+            &title,
         )),
         (Some(_), None) => {
             return Err(Failure::usage(
@@ -488,7 +587,6 @@ pub fn run(args: Args) -> Result<(), Failure> {
             })
             .collect::<Result<_, _>>()?,
     };
-    let title = format!("host-tool pattern: {}", trunk.describe());
     let mut paths: Vec<(&'static str, &std::path::Path)> = Vec::new();
     if let Some(p) = &args.svg {
         paths.push(("--svg", p));
@@ -551,20 +649,25 @@ pub fn run(args: Args) -> Result<(), Failure> {
     for p in &page_paths {
         paths.push(("--page", p));
     }
-    let part_paths: Vec<PathBuf> = match &args.parts {
+    let part_paths: Vec<(&Part, &'static str, PathBuf)> = match &args.parts {
         Some(dir) => {
             output::ensure_dir("--parts", dir)?;
             parts
                 .iter()
-                .map(|p| dir.join(format!("{}.stl", p.name)))
+                .flat_map(|p| {
+                    parts_format
+                        .extensions()
+                        .iter()
+                        .map(move |ext| (p, *ext, dir.join(format!("{}.{ext}", p.name))))
+                })
                 .collect()
         }
         None => Vec::new(),
     };
-    for p in &part_paths {
+    for (_, _, p) in &part_paths {
         paths.push(("--parts", p));
     }
-    let mut part_iter = parts.iter();
+    let mut part_iter = part_paths.iter();
     let outputs = output::open_all(&paths)?;
     let page_svgs = tiling
         .as_ref()
@@ -638,19 +741,26 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 }
             }
             "--parts" => {
-                let Some(part) = part_iter.next() else {
+                let Some((part, ext, _)) = part_iter.next() else {
                     continue;
                 };
-                let n = out.write_counted(|w| part.mesh.write_stl(w))?;
+                let (n, format) = if *ext == "3mf" {
+                    let app = format!("host-tool {}", env!("CARGO_PKG_VERSION"));
+                    let bytes = part.model(&app).to_bytes().map_err(|e| runtime("3MF", e))?;
+                    (out.write_counted(|w| w.write_all(&bytes))?, "3mf")
+                } else {
+                    (out.write_counted(|w| part.mesh.write_stl(w))?, "stl")
+                };
                 record(
                     n,
-                    "stl",
+                    format,
                     format!(
-                        "{}, {} triangles, {} cm³ of {}, print {}",
+                        "{}, {} triangles, {} cm³ of {} ({} g printed solid), print {}",
                         part.description,
                         part.mesh.triangles.len(),
                         crate::num::fixed(part.mesh.volume() / 1000.0, 2),
-                        part.material,
+                        part.material.name,
+                        crate::num::fixed(part.mass_g(), 1),
                         part.quantity
                     ),
                     part_json(part),
@@ -674,14 +784,22 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         t.grid[0],
                         t.grid[1]
                     ),
-                    serde_json::json!({ "page": i + 1, "pages": t.pages(), "page_mm": t.page_mm, "grid": t.grid }),
+                    serde_json::json!({
+                        "page": i + 1,
+                        "pages": t.pages(),
+                        "page_mm": t.page_mm,
+                        "grid": t.grid,
+                        "legend": t.legend.as_ref().is_some_and(|(_, _, p)| *p == i),
+                    }),
                 );
             }
             "--bom" => {
-                let bom = match (&kit, &panel) {
-                    (Some(kit), _) => fabrication::bom::Bom::kit(kit, nest.as_ref()),
-                    (None, Some(panel)) => fabrication::bom::Bom::crane(panel),
-                    (None, None) => continue,
+                let bom = match (&kit, &panel, &printable.leaf) {
+                    (Some(kit), _, Some(leaf)) => {
+                        fabrication::bom::Bom::kit(kit, nest.as_ref(), leaf)
+                    }
+                    (None, Some(panel), _) => fabrication::bom::Bom::crane(panel, &printable.crane),
+                    _ => continue,
                 };
                 let text = bom.to_csv();
                 let n = out.write_counted(|w| w.write_all(text.as_bytes()))?;
@@ -691,9 +809,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     format!(
                         "bill of materials ({}), {} lines",
                         if kit.is_some() {
-                            "meter-scale kit"
+                            "meter-scale kit: sheets, facets, printed hinge leaves, pins, screws, inserts"
                         } else {
-                            "crane: printed panel and electronics"
+                            "crane: printed panel, printed parts, magnets, electronics"
                         },
                         bom.rows.len()
                     ),
@@ -725,9 +843,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 }
             }
             "--svg" => {
-                let text = fabrication::svg::render(&pattern, &title);
+                let text = fabrication::svg::render(&pattern, &title, legend);
                 let n = out.write_counted(|w| w.write_all(text.as_bytes()))?;
-                let [pw, ph] = fabrication::svg::page_mm(&pattern);
+                let lay = fabrication::svg::layout(&pattern, &title, legend);
+                let [pw, ph] = lay.page_mm;
                 record(
                     n,
                     "svg",
@@ -738,7 +857,13 @@ pub fn run(args: Args) -> Result<(), Failure> {
                         crate::num::fixed(sheet_w, 1),
                         crate::num::fixed(sheet_h, 1)
                     ),
-                    serde_json::json!({ "pages": 1, "page_mm": [pw, ph], "sheet_mm": [sheet_w, sheet_h] }),
+                    serde_json::json!({
+                        "pages": 1,
+                        "page_mm": [pw, ph],
+                        "sheet_mm": [sheet_w, sheet_h],
+                        "legend": legend.name(),
+                        "legend_box_mm": lay.legend.as_ref().map(|(_, b)| b.to_vec()),
+                    }),
                 );
             }
             "--dxf" => {

@@ -232,6 +232,7 @@ pub fn snapshot(
         info,
         truth,
         abort_latency_ms: v["abort_latency_ms"].as_u64(),
+        server: Some(path.to_path_buf()),
     })
 }
 

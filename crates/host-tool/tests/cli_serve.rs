@@ -466,3 +466,41 @@ fn identify_goes_through_the_server() {
     server.wait().unwrap();
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `status` says which server answered, and on the simulator flags a device whose belief the
+/// truth contradicts (here after a wrong `declare` through the server).
+#[test]
+fn status_names_the_server_and_flags_a_wrong_belief() {
+    let dir = cli::temp("serve-wrong");
+    let (mut server, line) = cli::serve(&dir, &["serve", "--sim", "--no-record"]);
+    assert!(line.starts_with("serving the simulator on "), "{line}");
+    let out = cmd(&dir, &["status"]).output().unwrap();
+    let shown = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        shown.starts_with("answered by:  the `host-tool serve` server at ")
+            && shown.contains("sim.sock"),
+        "{shown}"
+    );
+    assert!(!shown.contains("WRONG"), "{shown}");
+    let out = cmd(&dir, &["declare", "D&D"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let out = cmd(&dir, &["status"]).output().unwrap();
+    let shown = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        shown.contains("true state F&P")
+            && shown.contains("THE DEVICE IS WRONG: it holds D&D as confirmed"),
+        "{shown}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_slice(&cmd(&dir, &["status", "-j"]).output().unwrap().stdout).unwrap();
+    assert_eq!(v["sim"]["matches_device"], false, "{v}");
+    assert!(v["server"].as_str().unwrap().ends_with("sim.sock"), "{v}");
+    // The true state declared: no warning, and the JSON agrees.
+    cmd(&dir, &["declare", "F&P"]).output().unwrap();
+    let v: serde_json::Value =
+        serde_json::from_slice(&cmd(&dir, &["status", "-j"]).output().unwrap().stdout).unwrap();
+    assert_eq!(v["sim"]["matches_device"], true, "{v}");
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -32,6 +32,9 @@ pub struct Snapshot {
     /// Through a server, after an abort: engine ms from the stop's arrival to the device's
     /// answer.
     pub abort_latency_ms: Option<u64>,
+    /// The socket of the `host-tool serve` server that answered (`None`: this process talked
+    /// to the device itself).
+    pub server: Option<std::path::PathBuf>,
 }
 
 /// Connects to the device, sends `request` (if any), reads its status and closes the connection.
@@ -56,6 +59,7 @@ pub fn snapshot(device: &DeviceArgs, request: Option<RequestBody>) -> Result<Sna
         info,
         truth: conn.close(),
         abort_latency_ms: None,
+        server: None,
     })
 }
 
@@ -65,21 +69,58 @@ pub fn run(args: Args) -> Result<(), Failure> {
         status,
         info,
         truth,
+        server,
         ..
     } = snapshot(&args.device, None)?;
     if args.json {
-        crate::cli::print_json(status_json(&status, &info, truth.as_ref()));
+        let mut v = status_json(&status, &info, truth.as_ref());
+        v["server"] = json!(server.as_ref().map(|p| p.display().to_string()));
+        crate::cli::print_json(v);
     } else {
+        if let Some(p) = &server {
+            crate::out!(
+                "answered by:  the `host-tool serve` server at {} (it holds the device)",
+                p.display()
+            );
+        }
         crate::out_raw!("{}", status_text(&status, &info));
         if let Some(t) = truth {
-            crate::out!(
-                "simulator:    true state {}, max pressure {} kPa",
-                t.true_state.map_or("between states", |s| s.name()),
-                fixed(f64::from(t.max_pressure_kpa), 1)
-            );
+            crate::out!("simulator:    {}", truth_text(&status, &t));
         }
     }
     Ok(())
+}
+
+/// Whether the simulator's truth agrees with what the device reports: its confirmed state is
+/// the true one, or (unconfirmed) the truth is among its candidates. `None` between states.
+pub fn device_right(s: &Status, t: &SimTruth) -> Option<bool> {
+    let truth = t.true_state?;
+    Some(if s.state_confirmed {
+        s.state == truth
+    } else {
+        s.candidates.contains(truth)
+    })
+}
+
+/// The simulator's line of `status`: the truth, and a warning when the device's belief is wrong.
+fn truth_text(s: &Status, t: &SimTruth) -> String {
+    let mut line = format!(
+        "true state {}, max pressure {} kPa",
+        t.true_state.map_or("between states", |s| s.name()),
+        fixed(f64::from(t.max_pressure_kpa), 1)
+    );
+    if device_right(s, t) == Some(false) {
+        line += &if s.state_confirmed {
+            format!(
+                " — THE DEVICE IS WRONG: it holds {} as confirmed (a wrong declaration, or a change \
+                 it did not notice); `host-tool declare` the true state",
+                s.state
+            )
+        } else {
+            " — THE TRUTH IS NOT AMONG THE DEVICE'S CANDIDATES".to_string()
+        };
+    }
+    line
 }
 
 /// The device's belief in words: the state, and when it is not confirmed, what it may be and
@@ -212,6 +253,10 @@ pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> V
             "commit": crate::cli::GIT_COMMIT,
         },
         "versions_match": versions_match(info),
-        "sim": truth.map(SimTruth::to_json),
+        "sim": truth.map(|t| {
+            let mut v = t.to_json();
+            v["matches_device"] = json!(device_right(s, t));
+            v
+        }),
     })
 }

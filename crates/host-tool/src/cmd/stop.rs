@@ -17,6 +17,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         info,
         truth,
         abort_latency_ms,
+        ..
     } = snapshot(&args.device, Some(RequestBody::Abort))?;
     let safe = !status.inlet_open;
     const STILL_OPEN: &str = "the device still reports its inlet valve open after the abort";

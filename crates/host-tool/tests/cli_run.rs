@@ -8,7 +8,6 @@
 #[path = "support/cli.rs"]
 mod cli;
 
-use std::io::{BufRead, BufReader, Read as _};
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
 
@@ -485,22 +484,11 @@ fn ctrl_c_during_a_wait_ends_safe_with_130_and_resumes_there() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut err = BufReader::new(child.stderr.take().unwrap());
-    let mut seen = String::new();
-    loop {
-        let mut line = String::new();
-        assert!(
-            err.read_line(&mut line).unwrap() > 0,
-            "no wait step in:\n{seen}"
-        );
-        seen.push_str(&line);
-        if line.starts_with("step 2/2 (line 4): wait 3600 s") {
-            break;
-        }
-    }
-    let pid = nix::unistd::Pid::from_raw(child.id() as i32);
-    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).unwrap();
-    err.read_to_string(&mut seen).unwrap();
+    let seen = cli::signal_at_line(
+        &mut child,
+        "step 2/2 (line 4): wait 3600 s",
+        nix::sys::signal::Signal::SIGINT,
+    );
     let out = child.wait_with_output().unwrap();
     assert_eq!(out.status.code(), Some(130), "{seen}");
     assert!(

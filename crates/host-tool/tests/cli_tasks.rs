@@ -618,13 +618,10 @@ fn a_load_over_what_the_state_holds_collapses_it_and_the_report_says_so() {
     assert_eq!(json(&o)["sim"]["true_state"], "D&F");
 }
 
-#[test]
-fn a_fault_mid_pick_ends_safe_and_reports_the_objects_fate() {
-    let dir = cli::temp("tasks-fault");
-    // A leak stalls the F&P → F&F inflation that carries the caught object: the pick fails,
-    // the object is still held (the truth), the device's state is unconfirmed.
-    let o = run(
-        &dir,
+/// §6.3's first part (the cup on the straight F&P tip, placed from F&F) with `fault` injected.
+fn pick_with_fault(dir: &std::path::Path, fault: &str) -> Output {
+    run(
+        dir,
         &[
             "pick",
             "--at",
@@ -635,10 +632,18 @@ fn a_fault_mid_pick_ends_safe_and_reports_the_objects_fate() {
             "--object",
             "cup:0,0,43.1",
             "--sim-fault",
-            "leak",
+            fault,
             "-j",
         ],
-    );
+    )
+}
+
+#[test]
+fn a_fault_mid_pick_ends_safe_and_reports_the_objects_fate() {
+    let dir = cli::temp("tasks-fault");
+    // A leak stalls the F&P → F&F inflation that carries the caught object: the pick fails,
+    // the object is still held (the truth), the device's state is unconfirmed.
+    let o = pick_with_fault(&dir, "leak");
     assert_eq!(code(&o), 1, "{}", stderr(&o));
     let v = json(&o);
     assert_eq!(v["ok"], false);
@@ -660,22 +665,7 @@ fn a_lost_link_mid_pick_leaves_the_objects_fate_unknown() {
     let dir = cli::temp("tasks-link");
     // The link falls silent 1 s into the carry's step, with the cup in the gripper: the host
     // cannot tell what became of it (the simulator's truth: still held, the device safe).
-    let o = run(
-        &dir,
-        &[
-            "pick",
-            "--at",
-            "0,0,43.1",
-            "--place",
-            "-12,0,91.5",
-            "--sim",
-            "--object",
-            "cup:0,0,43.1",
-            "--sim-fault",
-            "link-drop",
-            "-j",
-        ],
-    );
+    let o = pick_with_fault(&dir, "link-drop");
     assert_eq!(code(&o), 1, "{}", stderr(&o));
     let v = json(&o);
     assert!(v["error"].as_str().unwrap().contains("link lost"), "{v}");
@@ -689,7 +679,6 @@ fn a_lost_link_mid_pick_leaves_the_objects_fate_unknown() {
 
 #[test]
 fn ctrl_c_mid_pick_ends_safe_with_130_and_reports_the_objects_fate() {
-    use std::io::{BufRead, BufReader, Read};
     let dir = cli::temp("tasks-sigint");
     // Paced at ×5 so the carry's inflation (≈ 4 s) is still running when the signal comes.
     let mut child = cmd(
@@ -712,22 +701,11 @@ fn ctrl_c_mid_pick_ends_safe_with_130_and_reports_the_objects_fate() {
     .stderr(std::process::Stdio::piped())
     .spawn()
     .unwrap();
-    let mut err = BufReader::new(child.stderr.take().unwrap());
-    let mut seen = String::new();
-    loop {
-        let mut line = String::new();
-        assert!(
-            err.read_line(&mut line).unwrap() > 0,
-            "the carry never started:\n{seen}"
-        );
-        seen.push_str(&line);
-        if line.starts_with("step 1/1 pneumatic F&P → F&F") {
-            break;
-        }
-    }
-    let pid = nix::unistd::Pid::from_raw(child.id() as i32);
-    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).unwrap();
-    err.read_to_string(&mut seen).unwrap();
+    let seen = cli::signal_at_line(
+        &mut child,
+        "step 1/1 pneumatic F&P → F&F",
+        nix::sys::signal::Signal::SIGINT,
+    );
     let out = child.wait_with_output().unwrap();
     assert_eq!(out.status.code(), Some(130), "{seen}");
     let v: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {seen}"));

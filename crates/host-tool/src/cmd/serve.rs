@@ -1,6 +1,7 @@
 //! `host-tool serve`: one process owns the link to a crane (or the simulator), keeps its
 //! session and heartbeat, records it to MCAP, and serves local clients over a Unix socket —
-//! `status`, `stop`, `declare`, `param`, `monitor` and `plan` from other terminals go through it.
+//! `status`, `stop`, `declare`, `param`, `monitor`, `identify`, `plan` (and `run` and the primitives,
+//! through `call`) from other terminals go through it.
 //!
 //! One thread: the engine ([`host::Host`], through the connection's driver) is turned in slices
 //! of at most [`SLICE_MS`] of engine time; between slices the server accepts clients and reads
@@ -12,6 +13,8 @@
 //! - `{"op":"call","request":R}` → `{"result": protocol::ResultCode, "body": ResponseBody}`
 //! - `{"op":"monitor"}` → `{"event": protocol::Event}` lines until the client hangs up
 //! - `{"op":"plan","target":"D&D"}` → `{"note"}` lines, then `{"outcome", "ok"}`
+//! - `{"op":"identify"}` → as `plan`, the run identifying the state (the outcome's
+//!   `final_state` is what the device then confirms)
 
 use std::collections::HashMap;
 use std::io::{Read, Write};
@@ -343,6 +346,22 @@ impl Server {
         }
     }
 
+    /// Runs a plan (or an identification) for `client`, unless one is running already.
+    fn start_run(&mut self, client: u64, target: TrunkState, options: RunOptions, now: u64) {
+        if self.plan_running() {
+            return self.reply(
+                client,
+                &json!({"error": "a plan is already running on this server"}),
+            );
+        }
+        self.plan_client = Some(client);
+        self.cancelled = false;
+        self.conn
+            .session
+            .host
+            .run_plan(Graph::nominal(), target, options, now);
+    }
+
     fn handle(&mut self, client: u64, v: &Value) {
         let now = self.now();
         match v["op"].as_str() {
@@ -419,40 +438,15 @@ impl Server {
                     Ok(t) => t,
                     Err(e) => return self.reply(client, &json!({"error": e})),
                 };
-                if self.plan_running() {
-                    return self.reply(
-                        client,
-                        &json!({"error": "a plan is already running on this server"}),
-                    );
-                }
-                self.plan_client = Some(client);
-                self.cancelled = false;
-                self.conn.session.host.run_plan(
-                    Graph::nominal(),
-                    target,
-                    RunOptions::default(),
-                    now,
-                );
+                self.start_run(client, target, RunOptions::default(), now);
             }
             Some("identify") => {
-                if self.plan_running() {
-                    return self.reply(
-                        client,
-                        &json!({"error": "a plan is already running on this server"}),
-                    );
-                }
-                self.plan_client = Some(client);
-                self.cancelled = false;
                 // The target is replaced by whatever the device confirms.
-                self.conn.session.host.run_plan(
-                    Graph::nominal(),
-                    TrunkState::AS_MANUFACTURED,
-                    RunOptions {
-                        identify_only: true,
-                        ..RunOptions::default()
-                    },
-                    now,
-                );
+                let options = RunOptions {
+                    identify_only: true,
+                    ..RunOptions::default()
+                };
+                self.start_run(client, TrunkState::AS_MANUFACTURED, options, now);
             }
             _ => self.reply(client, &json!({"error": format!("unknown request: {v}")})),
         }

@@ -34,3 +34,26 @@ pub fn serve(dir: &Path, args: &[&str]) -> (Child, String) {
     std::thread::spawn(move || for _ in err.lines() {});
     (child, line)
 }
+
+/// Reads `child`'s stderr until a line that starts with `prefix`, sends the child `signal`,
+/// then reads its stderr to the end: everything it said. A child that ends first fails the
+/// test, naming what it said.
+pub fn signal_at_line(child: &mut Child, prefix: &str, signal: nix::sys::signal::Signal) -> String {
+    use std::io::Read;
+    let mut err = BufReader::new(child.stderr.take().expect("stderr piped"));
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        assert!(
+            err.read_line(&mut line).unwrap() > 0,
+            "no line starting '{prefix}' in:\n{seen}"
+        );
+        seen.push_str(&line);
+        if line.starts_with(prefix) {
+            break;
+        }
+    }
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), signal).unwrap();
+    err.read_to_string(&mut seen).unwrap();
+    seen
+}

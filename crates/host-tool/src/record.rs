@@ -596,7 +596,7 @@ impl Recording {
             Event::Heartbeat { uptime_ms, .. } => Some(u64::from(*uptime_ms)),
             _ => None,
         };
-        let (kind, line) = event_text(ev);
+        let (kind, line) = text::event(ev);
         let v = json!({
             "host_ms": host_ms,
             "kind": kind,
@@ -772,67 +772,6 @@ pub fn telemetry_json(t: &Telemetry, host_ms: u64) -> Value {
         "state": t.state.name(),
         "state_confirmed": t.state_confirmed,
     })
-}
-
-/// An event's kind and its line for people (none for heartbeats and step progress).
-fn event_text(ev: &Event) -> (&'static str, Option<String>) {
-    match ev {
-        Event::Heartbeat { .. } => ("heartbeat", None),
-        Event::Telemetry(_) => ("telemetry", None),
-        Event::StepProgress { .. } => ("step-progress", None),
-        Event::StepDone {
-            plan_id,
-            step,
-            ok,
-            state,
-            duration_ms,
-        } => (
-            "step-done",
-            Some(format!(
-                "plan {plan_id} step {} {} in {duration_ms} ms, now {state}",
-                step + 1,
-                if *ok { "done" } else { "FAILED" }
-            )),
-        ),
-        Event::PlanDone { plan_id, ok, state } => (
-            "plan-done",
-            Some(format!(
-                "plan {plan_id} {} at {state}",
-                if *ok { "done" } else { "FAILED" }
-            )),
-        ),
-        Event::StateReached { state, confirmed } => (
-            "state-reached",
-            Some(format!(
-                "state {state}{}",
-                if *confirmed { "" } else { " (unconfirmed)" }
-            )),
-        ),
-        Event::ManualRequired { step, task, .. } => (
-            "manual-required",
-            Some(format!(
-                "manual step {} required: {}",
-                step + 1,
-                planner::graph::manual_task_text(*task)
-            )),
-        ),
-        Event::FaultRaised(f) => ("fault-raised", Some(format!("FAULT {}", text::fault(*f)))),
-        Event::FaultCleared(f) => (
-            "fault-cleared",
-            Some(format!("fault cleared: {}", text::fault(*f))),
-        ),
-        Event::IdentifyNeedsOperator { candidates } => (
-            "identify-needs-operator",
-            Some(format!(
-                "identification needs the operator: one of {}",
-                candidates
-                    .iter()
-                    .map(|s| s.name())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )),
-        ),
-    }
 }
 
 /// What an I/O can say about the world beyond the wire (the simulator's ground truth).

@@ -470,6 +470,69 @@ pub fn version_mismatch(m: &protocol::VersionMismatch) -> String {
     )
 }
 
+/// An event in words, for people (monitor's lines, the recording's `/events`): its kind
+/// (`step-done`, `fault-raised`, …) and a line (`plan 1 step 2 done in 5200 ms, now F&F`;
+/// `None` for heartbeats, telemetry and step progress, which say nothing a person reads).
+pub fn event(ev: &Event) -> (&'static str, Option<String>) {
+    match ev {
+        Event::Heartbeat { .. } => ("heartbeat", None),
+        Event::Telemetry(_) => ("telemetry", None),
+        Event::StepProgress { .. } => ("step-progress", None),
+        Event::StepDone {
+            plan_id,
+            step,
+            ok,
+            state,
+            duration_ms,
+        } => (
+            "step-done",
+            Some(format!(
+                "plan {plan_id} step {} {} in {duration_ms} ms, now {state}",
+                step + 1,
+                if *ok { "done" } else { "FAILED" }
+            )),
+        ),
+        Event::PlanDone { plan_id, ok, state } => (
+            "plan-done",
+            Some(format!(
+                "plan {plan_id} {} at {state}",
+                if *ok { "done" } else { "FAILED" }
+            )),
+        ),
+        Event::StateReached { state, confirmed } => (
+            "state-reached",
+            Some(format!(
+                "state {state}{}",
+                if *confirmed { "" } else { " (unconfirmed)" }
+            )),
+        ),
+        Event::ManualRequired { step, task, .. } => (
+            "manual-required",
+            Some(format!(
+                "manual step {} required: {}",
+                step + 1,
+                manual_task(*task)
+            )),
+        ),
+        Event::FaultRaised(f) => ("fault-raised", Some(format!("FAULT {}", fault(*f)))),
+        Event::FaultCleared(f) => (
+            "fault-cleared",
+            Some(format!("fault cleared: {}", fault(*f))),
+        ),
+        Event::IdentifyNeedsOperator { candidates } => (
+            "identify-needs-operator",
+            Some(format!(
+                "identification needs the operator: one of {}",
+                candidates
+                    .iter()
+                    .map(|s| s.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+        ),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

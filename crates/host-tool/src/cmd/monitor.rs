@@ -14,7 +14,6 @@ use serde_json::json;
 
 use crate::device::DeviceArgs;
 use crate::failure::Failure;
-use host::text::fault_list;
 
 /// Arguments of `host-tool monitor`.
 /// The longest `--duration`, s.
@@ -294,51 +293,15 @@ fn print_sample(json: bool, t: &Telemetry, mode: Option<&str>) {
 }
 
 fn print_event(json: bool, ev: &Event) {
-    let text = match ev {
-        Event::Telemetry(t) => return print_sample(json, t, None),
-        // Liveness only; the samples show it.
-        Event::Heartbeat { .. } | Event::StepProgress { .. } => return,
-        Event::StepDone {
-            plan_id,
-            step,
-            ok,
-            state,
-            duration_ms,
-        } => format!(
-            "plan {plan_id} step {} {} in {duration_ms} ms, now {state}",
-            step + 1,
-            if *ok { "done" } else { "FAILED" }
-        ),
-        Event::PlanDone { plan_id, ok, state } => {
-            format!(
-                "plan {plan_id} {} at {state}",
-                if *ok { "done" } else { "FAILED" }
-            )
-        }
-        Event::StateReached { state, confirmed } => {
-            format!(
-                "state {state}{}",
-                if *confirmed { "" } else { " (unconfirmed)" }
-            )
-        }
-        Event::ManualRequired { step, task, .. } => format!(
-            "manual step {} required: {}",
-            step + 1,
-            planner::graph::manual_task_text(*task)
-        ),
-        Event::FaultRaised(f) => format!("FAULT {}", fault_list(f.bit())),
-        Event::FaultCleared(f) => format!("fault cleared: {}", fault_list(f.bit())),
-        Event::IdentifyNeedsOperator { candidates } => format!(
-            "identification needs the operator: the trunk is one of {}",
-            candidates
-                .iter()
-                .map(|s| s.name())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
+    if let Event::Telemetry(t) = ev {
+        return print_sample(json, t, None);
+    }
+    // Heartbeats and step progress say nothing a person reads (the samples show liveness).
+    let (kind, Some(text)) = text::event(ev) else {
+        return;
     };
     if json {
-        crate::out!("{}", json!({"type": "event", "text": text}));
+        crate::out!("{}", json!({"type": "event", "kind": kind, "text": text}));
     } else {
         crate::out!("event: {text}");
     }

@@ -504,3 +504,35 @@ fn status_names_the_server_and_flags_a_wrong_belief() {
     server.wait().unwrap();
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Under a low pressure limit the device refuses the plan at its first step over it; the hint
+/// names the limit the whole plan needs (F&P → D&D: 16, 24.5 and 35 kPa), not the first step's.
+#[test]
+fn a_refusal_under_a_low_pressure_limit_names_the_plans_most() {
+    let dir = cli::temp("serve-limit");
+    let (mut server, line) = cli::serve(&dir, &["serve", "--sim", "--no-record"]);
+    assert!(line.starts_with("serving the simulator on "), "{line}");
+    let out = cmd(&dir, &["param", "set", "pressure-limit-kpa", "10"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    for (target, hint) in [
+        (
+            "D&D",
+            "`host-tool param set pressure-limit-kpa 35` (the whole plan needs up to 35 kPa, in step 3)",
+        ),
+        ("F&F", "`host-tool param set pressure-limit-kpa 16` (at most 60)"),
+    ] {
+        let out = cmd(&dir, &["plan", "--target", target, "-j"]).output().unwrap();
+        assert_eq!(out.status.code(), Some(1), "{target}");
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let e = v["error"].as_str().unwrap();
+        assert!(
+            e.contains("it needs 16 kPa, above the pressure limit of 10 kPa") && e.contains(hint),
+            "{target}: {e}"
+        );
+    }
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+}

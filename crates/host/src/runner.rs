@@ -811,6 +811,23 @@ impl PlanRunner {
                     )
                 }
                 Err(e) => {
+                    // A pressure refusal names the first step over the limit; the plan may
+                    // need more later: the hint names the plan's most.
+                    let most = self.following.as_ref().and_then(|f| {
+                        let (i, kpa) = most_pressure(&f.plan)?;
+                        match &e {
+                            SessionError::Rejected {
+                                refusal:
+                                    Some(protocol::Refusal {
+                                        field: protocol::RefusedField::Pressure,
+                                        value,
+                                        ..
+                                    }),
+                                ..
+                            } if kpa > *value => Some((i, kpa)),
+                            _ => None,
+                        }
+                    });
                     // A refusal that names a step: the failure is that step's.
                     let step = match &e {
                         SessionError::Rejected {
@@ -829,6 +846,18 @@ impl PlanRunner {
                     };
                     let mut failure = RunFailure::from_session(&context, &e);
                     failure.step = step;
+                    if let Some((i, kpa)) = most {
+                        // The hint's number is the plan's most, so one change lets it all run.
+                        let asked = failure.refusal.map_or(0.0, |r| r.value);
+                        failure.message = failure.message.replace(
+                            &format!("`host-tool param set pressure-limit-kpa {asked}`"),
+                            &format!(
+                                "`host-tool param set pressure-limit-kpa {kpa}` (the whole plan \
+                                 needs up to {kpa} kPa, in step {})",
+                                i + 1
+                            ),
+                        );
+                    }
                     self.finish(Some(failure))
                 }
             },
@@ -1364,4 +1393,25 @@ pub fn after_abort_text(st: &Status) -> String {
         );
     }
     t
+}
+
+/// The highest pressure any step of `plan` inflates toward, and the first step that does.
+fn most_pressure(plan: &Plan) -> Option<(usize, f32)> {
+    plan.steps()
+        .iter()
+        .enumerate()
+        .flat_map(|(i, s)| {
+            s.edge
+                .transition
+                .primitives
+                .iter()
+                .filter_map(move |p| match p {
+                    protocol::Primitive::Inflate { pressure_kpa, .. } => Some((i, *pressure_kpa)),
+                    _ => None,
+                })
+        })
+        .fold(None, |best: Option<(usize, f32)>, (i, p)| match best {
+            Some((_, b)) if b >= p => best,
+            _ => Some((i, p)),
+        })
 }

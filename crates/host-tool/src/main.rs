@@ -100,6 +100,10 @@ struct Cli {
     /// Say nothing but errors (and the output asked for).
     #[arg(short, long, global = true)]
     quiet: bool,
+    /// Print JSON on stdout: the command's own objects, and every failure as one error object.
+    /// Every command that has results takes it (anywhere on the line); the others refuse it.
+    #[arg(short = 'j', long, global = true)]
+    json: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -301,6 +305,40 @@ impl Command {
             _ => false,
         }
     }
+
+    /// Passes the global `-j/--json` to the command; `false` when the command has no JSON output.
+    fn set_json(&mut self, on: bool) -> bool {
+        match self {
+            Command::States(a) => a.json = on,
+            Command::Fk(a) => a.json = on,
+            Command::Ik(a) => a.json = on,
+            Command::Sun(a) => a.json = on,
+            Command::Station(a) => a.json = on,
+            Command::Aim(a) => a.json = on,
+            Command::Track(a) => a.json = on,
+            Command::Design(a) => a.json = on,
+            Command::Pattern(a) => a.json = on,
+            Command::Plan(a) => a.json = on,
+            Command::Run(a) => a.json = on,
+            Command::Status(a) | Command::Stop(a) => a.json = on,
+            Command::Monitor(a) => a.json = on,
+            Command::Declare(a) => a.json = on,
+            Command::Param(a) => a.set_json(on),
+            Command::Identify(a) => a.json = on,
+            Command::Ports(a) => a.json = on,
+            Command::Flash(a) => a.json = on,
+            Command::Pose(a) => a.json = on,
+            Command::Workspace(a) => a.json = on,
+            Command::Grip(a) => a.json = on,
+            Command::Bend(a) => a.json = on,
+            Command::Vent(a) => a.json = on,
+            Command::Reach(a) => a.json = on,
+            Command::Pick(a) => a.json = on,
+            Command::Demo(a) => a.json = on,
+            _ => return false,
+        }
+        true
+    }
 }
 
 /// Whether the raw arguments ask for JSON (for errors before the arguments parse).
@@ -314,7 +352,7 @@ fn json_in_args() -> bool {
 fn main() -> ExitCode {
     let version: &'static str = Box::leak(cli::version().into_boxed_str());
     let matches = Cli::command().version(version).try_get_matches();
-    let cli = match matches.and_then(|m| Cli::from_arg_matches(&m)) {
+    let mut cli = match matches.and_then(|m| Cli::from_arg_matches(&m)) {
         Ok(c) => c,
         Err(e) => {
             let code = if e.use_stderr() { 2 } else { 0 };
@@ -332,6 +370,17 @@ fn main() -> ExitCode {
         }
     };
     cli::set_verbosity(cli.quiet, cli.verbose);
+    if cli.json && !cli.command.set_json(true) {
+        let name = std::env::args()
+            .skip(1)
+            .find(|a| !a.starts_with('-'))
+            .unwrap_or_default();
+        return failure::Failure::usage(format!(
+            "-j/--json: `host-tool {name}` has no JSON output (it writes files or text); \
+             the commands with results take it"
+        ))
+        .report(true);
+    }
     let json = cli.command.json();
     let result = match cli.command {
         Command::States(args) => cmd::states::run(args),

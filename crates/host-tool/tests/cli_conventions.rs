@@ -785,3 +785,38 @@ fn a_closed_stdout_ends_each_command_quietly_without_a_panic() {
         );
     }
 }
+
+#[test]
+fn json_is_global_and_refused_where_a_command_has_none() {
+    // Before the subcommand, after it, or among its options: the same object.
+    let after = one_object(&host_tool(&["status", "--sim", "-j"]));
+    for args in [
+        &["-j", "status", "--sim"][..],
+        &["--json", "status", "--sim"][..],
+        &["status", "-j", "--sim"][..],
+    ] {
+        let v = one_object(&host_tool(args));
+        assert_eq!(v["state"], after["state"], "{args:?}");
+        assert_eq!(v["candidates"], after["candidates"], "{args:?}");
+    }
+    // A nested subcommand takes it too.
+    let v = one_object(&host_tool(&["-j", "param", "get", "--sim"]));
+    assert!(v["params"].is_array(), "{v}");
+    // Commands that write files or text refuse it, with one error object.
+    for (args, name) in [
+        (&["-j", "log", "summary", "x.mcap"][..], "log"),
+        (&["man", "-j"][..], "man"),
+        (&["completions", "bash", "--json"][..], "completions"),
+    ] {
+        let out = host_tool(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let v = one_object(&out);
+        assert!(
+            v["error"]
+                .as_str()
+                .unwrap()
+                .contains(&format!("`host-tool {name}` has no JSON output")),
+            "{v}"
+        );
+    }
+}

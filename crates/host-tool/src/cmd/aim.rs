@@ -72,7 +72,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE.mcap", conflicts_with = "dry_run")]
     pub record: Option<std::path::PathBuf>,
     /// Print JSON instead of text.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

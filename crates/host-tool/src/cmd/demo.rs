@@ -33,7 +33,7 @@ pub struct PickArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 
@@ -62,7 +62,7 @@ pub struct DemoArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

@@ -57,7 +57,7 @@ pub struct Args {
     #[arg(long, value_name = "MM", allow_hyphen_values = true)]
     pub edge_mm: Option<String>,
     /// Print JSON instead of text.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
     /// Write the figure (the feasible bands against β; with a target, the ranking) as SVG.
     #[arg(long, value_name = "OUT")]

@@ -31,7 +31,7 @@ pub struct Args {
     /// "heading_deg", "frames": [{"module", "origin", "rotation", "normal",
     /// "normal_azimuth_deg", "normal_elevation_deg"}, …], "edge_mm", "tips_mm"}`; the last two
     /// `null` without --edge-mm) instead of a table.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
     /// Compass heading of the base frame's x axis (towards bottom vertex 0), degrees
     /// clockwise from north; 90 puts x east and y north. Gives each top-face normal's compass

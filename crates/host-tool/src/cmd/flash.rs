@@ -50,7 +50,7 @@ pub struct Args {
     #[arg(long)]
     pub dry_run: bool,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

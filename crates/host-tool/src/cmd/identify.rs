@@ -16,7 +16,7 @@ pub struct Args {
     #[command(flatten)]
     pub device: DeviceArgs,
     /// Print one JSON object on stdout.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

@@ -89,7 +89,7 @@ pub struct Args {
     /// Print JSON: `{"states", "rms", "optimal", "lower_bound_rms", "gap", "stop",
     /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible", "coverage", "warnings",
     /// "edge_mm", "rms_mm", "tips_mm"}` (the last three `null` without --edge-mm).
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
     /// Write the figure of the fit (target and boom in three orthographic views, one column
     /// wide) as SVG to this file.

@@ -32,7 +32,7 @@ pub struct Args {
     #[arg(long, value_name = "HZ", default_value_t = 10, value_parser = crate::num::int_in(1, 50))]
     pub rate: u32,
     /// One JSON object per line on stdout.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
     /// Also record the session to this MCAP file (`host-tool log` reads it).
     #[arg(long, value_name = "FILE.mcap")]

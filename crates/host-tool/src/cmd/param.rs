@@ -30,7 +30,7 @@ pub enum Action {
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout.
-        #[arg(short = 'j', long)]
+        #[arg(skip)]
         json: bool,
     },
     /// Change one parameter (checked against its range before anything is sent).
@@ -47,7 +47,7 @@ pub enum Action {
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout.
-        #[arg(short = 'j', long)]
+        #[arg(skip)]
         json: bool,
     },
     /// Write every parameter to FILE (JSON, with the firmware's schema id).
@@ -58,7 +58,7 @@ pub enum Action {
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout (what was written).
-        #[arg(short = 'j', long)]
+        #[arg(skip)]
         json: bool,
     },
     /// Set the parameters of FILE on the device: the whole file is checked first (its
@@ -73,7 +73,7 @@ pub enum Action {
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout.
-        #[arg(short = 'j', long)]
+        #[arg(skip)]
         json: bool,
     },
     /// Compare the device's parameters with FILE's.
@@ -84,7 +84,7 @@ pub enum Action {
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout.
-        #[arg(short = 'j', long)]
+        #[arg(skip)]
         json: bool,
     },
 }
@@ -255,6 +255,17 @@ impl Args {
             | Action::Save { json, .. }
             | Action::Load { json, .. }
             | Action::Diff { json, .. } => *json,
+        }
+    }
+
+    /// Sets whether JSON was asked for (the global `-j/--json`).
+    pub fn set_json(&mut self, on: bool) {
+        match &mut self.action {
+            Action::Get { json, .. }
+            | Action::Set { json, .. }
+            | Action::Save { json, .. }
+            | Action::Load { json, .. }
+            | Action::Diff { json, .. } => *json = on,
         }
     }
 }

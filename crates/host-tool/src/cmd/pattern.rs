@@ -208,7 +208,7 @@ pub struct Args {
     #[arg(long, default_value_t = fabrication::parts::DEFAULT_TENDON_RADIUS_MM, allow_hyphen_values = true)]
     pub tendon_radius_mm: f64,
     /// Print what was written as one JSON object on stdout (instead of the kit's table).
-    #[arg(short, long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

@@ -36,7 +36,7 @@ pub struct Args {
     #[arg(long, value_name = "STATE", requires = "dry_run")]
     pub from: Option<String>,
     /// Print one JSON object on stdout instead of a summary.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
     /// Record the session to this MCAP file (telemetry at 50 Hz during the run, events,
     /// requests and responses, the plan; the ground truth with --sim). `host-tool log` reads it.

@@ -12,7 +12,7 @@ use crate::transport::arduino_board;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Print a JSON array on stdout.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

@@ -28,7 +28,7 @@ pub struct PoseArgs {
     #[arg(long, value_name = "ANGLE,DIR", allow_hyphen_values = true)]
     pub bend: Option<String>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 
@@ -45,7 +45,7 @@ pub struct WorkspaceArgs {
     #[arg(long, value_name = "FIG")]
     pub figure: Option<PathBuf>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

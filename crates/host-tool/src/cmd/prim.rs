@@ -46,7 +46,7 @@ pub struct GripArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 
@@ -68,7 +68,7 @@ pub struct BendArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 
@@ -83,7 +83,7 @@ pub struct VentArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE.mcap", conflicts_with = "dry_run")]
     pub record: Option<std::path::PathBuf>,
     /// Print one JSON object.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

@@ -59,7 +59,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE.mcap", conflicts_with = "dry_run")]
     pub record: Option<PathBuf>,
     /// Print JSON Lines: one object per step as it ends, then a summary (`"summary": true`).
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

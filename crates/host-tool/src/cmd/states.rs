@@ -22,7 +22,7 @@ pub struct Args {
     #[arg(long, conflicts_with_all = ["n", "beta", "edge_mm"])]
     pub crane: bool,
     /// Print JSON instead of a table.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

@@ -53,7 +53,7 @@ pub struct Args {
     #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
     pub heading: f64,
     /// Print JSON instead of a table.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
     /// Write the incidence-over-the-day figure (tracked and flat, refolds marked) as SVG.
     #[arg(long, value_name = "FILE")]

@@ -125,7 +125,7 @@ pub struct Args {
     #[command(flatten)]
     pub day: DayArgs,
     /// Print JSON instead of a table.
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

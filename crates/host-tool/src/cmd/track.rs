@@ -56,7 +56,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<std::path::PathBuf>,
     /// Print JSON Lines: one object per aim, then a summary object (`"summary": true`).
-    #[arg(short = 'j', long)]
+    #[arg(skip)]
     pub json: bool,
 }
 

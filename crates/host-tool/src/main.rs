@@ -210,6 +210,10 @@ enum Command {
     Model(cmd::model::Args),
     /// Take the crane (--port) or the simulator (--sim) to a trunk state, e.g. --target 'D&F'.
     Plan(cmd::plan::Args),
+    /// Measure the trunk's snap pressures, holds and strokes into a profile (--out FILE).
+    Calibrate(cmd::calibrate::Args),
+    /// Read a calibration profile: calibration show PROFILE.toml.
+    Calibration(cmd::calibrate::ShowArgs),
     /// Run a mission: a TOML file of steps (state, bend, grip, reach, vent, wait, aim,
     /// identify, prompt), validated whole first; resumable after a stop.
     Run(cmd::run::Args),
@@ -282,6 +286,8 @@ impl Command {
             Command::Design(a) => a.json,
             Command::Pattern(a) => a.json,
             Command::Plan(a) => a.json,
+            Command::Calibrate(a) => a.json,
+            Command::Calibration(a) => a.json(),
             Command::Run(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
@@ -345,6 +351,8 @@ fn main() -> ExitCode {
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Calibrate(args) => cmd::calibrate::run(args),
+        Command::Calibration(args) => cmd::calibrate::run_show(args),
         Command::Run(args) => cmd::run::run(args),
         Command::Status(args) => cmd::status::run(args),
         Command::Monitor(args) => cmd::monitor::run(args),

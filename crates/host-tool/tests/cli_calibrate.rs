@@ -240,7 +240,9 @@ fn doctored_profiles_are_refused_naming_what_differs() {
     let good = std::fs::read_to_string(&path).unwrap();
     let snap_line = |from: &str, to: &str| {
         let at = good
-            .find(&format!("from = \"{from}\"\nto = \"{to}\"\nkind = \"pneumatic\"\nsnap_kpa"))
+            .find(&format!(
+                "from = \"{from}\"\nto = \"{to}\"\nkind = \"pneumatic\"\nsnap_kpa"
+            ))
             .unwrap();
         let line = good[at..].lines().nth(3).unwrap().to_string();
         assert!(line.starts_with("snap_kpa = ["), "{line}");
@@ -288,7 +290,11 @@ fn doctored_profiles_are_refused_naming_what_differs() {
             good.replacen("format = 1", "format = 7", 1),
             "a calibration profile of format version 7; this host-tool reads version 1",
         ),
-        ("not TOML", "[[[".to_string(), "not a calibration profile (TOML)"),
+        (
+            "not TOML",
+            "[[[".to_string(),
+            "not a calibration profile (TOML)",
+        ),
     ] {
         let p = tmp(&format!("doctored-{}.toml", what.replace(' ', "-")));
         std::fs::write(&p, &doctored).unwrap();
@@ -324,7 +330,9 @@ fn doctored_profiles_are_refused_naming_what_differs() {
     let t = text(&o);
     assert_eq!(o.status.code(), Some(2), "{t}");
     assert!(
-        t.contains("a profile of trunk 'pdf', but the simulator runs trunk 'pdf (snap forces ×1.2)'"),
+        t.contains(
+            "a profile of trunk 'pdf', but the simulator runs trunk 'pdf (snap forces ×1.2)'"
+        ),
         "{t}"
     );
     // A pressure limit under a measured snap: the cap would be under it.
@@ -349,7 +357,10 @@ fn usage_errors_exit_2() {
     let o = out.to_str().unwrap();
     for (args, reason) in [
         (vec!["calibrate", "--out", o], "--sim"),
-        (vec!["calibrate", "--sim", "--out", o, "--name", " "], "--name must not be empty"),
+        (
+            vec!["calibrate", "--sim", "--out", o, "--name", " "],
+            "--name must not be empty",
+        ),
         (
             vec!["calibrate", "--sim", "--out", "/nonexistent/dir/p.toml"],
             "cannot write /nonexistent/dir/p.toml",

@@ -197,10 +197,12 @@ impl Graph {
     pub fn calibrated(targets: &[((TrunkState, TrunkState), f32)]) -> Self {
         let transitions = TRANSITIONS
             .iter()
-            .map(|t| match targets.iter().find(|(e, _)| *e == (t.from, t.to)) {
-                Some(&(_, value)) => retarget(t, value),
-                None => *t,
-            })
+            .map(
+                |t| match targets.iter().find(|(e, _)| *e == (t.from, t.to)) {
+                    Some(&(_, value)) => retarget(t, value),
+                    None => *t,
+                },
+            )
             .collect();
         Self::from_transitions(transitions, CostModel::default())
     }
@@ -588,9 +590,16 @@ mod tests {
             e.transition.primitives[0],
             Primitive::Inflate { pressure_kpa, snaps: 1 } if pressure_kpa == 15.1
         ));
-        assert_eq!(e.transition.primitives[1], Primitive::Vent { pressure_kpa: 0.0 });
+        assert_eq!(
+            e.transition.primitives[1],
+            Primitive::Vent { pressure_kpa: 0.0 }
+        );
         // 15.1 kPa at 5 kPa/s + a 1.5 s vent + 0.5 s overhead.
-        assert!((e.cost_s - (15.1f64 / 5.0 + 2.0)).abs() < 1e-5, "{}", e.cost_s);
+        assert!(
+            (e.cost_s - (15.1f64 / 5.0 + 2.0)).abs() < 1e-5,
+            "{}",
+            e.cost_s
+        );
         let t = g.edge(dd, fd).unwrap();
         assert!(matches!(
             t.transition.primitives[0],
@@ -608,7 +617,10 @@ mod tests {
             wire.steps[0].primitives[0],
             Primitive::Inflate { pressure_kpa, .. } if pressure_kpa == 15.1
         ));
-        let one = Graph::from_transitions(vec![nominal.edge(fp, ff).unwrap().transition], CostModel::default());
+        let one = Graph::from_transitions(
+            vec![nominal.edge(fp, ff).unwrap().transition],
+            CostModel::default(),
+        );
         assert_eq!(one.edges().len(), 1);
         assert!(one.plan(fp, dd).is_err());
     }

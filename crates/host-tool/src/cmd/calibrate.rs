@@ -109,6 +109,9 @@ fn source_of(from: TrunkState, to: TrunkState) -> Option<(TrunkState, TrunkState
     Some((state(src.0), state(src.1)))
 }
 
+/// Measured targets: `((from, to), value)`, kPa for a pneumatic edge, mm for a tendon edge.
+pub type Targets = Vec<((TrunkState, TrunkState), f32)>;
+
 /// One measured transition of a profile.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -224,7 +227,8 @@ impl Profile {
     }
 
     fn snap(&self, from: TrunkState, to: TrunkState) -> Option<f64> {
-        self.measured(from, to).and_then(|m| m.snap_kpa.last().copied())
+        self.measured(from, to)
+            .and_then(|m| m.snap_kpa.last().copied())
     }
 
     fn stroke(&self, from: TrunkState, to: TrunkState) -> Option<f64> {
@@ -255,8 +259,7 @@ impl Profile {
                 m.from
                     .parse::<TrunkState>()
                     .map_err(|_| format!("'{}' is not a trunk state", m.from))?,
-                m.to
-                    .parse::<TrunkState>()
+                m.to.parse::<TrunkState>()
                     .map_err(|_| format!("'{}' is not a trunk state", m.to))?,
             );
             if m.snap_kpa.len() > 1 {
@@ -328,7 +331,7 @@ impl Profile {
     /// snap × (1 + margin), capped by `limit_kpa`; each measured tendon step pulls to
     /// max(stroke × (1 + margin), stroke + 3 mm) within the reach. Refused when the cap is
     /// under a measured snap or the reach under a stroke.
-    pub fn targets(&self, limit_kpa: f64) -> Result<Vec<((TrunkState, TrunkState), f32)>, String> {
+    pub fn targets(&self, limit_kpa: f64) -> Result<Targets, String> {
         let mut out = Vec::new();
         for t in &transitions::TRANSITIONS {
             let Some((a, b)) = source_of(t.from, t.to) else {
@@ -336,7 +339,9 @@ impl Profile {
             };
             let value = match t.kind {
                 StepKind::Pneumatic => {
-                    let Some(snap) = self.snap(a, b) else { continue };
+                    let Some(snap) = self.snap(a, b) else {
+                        continue;
+                    };
                     if limit_kpa < snap {
                         return Err(format!(
                             "{} → {}: the pressure limit {limit_kpa} kPa is under the measured \
@@ -475,15 +480,24 @@ fn show_text(p: &Profile, targets: &[((TrunkState, TrunkState), f32)]) -> String
         p.duration_s
     );
     for m in &p.transitions {
-        s += &format!("  {} → {} ({}): {}\n", m.from, m.to, m.kind, measured_text(m));
+        s += &format!(
+            "  {} → {} ({}): {}\n",
+            m.from,
+            m.to,
+            m.kind,
+            measured_text(m)
+        );
     }
-    s += &format!(
-        "plans use (margin {:.0} %):\n",
-        p.margin * 100.0
-    );
+    s += &format!("plans use (margin {:.0} %):\n", p.margin * 100.0);
     for ((a, b), v) in targets {
         let unit = transitions::transition(*a, *b)
-            .map(|t| if t.kind == StepKind::Pneumatic { "kPa" } else { "mm" })
+            .map(|t| {
+                if t.kind == StepKind::Pneumatic {
+                    "kPa"
+                } else {
+                    "mm"
+                }
+            })
             .unwrap_or("");
         s += &format!("  {a} → {b}: {v} {unit}\n");
     }
@@ -683,7 +697,11 @@ fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
             crate::say!(
                 "calibrate: the trunk is at {}{}: taking it to F&P first",
                 st.state,
-                if st.state_confirmed { "" } else { " (unconfirmed)" }
+                if st.state_confirmed {
+                    ""
+                } else {
+                    " (unconfirmed)"
+                }
             );
             let out = s.run_plan(Graph::nominal(), first, RunOptions::default(), &mut shell);
             if !out.ok() {
@@ -734,7 +752,11 @@ fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
                 "calibrate {}/{}: {from} → {to} by {}{}",
                 k + 1,
                 steps.len(),
-                if t.kind == StepKind::Tendon { "the tendons" } else { "pressure" },
+                if t.kind == StepKind::Tendon {
+                    "the tendons"
+                } else {
+                    "pressure"
+                },
                 match what {
                     Measure::Snap => format!(", a ramp toward {limit_kpa} kPa"),
                     Measure::Stroke => format!(", a pull toward {REACH_MM} mm"),
@@ -763,7 +785,9 @@ fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
                         return Err(refuse(format!(
                             "{from} → {to}: no snap seen on the ramp (the pressure rose to \
                              {max:.2} kPa; the limit is {limit_kpa} kPa){}",
-                            out.error().map(|e| format!("; the step: {e}")).unwrap_or_default()
+                            out.error()
+                                .map(|e| format!("; the step: {e}"))
+                                .unwrap_or_default()
                         )));
                     };
                     m.snap_kpa.push(round(snap, 100.0));
@@ -787,7 +811,9 @@ fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
                         return Err(refuse(format!(
                             "{from} → {to}: no buckling seen (the tendons pulled {longest:.1} \
                              mm){}",
-                            out.error().map(|e| format!("; the step: {e}")).unwrap_or_default()
+                            out.error()
+                                .map(|e| format!("; the step: {e}"))
+                                .unwrap_or_default()
                         )));
                     };
                     m.stroke_mm = spikes.iter().map(|&x| round(x, 10.0)).collect();
@@ -826,7 +852,9 @@ fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
             transitions: measured,
         };
         profile.check().map_err(refuse)?;
-        profile.targets(profile.pressure_limit_kpa).map_err(refuse)?;
+        profile
+            .targets(profile.pressure_limit_kpa)
+            .map_err(refuse)?;
         Ok(profile)
     })();
     if let Some(value) = previous_rate {
@@ -854,7 +882,11 @@ fn drain_telemetry(events: &mut VecDeque<Event>) -> Vec<Telemetry> {
 
 /// The graph `plan --calibration FILE` runs: the profile's targets under `limit_kpa`; on the
 /// simulator, a profile of another trunk than the simulated one is refused.
-pub fn plan_graph(path: &Path, device: &DeviceConfig, limit_kpa: Option<f64>) -> Result<Graph, Failure> {
+pub fn plan_graph(
+    path: &Path,
+    device: &DeviceConfig,
+    limit_kpa: Option<f64>,
+) -> Result<Graph, Failure> {
     let p = Profile::load(path)?;
     if let DeviceConfig::Sim(sim) = device {
         if sim.trunk.name != p.name {
@@ -878,7 +910,8 @@ mod tests {
     #[test]
     fn the_ramps_peak_before_its_fall_is_the_snap() {
         // 0.22 kPa per sample up to 13.09, the snap's fall, the hold, then the vent.
-        let mut s: Vec<(f64, bool, bool)> = (0..60).map(|i| (i as f64 * 0.22, true, false)).collect();
+        let mut s: Vec<(f64, bool, bool)> =
+            (0..60).map(|i| (i as f64 * 0.22, true, false)).collect();
         s.push((12.79, true, false));
         s.push((9.64, false, false));
         s.push((12.2, false, false));
@@ -899,7 +932,14 @@ mod tests {
 
     #[test]
     fn a_pulls_spike_gives_its_stroke() {
-        let s = [(0.1, 0.0), (0.2, 2.0), (0.3, 4.0), (1.9, 6.0), (3.6, 6.0), (3.0, 4.0)];
+        let s = [
+            (0.1, 0.0),
+            (0.2, 2.0),
+            (0.3, 4.0),
+            (1.9, 6.0),
+            (3.6, 6.0),
+            (3.0, 4.0),
+        ];
         assert_eq!(pull_spikes(&s), vec![6.0]);
         let flat = [(0.1, 0.0), (0.4, 2.0), (0.8, 4.0)];
         assert!(pull_spikes(&flat).is_empty());
@@ -940,15 +980,33 @@ mod tests {
         let p = profile();
         p.check().unwrap();
         let t = p.targets(40.0).unwrap();
-        let get = |a: &str, b: &str| t.iter().find(|(e, _)| *e == (state(a), state(b))).unwrap().1;
+        let get = |a: &str, b: &str| {
+            t.iter()
+                .find(|(e, _)| *e == (state(a), state(b)))
+                .unwrap()
+                .1
+        };
         assert!((get("F&P", "F&F") - 15.1).abs() < 1e-4);
         assert!((get("D&P", "D&F") - 15.1).abs() < 1e-4);
         assert!((get("D&F", "D&D") - 34.6).abs() < 1e-4);
         assert!((get("D&D", "F&D") - 17.8).abs() < 1e-4);
         assert!((get("D&F", "F&F") - 69.0).abs() < 1e-4);
         // Capped by the limit; refused under the snap.
-        assert!((p.targets(32.0).unwrap().iter().find(|(e, _)| *e == (state("D&F"), state("D&D"))).unwrap().1 - 32.0).abs() < 1e-4);
-        assert!(p.targets(30.0).unwrap_err().contains("under the measured snap at 30.10"));
+        assert!(
+            (p.targets(32.0)
+                .unwrap()
+                .iter()
+                .find(|(e, _)| *e == (state("D&F"), state("D&D")))
+                .unwrap()
+                .1
+                - 32.0)
+                .abs()
+                < 1e-4
+        );
+        assert!(p
+            .targets(30.0)
+            .unwrap_err()
+            .contains("under the measured snap at 30.10"));
         // The round trip through TOML.
         assert_eq!(Profile::parse(&p.to_toml()).unwrap(), p);
     }
@@ -960,13 +1018,23 @@ mod tests {
         assert!(p.check().unwrap_err().contains("out of order"));
         let mut p = profile();
         p.transitions[0].snap_kpa = vec![0.2];
-        assert!(p.check().unwrap_err().contains("0.20 kPa, outside the physical range"));
+        assert!(p
+            .check()
+            .unwrap_err()
+            .contains("0.20 kPa, outside the physical range"));
         let mut p = profile();
         p.transitions[3].snap_kpa.clear();
-        assert!(p.check().unwrap_err().contains("D&F → D&D: no snap pressure measured"));
+        assert!(p
+            .check()
+            .unwrap_err()
+            .contains("D&F → D&D: no snap pressure measured"));
         let text = profile().to_toml().replace("format = 1", "format = 2");
-        assert!(Profile::parse(&text).unwrap_err().contains("format version 2"));
+        assert!(Profile::parse(&text)
+            .unwrap_err()
+            .contains("format version 2"));
         let text = profile().to_toml().replace(&schema_text(), "0x00000001");
-        assert!(Profile::parse(&text).unwrap_err().contains("schema 0x00000001"));
+        assert!(Profile::parse(&text)
+            .unwrap_err()
+            .contains("schema 0x00000001"));
     }
 }

@@ -308,12 +308,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         None => cfg.graph.clone(),
     };
-    let outcome = conn.session.run_plan(
-        graph,
-        cfg.target,
-        RunOptions::default(),
-        &mut shell,
-    );
+    let outcome = conn
+        .session
+        .run_plan(graph, cfg.target, RunOptions::default(), &mut shell);
     if let Some(value) = previous_rate {
         let _ = conn.session.command(protocol::RequestBody::SetParam {
             id: protocol::ParamId::TelemetryHz,

@@ -234,6 +234,61 @@ fn a_calibration_that_misses_a_snap_is_refused_and_writes_nothing() {
 }
 
 #[test]
+fn the_sensors_zero_is_measured_and_one_the_device_cannot_vent_to_is_refused() {
+    let pdf = include_str!("../../../trunks/pdf.toml");
+    assert!(pdf.contains("offset_kpa = 0.0"));
+    for (offset, ok) in [(-0.4, true), (0.4, true), (1.0, false)] {
+        let trunk = tmp(&format!("offset{offset}.toml"));
+        std::fs::write(
+            &trunk,
+            pdf.replace("offset_kpa = 0.0", &format!("offset_kpa = {offset:.1}")),
+        )
+        .unwrap();
+        let out = tmp(&format!("offset{offset}-profile.toml"));
+        let o = host_tool(&[
+            "calibrate",
+            "--sim",
+            "--sim-trunk",
+            trunk.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "-j",
+        ]);
+        let t = text(&o);
+        if ok {
+            assert_eq!(o.status.code(), Some(0), "{offset}: {t}");
+            let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+            let zero = v["sensor_zero_kpa"].as_f64().unwrap();
+            assert!((zero - offset).abs() < 0.15, "{offset}: zero {zero}");
+            // The snaps as the sensor reads them: the truth plus the offset.
+            let spec = TrunkSpec::from_toml(&std::fs::read_to_string(&trunk).unwrap()).unwrap();
+            for (from, to, truth) in truth_kpa(&spec) {
+                let got = v["transition"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|m| m["from"] == from && m["to"] == to && m["snap_kpa"].is_array())
+                    .unwrap()["snap_kpa"][0]
+                    .as_f64()
+                    .unwrap();
+                assert!(
+                    (got - truth).abs() / truth < 0.05,
+                    "{from} → {to}: {got} vs {truth}"
+                );
+            }
+        } else {
+            assert_eq!(o.status.code(), Some(1), "{offset}: {t}");
+            assert!(
+                t.contains("the pressure sensor reads +1.0")
+                    && t.contains("0.5 kPa vent tolerance"),
+                "{t}"
+            );
+            assert!(!out.exists());
+        }
+    }
+}
+
+#[test]
 fn doctored_profiles_are_refused_naming_what_differs() {
     let path = tmp("k1-doctored.toml");
     calibrate("1", &path);

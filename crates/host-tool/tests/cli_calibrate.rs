@@ -139,6 +139,50 @@ fn calibration_recovers_each_snap_within_5_percent_and_the_36_plans_reach_their_
 }
 
 #[test]
+fn the_manual_walk_measures_the_unpacking_under_a_deployed_top() {
+    let path = tmp("manual.toml");
+    let o = host_tool(&[
+        "calibrate",
+        "--sim",
+        "--manual",
+        "--out",
+        path.to_str().unwrap(),
+        "-j",
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("calibrate 3/10: D&F → D&P by hand (the person folds it when prompted)"),
+        "{t}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    // The same barrier as F&P → F&F: the bottom's first layer.
+    let truth = truth_kpa(&TrunkSpec::pdf())[0].2;
+    let m = v["transition"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["from"] == "D&P" && m["to"] == "D&F")
+        .unwrap()
+        .clone();
+    let got = m["snap_kpa"][0].as_f64().unwrap();
+    assert!((got - truth).abs() / truth < 0.05, "{got} vs {truth}");
+    // Its own snap sets D&P → D&F's target.
+    let target = v["targets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["from"] == "D&P" && t["to"] == "D&F")
+        .unwrap()["value"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (target - (got * 1.15 * 10.0).round() / 10.0).abs() < 1e-4,
+        "{target}"
+    );
+}
+
+#[test]
 fn the_dry_run_lists_the_calibrated_numbers() {
     let path = tmp("k1.toml");
     let v = calibrate("1", &path);

@@ -3,7 +3,8 @@
 //! targets `plan --calibration` builds its graph from (docs/host.md, "Calibration").
 //!
 //! The walk: F&P → F&F → D&F by pressure, D&F → F&F by the tendons (the top's fold over a
-//! folded bottom), F&F → D&F → D&D by pressure, D&D → F&D → F&F → F&P by the tendons.
+//! folded bottom), F&F → D&F → D&D by pressure, D&D → F&D → F&F → F&P by the tendons; with
+//! `--manual`, D&F → D&P by hand and D&P → D&F by pressure after the second step.
 //! Each inflation is a slow ramp toward the pressure limit with `snaps = 1`; the snap is the
 //! peak of the 50 Hz telemetry before its fall, the hold the pressure the trunk settles to
 //! before the vent. Each pull goes toward the tendons' reach with the step's snaps; the top's
@@ -76,21 +77,27 @@ fn state(name: &str) -> TrunkState {
     name.parse().unwrap_or(TrunkState::ALL[0])
 }
 
-/// The walk, in order.
-fn walk() -> Vec<(TrunkState, TrunkState, Measure)> {
-    [
-        ("F&P", "F&F", Measure::Snap),
-        ("F&F", "D&F", Measure::Snap),
-        ("D&F", "F&F", Measure::Stroke),
-        ("F&F", "D&F", Measure::Pass),
-        ("D&F", "D&D", Measure::Snap),
-        ("D&D", "F&D", Measure::Stroke),
-        ("F&D", "F&F", Measure::Pass),
-        ("F&F", "F&P", Measure::Pass),
-    ]
-    .into_iter()
-    .map(|(a, b, m)| (state(a), state(b), m))
-    .collect()
+/// The walk, in order; with `manual`, the fold by hand to D&P and the unpacking under a
+/// deployed top from there.
+fn walk(manual: bool) -> Vec<(TrunkState, TrunkState, Measure)> {
+    let by_hand: &[(&str, &str, Measure)] = if manual {
+        &[("D&F", "D&P", Measure::Pass), ("D&P", "D&F", Measure::Snap)]
+    } else {
+        &[]
+    };
+    [("F&P", "F&F", Measure::Snap), ("F&F", "D&F", Measure::Snap)]
+        .iter()
+        .chain(by_hand)
+        .chain(&[
+            ("D&F", "F&F", Measure::Stroke),
+            ("F&F", "D&F", Measure::Pass),
+            ("D&F", "D&D", Measure::Snap),
+            ("D&D", "F&D", Measure::Stroke),
+            ("F&D", "F&F", Measure::Pass),
+            ("F&F", "F&P", Measure::Pass),
+        ])
+        .map(|&(a, b, m)| (state(a), state(b), m))
+        .collect()
 }
 
 /// Which measured edge each calibrated edge of the catalogue takes its threshold from: the
@@ -100,8 +107,16 @@ fn walk() -> Vec<(TrunkState, TrunkState, Measure)> {
 /// is not measured itself: over a deployed bottom the pop-out drops the pressure by ≈ 1 kPa at
 /// × 1.1 and under 0.6 kPa at × 1.2 (the stiff deployed bottom barely lengthens), under what a
 /// ramp can tell from its noise.
-fn source_of(from: TrunkState, to: TrunkState) -> Option<(TrunkState, TrunkState)> {
+/// D&P → D&F takes its own snap when the walk measured it (`calibrate --manual`).
+fn source_of(
+    from: TrunkState,
+    to: TrunkState,
+    self_measured: bool,
+) -> Option<(TrunkState, TrunkState)> {
     let pair = (from.name(), to.name());
+    if pair == ("D&P", "D&F") && self_measured {
+        return Some((from, to));
+    }
     let src = match pair {
         ("F&P", "F&F") | ("D&P", "D&F") => ("F&P", "F&F"),
         ("F&F", "D&F") | ("F&D", "D&D") => ("F&F", "D&F"),
@@ -292,7 +307,7 @@ impl Profile {
                 }
             }
         }
-        for (from, to, what) in walk() {
+        for (from, to, what) in walk(false) {
             let found = match what {
                 Measure::Snap => self.snap(from, to).is_some(),
                 Measure::Stroke => self.stroke(from, to).is_some(),
@@ -315,6 +330,15 @@ impl Profile {
             (state("F&F"), state("D&F"), "the top's pop-out"),
             (state("D&F"), state("D&D"), "the bottom's deployment"),
         ];
+        if let Some(p) = self.snap(state("D&P"), state("D&F")) {
+            let deploy = self.snap(state("D&F"), state("D&D")).unwrap_or(0.0);
+            if p >= deploy {
+                return Err(format!(
+                    "snaps out of order: the bottom's unpacking under a deployed top at {p:.2} \
+                     kPa is not below the bottom's deployment at {deploy:.2} kPa"
+                ));
+            }
+        }
         for w in order.windows(2) {
             let (a, b) = (
                 self.snap(w[0].0, w[0].1).unwrap_or(0.0),
@@ -338,7 +362,8 @@ impl Profile {
     pub fn targets(&self, limit_kpa: f64) -> Result<Targets, String> {
         let mut out = Vec::new();
         for t in &transitions::TRANSITIONS {
-            let Some((a, b)) = source_of(t.from, t.to) else {
+            let own = self.snap(t.from, t.to).is_some();
+            let Some((a, b)) = source_of(t.from, t.to, own) else {
                 continue;
             };
             let value = match t.kind {
@@ -414,6 +439,11 @@ pub struct Args {
     /// Print the profile as one JSON object on stdout.
     #[arg(short = 'j', long)]
     pub json: bool,
+    /// Also walk the fold by hand: D&F → D&P (the person packs the bottom when prompted; the
+    /// simulated person on --sim), then D&P → D&F by pressure, measuring the bottom's
+    /// unpacking under a deployed top (otherwise D&P → D&F takes F&P → F&F's snap).
+    #[arg(long)]
+    pub manual: bool,
 }
 
 /// Arguments of `host-tool calibration`.
@@ -644,7 +674,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     // The output file is opened before the work (a path that cannot be written is said now).
     std::fs::write(&args.out, "")
         .map_err(|e| Failure::usage(format!("cannot write {}: {e}", args.out.display())))?;
-    let result = calibrate(&device, &name);
+    let result = calibrate(&device, &name, args.manual);
     match result {
         Ok(profile) => {
             std::fs::write(&args.out, profile.to_toml())
@@ -676,7 +706,7 @@ fn refuse(msg: String) -> Failure {
     Failure::Runtime(anyhow::anyhow!("calibration refused: {msg}"))
 }
 
-fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
+fn calibrate(device: &DeviceConfig, name: &str, manual: bool) -> Result<Profile, Failure> {
     let interrupted = crate::cmd::plan::interrupt_flag();
     let mut conn = device.connect()?;
     let s = &mut conn.session;
@@ -741,7 +771,7 @@ fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
             )));
         }
         let servo = firmware::config::CraneConfig::default().servo;
-        let steps = walk();
+        let steps = walk(manual);
         let mut measured = Vec::new();
         for (k, (from, to, what)) in steps.iter().copied().enumerate() {
             if interrupted.load(std::sync::atomic::Ordering::SeqCst) {
@@ -757,10 +787,10 @@ fn calibrate(device: &DeviceConfig, name: &str) -> Result<Profile, Failure> {
                 "calibrate {}/{}: {from} → {to} by {}{}",
                 k + 1,
                 steps.len(),
-                if t.kind == StepKind::Tendon {
-                    "the tendons"
-                } else {
-                    "pressure"
+                match t.kind {
+                    StepKind::Tendon => "the tendons",
+                    StepKind::Pneumatic => "pressure",
+                    StepKind::Manual => "hand (the person folds it when prompted)",
                 },
                 match what {
                     Measure::Snap => format!(", a ramp toward {limit_kpa} kPa"),

@@ -214,6 +214,10 @@ enum Command {
     Model(cmd::model::Args),
     /// Take the crane (--port) or the simulator (--sim) to a trunk state, e.g. --target 'D&F'.
     Plan(cmd::plan::Args),
+    /// Measure the trunk's snap pressures, holds and strokes into a profile (--out FILE).
+    Calibrate(cmd::calibrate::Args),
+    /// Read a calibration profile: calibration show PROFILE.toml.
+    Calibration(cmd::calibrate::ShowArgs),
     /// Run a mission: a TOML file of steps (state, bend, grip, reach, vent, wait, aim,
     /// identify, prompt), validated whole first; resumable after a stop.
     Run(cmd::run::Args),
@@ -286,6 +290,8 @@ impl Command {
             Command::Design(a) => a.json,
             Command::Pattern(a) => a.json,
             Command::Plan(a) => a.json,
+            Command::Calibrate(a) => a.json,
+            Command::Calibration(a) => a.json(),
             Command::Run(a) => a.json,
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
@@ -335,6 +341,8 @@ impl Command {
             Command::Reach(a) => a.json = on,
             Command::Pick(a) => a.json = on,
             Command::Demo(a) => a.json = on,
+            Command::Calibrate(a) => a.json = on,
+            Command::Calibration(a) => a.set_json(on),
             _ => return false,
         }
         true
@@ -394,6 +402,8 @@ fn main() -> ExitCode {
         Command::Pattern(args) => cmd::pattern::run(args),
         Command::Model(args) => cmd::model::run(args),
         Command::Plan(args) => cmd::plan::run(args),
+        Command::Calibrate(args) => cmd::calibrate::run(args),
+        Command::Calibration(args) => cmd::calibrate::run_show(args),
         Command::Run(args) => cmd::run::run(args),
         Command::Status(args) => cmd::status::run(args),
         Command::Monitor(args) => cmd::monitor::run(args),

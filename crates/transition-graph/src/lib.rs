@@ -177,6 +177,36 @@ impl Graph {
         Self { edges, costs }
     }
 
+    /// A graph over `transitions` (any edges: a calibrated catalogue, or the one edge a
+    /// calibration step runs) with `costs`.
+    pub fn from_transitions(transitions: Vec<Transition>, costs: CostModel) -> Self {
+        let edges = transitions
+            .into_iter()
+            .map(|t| Edge {
+                cost_s: costs.transition_s(&t),
+                transition: t,
+            })
+            .collect();
+        Self { edges, costs }
+    }
+
+    /// The catalogue with measured actuation targets: for each `((from, to), value)` the
+    /// edge's inflation target pressure (kPa, pneumatic edges) or pull length (mm, tendon
+    /// edges) becomes `value`; every other edge is the catalogue's. The nominal graph
+    /// ([`Graph::nominal`]) and the firmware's shared catalogue stay as they are.
+    pub fn calibrated(targets: &[((TrunkState, TrunkState), f32)]) -> Self {
+        let transitions = TRANSITIONS
+            .iter()
+            .map(
+                |t| match targets.iter().find(|(e, _)| *e == (t.from, t.to)) {
+                    Some(&(_, value)) => retarget(t, value),
+                    None => *t,
+                },
+            )
+            .collect();
+        Self::from_transitions(transitions, CostModel::default())
+    }
+
     /// The cost model the edge costs come from.
     pub fn costs(&self) -> &CostModel {
         &self.costs
@@ -294,6 +324,40 @@ impl Graph {
         failed: &[(TrunkState, TrunkState)],
     ) -> Result<Plan, PlanError> {
         self.plan_avoiding(reported, target, failed)
+    }
+}
+
+/// `t` with its actuation's target replaced: the first `Inflate`'s pressure (kPa) or the first
+/// `TendonPull`'s length (mm) becomes `value`; other primitives are kept. A transition's
+/// primitives are `&'static` (the catalogue is static data), so the new ones are leaked: a
+/// process builds a handful of calibrated graphs (a few dozen bytes each), never one per
+/// sample.
+pub fn retarget(t: &Transition, value: f32) -> Transition {
+    let mut done = false;
+    let primitives: Vec<Primitive> = t
+        .primitives
+        .iter()
+        .map(|p| match *p {
+            Primitive::Inflate { snaps, .. } if !done => {
+                done = true;
+                Primitive::Inflate {
+                    pressure_kpa: value,
+                    snaps,
+                }
+            }
+            Primitive::TendonPull { snaps, .. } if !done => {
+                done = true;
+                Primitive::TendonPull {
+                    length_mm: value,
+                    snaps,
+                }
+            }
+            other => other,
+        })
+        .collect();
+    Transition {
+        primitives: Box::leak(primitives.into_boxed_slice()),
+        ..*t
     }
 }
 
@@ -511,6 +575,55 @@ fn why(e: &Edge, target: TrunkState) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_calibrated_graph_changes_only_the_targets_it_is_given() {
+        let fp: TrunkState = "F&P".parse().unwrap();
+        let ff: TrunkState = "F&F".parse().unwrap();
+        let dd: TrunkState = "D&D".parse().unwrap();
+        let fd: TrunkState = "F&D".parse().unwrap();
+        let g = Graph::calibrated(&[((fp, ff), 15.1), ((dd, fd), 17.0)]);
+        let nominal = Graph::nominal();
+        assert_eq!(g.adjacency(), nominal.adjacency());
+        let e = g.edge(fp, ff).unwrap();
+        assert!(matches!(
+            e.transition.primitives[0],
+            Primitive::Inflate { pressure_kpa, snaps: 1 } if pressure_kpa == 15.1
+        ));
+        assert_eq!(
+            e.transition.primitives[1],
+            Primitive::Vent { pressure_kpa: 0.0 }
+        );
+        // 15.1 kPa at 5 kPa/s + a 1.5 s vent + 0.5 s overhead.
+        assert!(
+            (e.cost_s - (15.1f64 / 5.0 + 2.0)).abs() < 1e-5,
+            "{}",
+            e.cost_s
+        );
+        let t = g.edge(dd, fd).unwrap();
+        assert!(matches!(
+            t.transition.primitives[0],
+            Primitive::TendonPull { length_mm, snaps: 1 } if length_mm == 17.0
+        ));
+        for e in g.edges() {
+            if (e.from(), e.to()) != (fp, ff) && (e.from(), e.to()) != (dd, fd) {
+                assert_eq!(Some(e), nominal.edge(e.from(), e.to()));
+            }
+        }
+        // The plans follow the same edges, with the calibrated numbers in their wire form.
+        let plan = g.plan(fp, dd).unwrap();
+        let wire = plan.to_protocol(1).unwrap();
+        assert!(matches!(
+            wire.steps[0].primitives[0],
+            Primitive::Inflate { pressure_kpa, .. } if pressure_kpa == 15.1
+        ));
+        let one = Graph::from_transitions(
+            vec![nominal.edge(fp, ff).unwrap().transition],
+            CostModel::default(),
+        );
+        assert_eq!(one.edges().len(), 1);
+        assert!(one.plan(fp, dd).is_err());
+    }
 
     fn s(name: &str) -> TrunkState {
         name.parse().unwrap()

@@ -1,6 +1,7 @@
 //! One module per subcommand: `Args` (clap) and `run`.
 
 pub mod aim;
+pub mod calibrate;
 pub mod declare;
 pub mod demo;
 pub mod design;

@@ -42,6 +42,10 @@ pub struct Args {
     /// requests and responses, the plan; the ground truth with --sim). `host-tool log` reads it.
     #[arg(long, value_name = "FILE.mcap", conflicts_with = "dry_run")]
     pub record: Option<std::path::PathBuf>,
+    /// Plan with a calibration profile's measured thresholds (`host-tool calibrate`):
+    /// inflations toward each measured snap + 15 %, pulls to each measured stroke + 15 %.
+    #[arg(long, value_name = "PROFILE.toml")]
+    pub calibration: Option<std::path::PathBuf>,
 }
 
 /// Validated arguments.
@@ -52,10 +56,20 @@ struct Config {
     from: Option<TrunkState>,
     json: bool,
     record: Option<std::path::PathBuf>,
+    calibration: Option<std::path::PathBuf>,
+    graph: Graph,
 }
 
 impl Args {
     fn validate(&self) -> Result<Config, Failure> {
+        let mut cfg = self.validate_args()?;
+        if let Some(path) = &cfg.calibration {
+            cfg.graph = crate::cmd::calibrate::plan_graph(path, &cfg.device, None)?;
+        }
+        Ok(cfg)
+    }
+
+    fn validate_args(&self) -> Result<Config, Failure> {
         Ok(Config {
             target: parse_state("target", &self.target)?,
             // A dry run with no device plans from the simulator's initial state (or --from).
@@ -76,6 +90,8 @@ impl Args {
                 .transpose()?,
             json: self.json,
             record: self.record.clone(),
+            calibration: self.calibration.clone(),
+            graph: Graph::nominal(),
         })
     }
 }
@@ -279,12 +295,22 @@ pub fn run(args: Args) -> Result<(), Failure> {
     } else {
         None
     };
-    let outcome = conn.session.run_plan(
-        Graph::nominal(),
-        cfg.target,
-        RunOptions::default(),
-        &mut shell,
-    );
+    // A profile's targets under the device's own pressure limit.
+    let graph = match &cfg.calibration {
+        Some(path) => {
+            let limit = match conn.session.command(protocol::RequestBody::GetParam(
+                protocol::ParamId::PressureLimitKpa,
+            )) {
+                Ok(protocol::ResponseBody::Param { value, .. }) => Some(f64::from(value)),
+                _ => None,
+            };
+            crate::cmd::calibrate::plan_graph(path, &cfg.device, limit)?
+        }
+        None => cfg.graph.clone(),
+    };
+    let outcome = conn
+        .session
+        .run_plan(graph, cfg.target, RunOptions::default(), &mut shell);
     if let Some(value) = previous_rate {
         let _ = conn.session.command(protocol::RequestBody::SetParam {
             id: protocol::ParamId::TelemetryHz,
@@ -324,6 +350,12 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
     if args.record.is_some() {
         return Err(Failure::usage(
             "a server holds this device and records its session itself: --record is not needed",
+        ));
+    }
+    if args.calibration.is_some() {
+        return Err(Failure::usage(
+            "a server holds this device and plans with its own graph: --calibration needs the \
+             device directly (stop the server, or plan without the profile)",
         ));
     }
     let mut c = crate::client::Client::connect(server)?;
@@ -484,7 +516,8 @@ fn dry_run(cfg: &Config) -> Result<(), Failure> {
                 .state
         }
     };
-    let plan = Graph::nominal()
+    let plan = cfg
+        .graph
         .plan(from, cfg.target)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     if cfg.json {

@@ -34,12 +34,19 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::exhaustive::{prefixes, split_depth};
+use super::chain::Chains;
 use super::reach::Reach;
 use super::symmetry::{self, Mirror};
 use super::{relative_gap, Control, Frame, Metric, Problem, Raw, Stop};
 
 /// Beam width of the seeding incumbent.
 pub const SEED_BEAM_WIDTH: usize = 64;
+
+/// Levels of the chain covers (the coupled bound of the next tips).
+pub const CHAIN_HORIZON: usize = 4;
+
+/// See `Shared::gate`.
+pub const CHAIN_GATE: f64 = 2.0;
 
 /// Fewest top-level tasks (the granularity of the certified bound and of the parallel split).
 pub const MIN_TASKS: u128 = 512;
@@ -60,6 +67,10 @@ struct Shared<'a> {
     /// `shave(m)`.
     shave: f64,
     reach: &'a Reach,
+    /// Chain covers of the next tips (the coupled bound), when built.
+    chains: Option<&'a Chains>,
+    /// The chain bound is computed only when `tail + gate·head` reaches the budget.
+    gate: f64,
     control: &'a Control,
     ub_bits: AtomicU64,
     best: Mutex<(f64, Vec<usize>)>,
@@ -68,6 +79,31 @@ struct Shared<'a> {
 }
 
 impl Shared<'_> {
+    /// A lower bound on the cost of the tips after `j` modules with top frame `frame`, or
+    /// some value above `budget` once it is clear the bound exceeds it. The next h tips
+    /// (h = the chain covers' levels) are bounded by the larger of the reach covers' per-tip
+    /// sum and the chain covers' cheapest path (the coupled bound, computed only when the
+    /// per-tip sum is not already over budget); every later tip by its per-tip bound. The two
+    /// parts bound disjoint sets of tips, so their sum is a lower bound.
+    #[inline]
+    fn remaining_bound(&self, frame: &Frame, j: usize, budget: f64) -> f64 {
+        let obj = &self.problem.objective;
+        let Some(chains) = self.chains else {
+            return self.reach.suffix_lower_bound_grouped(obj, frame, j, budget);
+        };
+        let h = chains.levels_after(j);
+        let head = self.reach.suffix_range(obj, frame, j, 1, h, budget);
+        if head > budget {
+            return head;
+        }
+        let tail = self.reach.suffix_from(obj, frame, j, h + 1, budget - head);
+        if head + tail > budget || h < 2 || tail + self.gate * head < budget {
+            return head + tail;
+        }
+        let chain = chains.lower_bound(obj, frame, j, h, budget - tail);
+        tail + head.max(chain)
+    }
+
     #[inline]
     fn ub(&self) -> f64 {
         f64::from_bits(self.ub_bits.load(Ordering::Relaxed))
@@ -171,7 +207,7 @@ impl Worker<'_, '_> {
                 continue;
             }
             let ub = sh.ub();
-            let lb = sh.reach.suffix_lower_bound_grouped(obj, &f, j + 1, ub - gc);
+            let lb = sh.remaining_bound(&f, j + 1, ub.min(level / shave) - gc);
             let bound = (gc + lb) * shave;
             if bound < level {
                 kids.push((bound, gc, a, f));
@@ -249,11 +285,7 @@ fn split(shared: &Shared<'_>, tasks: Vec<Task>, ub: f64) -> Vec<Task> {
             }
             let frame = task.frame.compose(&c.frame);
             let g = task.g + obj.cost(j, &frame.origin());
-            let own =
-                (g + shared
-                    .reach
-                    .suffix_lower_bound_grouped(obj, &frame, j + 1, f64::INFINITY))
-                    * shared.shave;
+            let own = (g + shared.remaining_bound(&frame, j + 1, f64::INFINITY)) * shared.shave;
             let mut prefix = task.prefix.clone();
             prefix.push(a);
             out.push(Task {
@@ -313,11 +345,21 @@ pub(crate) fn solve_with(
     let seed_cost = problem.cost_sum(&seed);
     control.offer_best(seed_cost);
     let mirror = symmetry::find(problem);
+    let chain_h: usize = std::env::var("IK_CHAIN_H")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(CHAIN_HORIZON);
+    let chains = (chain_h >= 2 && m >= 3).then(|| Chains::new(&problem.catalogue, chain_h));
     let shared = Shared {
         problem,
         mirror: mirror.clone(),
         shave: shave(m),
         reach: &reach,
+        chains: chains.as_ref(),
+        gate: std::env::var("IK_CHAIN_GATE")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(CHAIN_GATE),
         control,
         ub_bits: AtomicU64::new(seed_cost.to_bits()),
         best: Mutex::new((seed_cost, seed)),
@@ -329,8 +371,7 @@ pub(crate) fn solve_with(
         .into_iter()
         .filter(|(prefix, _, _)| mirror.as_ref().is_none_or(|mi| mi.canonical(prefix)))
         .map(|(prefix, frame, g)| {
-            let lb =
-                reach.suffix_lower_bound_grouped(&problem.objective, &frame, depth, f64::INFINITY);
+            let lb = shared.remaining_bound(&frame, depth, f64::INFINITY);
             Task {
                 fixed: mirror.as_ref().is_some_and(|mi| mi.fixed(&prefix)),
                 prefix,

@@ -361,3 +361,64 @@ fn fine_grid_bounds_are_bounds_and_tighter() {
     }
     assert!(fine_sum > coarse_sum, "{fine_sum} vs {coarse_sum}");
 }
+
+#[test]
+#[ignore]
+fn chain_bound_diagnostic() {
+    use super::chain::Chains;
+    let cases = [
+        (8usize, 12usize, "sine:amplitude=1,wavelength=4,length=5"),
+        (4, 30, "helix:radius=1,pitch=4,turns=1"),
+        (6, 100, "helix:radius=2,pitch=10,turns=3"),
+    ];
+    for (n, m, spec) in cases {
+        let d = geometry::ModuleDesign::new(n as u32, 35.0).unwrap();
+        let cat = Catalogue::from_designs(&vec![d; m], false).unwrap();
+        let p = Problem::new(cat, target::generate(spec).unwrap(), Metric::Eq36);
+        p.objective.target().prepare_fine_bounds();
+        let reach = Reach::new(&p.catalogue, m);
+        let k = p.catalogue.candidates(0).len();
+        for h in [2usize, 3, 4, 6, 8, 12] {
+            let t0 = std::time::Instant::now();
+            let chains = Chains::new(&p.catalogue, h);
+            let build = t0.elapsed();
+            let mut x = 12345u64;
+            let (mut sc, mut sh, mut better, mut cnt) = (0.0, 0.0, 0, 0);
+            let (mut tc, mut th) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
+            for _ in 0..2000 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let j = 2 + (x >> 40) as usize % 5;
+                let states: Vec<usize> = (0..j)
+                    .map(|_| {
+                        x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                        (x >> 33) as usize % k
+                    })
+                    .collect();
+                let f = *p.catalogue.frames(&states).last().unwrap();
+                let t = std::time::Instant::now();
+                let cheap = reach.suffix_lower_bound_grouped(&p.objective, &f, j, f64::INFINITY);
+                tc += t.elapsed();
+                let t = std::time::Instant::now();
+                let hh = chains.levels_after(j);
+                let head = chains.lower_bound(&p.objective, &f, j, hh, f64::INFINITY)
+                    + reach.suffix_from(&p.objective, &f, j, hh + 1, f64::INFINITY);
+                th += t.elapsed();
+                let g: f64 = p.catalogue.tips(&states).iter().enumerate().map(|(i, q)| p.objective.cost(i, q)).sum();
+                if g < 3.0 {
+                    sc += cheap;
+                    sh += head.max(cheap);
+                    cnt += 1;
+                    if head > cheap * 1.01 + 1e-9 {
+                        better += 1;
+                    }
+                }
+            }
+            let dens: Vec<f64> = (2..=h.min(m)).map(|kk| {
+                let (b, par) = chains.level_balls(0, kk);
+                par.iter().map(|x| x.count_ones() as f64).sum::<f64>() / b.len() as f64
+            }).collect();
+            println!("n={n} m={m} H={h}: build {build:?}, nodes {cnt}: cheap {:.4} chain {:.4} better {better}; time cheap {tc:?} chain {th:?}; parents/level {:?}",
+                sc / cnt as f64, sh / cnt as f64, dens.iter().map(|d| format!("{d:.1}")).collect::<Vec<_>>());
+        }
+    }
+}

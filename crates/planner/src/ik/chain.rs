@@ -143,7 +143,14 @@ impl Chains {
     /// [`levels_after`](Self::levels_after)) after `j` modules with top frame `frame`: the
     /// cheapest path of balls. Returns early (a value `> budget`) once every path's first levels
     /// already cost more than `budget`.
-    pub fn lower_bound(&self, obj: &Objective, frame: &Frame, j: usize, h: usize, budget: f64) -> f64 {
+    pub fn lower_bound(
+        &self,
+        obj: &Objective,
+        frame: &Frame,
+        j: usize,
+        h: usize,
+        budget: f64,
+    ) -> f64 {
         let mut prev = [0.0f64; MAX_CLUSTERS];
         let mut cur = [0.0f64; MAX_CLUSTERS];
         let mut n_prev = 0;
@@ -226,4 +233,3 @@ fn merge_level(members: Vec<Ball>, parents: Vec<u64>, n_prev: usize) -> Level {
         n_prev,
     }
 }
-

@@ -144,6 +144,13 @@ impl Shared<'_> {
         )
     }
 
+    /// The bound of a task's prefix: the per-tip bound of every remaining tip, in full (no
+    /// budget; the chain bound is for the search's nodes).
+    fn task_bound(&self, frame: &Frame, j: usize) -> f64 {
+        self.reach
+            .suffix_lower_bound_grouped(&self.problem.objective, frame, j, f64::INFINITY)
+    }
+
     #[inline]
     fn ub(&self) -> f64 {
         f64::from_bits(self.ub_bits.load(Ordering::Relaxed))
@@ -324,7 +331,7 @@ fn split(shared: &Shared<'_>, tasks: Vec<Task>, ub: f64) -> Vec<Task> {
             }
             let frame = task.frame.compose(&c.frame);
             let g = task.g + obj.cost(j, &frame.origin());
-            let own = (g + shared.remaining_bound(&frame, j + 1, g)) * shared.shave;
+            let own = (g + shared.task_bound(&frame, j + 1)) * shared.shave;
             let mut prefix = task.prefix.clone();
             prefix.push(a);
             out.push(Task {
@@ -406,7 +413,7 @@ pub(crate) fn solve_with(
         .into_iter()
         .filter(|(prefix, _, _)| mirror.as_ref().is_none_or(|mi| mi.canonical(prefix)))
         .map(|(prefix, frame, g)| {
-            let lb = shared.remaining_bound(&frame, depth, g);
+            let lb = shared.task_bound(&frame, depth);
             Task {
                 fixed: mirror.as_ref().is_some_and(|mi| mi.fixed(&prefix)),
                 prefix,

@@ -4,8 +4,10 @@
 //!   modules gives an upper bound U on the optimal cost sum before the search starts; every
 //!   better complete boom the search meets replaces it.
 //! - **Bound** of a prefix of length j with top frame F: its exact cost `g` (tips 1..j) plus the
-//!   reachable-set bound of [`super::reach`] for every remaining tip. Both are lower bounds on
-//!   the cost of any completion (the argument is in `docs/ik.md`), shaved by a relative 1e-12
+//!   reachable-set bound of [`super::reach`] for every remaining tip, where it may decide a
+//!   prune strengthened for the next [`CHAIN_HORIZON`] tips by the chain covers of
+//!   [`super::chain`], which couple those tips through the frame. All are lower bounds on the
+//!   cost of any completion (the argument is in `docs/ik.md`), shaved by a relative 1e-12
 //!   against floating-point rounding.
 //! - **Tasks**: the prefixes of the first few modules (at least [`MIN_TASKS`]). Each task keeps
 //!   a certified lower bound `lb` on every completion of its prefix; a task is *closed* once
@@ -33,13 +35,27 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::chain::Chains;
 use super::exhaustive::{prefixes, split_depth};
 use super::reach::Reach;
 use super::symmetry::{self, Mirror};
-use super::{relative_gap, Control, Frame, Metric, Problem, Raw, Stop};
+use super::{relative_gap, Control, Frame, Metric, Objective, Problem, Raw, Stop};
 
 /// Beam width of the seeding incumbent.
 pub const SEED_BEAM_WIDTH: usize = 64;
+
+/// Levels of the chain covers: the coupled bound covers the next 4 tips (measured: the
+/// coupling saturates by 4–6 levels, where the parent masks get dense).
+pub const CHAIN_HORIZON: usize = 4;
+
+/// The chain bound is computed for a node only when `tail + CHAIN_GATE·head` reaches the
+/// budget (head, tail: the per-tip sums over the chain's tips and over the later ones): where
+/// it can decide a prune.
+pub const CHAIN_GATE: f64 = 2.0;
+
+/// The chain bound is tried only for nodes with at least this many tips left (near the leaves
+/// a prune saves little and the bound costs as much as a few children).
+pub const CHAIN_MIN_REMAINING: usize = 8;
 
 /// Fewest top-level tasks (the granularity of the certified bound and of the parallel split).
 pub const MIN_TASKS: u128 = 512;
@@ -53,6 +69,38 @@ fn shave(m: usize) -> f64 {
 /// Histogram bins of pruned bounds between the pass threshold and U.
 const BINS: usize = 64;
 
+/// A lower bound on the cost of the tips after `j` modules with top frame `frame`, or some
+/// value above `budget` once it is clear the bound exceeds it (still a lower bound). The next
+/// h tips (h = the chain covers' levels) are bounded by the larger of the reach covers' per-tip
+/// sum and the chain covers' cheapest path (the coupled bound); every later tip by its per-tip
+/// bound. The two parts bound disjoint sets of tips, so their sum is a lower bound. The chain
+/// bound is computed only when the per-tip sum is within budget and `tail + gate·head` reaches
+/// the budget (where it may decide a prune), or without chain covers not at all.
+pub(crate) fn remaining_bound(
+    obj: &Objective,
+    reach: &Reach,
+    chains: Option<&Chains>,
+    gate: f64,
+    frame: &Frame,
+    j: usize,
+    budget: f64,
+) -> f64 {
+    let Some(chains) = chains else {
+        return reach.suffix_lower_bound_grouped(obj, frame, j, budget);
+    };
+    let h = chains.levels_after(j);
+    let head = reach.suffix_range(obj, frame, j, 1, h, budget);
+    if head > budget {
+        return head;
+    }
+    let tail = reach.suffix_from(obj, frame, j, h + 1, budget - head);
+    if head + tail > budget || h < 2 || tail + gate * head < budget {
+        return head + tail;
+    }
+    let chain = chains.lower_bound(obj, frame, j, h, budget - tail);
+    tail + head.max(chain)
+}
+
 struct Shared<'a> {
     problem: &'a Problem,
     /// A mirror symmetry of the problem: only canonical sequences are searched.
@@ -60,6 +108,10 @@ struct Shared<'a> {
     /// `shave(m)`.
     shave: f64,
     reach: &'a Reach,
+    /// Chain covers of the next tips (the coupled bound), when built.
+    chains: Option<&'a Chains>,
+    /// Nodes with fewer tips left do not try the chain bound ([`CHAIN_MIN_REMAINING`]).
+    chain_min_remaining: usize,
     control: &'a Control,
     ub_bits: AtomicU64,
     best: Mutex<(f64, Vec<usize>)>,
@@ -68,6 +120,37 @@ struct Shared<'a> {
 }
 
 impl Shared<'_> {
+    /// [`remaining_bound`] with this search's covers after `j` modules whose prefix costs `g`:
+    /// the chain bound is tried (with [`CHAIN_GATE`], the budget being the incumbent less `g`)
+    /// only while at least [`CHAIN_MIN_REMAINING`] tips are left, where a prune saves a large
+    /// subtree.
+    #[inline]
+    fn remaining_bound(&self, frame: &Frame, j: usize, g: f64) -> f64 {
+        let gate = if self.chain_min_remaining == 0 {
+            f64::INFINITY
+        } else if self.problem.m() - j >= self.chain_min_remaining {
+            CHAIN_GATE
+        } else {
+            0.0
+        };
+        remaining_bound(
+            &self.problem.objective,
+            self.reach,
+            self.chains,
+            gate,
+            frame,
+            j,
+            self.ub() - g,
+        )
+    }
+
+    /// The bound of a task's prefix: the per-tip bound of every remaining tip, in full (no
+    /// budget; the chain bound is for the search's nodes).
+    fn task_bound(&self, frame: &Frame, j: usize) -> f64 {
+        self.reach
+            .suffix_lower_bound_grouped(&self.problem.objective, frame, j, f64::INFINITY)
+    }
+
     #[inline]
     fn ub(&self) -> f64 {
         f64::from_bits(self.ub_bits.load(Ordering::Relaxed))
@@ -170,8 +253,7 @@ impl Worker<'_, '_> {
                 self.pruned(gc * shave);
                 continue;
             }
-            let ub = sh.ub();
-            let lb = sh.reach.suffix_lower_bound_grouped(obj, &f, j + 1, ub - gc);
+            let lb = sh.remaining_bound(&f, j + 1, gc);
             let bound = (gc + lb) * shave;
             if bound < level {
                 kids.push((bound, gc, a, f));
@@ -249,11 +331,7 @@ fn split(shared: &Shared<'_>, tasks: Vec<Task>, ub: f64) -> Vec<Task> {
             }
             let frame = task.frame.compose(&c.frame);
             let g = task.g + obj.cost(j, &frame.origin());
-            let own =
-                (g + shared
-                    .reach
-                    .suffix_lower_bound_grouped(obj, &frame, j + 1, f64::INFINITY))
-                    * shared.shave;
+            let own = (g + shared.task_bound(&frame, j + 1)) * shared.shave;
             let mut prefix = task.prefix.clone();
             prefix.push(a);
             out.push(Task {
@@ -279,16 +357,19 @@ fn global_lower_bound(tasks: &[Task], ub: f64) -> f64 {
 }
 
 pub(crate) fn solve(problem: &Problem, control: &Control) -> Raw {
-    solve_with(problem, control, MIN_TASKS, None)
+    solve_with(problem, control, MIN_TASKS, None, CHAIN_MIN_REMAINING)
 }
 
-/// [`solve`] with at least `min_tasks` top-level tasks; every certified lower bound it computes
-/// is also pushed to `trace` (for tests).
+/// [`solve`] with at least `min_tasks` top-level tasks, trying the chain bound at nodes with at
+/// least `chain_min_remaining` tips left (see [`CHAIN_MIN_REMAINING`]; 0: at every node,
+/// without the [`CHAIN_GATE`] test); every certified lower bound it computes is also pushed to
+/// `trace` (for tests).
 pub(crate) fn solve_with(
     problem: &Problem,
     control: &Control,
     min_tasks: u128,
     trace: Option<&Mutex<Vec<f64>>>,
+    chain_min_remaining: usize,
 ) -> Raw {
     let record = |lb: f64| {
         if let Some(t) = trace {
@@ -313,11 +394,14 @@ pub(crate) fn solve_with(
     let seed_cost = problem.cost_sum(&seed);
     control.offer_best(seed_cost);
     let mirror = symmetry::find(problem);
+    let chains = (m >= 3).then(|| Chains::new(&problem.catalogue, CHAIN_HORIZON));
     let shared = Shared {
         problem,
         mirror: mirror.clone(),
         shave: shave(m),
         reach: &reach,
+        chains: chains.as_ref(),
+        chain_min_remaining,
         control,
         ub_bits: AtomicU64::new(seed_cost.to_bits()),
         best: Mutex::new((seed_cost, seed)),
@@ -329,8 +413,7 @@ pub(crate) fn solve_with(
         .into_iter()
         .filter(|(prefix, _, _)| mirror.as_ref().is_none_or(|mi| mi.canonical(prefix)))
         .map(|(prefix, frame, g)| {
-            let lb =
-                reach.suffix_lower_bound_grouped(&problem.objective, &frame, depth, f64::INFINITY);
+            let lb = shared.task_bound(&frame, depth);
             Task {
                 fixed: mirror.as_ref().is_some_and(|mi| mi.fixed(&prefix)),
                 prefix,

@@ -38,6 +38,7 @@ use std::time::{Duration, Instant};
 
 pub mod bands;
 pub mod beam;
+pub mod chain;
 pub mod diagnose;
 pub mod dp;
 mod error;

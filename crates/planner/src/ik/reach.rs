@@ -209,7 +209,21 @@ impl Reach {
         k0: usize,
         budget: f64,
     ) -> f64 {
-        let kmax = self.horizon.min(self.m - j);
+        self.suffix_range(obj, frame, j, k0, usize::MAX, budget)
+    }
+
+    /// [`suffix_from`](Self::suffix_from) over the offsets `k0..=k1` only.
+    #[inline]
+    pub fn suffix_range(
+        &self,
+        obj: &Objective,
+        frame: &Frame,
+        j: usize,
+        k0: usize,
+        k1: usize,
+        budget: f64,
+    ) -> f64 {
+        let kmax = self.horizon.min(self.m - j).min(k1);
         let mut sum = 0.0;
         for k in k0..=kmax {
             sum += self.tip_lower_bound(obj, frame, j, k);
@@ -311,6 +325,14 @@ fn merge(mut balls: Vec<Ball>, max: usize) -> Vec<Ball> {
 /// Splits `balls` into at most `max` non-empty groups: farthest-point seeds (the first the ball
 /// farthest from the centroid), then nearest-seed assignment.
 pub(crate) fn cluster(balls: &[Ball], max: usize) -> Vec<Vec<Ball>> {
+    cluster_indices(balls, max)
+        .into_iter()
+        .map(|g| g.into_iter().map(|i| balls[i]).collect())
+        .collect()
+}
+
+/// [`cluster`], as indices into `balls` (every index in exactly one group).
+pub(crate) fn cluster_indices(balls: &[Ball], max: usize) -> Vec<Vec<usize>> {
     let centroid: Vector3<f64> =
         balls.iter().map(|b| b.center).sum::<Vector3<f64>>() / balls.len().max(1) as f64;
     let first = balls
@@ -339,15 +361,15 @@ pub(crate) fn cluster(balls: &[Ball], max: usize) -> Vec<Vec<Ball>> {
             *d = d.min((b.center - s).norm_squared());
         }
     }
-    let mut groups: Vec<Vec<Ball>> = vec![Vec::new(); seeds.len()];
-    for b in balls {
+    let mut groups: Vec<Vec<usize>> = vec![Vec::new(); seeds.len()];
+    for (bi, b) in balls.iter().enumerate() {
         let (i, _) = seeds
             .iter()
             .enumerate()
             .map(|(i, s)| (i, (b.center - s).norm_squared()))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap_or((0, 0.0));
-        groups[i].push(*b);
+        groups[i].push(bi);
     }
     groups.retain(|g| !g.is_empty());
     groups
@@ -355,7 +377,7 @@ pub(crate) fn cluster(balls: &[Ball], max: usize) -> Vec<Vec<Ball>> {
 
 /// A ball containing every ball of `group`, centred on the middle of their centres' bounding
 /// box (a hair larger so rounding never leaves a point outside).
-fn enclose(group: &[Ball]) -> Ball {
+pub(crate) fn enclose(group: &[Ball]) -> Ball {
     let mut lo = Vector3::repeat(f64::INFINITY);
     let mut hi = Vector3::repeat(f64::NEG_INFINITY);
     for b in group {

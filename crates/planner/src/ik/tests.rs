@@ -3,6 +3,7 @@
 use nalgebra::Point3;
 use proptest::prelude::*;
 
+use super::chain::Chains;
 use super::reach::{covers, Reach};
 use super::testutil::synthetic;
 use super::*;
@@ -190,7 +191,9 @@ proptest! {
         let trace = std::sync::Mutex::new(Vec::new());
         let mut control = Control::new();
         control.target_gap = target_gap;
-        let raw = exact::solve_with(&p, &control, min_tasks, Some(&trace));
+        // A third of the cases try the coupled (chain) bound at every node.
+        let chain_min = if min_tasks == 8 { 0 } else { exact::CHAIN_MIN_REMAINING };
+        let raw = exact::solve_with(&p, &control, min_tasks, Some(&trace), chain_min);
         let bounds = trace.into_inner().unwrap();
         prop_assert!(!bounds.is_empty());
         for &lb in &bounds {
@@ -239,7 +242,13 @@ fn lower_bound_rises_and_a_target_gap_stops_the_search() {
     ];
     let p = problem(4, 10, pts, Metric::Eq36);
     let trace = std::sync::Mutex::new(Vec::new());
-    let raw = exact::solve_with(&p, &Control::new(), 64, Some(&trace));
+    let raw = exact::solve_with(
+        &p,
+        &Control::new(),
+        64,
+        Some(&trace),
+        exact::CHAIN_MIN_REMAINING,
+    );
     let bounds = trace.into_inner().unwrap();
     let ub = p.cost_sum(&raw.states);
     assert!(raw.optimal);
@@ -316,7 +325,7 @@ proptest! {
         prop_assert_eq!(symmetry::find(&p).is_some(), n % 2 == 0);
         let ex = solve(&p, Algorithm::Exhaustive, &Control::new()).unwrap();
         let trace = std::sync::Mutex::new(Vec::new());
-        let raw = exact::solve_with(&p, &Control::new(), min_tasks, Some(&trace));
+        let raw = exact::solve_with(&p, &Control::new(), min_tasks, Some(&trace), 0);
         prop_assert!(raw.optimal);
         let rms = p.rms(&raw.states);
         prop_assert!((rms - ex.rms).abs() <= 1e-9, "exact {rms} exhaustive {}", ex.rms);
@@ -360,4 +369,169 @@ fn fine_grid_bounds_are_bounds_and_tighter() {
         fine_sum += fine;
     }
     assert!(fine_sum > coarse_sum, "{fine_sum} vs {coarse_sum}");
+}
+
+/// A boom whose odd modules choose among other transforms than its even ones (a catalogue that
+/// is not uniform), in units of l.
+fn mixed_catalogue(n: usize, m: usize) -> Catalogue {
+    let even = synthetic(n);
+    let mut odd = synthetic(n);
+    for (i, c) in odd.iter_mut().enumerate() {
+        c.frame = super::testutil::eq5(0.4 + 0.1 * i as f64, 0.2 + 0.07 * i as f64, 0.9 * i as f64);
+    }
+    Catalogue::new(
+        (0..m)
+            .map(|i| {
+                if i % 2 == 0 {
+                    even.clone()
+                } else {
+                    odd.clone()
+                }
+            })
+            .collect(),
+    )
+    .unwrap()
+}
+
+/// The candidate indices of suffix number `code` of modules `j..j+len` (mixed radix).
+fn suffix(cat: &Catalogue, j: usize, len: usize, mut code: usize) -> Vec<usize> {
+    (j..j + len)
+        .map(|i| {
+            let k = cat.candidates(i).len();
+            let a = code % k;
+            code /= k;
+            a
+        })
+        .collect()
+}
+
+/// Every suffix of every start traces a path through the chain covers: its k-th tip in a ball
+/// of level k whose parents include a ball holding its (k−1)-th tip.
+#[test]
+fn chain_covers_hold_every_suffix_on_a_path() {
+    for cat in [
+        Catalogue::uniform(synthetic(4), 5).unwrap(),
+        mixed_catalogue(3, 6),
+    ] {
+        let chains = Chains::new(&cat, 5);
+        for j in 0..cat.len() {
+            let h = chains.levels_after(j);
+            let total: usize = (j..j + h).map(|i| cat.candidates(i).len()).product();
+            for code in 0..total {
+                let s = suffix(&cat, j, h, code);
+                let mut f = Frame::identity();
+                // Balls of the previous level that hold the previous tip on some path.
+                let mut live = u64::MAX;
+                for (k, &a) in s.iter().enumerate() {
+                    f = f.compose(&cat.candidates(j + k)[a].frame);
+                    let (balls, parents) = chains.level_balls(j, k + 1);
+                    let mut next = 0u64;
+                    for (c, b) in balls.iter().enumerate() {
+                        let inside = (f.translation - b.center).norm() <= b.radius + 1e-9;
+                        if inside && (k == 0 || parents[c] & live != 0) {
+                            next |= 1 << c;
+                        }
+                    }
+                    assert!(
+                        next != 0,
+                        "start {j}, suffix {s:?}: no path at level {}",
+                        k + 1
+                    );
+                    live = next;
+                }
+            }
+        }
+    }
+}
+
+/// The least cost of tips `j..m` over every completion of the modules after `j` from `frame`.
+fn cheapest_completion(p: &Problem, frame: &Frame, j: usize) -> f64 {
+    if j == p.m() {
+        return 0.0;
+    }
+    p.catalogue
+        .candidates(j)
+        .iter()
+        .map(|c| {
+            let f = frame.compose(&c.frame);
+            p.objective.cost(j, &f.origin()) + cheapest_completion(p, &f, j + 1)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// The bound `exact` puts on the tips after a prefix — per-tip, coupled (chain covers) and
+    /// their combination, on either distance grid, uniform or mixed catalogues — never exceeds
+    /// the cheapest completion found by brute force (n = 3..4, m ≤ 6, tolerance 1e-9).
+    #[test]
+    fn coupled_bound_never_exceeds_the_cheapest_completion(
+        n in 3usize..5,
+        m in 3usize..7,
+        pts in arb_points(),
+        ordered in any::<bool>(),
+        mixed in any::<bool>(),
+        fine in any::<bool>(),
+        seed in any::<u64>(),
+    ) {
+        let metric = if ordered { Metric::Ordered } else { Metric::Eq36 };
+        let cat = if mixed { mixed_catalogue(n, m) } else { Catalogue::uniform(synthetic(n), m).unwrap() };
+        let p = Problem::new(cat, Target::new(pts).unwrap(), metric);
+        if fine {
+            p.objective.target().prepare_fine_bounds();
+        }
+        let reach = Reach::new(&p.catalogue, m);
+        let chains = Chains::new(&p.catalogue, exact::CHAIN_HORIZON);
+        // A prefix of 0..m−1 modules, at most 5 left to complete by brute force.
+        let lo = m.saturating_sub(5);
+        let j = lo + (seed % 8) as usize % (m - lo);
+        let prefix = suffix(&p.catalogue, 0, j, (seed >> 8) as usize);
+        let frame = p.catalogue.frames(&prefix).last().copied().unwrap_or_else(Frame::identity);
+        let best = cheapest_completion(&p, &frame, j);
+        let tol = 1e-9 * best + 1e-12;
+        let per_tip = reach.suffix_lower_bound_grouped(&p.objective, &frame, j, f64::INFINITY);
+        prop_assert!(per_tip <= best + tol, "per-tip {per_tip} > {best}");
+        let h = chains.levels_after(j);
+        let chain = chains.lower_bound(&p.objective, &frame, j, h, f64::INFINITY);
+        let tail = reach.suffix_from(&p.objective, &frame, j, h + 1, f64::INFINITY);
+        prop_assert!(chain + tail <= best + tol, "chain {chain} + tail {tail} > {best}");
+        for gate in [0.0, 2.0, f64::INFINITY] {
+            for budget in [f64::INFINITY, best * 0.5, best * 1.5] {
+                let b = exact::remaining_bound(&p.objective, &reach, Some(&chains), gate, &frame, j, budget);
+                prop_assert!(b <= best + tol, "combined {b} > {best} (gate {gate}, budget {budget})");
+            }
+        }
+    }
+}
+
+/// The coupled bound is tighter than the per-tip one on many prefixes (it is not vacuous).
+#[test]
+fn chain_bound_beats_the_per_tip_bound_on_many_prefixes() {
+    let m = 8;
+    let pts: Vec<Point3<f64>> = (0..40)
+        .map(|i| {
+            let t = i as f64 / 39.0 * std::f64::consts::TAU;
+            Point3::new(1.5 * t.cos(), 1.5 * t.sin(), 0.8 * t)
+        })
+        .collect();
+    let p = problem(4, m, pts, Metric::Eq36);
+    let reach = Reach::new(&p.catalogue, m);
+    let chains = Chains::new(&p.catalogue, exact::CHAIN_HORIZON);
+    let (mut better, mut total) = (0, 0);
+    for code in 0..1000 {
+        let prefix = suffix(&p.catalogue, 0, 3, code);
+        let frame = *p.catalogue.frames(&prefix).last().unwrap();
+        let h = chains.levels_after(3);
+        let head = reach.suffix_range(&p.objective, &frame, 3, 1, h, f64::INFINITY);
+        let chain = chains.lower_bound(&p.objective, &frame, 3, h, f64::INFINITY);
+        total += 1;
+        if chain > head * (1.0 + 1e-6) + 1e-9 {
+            better += 1;
+        }
+    }
+    assert!(
+        better * 10 >= total,
+        "chain bound tighter on only {better} of {total} prefixes"
+    );
 }

@@ -237,6 +237,9 @@ enum Command {
     Ports(cmd::ports::Args),
     /// Write the firmware to an UNO R4 through its bootloader, verify it, and handshake.
     Flash(cmd::flash::Args),
+    /// Pre-flight check of a crane (or the simulator): sensor, valves, servos, gripper, e-stop
+    /// and buttons, a pass/fail table.
+    Check(cmd::check::Args),
     /// Where the tip is for a trunk state and a bend, e.g. pose --state 'D&F' --bend 20,90.
     Pose(cmd::pose::PoseArgs),
     /// Each state's reachable tips for the bends it allows: table, JSON, side-view figure.
@@ -300,6 +303,7 @@ impl Command {
             Command::Identify(a) => a.json,
             Command::Ports(a) => a.json,
             Command::Flash(a) => a.json,
+            Command::Check(a) => a.json,
             Command::Pose(a) => a.json,
             Command::Workspace(a) => a.json,
             Command::Grip(a) => a.json,
@@ -333,6 +337,7 @@ impl Command {
             Command::Identify(a) => a.json = on,
             Command::Ports(a) => a.json = on,
             Command::Flash(a) => a.json = on,
+            Command::Check(a) => a.json = on,
             Command::Pose(a) => a.json = on,
             Command::Workspace(a) => a.json = on,
             Command::Grip(a) => a.json = on,
@@ -413,6 +418,7 @@ fn main() -> ExitCode {
         Command::Identify(args) => cmd::identify::run(args),
         Command::Ports(args) => cmd::ports::run(args),
         Command::Flash(args) => cmd::flash::run(args),
+        Command::Check(args) => cmd::check::run(args),
         Command::Log(args) => cmd::log::run(args),
         Command::Pose(args) => cmd::pose::run_pose(args),
         Command::Workspace(args) => cmd::pose::run_workspace(args),

@@ -2,6 +2,7 @@
 
 pub mod aim;
 pub mod calibrate;
+pub mod check;
 pub mod declare;
 pub mod demo;
 pub mod design;

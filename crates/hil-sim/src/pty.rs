@@ -69,6 +69,20 @@ pub fn check_pty_speed(speed: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// What the emulated board measured over a pty session (with `firmware_elf`), taken when the
+/// simulator stops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoardMeasures {
+    /// The main stack's high-water mark since the last power-on, bytes
+    /// (`ra4m1_emu::Emulator::stack_high_water`: the emulator's paint).
+    pub stack_high_water: u32,
+    /// The stack's room (`_stack_start − _stack_end`), bytes.
+    pub stack_size: u32,
+    /// The longest loop pass (wake-up to `WFI`, its interrupts included), ICLK cycles of the
+    /// emulator's cycle model.
+    pub longest_pass_cycles: u64,
+}
+
 /// A simulator running on its own thread behind a pseudo-terminal.
 #[derive(Debug)]
 pub struct PtySim {
@@ -214,6 +228,14 @@ impl PtySim {
         self.ground_truth()
     }
 
+    /// [`PtySim::stop`], with what the emulated board measured over the session (`None` for
+    /// the host-built controller, or an ELF without cortex-m-rt's stack symbols).
+    pub fn stop_measured(mut self) -> (GroundTruth, Option<BoardMeasures>) {
+        self.halt();
+        let board = *self.truth.board.lock().unwrap_or_else(|e| e.into_inner());
+        (self.ground_truth(), board)
+    }
+
     fn halt(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(t) = self.thread.take() {
@@ -233,6 +255,7 @@ impl Drop for PtySim {
 struct Truth {
     now: Mutex<Option<GroundTruth>>,
     changed: Condvar,
+    board: Mutex<Option<BoardMeasures>>,
 }
 
 impl Truth {
@@ -322,9 +345,25 @@ fn serve(
             std::thread::sleep(WALL_TICK);
         }
     }
+    *truth.board.lock().unwrap_or_else(|e| e.into_inner()) = board_measures(&sim);
     truth.set(sim.ground_truth());
     if let Some((f, l)) = log.as_mut() {
         append(l.finish(&sim), f);
         let _ = f.flush();
     }
+}
+
+#[cfg(feature = "pil")]
+fn board_measures(sim: &Sim) -> Option<BoardMeasures> {
+    let emu = &sim.elf_board()?.emu;
+    Some(BoardMeasures {
+        stack_high_water: emu.stack_high_water()?,
+        stack_size: emu.stack_size()?,
+        longest_pass_cycles: emu.stats().max_awake_cycles,
+    })
+}
+
+#[cfg(not(feature = "pil"))]
+fn board_measures(_: &Sim) -> Option<BoardMeasures> {
+    None
 }

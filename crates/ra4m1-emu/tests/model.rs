@@ -277,7 +277,7 @@ fn sys_get_cmdline_answers_the_set_command_once_then_fails() {
 /// four accesses cost on their bus.
 fn cycles_of_four_loads(addr: u32, byte: bool) -> u64 {
     let load = if byte { 0x7801 } else { 0x6801 }; // ldrb/ldr r1, [r0]
-    // 0x4040 ldr r0,[pc,#16]; 4 loads; movs r0,#0x18; ldr r1,[pc,#8]; bkpt 0xab; b .; pad
+                                                   // 0x4040 ldr r0,[pc,#16]; 4 loads; movs r0,#0x18; ldr r1,[pc,#8]; bkpt 0xab; b .; pad
     let img = program(
         &[
             0x4804, load, load, load, load, 0x2018, 0x4902, 0xBEAB, 0xE7FE, 0x0000,
@@ -301,7 +301,11 @@ fn cycles_of_four_loads(addr: u32, byte: bool) -> u64 {
 fn peripheral_bus_accesses_cost_the_bridges_wait_states() {
     let icu = cycles_of_four_loads(0x4000_6300, false); // IELSR0: ICLK
     let port = cycles_of_four_loads(0x4004_0000, false); // PCNTR1 of port 0: PCLKB
-    assert_eq!(port - icu, 4 * 5, "PCLKB at ICLK/2: 5 extra ICLK per access");
+    assert_eq!(
+        port - icu,
+        4 * 5,
+        "PCLKB at ICLK/2: 5 extra ICLK per access"
+    );
     let system = cycles_of_four_loads(0x4001_E026, true); // SCKSCR: ICLK
     let sci = cycles_of_four_loads(0x4007_0124, true); // SCI9 SSR: PCLKA
     assert_eq!(sci - system, 4, "PCLKA at ICLK: 1 extra ICLK per access");

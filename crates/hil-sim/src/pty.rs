@@ -78,10 +78,15 @@ pub struct BoardMeasures {
     pub stack_high_water: u32,
     /// The stack's room (`_stack_start − _stack_end`), bytes.
     pub stack_size: u32,
-    /// The longest loop pass (wake-up to `WFI`, its interrupts included), ICLK cycles of the
-    /// emulator's cycle model.
+    /// The longest loop pass (wake-up to `WFI`, its interrupts included) after the first
+    /// [`BOOT_MS`] of virtual time (the boot's stretch, power-on to the first `WFI`, is not a
+    /// loop pass), ICLK cycles of the emulator's cycle model.
     pub longest_pass_cycles: u64,
 }
+
+/// Virtual time after which the emulated board's loop passes are measured
+/// ([`BoardMeasures::longest_pass_cycles`]): its boot is over by then.
+pub const BOOT_MS: u64 = 100;
 
 /// A simulator running on its own thread behind a pseudo-terminal.
 #[derive(Debug)]
@@ -315,6 +320,9 @@ fn serve(
         };
         let target = target.min(sim.now_ms() + MAX_CATCH_UP_MS);
         while sim.now_ms() < target {
+            if sim.now_ms() == BOOT_MS {
+                forget_boot(&mut sim);
+            }
             sim.step();
             if let Some((f, l)) = log.as_mut() {
                 if let Some(line) = l.observe(&sim) {
@@ -367,3 +375,13 @@ fn board_measures(sim: &Sim) -> Option<BoardMeasures> {
 fn board_measures(_: &Sim) -> Option<BoardMeasures> {
     None
 }
+
+#[cfg(feature = "pil")]
+fn forget_boot(sim: &mut Sim) {
+    if let Some(b) = sim.elf_board_mut() {
+        b.emu.clear_max_awake();
+    }
+}
+
+#[cfg(not(feature = "pil"))]
+fn forget_boot(_: &mut Sim) {}

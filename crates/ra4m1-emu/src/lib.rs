@@ -12,7 +12,8 @@
 //! Everything else of the chip the board uses is modelled register by register
 //! ([`periph`]); an access to any other address stops the run with an error naming it
 //! ([`EmuError::Unmodelled`]). Time is virtual and deterministic: it advances with the
-//! instructions executed ([`cpu`]'s cycle model, flash wait states counted) and jumps ahead
+//! instructions executed ([`cpu`]'s cycle model, flash wait states counted, and the bus bridges'
+//! wait states of every peripheral access, [`machine::bridge_wait_cycles`]) and jumps ahead
 //! while the CPU sleeps in `WFI`.
 //!
 //! The chip starts as the Arduino bootloader leaves it at the jump to the application at

@@ -158,16 +158,22 @@ fn stack_headroom(runs: impl Iterator<Item = Option<hil_sim::pty::BoardMeasures>
         .collect();
     let deepest = runs.iter().map(|m| m.stack_high_water).max().unwrap_or(0);
     let room = runs.iter().map(|m| m.stack_size).min().unwrap_or(0);
-    let longest = runs
-        .iter()
-        .map(|m| m.longest_pass_cycles)
-        .max()
-        .unwrap_or(0);
     let left = room.saturating_sub(deepest + GUARD_BYTES);
     eprintln!(
-        "{what}: stack high-water {deepest} of {room} bytes ({left} to the guard's limit); \
-         longest loop pass {longest} cycles"
+        "{what}: stack high-water {deepest} of {room} bytes ({left} to the guard's limit), \
+         {} resets",
+        runs.iter().map(|m| m.resets).sum::<usize>()
     );
+    // The longest loop pass of any session (after its boot), and where its cycles went.
+    if let Some(m) = runs.iter().max_by_key(|m| m.longest_pass_cycles) {
+        eprintln!(
+            "{what}: longest loop pass {:?} cycles",
+            m.longest_pass_cycles
+        );
+        for (name, cycles) in &m.longest_pass_profile {
+            eprintln!("  {cycles:>7}  {name}");
+        }
+    }
     assert!(
         deepest + GUARD_BYTES + HEADROOM_BYTES <= room,
         "{what}: stack {deepest} of {room} bytes leaves {left} to the guard, under {HEADROOM_BYTES}"
@@ -196,7 +202,7 @@ fn all_36_plans_reach_their_target_on_the_elf() {
         "36 plans on the emulated ELF ({THREADS} at a time): {:.1?}",
         start.elapsed()
     );
-    stack_headroom(results.iter().map(|r| r.4), "the 36 plans");
+    stack_headroom(results.iter().map(|r| r.4.clone()), "the 36 plans");
     let mut failures = Vec::new();
     let mut retried = 0;
     for (from, to, out, truth, _) in &results {
@@ -301,7 +307,7 @@ fn the_fault_subset_fails_cleanly_on_the_elf_with_the_actuators_safe() {
         let (truth, board) = sim.stop_measured();
         (fault, step, why, out, truth, board)
     });
-    stack_headroom(results.iter().map(|r| r.5), "the fault subset");
+    stack_headroom(results.iter().map(|r| r.5.clone()), "the fault subset");
     for (fault, step, why, out, truth, _) in results {
         let v = out.json();
         assert_eq!(out.code(), 1, "{fault:?}: {v}\n{}", out.stderr);

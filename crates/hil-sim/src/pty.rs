@@ -71,7 +71,7 @@ pub fn check_pty_speed(speed: f64) -> Result<(), String> {
 
 /// What the emulated board measured over a pty session (with `firmware_elf`), taken when the
 /// simulator stops.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BoardMeasures {
     /// The main stack's high-water mark since the last power-on, bytes
     /// (`ra4m1_emu::Emulator::stack_high_water`: the emulator's paint).
@@ -80,8 +80,15 @@ pub struct BoardMeasures {
     pub stack_size: u32,
     /// The longest loop pass (wake-up to `WFI`, its interrupts included) after the first
     /// [`BOOT_MS`] of virtual time (the boot's stretch, power-on to the first `WFI`, is not a
-    /// loop pass), ICLK cycles of the emulator's cycle model.
-    pub longest_pass_cycles: u64,
+    /// loop pass), ICLK cycles of the emulator's cycle model; `None` when the session ended
+    /// within those first [`BOOT_MS`].
+    pub longest_pass_cycles: Option<u64>,
+    /// Where that pass's cycles went: the functions of the ELF that took the most, cycles,
+    /// largest first (at most 8).
+    pub longest_pass_profile: Vec<(String, u64)>,
+    /// Resets of the chip after its first start (watchdog, brown-out, software), each one a
+    /// boot whose stretch counts as a pass.
+    pub resets: usize,
 }
 
 /// Virtual time after which the emulated board's loop passes are measured
@@ -237,7 +244,12 @@ impl PtySim {
     /// the host-built controller, or an ELF without cortex-m-rt's stack symbols).
     pub fn stop_measured(mut self) -> (GroundTruth, Option<BoardMeasures>) {
         self.halt();
-        let board = *self.truth.board.lock().unwrap_or_else(|e| e.into_inner());
+        let board = self
+            .truth
+            .board
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
         (self.ground_truth(), board)
     }
 
@@ -367,7 +379,9 @@ fn board_measures(sim: &Sim) -> Option<BoardMeasures> {
     Some(BoardMeasures {
         stack_high_water: emu.stack_high_water()?,
         stack_size: emu.stack_size()?,
-        longest_pass_cycles: emu.stats().max_awake_cycles,
+        longest_pass_cycles: (sim.now_ms() > BOOT_MS).then(|| emu.stats().max_awake_cycles),
+        longest_pass_profile: emu.longest_pass_profile().into_iter().take(8).collect(),
+        resets: emu.resets().len(),
     })
 }
 
@@ -379,6 +393,7 @@ fn board_measures(_: &Sim) -> Option<BoardMeasures> {
 #[cfg(feature = "pil")]
 fn forget_boot(sim: &mut Sim) {
     if let Some(b) = sim.elf_board_mut() {
+        b.emu.profile_passes(true);
         b.emu.clear_max_awake();
     }
 }

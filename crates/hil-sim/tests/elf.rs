@@ -63,8 +63,9 @@ fn the_elf_runs_a_plan_on_the_simulated_crane() {
 
 /// The loop's longest pass, with the storage of one state change in it: with both log blocks
 /// full the save must erase a block first. Erasing in the background, programming one byte
-/// per pass and backing off a failing flash keep every pass within one 1 ms tick (48 000
-/// cycles at 48 MHz, the cycle model with its flash wait state), whatever the flash does —
+/// per pass, taking a block it erased as blank without reading it back, and backing off a
+/// failing flash keep every pass within one 1 ms tick (48 000 cycles at 48 MHz, the cycle
+/// model with its flash and bus wait states; 29 334 measured), whatever the flash does —
 /// well inside the 2 ms the storage may delay a pass.
 #[test]
 fn storage_never_stretches_a_loop_pass_beyond_1_ms_even_with_a_broken_flash() {
@@ -132,10 +133,10 @@ fn storage_never_stretches_a_loop_pass_beyond_1_ms_even_with_a_broken_flash() {
         print_profile(emu, &format!("the save, flash fault {fault:?}"));
         assert!(sim.board_error().is_none(), "{:?}", sim.board_error());
         // The issue's bound for storage is 2 ms (96 000 cycles); every pass, this one too,
-        // must fit the 1 ms tick (48 000).
+        // must fit the 1 ms tick with issue 27's 15 % margin (40 800 of 48 000).
         assert!(
-            worst <= 48_000,
-            "{fault:?}: a pass took {worst} cycles (> 1 ms)"
+            worst <= 40_800,
+            "{fault:?}: a pass took {worst} cycles (> 40 800, 85 % of 1 ms)"
         );
         if fault.is_none() {
             assert_eq!(erased, 1, "the full log erased one block in the background");
@@ -248,8 +249,9 @@ fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
 }
 
 /// The issue's loop-pass budget is 48 000 cycles (1 ms at 48 MHz, the cycle model with its
-/// flash wait state); this keeps what was reached (BENCHMARKS.md: 40 375 for the upload,
-/// 33 630 over a whole plan) plus ≈ 9 %, so a regression fails here.
+/// flash wait state and the bus bridges' wait states); this keeps what was reached
+/// (BENCHMARKS.md, "Issue 27": 41 095 for the upload, 40 736 over a whole plan) plus ≈ 7 %, so
+/// a regression fails here.
 const PASS_BUDGET_CYCLES: u64 = 44_000;
 
 /// The pass that receives, validates and stores the largest plan (8 steps × 4 bends, accepted:

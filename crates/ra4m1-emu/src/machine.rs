@@ -79,7 +79,8 @@ impl Page {
 /// Peripheral-bus cycles of one register access behind a bus bridge, in the bridge's clock
 /// (the internal peripheral bus's own bus cycles; RA4M1 UM, "I/O Registers" appendix, "Access
 /// Cycles": the access cycles are the internal peripheral bus's bus cycles plus the divided
-/// clock synchronization cycles).
+/// clock synchronization cycles). One figure for every page: the appendix's per-module rows
+/// were not at hand when this was written, so a module whose row says more is undercounted.
 pub const BRIDGE_BUS_CYCLES: u64 = 2;
 
 /// Extra ICLK cycles one CPU access to a register behind a bridge clocked at `pclk` costs, over

@@ -145,6 +145,41 @@ fn hil_sim_refuses_a_missing_firmware_elf_with_exit_1() {
     assert!(out.stderr.contains("/nonexistent/uno-r4"), "{}", out.stderr);
 }
 
+/// The stack guard's limit (`board/stack.rs`: the stack pointer monitor fires 512 bytes above
+/// the stack's end), and the headroom the stack must keep below it over these sessions.
+const GUARD_BYTES: u32 = 512;
+const HEADROOM_BYTES: u32 = 8 * 1024;
+
+/// The deepest stack of `runs` (each one session's emulated board, from the power-on) keeps
+/// [`HEADROOM_BYTES`] clear of the stack guard's limit; prints it with the longest pass.
+fn stack_headroom(runs: impl Iterator<Item = Option<hil_sim::pty::BoardMeasures>>, what: &str) {
+    let runs: Vec<_> = runs
+        .map(|m| m.expect("the emulated board measured its stack"))
+        .collect();
+    let deepest = runs.iter().map(|m| m.stack_high_water).max().unwrap_or(0);
+    let room = runs.iter().map(|m| m.stack_size).min().unwrap_or(0);
+    let left = room.saturating_sub(deepest + GUARD_BYTES);
+    eprintln!(
+        "{what}: stack high-water {deepest} of {room} bytes ({left} to the guard's limit), \
+         {} resets",
+        runs.iter().map(|m| m.resets).sum::<usize>()
+    );
+    // The longest loop pass of any session (after its boot), and where its cycles went.
+    if let Some(m) = runs.iter().max_by_key(|m| m.longest_pass_cycles) {
+        eprintln!(
+            "{what}: longest loop pass {:?} cycles",
+            m.longest_pass_cycles
+        );
+        for (name, cycles) in &m.longest_pass_profile {
+            eprintln!("  {cycles:>7}  {name}");
+        }
+    }
+    assert!(
+        deepest + GUARD_BYTES + HEADROOM_BYTES <= room,
+        "{what}: stack {deepest} of {room} bytes leaves {left} to the guard, under {HEADROOM_BYTES}"
+    );
+}
+
 fn host_board_name() -> &'static str {
     "Arduino UNO R4 WiFi"
 }
@@ -160,16 +195,17 @@ fn all_36_plans_reach_their_target_on_the_elf() {
         let sim = board(from, vec![]);
         let path = sim.path().display().to_string();
         let out = plan_as_operator(&["plan", "--target", to, "--port", &path, "--json"], &sim);
-        let truth = sim.stop();
-        (from, to, out, truth)
+        let (truth, board) = sim.stop_measured();
+        (from, to, out, truth, board)
     });
     eprintln!(
         "36 plans on the emulated ELF ({THREADS} at a time): {:.1?}",
         start.elapsed()
     );
+    stack_headroom(results.iter().map(|r| r.4.clone()), "the 36 plans");
     let mut failures = Vec::new();
     let mut retried = 0;
-    for (from, to, out, truth) in &results {
+    for (from, to, out, truth, _) in &results {
         let v = out.json();
         let ok = out.code() == 0
             && v["ok"] == true
@@ -268,10 +304,11 @@ fn the_fault_subset_fails_cleanly_on_the_elf_with_the_actuators_safe() {
                 .is_some(),
             "{fault:?}: the emulated board stopped"
         );
-        let truth = sim.stop();
-        (fault, step, why, out, truth)
+        let (truth, board) = sim.stop_measured();
+        (fault, step, why, out, truth, board)
     });
-    for (fault, step, why, out, truth) in results {
+    stack_headroom(results.iter().map(|r| r.5.clone()), "the fault subset");
+    for (fault, step, why, out, truth, _) in results {
         let v = out.json();
         assert_eq!(out.code(), 1, "{fault:?}: {v}\n{}", out.stderr);
         assert_eq!(v["ok"], false, "{fault:?}: {v}");

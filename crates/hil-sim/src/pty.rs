@@ -69,6 +69,32 @@ pub fn check_pty_speed(speed: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// What the emulated board measured over a pty session (with `firmware_elf`), taken when the
+/// simulator stops.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BoardMeasures {
+    /// The main stack's high-water mark since the last power-on, bytes
+    /// (`ra4m1_emu::Emulator::stack_high_water`: the emulator's paint).
+    pub stack_high_water: u32,
+    /// The stack's room (`_stack_start − _stack_end`), bytes.
+    pub stack_size: u32,
+    /// The longest loop pass (wake-up to `WFI`, its interrupts included) after the first
+    /// [`BOOT_MS`] of virtual time (the boot's stretch, power-on to the first `WFI`, is not a
+    /// loop pass), ICLK cycles of the emulator's cycle model; `None` when the session ended
+    /// within those first [`BOOT_MS`].
+    pub longest_pass_cycles: Option<u64>,
+    /// Where that pass's cycles went: the functions of the ELF that took the most, cycles,
+    /// largest first (at most 8).
+    pub longest_pass_profile: Vec<(String, u64)>,
+    /// Resets of the chip after its first start (watchdog, brown-out, software), each one a
+    /// boot whose stretch counts as a pass.
+    pub resets: usize,
+}
+
+/// Virtual time after which the emulated board's loop passes are measured
+/// ([`BoardMeasures::longest_pass_cycles`]): its boot is over by then.
+pub const BOOT_MS: u64 = 100;
+
 /// A simulator running on its own thread behind a pseudo-terminal.
 #[derive(Debug)]
 pub struct PtySim {
@@ -214,6 +240,19 @@ impl PtySim {
         self.ground_truth()
     }
 
+    /// [`PtySim::stop`], with what the emulated board measured over the session (`None` for
+    /// the host-built controller, or an ELF without cortex-m-rt's stack symbols).
+    pub fn stop_measured(mut self) -> (GroundTruth, Option<BoardMeasures>) {
+        self.halt();
+        let board = self
+            .truth
+            .board
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
+        (self.ground_truth(), board)
+    }
+
     fn halt(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(t) = self.thread.take() {
@@ -233,6 +272,7 @@ impl Drop for PtySim {
 struct Truth {
     now: Mutex<Option<GroundTruth>>,
     changed: Condvar,
+    board: Mutex<Option<BoardMeasures>>,
 }
 
 impl Truth {
@@ -292,6 +332,9 @@ fn serve(
         };
         let target = target.min(sim.now_ms() + MAX_CATCH_UP_MS);
         while sim.now_ms() < target {
+            if sim.now_ms() == BOOT_MS {
+                forget_boot(&mut sim);
+            }
             sim.step();
             if let Some((f, l)) = log.as_mut() {
                 if let Some(line) = l.observe(&sim) {
@@ -322,9 +365,38 @@ fn serve(
             std::thread::sleep(WALL_TICK);
         }
     }
+    *truth.board.lock().unwrap_or_else(|e| e.into_inner()) = board_measures(&sim);
     truth.set(sim.ground_truth());
     if let Some((f, l)) = log.as_mut() {
         append(l.finish(&sim), f);
         let _ = f.flush();
     }
 }
+
+#[cfg(feature = "pil")]
+fn board_measures(sim: &Sim) -> Option<BoardMeasures> {
+    let emu = &sim.elf_board()?.emu;
+    Some(BoardMeasures {
+        stack_high_water: emu.stack_high_water()?,
+        stack_size: emu.stack_size()?,
+        longest_pass_cycles: (sim.now_ms() > BOOT_MS).then(|| emu.stats().max_awake_cycles),
+        longest_pass_profile: emu.longest_pass_profile().into_iter().take(8).collect(),
+        resets: emu.resets().len(),
+    })
+}
+
+#[cfg(not(feature = "pil"))]
+fn board_measures(_: &Sim) -> Option<BoardMeasures> {
+    None
+}
+
+#[cfg(feature = "pil")]
+fn forget_boot(sim: &mut Sim) {
+    if let Some(b) = sim.elf_board_mut() {
+        b.emu.profile_passes(true);
+        b.emu.clear_max_awake();
+    }
+}
+
+#[cfg(not(feature = "pil"))]
+fn forget_boot(_: &mut Sim) {}

@@ -63,8 +63,9 @@ fn the_elf_runs_a_plan_on_the_simulated_crane() {
 
 /// The loop's longest pass, with the storage of one state change in it: with both log blocks
 /// full the save must erase a block first. Erasing in the background, programming one byte
-/// per pass and backing off a failing flash keep every pass within one 1 ms tick (48 000
-/// cycles at 48 MHz, the cycle model with its flash wait state), whatever the flash does —
+/// per pass, taking a block it erased as blank without reading it back, and backing off a
+/// failing flash keep every pass within one 1 ms tick (48 000 cycles at 48 MHz, the cycle
+/// model with its flash and bus wait states; 29 227 measured), whatever the flash does —
 /// well inside the 2 ms the storage may delay a pass.
 #[test]
 fn storage_never_stretches_a_loop_pass_beyond_1_ms_even_with_a_broken_flash() {
@@ -105,6 +106,7 @@ fn storage_never_stretches_a_loop_pass_beyond_1_ms_even_with_a_broken_flash() {
         let mut host = SimHost::new();
         host.hello(&mut sim).expect("handshake");
         let erases_before = sim.elf_board().unwrap().emu.machine().flash.erases;
+        sim.elf_board_mut().unwrap().emu.profile_passes(true);
         sim.elf_board_mut().unwrap().emu.clear_max_awake();
         host.request_ok(
             &mut sim,
@@ -128,12 +130,13 @@ fn storage_never_stretches_a_loop_pass_beyond_1_ms_even_with_a_broken_flash() {
             used(1),
             emu.machine().flash.programs
         );
+        print_profile(emu, &format!("the save, flash fault {fault:?}"));
         assert!(sim.board_error().is_none(), "{:?}", sim.board_error());
         // The issue's bound for storage is 2 ms (96 000 cycles); every pass, this one too,
-        // must fit the 1 ms tick (48 000).
+        // must fit the 1 ms tick with issue 27's 15 % margin (40 800 of 48 000).
         assert!(
-            worst <= 48_000,
-            "{fault:?}: a pass took {worst} cycles (> 1 ms)"
+            worst <= 40_800,
+            "{fault:?}: a pass took {worst} cycles (> 40 800, 85 % of 1 ms)"
         );
         if fault.is_none() {
             assert_eq!(erased, 1, "the full log erased one block in the background");
@@ -246,8 +249,9 @@ fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
 }
 
 /// The issue's loop-pass budget is 48 000 cycles (1 ms at 48 MHz, the cycle model with its
-/// flash wait state); this keeps what was reached (BENCHMARKS.md: 40 375 for the upload,
-/// 33 630 over a whole plan) plus ≈ 9 %, so a regression fails here.
+/// flash wait state and the bus bridges' wait states); this keeps what was reached
+/// (BENCHMARKS.md, "Issue 27": 40 713 for the upload, 40 836 over a whole plan) plus ≈ 8 %, so
+/// a regression fails here.
 const PASS_BUDGET_CYCLES: u64 = 44_000;
 
 /// The pass that receives, validates and stores the largest plan (8 steps × 4 bends, accepted:
@@ -269,6 +273,7 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
     host.hello(&mut sim).expect("handshake");
     sim.run_for(20);
     let _ = sim.read_device_bytes();
+    sim.elf_board_mut().unwrap().emu.profile_passes(true);
     sim.elf_board_mut().unwrap().emu.clear_max_awake();
     let session = host.session();
     // Both frames on the line at once, as no host engine sends them (it waits for each
@@ -304,6 +309,7 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
         "the plan stored, the status answered"
     );
     let upload = sim.elf_board().unwrap().emu.stats().max_awake_cycles;
+    print_profile(&sim.elf_board().unwrap().emu, "the largest plan's upload");
     assert!(
         upload <= PASS_BUDGET_CYCLES,
         "upload pass {upload} cycles > {PASS_BUDGET_CYCLES}"
@@ -317,12 +323,23 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
     let (ok, state) = host.run_plan(&mut sim, 3, &steps, 120_000).unwrap();
     assert!(ok && state == "D&D".parse().unwrap(), "{ok} {state}");
     let run = sim.elf_board().unwrap().emu.stats().max_awake_cycles;
+    print_profile(&sim.elf_board().unwrap().emu, "a plan");
     assert!(
         run <= PASS_BUDGET_CYCLES,
         "longest pass of the plan {run} cycles > {PASS_BUDGET_CYCLES}"
     );
     eprintln!("upload pass {upload} cycles, longest pass of a plan {run}");
     stack_headroom(&sim, "the largest plan's upload and a plan");
+}
+
+/// Prints where the longest pass's cycles went, per ELF function (largest first).
+fn print_profile(emu: &ra4m1_emu::Emulator, what: &str) {
+    let p = emu.longest_pass_profile();
+    let total: u64 = p.iter().map(|f| f.1).sum();
+    eprintln!("longest pass of {what}: {total} cycles");
+    for (name, cycles) in p.iter().take(8) {
+        eprintln!("  {cycles:>6}  {name}");
+    }
 }
 
 /// The stack's high-water mark since the power-on (the emulator's paint) stays clear of the

@@ -18,6 +18,9 @@
 //! taken branch. There is no flash cache or prefetch credit in this model, so for code running
 //! from flash it is an upper bound on fetch stalls (the M4 fetches a word while it executes
 //! the previous one, which hides part of them on the chip).
+//!
+//! Peripheral-bus wait states (the bus bridges to PCLKA, PCLKB and FCLK) are charged per
+//! register access by [`crate::machine::Machine::charge_bus_wait`], not per block.
 
 /// What one block costs before wait states.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -12,7 +12,8 @@
 //! Everything else of the chip the board uses is modelled register by register
 //! ([`periph`]); an access to any other address stops the run with an error naming it
 //! ([`EmuError::Unmodelled`]). Time is virtual and deterministic: it advances with the
-//! instructions executed ([`cpu`]'s cycle model, flash wait states counted) and jumps ahead
+//! instructions executed ([`cpu`]'s cycle model, flash wait states counted, and the bus bridges'
+//! wait states of every peripheral access, [`machine::bridge_wait_cycles`]) and jumps ahead
 //! while the CPU sleeps in `WFI`.
 //!
 //! The chip starts as the Arduino bootloader leaves it at the jump to the application at
@@ -295,7 +296,10 @@ impl Emulator {
                     move |uc: &mut Unicorn<'_, Machine>, off: u64, sz: usize| -> u64 {
                         let m = uc.get_data_mut();
                         match m.read(page, base, off as u32, sz as u32) {
-                            Ok(v) => u64::from(v),
+                            Ok(v) => {
+                                m.charge_bus_wait(page);
+                                u64::from(v)
+                            }
                             Err(why) => {
                                 let pc = m.block_pc;
                                 m.error = Some(to_error(why, "read", base + off as u32, sz, pc));
@@ -309,7 +313,11 @@ impl Emulator {
                 Some(
                     move |uc: &mut Unicorn<'_, Machine>, off: u64, sz: usize, v: u64| {
                         let m = uc.get_data_mut();
-                        if let Err(why) = m.write(page, base, off as u32, sz as u32, v as u32) {
+                        let r = m.write(page, base, off as u32, sz as u32, v as u32);
+                        if r.is_ok() {
+                            m.charge_bus_wait(page);
+                        }
+                        if let Err(why) = r {
                             let pc = m.block_pc;
                             m.error = Some(to_error(why, "write", base + off as u32, sz, pc));
                             m.stopped = true;

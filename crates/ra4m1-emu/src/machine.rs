@@ -11,7 +11,7 @@ use crate::tm1637::Tm1637;
 use crate::EmuError;
 
 /// A memory-mapped page and the model behind it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Page {
     /// ICU.
     Icu,
@@ -43,6 +43,62 @@ pub enum Page {
     Dbg,
     /// MPU page: the CPU stack pointer monitor (SPMON at 0xD00).
     Mpu,
+}
+
+/// The bus a page is reached over (RA4M1 User's Manual R01UH0887, "Buses", Table 13.1 "Bus
+/// specifications" and the internal peripheral buses' list, with the address map of
+/// "Address Space"): what clock its bus bridge runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bus {
+    /// Internal peripheral bus 1 (ICU, SYSTEM, MPU, DBG at 0x4000_0000..0x4001_FFFF) and the
+    /// Cortex-M4's private peripheral bus (NVIC, SysTick, DWT): synchronous with ICLK, no
+    /// bridge.
+    Iclk,
+    /// Internal peripheral bus 5 (SCI, GPT at 0x4007_0000..0x4007_FFFF): PCLKA.
+    Pclka,
+    /// Internal peripheral bus 3 (I/O ports, WDT, MSTP, ADC14 at 0x4004_0000..0x4005_FFFF):
+    /// PCLKB.
+    Pclkb,
+    /// Internal peripheral bus 9 (the flash interface, FACI, and the data flash's read window):
+    /// FCLK.
+    Fclk,
+}
+
+impl Page {
+    /// The bus this page hangs on.
+    pub fn bus(self) -> Bus {
+        match self {
+            Page::Icu | Page::System | Page::Mpu | Page::Dbg | Page::Dwt | Page::Scs => Bus::Iclk,
+            Page::Sci | Page::Gpt => Bus::Pclka,
+            Page::Port | Page::Wdt | Page::Mstp | Page::Adc => Bus::Pclkb,
+            Page::DataFlash | Page::Faci | Page::FaciEntry => Bus::Fclk,
+        }
+    }
+}
+
+/// Peripheral-bus cycles of one register access behind a bus bridge, in the bridge's clock
+/// (the internal peripheral bus's own bus cycles; RA4M1 UM, "I/O Registers" appendix, "Access
+/// Cycles": the access cycles are the internal peripheral bus's bus cycles plus the divided
+/// clock synchronization cycles). One figure for every page: the appendix's per-module rows
+/// were not at hand when this was written, so a module whose row says more is undercounted.
+pub const BRIDGE_BUS_CYCLES: u64 = 2;
+
+/// Extra ICLK cycles one CPU access to a register behind a bridge clocked at `pclk` costs, over
+/// the 2 cycles (address and data phase) the Cortex-M4 timing of a load or store already
+/// counts. RA4M1 UM, "I/O Registers" appendix, "Access Cycles": the access takes the internal
+/// peripheral bus's bus cycles ([`BRIDGE_BUS_CYCLES`] of the bridge's clock) plus the divided
+/// clock synchronization cycles, which are a constant 0 when ICLK = PCLK and up to one cycle of
+/// PCLK when ICLK > PCLK (taken here at that maximum: the model is an upper bound); when ICLK <
+/// PCLK the access ends at the next ICLK edge. So, with ICLK = PCLK: 2 ICLK, 1 more than the
+/// core counts; ICLK = 2 × PCLK: 3 PCLK = 6 ICLK, 5 more; ICLK = 4 × PCLK: 12 ICLK, 11 more.
+/// Writes are charged as reads (the core's write buffer may hide a lone store's wait on the
+/// chip: an upper bound again).
+pub fn bridge_wait_cycles(iclk: u32, pclk: u32) -> u64 {
+    let (iclk, pclk) = (u64::from(iclk.max(1)), u64::from(pclk.max(1)));
+    let sync = u64::from(iclk > pclk);
+    ((BRIDGE_BUS_CYCLES + sync) * iclk)
+        .div_ceil(pclk)
+        .saturating_sub(1)
 }
 
 /// The GTIOC pins of the board's timer channels: (port, pin, GPT channel, output B). A read of
@@ -199,6 +255,32 @@ fn mstp_check(sys: &System, x: usize, bit: u32, name: &str) -> Result<(), Why> {
 }
 
 impl Machine {
+    /// The ICLK cycles an access to `page` adds for its bus bridge ([`bridge_wait_cycles`] at
+    /// the clocks the system registers set now; 0 for a page on ICLK's own buses).
+    pub fn bus_wait_cycles(&self, page: Page) -> u64 {
+        let c = &self.clocks;
+        match page.bus() {
+            Bus::Iclk => 0,
+            Bus::Pclka => bridge_wait_cycles(c.iclk, c.pclka),
+            Bus::Pclkb => bridge_wait_cycles(c.iclk, c.pclkb),
+            Bus::Fclk => bridge_wait_cycles(c.iclk, c.fclk),
+        }
+    }
+
+    /// Charges the bus wait of one access to `page` to the CPU's time (and to the pass
+    /// profile, on the block running now).
+    pub fn charge_bus_wait(&mut self, page: Page) {
+        let w = self.bus_wait_cycles(page);
+        if w == 0 {
+            return;
+        }
+        self.awake_cycles += w;
+        if let Some(p) = self.profile.as_mut() {
+            *p.current.entry(self.block_pc).or_default() += w;
+        }
+        self.now += w * ticks_per(self.clocks.iclk);
+    }
+
     /// Routes a read.
     pub fn read(&mut self, page: Page, base: u32, off: u32, size: u32) -> Result<u32, Why> {
         let now = self.now;
@@ -478,5 +560,25 @@ impl Machine {
             self.irq_hold = (0, 0);
             self.irq_check = true;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bridge_waits_follow_the_iclk_to_pclk_ratio() {
+        // ICLK = PCLK (the board's PCLKA): 2 PCLKA, 1 ICLK over the core's 2.
+        assert_eq!(bridge_wait_cycles(48_000_000, 48_000_000), 1);
+        // ICLK = 2 × PCLK (the board's PCLKB, FCLK): 2 + 1 synchronization = 3 PCLKB = 6 ICLK.
+        assert_eq!(bridge_wait_cycles(48_000_000, 24_000_000), 5);
+        // ICLK = 4 × PCLK: 3 PCLK = 12 ICLK.
+        assert_eq!(bridge_wait_cycles(48_000_000, 12_000_000), 11);
+        // ICLK < PCLK (PCLKD-style 64 MHz bridge under a 32 MHz CPU): 2 PCLK end within 1 ICLK.
+        assert_eq!(bridge_wait_cycles(32_000_000, 64_000_000), 0);
+        assert_eq!(Page::Port.bus(), Bus::Pclkb);
+        assert_eq!(Page::Sci.bus(), Bus::Pclka);
+        assert_eq!(Page::Icu.bus(), Bus::Iclk);
     }
 }

@@ -271,3 +271,43 @@ fn sys_get_cmdline_answers_the_set_command_once_then_fails() {
     assert_eq!(emu.cmdline_requests(), 2);
     assert_eq!(emu.exit_code(), Some(0), "the second request returned -1");
 }
+
+/// ICLK cycles until the semihosting exit of: `ldr r0, =addr`, four loads from `[r0]` (LDR, or
+/// LDRB with `byte`), then SYS_EXIT. Programs differing only in `addr` differ only by what the
+/// four accesses cost on their bus.
+fn cycles_of_four_loads(addr: u32, byte: bool) -> u64 {
+    let load = if byte { 0x7801 } else { 0x6801 }; // ldrb/ldr r1, [r0]
+                                                   // 0x4040 ldr r0,[pc,#16]; 4 loads; movs r0,#0x18; ldr r1,[pc,#8]; bkpt 0xab; b .; pad
+    let img = program(
+        &[
+            0x4804, load, load, load, load, 0x2018, 0x4902, 0xBEAB, 0xE7FE, 0x0000,
+        ],
+        &[addr, 0x2_0026],
+        None,
+    );
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.run_until_ns(1_000_000).expect("runs");
+    assert_eq!(emu.exit_code(), Some(0), "the program reached its exit");
+    emu.stats().awake_cycles
+}
+
+/// The bus bridges' wait states (RA4M1 UM, "I/O Registers" appendix, "Access Cycles"; the
+/// buses of "Buses"), at the clocks the Arduino bootloader leaves and the firmware keeps:
+/// ICLK = PCLKA = 48 MHz, PCLKB = 24 MHz. An access over internal peripheral bus 3 (PCLKB,
+/// ICLK:PCLKB = 2:1) takes 2 bus cycles + 1 synchronization cycle of PCLKB = 6 ICLK, 5 more
+/// than the core's own 2-cycle load; over bus 5 (PCLKA, 1:1) 2 PCLKA = 2 ICLK, 1 more; a
+/// register on ICLK's internal peripheral bus 1 (ICU, SYSTEM) none.
+#[test]
+fn peripheral_bus_accesses_cost_the_bridges_wait_states() {
+    let icu = cycles_of_four_loads(0x4000_6300, false); // IELSR0: ICLK
+    let port = cycles_of_four_loads(0x4004_0000, false); // PCNTR1 of port 0: PCLKB
+    assert_eq!(
+        port - icu,
+        4 * 5,
+        "PCLKB at ICLK/2: 5 extra ICLK per access"
+    );
+    let system = cycles_of_four_loads(0x4001_E026, true); // SCKSCR: ICLK
+    let sci = cycles_of_four_loads(0x4007_0124, true); // SCI9 SSR: PCLKA
+    assert_eq!(sci - system, 4, "PCLKA at ICLK: 1 extra ICLK per access");
+    assert_eq!(icu, system, "two ICLK-bus programs cost the same");
+}

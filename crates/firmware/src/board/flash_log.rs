@@ -33,7 +33,9 @@ pub trait NorFlash {
     fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), FlashError>;
     /// Programs `data` at `offset`; the bytes must be erased beforehand.
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), FlashError>;
-    /// Erases block `block` (offset `block * BLOCK_SIZE`).
+    /// Erases block `block` (offset `block * BLOCK_SIZE`). It may return
+    /// [`FlashError::Busy`] while the erase runs in the background; a call for the same block
+    /// then reports whether it has ended (`Ok`, `Busy` or the erase's error).
     fn erase(&mut self, block: usize) -> Result<(), FlashError>;
 }
 
@@ -112,6 +114,10 @@ pub struct FlashLog<F> {
     /// returned `Busy` is retried without reading the block again (it is not readable while
     /// its byte is being programmed, and it is no longer blank).
     blank: Option<usize>,
+    /// A block whose erase this log started and has not seen end: polled through `erase`
+    /// until it ends, and then blank without reading it again (a 1 KiB blank check is 1 024
+    /// data-flash reads over the flash's bus bridge: tens of thousands of cycles in one pass).
+    erasing: Option<usize>,
 }
 
 impl<F: NorFlash> FlashLog<F> {
@@ -122,6 +128,7 @@ impl<F: NorFlash> FlashLog<F> {
             first_block,
             cursor: None,
             blank: None,
+            erasing: None,
         }
     }
 
@@ -219,9 +226,13 @@ impl<F: NorFlash> FlashLog<F> {
             slot = 0;
         }
         if slot == 0 && self.blank != Some(block) {
-            if !self.block_is_blank(block)? {
+            if self.erasing == Some(block) || !self.block_is_blank(block)? {
+                // Busy while the erase runs in the background; a failed erase is started
+                // again at the next attempt.
+                self.erasing = Some(block);
                 self.flash.erase(self.first_block + block)?;
             }
+            self.erasing = None;
             self.blank = Some(block);
         }
         let mut b = [0xFFu8; SLOT_LEN];

@@ -40,7 +40,9 @@ fn a_refused_plan_names_the_step_what_it_needs_the_limit_and_how_to_change_it() 
         "step 1/2 (pneumatic F&P → F&F)",
         "16 kPa",
         "pressure limit of 10 kPa",
-        "host-tool param set pressure-limit-kpa 16",
+        // The hint names what the whole plan needs (F&F → D&F inflates toward 24.5 kPa), so
+        // one change lets every step run.
+        "host-tool param set pressure-limit-kpa 24.5` (the whole plan needs up to 24.5 kPa, in step 2)",
     ] {
         assert!(msg.contains(part), "{part:?} missing: {msg}");
     }

@@ -127,3 +127,64 @@ fn line_noise_is_survived_by_retries() {
     // The noise was real: the host saw corrupt frames or retried.
     assert!(out.stderr.contains("retried"), "{}", out.stderr);
 }
+
+/// Issue 26 item 1: after a lost link the host's candidates are what the trunk may be since
+/// (the last report widened by the reach of every step the device may have run), never the
+/// pre-step report's: the truth is among them, on every seed and plan, and the text says so.
+#[test]
+fn after_a_lost_link_the_candidates_hold_the_truth() {
+    let cases: Vec<(&str, &str, u64)> = [("F&P", "F&F"), ("F&P", "D&D"), ("D&D", "F&P")]
+        .into_iter()
+        .flat_map(|(from, to)| (1..=4).map(move |seed| (from, to, seed)))
+        .collect();
+    let results = parallel(cases, 4, |(from, to, seed)| {
+        let seed_s = seed.to_string();
+        let out = host_tool(
+            &[
+                "plan",
+                "--target",
+                to,
+                "--sim",
+                "--sim-initial",
+                from,
+                "--seed",
+                &seed_s,
+                "--sim-fault",
+                "link-drop",
+                "--json",
+            ],
+            LIMIT,
+        );
+        let v = out.json();
+        (from, to, seed, out, v)
+    });
+    for (from, to, seed, out, v) in results {
+        let case = format!("{from} → {to} seed {seed}");
+        assert_eq!(out.code(), 1, "{case}: {v}");
+        assert_eq!(v["failure"]["kind"], "link-lost", "{case}: {v}");
+        assert_eq!(v["state_confirmed"], false, "{case}: {v}");
+        let candidates: Vec<&str> = v["candidates"]
+            .as_array()
+            .unwrap_or_else(|| panic!("{case}: no candidates: {v}"))
+            .iter()
+            .map(|c| c.as_str().unwrap())
+            .collect();
+        // The plan's first step may have ended, or gone on along its chain: more than one.
+        assert!(candidates.len() >= 2, "{case}: {candidates:?}");
+        assert!(candidates.contains(&from), "{case}: {candidates:?}");
+        if let Some(truth) = v["sim"]["true_state"].as_str() {
+            assert!(
+                candidates.contains(&truth),
+                "{case}: the truth {truth} is not among {candidates:?}"
+            );
+        }
+        assert!(
+            out.stderr.contains("the trunk may be ")
+                && out
+                    .stderr
+                    .contains("(identify it before planning on: host-tool identify)"),
+            "{case}: {}",
+            out.stderr
+        );
+    }
+}

@@ -72,6 +72,8 @@ pub struct Scenario {
     pub host_crashes: Vec<u64>,
     /// The operator's mistake at the first manual step.
     pub mistake: Option<Mistake>,
+    /// The operator stops the run under way (virtual ms; Ctrl-C): the next attempt resumes it.
+    pub stops: Vec<u64>,
     /// The trunk (the calibrated one, or one drawn around it: [`ScenarioOptions`]).
     pub trunk: TrunkSpec,
     /// The spread its trunk was drawn with (0: the base trunk itself).
@@ -174,6 +176,9 @@ impl Scenario {
             )),
             _ => None,
         };
+        // Drawn last: the draws above, and so every older scenario's other ingredients, are
+        // unchanged.
+        let stops = times(&mut rng, 0.1);
         Self {
             seed,
             initial,
@@ -183,6 +188,7 @@ impl Scenario {
             power_cuts,
             host_crashes,
             mistake,
+            stops,
             trunk: TrunkSpec::pdf(),
             trunk_spread: 0.0,
             trunk_redraws: 0,
@@ -213,6 +219,11 @@ impl Scenario {
         for i in 0..self.host_crashes.len() {
             let mut s = self.clone();
             s.host_crashes.remove(i);
+            out.push(s);
+        }
+        for i in 0..self.stops.len() {
+            let mut s = self.clone();
+            s.stops.remove(i);
             out.push(s);
         }
         if self.line_noise > 0.0 {
@@ -253,6 +264,9 @@ impl Scenario {
         }
         if let Some(m) = self.mistake {
             let _ = write!(t, ", operator {m:?}");
+        }
+        for at in &self.stops {
+            let _ = write!(t, ", operator stop at {at} ms");
         }
         if self.trunk_spread > 0.0 {
             let base = TrunkSpec::pdf();
@@ -403,6 +417,19 @@ impl Checker {
         // Whenever the device says confirmed, it is the truth (outside a step, once settled).
         let idle = !matches!(status.mode, Mode::Running | Mode::WaitingManual);
         let wrong = status.state_confirmed && truth.true_state != Some(status.state);
+        // While a step runs, no status claims a state the trunk is not in, at any instant: a
+        // step that moves the trunk reports it moving (unconfirmed).
+        if !idle && wrong {
+            self.violate(
+                t,
+                "moving-confirmed",
+                format!(
+                    "while a step runs the device reports {} confirmed; the trunk is {}",
+                    status.state,
+                    truth.true_state.map_or("between states", |s| s.name())
+                ),
+            );
+        }
         if idle && wrong {
             let since = *self.disagree_since.get_or_insert(t);
             if t - since > SETTLE_MS {
@@ -472,13 +499,20 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
         ..Checker::default()
     }));
     let crash = Rc::new(RefCell::new(false));
+    let stop = Rc::new(RefCell::new(false));
+    // Power cuts, host crashes and stops so far: an attempt they did not touch is judged for
+    // liveness.
+    let upsets = Rc::new(RefCell::new(0_u32));
     let mut io = SimIo::new(sim);
     {
         let checker = Rc::clone(&checker);
         let crash = Rc::clone(&crash);
+        let stop = Rc::clone(&stop);
+        let upsets = Rc::clone(&upsets);
         let mut faults = scenario.faults.clone();
         let mut cuts = scenario.power_cuts.clone();
         let mut crashes = scenario.host_crashes.clone();
+        let mut stops = scenario.stops.clone();
         io.monitor = Some(Box::new(move |sim: &mut Sim| {
             let t = sim.now_ms();
             faults.retain(|(f, at)| {
@@ -493,6 +527,7 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
             let before = cuts.len();
             cuts.retain(|at| t < *at);
             if cuts.len() < before {
+                *upsets.borrow_mut() += 1;
                 sim.power_cycle();
                 let mut c = checker.borrow_mut();
                 c.note(t, "power cut");
@@ -501,7 +536,14 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
             let before = crashes.len();
             crashes.retain(|at| t < *at);
             if crashes.len() < before {
+                *upsets.borrow_mut() += 1;
                 *crash.borrow_mut() = true;
+            }
+            let before = stops.len();
+            stops.retain(|at| t < *at);
+            if stops.len() < before {
+                *upsets.borrow_mut() += 1;
+                *stop.borrow_mut() = true;
             }
             checker.borrow_mut().check(sim);
         }));
@@ -513,13 +555,37 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
     for &target in &scenario.targets {
         for _attempt in 0..ATTEMPTS_PER_TARGET {
             first_seq = first_seq.wrapping_add(0x1111).max(1);
+            let upsets_before = *upsets.borrow();
+            let start_truth = io.sim.ground_truth().true_state;
+            let start_ms = io.sim.now_ms();
             let mut driver = Driver::new(Host::new(Timing::standard(), first_seq), &mut io);
-            let result = play_target(&mut driver, target, &crash, &checker, takeover);
+            let result = play_target(&mut driver, target, &crash, &stop, &checker, takeover);
             takeover = matches!(result, Played::Crashed);
             if takeover {
                 driver.vanish();
             } else {
                 drop(driver);
+            }
+            // Liveness: on the calibrated trunk, with no fault, noise or operator mistake in
+            // the scenario, an attempt that starts at a named state and that no power cut,
+            // host crash or stop touches reaches its target (a resumed plan after a stop
+            // among them: the state it starts from is identified first).
+            let clean = scenario.faults.is_empty()
+                && scenario.line_noise == 0.0
+                && scenario.mistake.is_none()
+                && scenario.trunk == TrunkSpec::pdf()
+                && start_truth.is_some()
+                && *upsets.borrow() == upsets_before;
+            if clean && matches!(result, Played::Failed) {
+                checker.borrow_mut().violate(
+                    io.sim.now_ms(),
+                    "liveness",
+                    format!(
+                        "the run toward {target} that started at {start_ms} ms from {} with \
+                         nothing upsetting it did not reach its target",
+                        start_truth.map_or("between states", |s| s.name())
+                    ),
+                );
             }
             match result {
                 Played::Reached => {
@@ -558,6 +624,7 @@ fn play_target(
     d: &mut Driver<&mut SimIo>,
     target: TrunkState,
     crash: &RefCell<bool>,
+    stop: &RefCell<bool>,
     checker: &RefCell<Checker>,
     takeover: bool,
 ) -> Played {
@@ -581,6 +648,11 @@ fn play_target(
             *crash.borrow_mut() = false;
             checker.borrow_mut().note(d.io.sim.now_ms(), "host crash");
             return Played::Crashed;
+        }
+        if std::mem::take(&mut *stop.borrow_mut()) {
+            let now = d.io.sim.now_ms();
+            checker.borrow_mut().note(now, "operator stop");
+            d.host.cancel("the operator stopped it", now);
         }
         if d.io.sim.now_ms() - start > bound_ms {
             checker.borrow_mut().violate(
@@ -666,6 +738,25 @@ fn play_target(
                             out.error().unwrap_or("")
                         ),
                     );
+                    // Unconfirmed, the host's candidates hold the truth (after a lost link too:
+                    // a script may declare the only one).
+                    if let Some(t) =
+                        truth.filter(|t| !out.state_confirmed && !out.candidates.contains(*t))
+                    {
+                        checker.borrow_mut().violate(
+                            d.io.sim.now_ms(),
+                            "host-candidates-truth",
+                            format!(
+                                "the host reports {} unconfirmed, may be {}; the trunk is {t}",
+                                out.final_state.map_or("nothing", |s| s.name()),
+                                out.candidates
+                                    .iter()
+                                    .map(|s| s.name())
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ),
+                        );
+                    }
                     if out.state_confirmed && out.final_state.is_some() && out.final_state != truth
                     {
                         checker.borrow_mut().violate(

@@ -13,8 +13,8 @@ use std::collections::VecDeque;
 
 use geometry::TrunkState;
 use protocol::{
-    Event, FaultCode, ManualTask, Mode, PlanPhase, RejectReason, RequestBody, ResponseBody, Status,
-    StepKind,
+    Event, FaultCode, ManualTask, Mode, PlanPhase, RejectReason, RequestBody, ResponseBody,
+    StateSet, Status, StepKind,
 };
 use transition_graph::{kind_name, Graph, Plan};
 
@@ -195,6 +195,12 @@ pub struct Outcome {
     /// Whether the device had confirmed `final_state` when it reported it last. A run that
     /// ended without a fresh status (lost link) reports `false`: the last report is stale.
     pub state_confirmed: bool,
+    /// The states the trunk may be in: `{final_state}` when confirmed; unconfirmed, the
+    /// device's own candidates from a fresh status, or — when the run ended without one (a lost
+    /// link) — the last report's candidates widened by the reach
+    /// ([`protocol::transitions::reach`]) of every plan step the device may have run since.
+    /// All six states: unknown (the device never answered).
+    pub candidates: StateSet,
     /// The last status the device sent.
     pub last_status: Option<Status>,
     /// Every step started, across replans, in order.
@@ -347,6 +353,22 @@ enum Wait {
     Done,
 }
 
+impl Wait {
+    /// Whether the request out in this wait is a `GetStatus`.
+    fn asks_status(self) -> bool {
+        matches!(
+            self,
+            Wait::Status
+                | Wait::StatusAfterReset
+                | Wait::StatusAfterTakeover
+                | Wait::StatusAfterIdentify
+                | Wait::OperatorPoll
+                | Wait::Poll
+                | Wait::StatusAfterAbort
+        )
+    }
+}
+
 /// The plan being followed.
 #[derive(Debug, Clone)]
 struct Following {
@@ -387,7 +409,12 @@ pub struct PlanRunner {
     status_fresh: bool,
     probing_noted: bool,
     prompted_identify: bool,
+    /// Identifications in a row that left the state unconfirmed.
     identify_requests: u32,
+    /// The steps that ended without evidence (`TransitionNotConfirmed`, their target a
+    /// candidate) and were identified to go on: each edge at most twice in a run (a step that
+    /// keeps leaving the trunk where it was is not tried forever).
+    unvouched: Vec<(TrunkState, TrunkState)>,
 }
 
 impl PlanRunner {
@@ -407,6 +434,7 @@ impl PlanRunner {
             abort_reason: None,
             out: Outcome {
                 target: Some(target),
+                candidates: StateSet::ALL,
                 ..Outcome::default()
             },
             events: VecDeque::new(),
@@ -417,6 +445,7 @@ impl PlanRunner {
             probing_noted: false,
             prompted_identify: false,
             identify_requests: 0,
+            unvouched: Vec::new(),
         }
     }
 
@@ -605,6 +634,15 @@ impl PlanRunner {
                 let reply = reply.clone();
                 self.on_reply(session, reply.result, reply.body, now_ms);
             }
+            SessionEvent::Failed {
+                id,
+                error: SessionError::Preempted { .. },
+            } if Some(*id) == self.waiting_on && self.wait.asks_status() => {
+                // An urgent request (an abort from another terminal through `serve`, or the
+                // crane's own) went out ahead of this status request: a status changes nothing,
+                // so it is asked again, and the one after tells what the abort did.
+                self.waiting_on = Some(session.request(RequestBody::GetStatus, now_ms));
+            }
             SessionEvent::Failed { id, error } if Some(*id) == self.waiting_on => {
                 self.waiting_on = None;
                 self.on_failed(error);
@@ -679,14 +717,55 @@ impl PlanRunner {
         }) && !self.status_fresh
         {
             self.out.state_confirmed = false;
+            self.out.candidates = self.out.candidates.union(self.stale_candidates());
+        }
+        if let Some(f) = failure.as_mut().filter(|_| !self.out.state_confirmed) {
+            if f.kind == FailureKind::LinkLost {
+                f.message = format!(
+                    "{}; {} (identify it before planning on: host-tool identify)",
+                    f.message,
+                    text::may_be(self.out.candidates)
+                );
+            }
         }
         self.out.failure = failure;
         self.events.push_back(RunEvent::Finished);
     }
 
+    /// What the trunk may be when no fresh status will say: the last report's candidates (all
+    /// six states if the device never answered) and the reach of every step of a plan the device
+    /// may be running (widened by the air the last report saw sealed in the trunk), from the first step not reported done to the end (a step's end may have
+    /// gone unheard, and a device that lost its host aborts the step it is in).
+    fn stale_candidates(&self) -> StateSet {
+        let mut set = match &self.out.last_status {
+            Some(_) => self.out.candidates,
+            None => StateSet::ALL,
+        };
+        let running = self
+            .following
+            .as_ref()
+            .filter(|f| f.started || self.wait == Wait::Start)
+            .into_iter()
+            .chain(self.stopped.as_ref().map(|(run, _)| run));
+        // The air last reported in the trunk may act when a step lets a module go.
+        let sealed_kpa = self
+            .out
+            .last_status
+            .as_ref()
+            .map_or(f32::NAN, |s| s.pressure_kpa);
+        for run in running {
+            for step in run.plan.steps().iter().skip(run.current) {
+                let reach = protocol::transitions::reach_sealed(&step.to_protocol(), sealed_kpa);
+                set = set.union(reach);
+            }
+        }
+        set
+    }
+
     fn on_failed(&mut self, error: &SessionError) {
         // Nothing fresh will come: the last report is stale.
         self.out.state_confirmed = false;
+        self.out.candidates = self.stale_candidates();
         let context = match self.current_step() {
             Some(s) if self.following.is_some() => format!("during {s}"),
             _ => match self.wait {
@@ -741,6 +820,11 @@ impl PlanRunner {
     fn record_status(&mut self, status: &Status) {
         self.out.final_state = Some(status.state);
         self.out.state_confirmed = status.state_confirmed;
+        self.out.candidates = if status.state_confirmed {
+            StateSet::single(status.state)
+        } else {
+            status.candidates.with(status.state)
+        };
         self.out.last_status = Some(status.clone());
         self.status_fresh = true;
     }
@@ -932,6 +1016,7 @@ impl PlanRunner {
                     .abort_reason
                     .take()
                     .unwrap_or_else(|| RunFailure::new(FailureKind::Aborted, "aborted"));
+                let stale = self.stale_candidates();
                 let stopped = self.stopped.take();
                 match reply.status() {
                     Ok(st) => {
@@ -951,6 +1036,7 @@ impl PlanRunner {
                             self.following = None;
                         }
                         self.out.state_confirmed = false;
+                        self.out.candidates = stale;
                         f.message = format!(
                             "{}; abort acknowledged, no status after it ({e})",
                             f.message
@@ -1062,6 +1148,9 @@ impl PlanRunner {
             )));
             return self.ask(session, Wait::Identify, RequestBody::Identify, now_ms);
         }
+        // Confirmed: whatever identification led here worked (a later blind step may need
+        // its own).
+        self.identify_requests = 0;
         if matches!(after, Wait::StatusAfterIdentify | Wait::OperatorPoll) && !self.out.identified {
             self.out.identified = true;
             self.events.push_back(RunEvent::Note(format!(
@@ -1324,8 +1413,14 @@ impl PlanRunner {
                 if fault == FaultCode::TransitionNotConfirmed
                     && !st.state_confirmed
                     && st.candidates.contains(step.to)
-                    && self.identify_requests < 2
+                    && self
+                        .unvouched
+                        .iter()
+                        .filter(|e| **e == (step.from, step.to))
+                        .count()
+                        < 2
                 {
+                    self.unvouched.push((step.from, step.to));
                     self.following = None;
                     self.out.replans += 1;
                     self.events.push_back(RunEvent::Note(format!(

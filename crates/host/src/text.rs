@@ -251,6 +251,19 @@ fn states(set: StateSet) -> String {
     names.join(" ")
 }
 
+/// What an unconfirmed report says of the trunk: `the trunk may be F&P, F&F or D&F`, or (all six
+/// states) `the trunk's state is unknown`.
+pub fn may_be(set: StateSet) -> String {
+    let names: Vec<&str> = set.iter().map(|s| s.name()).collect();
+    match names.split_last() {
+        Some((last, init)) if set != StateSet::ALL => match init {
+            [] => format!("the trunk may be {last}"),
+            _ => format!("the trunk may be {} or {last}", init.join(", ")),
+        },
+        _ => "the trunk's state is unknown".to_string(),
+    }
+}
+
 fn step_text(s: &Step) -> String {
     format!("{} → {} {}", s.from, s.to, kind_name(s.kind))
 }
@@ -306,6 +319,9 @@ fn status_text(s: &Status) -> String {
         s.servo_deg[2]
     );
     if !s.state_confirmed {
+        if let (Mode::Running | Mode::WaitingManual, Some(step)) = (s.mode, s.interrupted) {
+            t += &format!(", moving {} → {}", step.from, step.to);
+        }
         t += &format!(", may be {}", states(s.candidates));
     }
     if let Some(p) = &s.plan {

@@ -20,7 +20,7 @@
 
 use geometry::{BottomState, TopState, TrunkState};
 
-use crate::messages::{ManualTask, Primitive, Step, StepKind, MAX_STEP_PRIMITIVES};
+use crate::messages::{ManualTask, Primitive, StateSet, Step, StepKind, MAX_STEP_PRIMITIVES};
 
 /// One directed edge of the trunk's state graph.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -156,6 +156,99 @@ pub fn step_down(state: TrunkState) -> Option<&'static Transition> {
         .find(|t| t.from == state && t.kind == StepKind::Tendon)
 }
 
+/// What one hand task (fold the top, fold the bottom, pack the bottom) makes of each state, by
+/// [`TrunkState::index`] (bit per index: F&P, F&F, F&D, D&P, D&F, D&D), the state itself
+/// included: F&P {F&P, F&F}, F&F {F&F, F&P}, F&D {F&D, F&F, F&P}, D&P {D&P, F&P, D&F},
+/// D&F {D&F, F&F, D&P}, D&D {D&D, F&D, D&F, D&P} (a unit test derives it).
+pub const HAND_REACH: [u8; 6] = [0b000011, 0b000011, 0b000111, 0b011001, 0b011010, 0b111100];
+
+/// The states reached from `from` by following `next` (the same actuation, snap after snap).
+fn chain(from: TrunkState, next: fn(TrunkState) -> Option<&'static Transition>) -> StateSet {
+    let mut set = StateSet::single(from);
+    let mut at = from;
+    // At most one pass per state: the chains of the table end.
+    for _ in 0..TrunkState::ALL.len() {
+        match next(at) {
+            Some(e) => {
+                set = set.with(e.to);
+                at = e.to;
+            }
+            None => break,
+        }
+    }
+    set
+}
+
+/// Sealed pressure (kPa) at or above which the air in the trunk may snap a module up once a step
+/// lets it go (a pull releasing a folded top that the limp tendons held): the identification
+/// probe's own fill, a third of the calibrated trunk's lowest snap (13.1 kPa).
+pub const SEALED_ACTS_KPA: f32 = 4.0;
+
+/// [`reach`] of a step that starts with `sealed_kpa` in the trunk: at or above
+/// [`SEALED_ACTS_KPA`], also every state that air may push each of its states up to (the swarm
+/// found a fold F&D → F&F started with 28.6 kPa left sealed by an interrupted pull: the top
+/// popped at once, D&D, outside the fold's reach).
+pub fn reach_sealed(step: &Step, sealed_kpa: f32) -> StateSet {
+    let set = reach(step);
+    if sealed_kpa < SEALED_ACTS_KPA {
+        return set;
+    }
+    set.iter().fold(set, |all, s| all.union(chain(s, step_up)))
+}
+
+/// Every state a trunk resting in `state` may be in after a change nobody commanded (a snap at
+/// rest, or air coming in through a valve stuck open): what air makes of it (up its pneumatic
+/// chain) and what a load does (down its tendon chain: a collapse).
+pub fn rest_reach(state: TrunkState) -> StateSet {
+    chain(state, step_up).union(chain(state, step_down))
+}
+
+/// Whether `step` inflates (`.0`) and whether it pulls the tendons (`.1`).
+fn actuation(step: &Step) -> (bool, bool) {
+    step.primitives
+        .iter()
+        .fold((false, false), |(kpa, mm), p| match p {
+            Primitive::Inflate { .. } => (true, mm),
+            Primitive::TendonPull { .. } => (kpa, true),
+            _ => (kpa, mm),
+        })
+}
+
+/// Every state an interrupted `step` may have left the trunk in: `from`, `to`, and every state
+/// further along the same actuation (an inflation may go on snapping up to the cap, a pull
+/// whose snap went unseen goes on to buckle the next module). A manual step: `from`, `to`, or
+/// what any one hand task makes of `from` (a person may fold the wrong module: fold the top,
+/// fold or pack the bottom).
+pub fn reach(step: &Step) -> StateSet {
+    let mut set = StateSet::single(step.from).with(step.to);
+    let by_hand = step.kind == StepKind::Manual
+        || step
+            .primitives
+            .iter()
+            .any(|p| matches!(p, Primitive::Manual(_)));
+    if by_hand {
+        set = set.union(StateSet(HAND_REACH[step.from.index()]));
+    }
+    if step.kind == StepKind::Manual {
+        return set;
+    }
+    let (kpa, mm) = actuation(step);
+    if kpa {
+        set = set.union(chain(step.from, step_up));
+    }
+    if mm {
+        let folds = chain(step.from, step_down);
+        set = set.union(folds);
+        if step.from.bottom == BottomState::Packed {
+            // The sealed spike of a fold over a packed bottom may unpack it.
+            for s in folds.iter() {
+                set = set.union(chain(s, step_up));
+            }
+        }
+    }
+    set
+}
+
 impl Transition {
     /// The wire form of this transition as one plan step.
     pub fn step(&self) -> Step {
@@ -177,6 +270,18 @@ impl Transition {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn s(name: &str) -> TrunkState {
+        name.parse().unwrap()
+    }
+
+    fn set(names: &[&str]) -> StateSet {
+        names.iter().fold(StateSet::EMPTY, |a, n| a.with(s(n)))
+    }
+
+    fn nominal(from: &str, to: &str) -> Step {
+        transition(s(from), s(to)).unwrap().step()
+    }
 
     #[test]
     fn every_state_reaches_every_other_state() {
@@ -231,5 +336,67 @@ mod tests {
         assert_eq!(step_down(DD).map(|t| t.to), Some(FD));
         assert!(step_up(DD).is_none());
         assert!(step_down(FP).is_none());
+    }
+    #[test]
+    fn the_reach_of_every_nominal_edge_holds_its_overshoots() {
+        let cases = [
+            // Pneumatic: the inflation may go on snapping up its chain to the cap.
+            ("F&P", "F&F", &["F&P", "F&F", "D&F", "D&D"][..]),
+            ("D&P", "D&F", &["D&P", "D&F", "D&D"]),
+            ("F&F", "D&F", &["F&F", "D&F", "D&D"]),
+            ("F&D", "D&D", &["F&D", "D&D"]),
+            ("D&F", "D&D", &["D&F", "D&D"]),
+            // Tendon: a pull whose snap went unseen goes on down its chain.
+            ("D&D", "F&D", &["D&D", "F&D", "F&F", "F&P"]),
+            ("D&F", "F&F", &["D&F", "F&F", "F&P"]),
+            // Over a packed bottom: the fold's spike may unpack it, and the pressure go on.
+            ("D&P", "F&P", &["D&P", "F&P", "F&F", "D&F", "D&D"]),
+            ("F&D", "F&F", &["F&D", "F&F", "F&P"]),
+            ("F&F", "F&P", &["F&F", "F&P"]),
+            // By hand: the task asked, or any other one by mistake (fold the top: F&F).
+            ("D&F", "D&P", &["D&F", "D&P", "F&F"]),
+        ];
+        for (from, to, want) in cases {
+            assert_eq!(reach(&nominal(from, to)), set(want), "{from} -> {to}");
+        }
+    }
+
+    #[test]
+    fn the_hand_reach_is_what_one_hand_task_makes_of_each_state() {
+        use geometry::{BottomState, TopState};
+        for from in TrunkState::ALL {
+            let want = [
+                from,
+                TrunkState::new(TopState::Folded, from.bottom),
+                TrunkState::new(from.top, BottomState::Folded),
+                TrunkState::new(from.top, BottomState::Packed),
+            ]
+            .into_iter()
+            .fold(StateSet::EMPTY, StateSet::with);
+            assert_eq!(StateSet(HAND_REACH[from.index()]), want, "{from}");
+        }
+    }
+
+    #[test]
+    fn air_left_sealed_widens_a_fold_by_what_it_may_pop() {
+        let fold = nominal("F&D", "F&F");
+        assert_eq!(reach_sealed(&fold, 0.4), reach(&fold));
+        assert_eq!(reach_sealed(&fold, 3.9), reach(&fold));
+        // Each of F&D, F&F, F&P may be pushed up its chain: D&D, D&F and F&F's chain.
+        assert_eq!(
+            reach_sealed(&fold, 28.6),
+            set(&["F&D", "F&F", "F&P", "D&D", "D&F"])
+        );
+        // A reading that is no number widens too (nothing is known of the air).
+        assert_eq!(reach_sealed(&fold, f32::NAN), reach_sealed(&fold, 28.6));
+        let pack = nominal("F&F", "F&P");
+        assert!(reach_sealed(&pack, 10.0).contains(s("D&D")));
+    }
+
+    #[test]
+    fn a_change_at_rest_may_go_either_way_along_the_chains() {
+        assert_eq!(rest_reach(s("D&P")), set(&["D&P", "D&F", "D&D", "F&P"]));
+        assert_eq!(rest_reach(s("F&P")), set(&["F&P", "F&F", "D&F", "D&D"]));
+        assert_eq!(rest_reach(s("D&D")), set(&["D&D", "F&D", "F&F", "F&P"]));
     }
 }

@@ -15,14 +15,9 @@
 //! of this design.
 
 use geometry::TrunkState;
-use protocol::transitions::{step_down, step_up, Transition as Edge};
-use protocol::{Primitive, StateSet, Step, StepKind};
-
-/// What one hand task (fold the top, fold the bottom, pack the bottom) makes of each state, by
-/// [`TrunkState::index`] (bit per index: F&P, F&F, F&D, D&P, D&F, D&D), the state itself
-/// included: F&P {F&P, F&F}, F&F {F&F, F&P}, F&D {F&D, F&F, F&P}, D&P {D&P, F&P, D&F},
-/// D&F {D&F, F&F, D&P}, D&D {D&D, F&D, D&F, D&P} (a unit test derives it).
-pub const HAND_REACH: [u8; 6] = [0b000011, 0b000011, 0b000111, 0b011001, 0b011010, 0b111100];
+pub use protocol::transitions::{reach, HAND_REACH};
+use protocol::transitions::{step_down, step_up};
+use protocol::StateSet;
 
 /// Highest pressure (kPa) under which a step certainly left the trunk where it was: the
 /// identification probe's own fill pressure, under a third of the calibrated trunk's lowest
@@ -33,69 +28,6 @@ pub const UNTOUCHED_KPA: f32 = super::identify::PROBE_KPA;
 /// tendons are taut from the first millimetre, and 1 mm compresses the deployed trunk by a
 /// few newtons (its modules' 16–20 N/mm in series), far from the top's buckling (75 N).
 pub const UNTOUCHED_MM: f32 = 1.0;
-
-/// The states reached from `from` by following `next` (the same actuation, snap after snap).
-fn chain(from: TrunkState, next: fn(TrunkState) -> Option<&'static Edge>) -> StateSet {
-    let mut set = StateSet::single(from);
-    let mut at = from;
-    // At most one pass per state: the chains of the table end.
-    for _ in 0..TrunkState::ALL.len() {
-        match next(at) {
-            Some(e) => {
-                set = set.with(e.to);
-                at = e.to;
-            }
-            None => break,
-        }
-    }
-    set
-}
-
-/// Whether `step` inflates (`.0`) and whether it pulls the tendons (`.1`).
-fn actuation(step: &Step) -> (bool, bool) {
-    step.primitives
-        .iter()
-        .fold((false, false), |(kpa, mm), p| match p {
-            Primitive::Inflate { .. } => (true, mm),
-            Primitive::TendonPull { .. } => (kpa, true),
-            _ => (kpa, mm),
-        })
-}
-
-/// Every state an interrupted `step` may have left the trunk in: `from`, `to`, and every state
-/// further along the same actuation (an inflation may go on snapping up to the cap, a pull
-/// whose snap went unseen goes on to buckle the next module). A manual step: `from`, `to`, or
-/// what any one hand task makes of `from` (a person may fold the wrong module: fold the top,
-/// fold or pack the bottom).
-pub fn reach(step: &Step) -> StateSet {
-    let mut set = StateSet::single(step.from).with(step.to);
-    let by_hand = step.kind == StepKind::Manual
-        || step
-            .primitives
-            .iter()
-            .any(|p| matches!(p, Primitive::Manual(_)));
-    if by_hand {
-        set = set.union(StateSet(HAND_REACH[step.from.index()]));
-    }
-    if step.kind == StepKind::Manual {
-        return set;
-    }
-    let (kpa, mm) = actuation(step);
-    if kpa {
-        set = set.union(chain(step.from, step_up));
-    }
-    if mm {
-        let folds = chain(step.from, step_down);
-        set = set.union(folds);
-        if step.from.bottom == geometry::BottomState::Packed {
-            // The sealed spike of a fold over a packed bottom may unpack it.
-            for s in folds.iter() {
-                set = set.union(chain(s, step_up));
-            }
-        }
-    }
-    set
-}
 
 /// Whether a step from `from` that reached at most `peak_kpa` (filtered, valid readings
 /// throughout) and `peak_pull_mm` (commanded, which the servos never exceed) certainly left the
@@ -201,6 +133,7 @@ impl Belief {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use protocol::Step;
 
     fn s(name: &str) -> TrunkState {
         name.parse().unwrap()
@@ -214,46 +147,6 @@ mod tests {
         protocol::transitions::transition(s(from), s(to))
             .unwrap()
             .step()
-    }
-
-    #[test]
-    fn the_reach_of_every_nominal_edge_holds_its_overshoots() {
-        let cases = [
-            // Pneumatic: the inflation may go on snapping up its chain to the cap.
-            ("F&P", "F&F", &["F&P", "F&F", "D&F", "D&D"][..]),
-            ("D&P", "D&F", &["D&P", "D&F", "D&D"]),
-            ("F&F", "D&F", &["F&F", "D&F", "D&D"]),
-            ("F&D", "D&D", &["F&D", "D&D"]),
-            ("D&F", "D&D", &["D&F", "D&D"]),
-            // Tendon: a pull whose snap went unseen goes on down its chain.
-            ("D&D", "F&D", &["D&D", "F&D", "F&F", "F&P"]),
-            ("D&F", "F&F", &["D&F", "F&F", "F&P"]),
-            // Over a packed bottom: the fold's spike may unpack it, and the pressure go on.
-            ("D&P", "F&P", &["D&P", "F&P", "F&F", "D&F", "D&D"]),
-            ("F&D", "F&F", &["F&D", "F&F", "F&P"]),
-            ("F&F", "F&P", &["F&F", "F&P"]),
-            // By hand: the task asked, or any other one by mistake (fold the top: F&F).
-            ("D&F", "D&P", &["D&F", "D&P", "F&F"]),
-        ];
-        for (from, to, want) in cases {
-            assert_eq!(reach(&nominal(from, to)), set(want), "{from} -> {to}");
-        }
-    }
-
-    #[test]
-    fn the_hand_reach_is_what_one_hand_task_makes_of_each_state() {
-        use geometry::{BottomState, TopState};
-        for from in TrunkState::ALL {
-            let want = [
-                from,
-                TrunkState::new(TopState::Folded, from.bottom),
-                TrunkState::new(from.top, BottomState::Folded),
-                TrunkState::new(from.top, BottomState::Packed),
-            ]
-            .into_iter()
-            .fold(StateSet::EMPTY, StateSet::with);
-            assert_eq!(StateSet(HAND_REACH[from.index()]), want, "{from}");
-        }
     }
 
     #[test]

@@ -2,7 +2,8 @@
 
 use heapless::Vec;
 use protocol::{
-    Event, FaultCode, PlanPhase, PlanStatus, Primitive, Step, StepKind, MAX_STEP_PRIMITIVES,
+    Event, FaultCode, PlanPhase, PlanStatus, Primitive, StateSet, Step, StepKind,
+    MAX_STEP_PRIMITIVES,
 };
 
 use super::belief::{self, Belief};
@@ -255,6 +256,9 @@ pub(super) struct Exec {
     peak_kpa: f32,
     peak_pull_mm: f32,
     readings_valid: bool,
+    /// Every state the current step may leave the trunk in: its reach, widened by what the air
+    /// sealed in the trunk when it started may do (`transitions::reach_sealed`).
+    pub(super) reach: StateSet,
 }
 
 /// What a primitive's progress check decided.
@@ -343,7 +347,8 @@ impl Controller {
         self.joystick.armed = false;
         self.joystick.used_raw = None;
         let pre_release = self.pre_release_needed(plan.steps.first());
-        let journal = self.journal_step(plan.steps.first());
+        let reach = self.step_reach(plan.steps.first());
+        let journal = self.journal_step(plan.steps.first(), reach);
         self.exec = Some(Exec {
             plan,
             origin,
@@ -373,6 +378,7 @@ impl Controller {
             peak_kpa: 0.0,
             peak_pull_mm: 0.0,
             readings_valid: true,
+            reach,
         });
         self.advance_exec();
         self.update_outputs();
@@ -429,14 +435,21 @@ impl Controller {
         }
     }
 
-    /// Journals `step` (pending `from → to` with the states it may end in) ahead of its first
-    /// actuation; returns the record's number, or `None` for a step within one state.
-    fn journal_step(&mut self, step: Option<&Step>) -> Option<u32> {
+    /// The states `step` may leave the trunk in, starting now (empty for none).
+    fn step_reach(&self, step: Option<&Step>) -> StateSet {
+        step.map_or(StateSet::EMPTY, |s| {
+            protocol::transitions::reach_sealed(s, self.pressure.filt_kpa)
+        })
+    }
+
+    /// Journals `step` (pending `from → to` with `reach`, the states it may end in) ahead of its
+    /// first actuation; returns the record's number, or `None` for a step within one state.
+    fn journal_step(&mut self, step: Option<&Step>, reach: StateSet) -> Option<u32> {
         let step = step.filter(|s| s.from != s.to)?;
         Some(self.store(StoredState {
             state: step.from,
             confirmed: false,
-            candidates: belief::reach(step),
+            candidates: reach,
             pending: Some(protocol::Transition {
                 from: step.from,
                 to: step.to,
@@ -457,7 +470,7 @@ impl Controller {
         if e.by_hand {
             // A person's hands leave no trace in the actuation: what the check's probe
             // measured (if it ran) narrows the step's reach, nothing else.
-            let mut b = Belief::unconfirmed(step.from, belief::reach(step), pending);
+            let mut b = Belief::unconfirmed(step.from, e.reach, pending);
             if let (Some(log), Some(profile)) = (self.ident.probe, self.cfg.probe_profile) {
                 b.narrow(log.verdict(b.candidates(), &profile));
             }
@@ -485,7 +498,7 @@ impl Controller {
             .get(e.prim as usize)
             .is_some_and(|p| e.snaps_all_seen(*p));
         let guess = if snapped { step.to } else { step.from };
-        Some(Belief::unconfirmed(guess, belief::reach(step), pending))
+        Some(Belief::unconfirmed(guess, e.reach, pending))
     }
 
     /// Ends the running plan (if any) with `phase`, reporting the step and the plan.
@@ -1077,7 +1090,7 @@ impl Controller {
             return;
         };
         let (from, to) = (step.from, step.to);
-        let reach = belief::reach(step);
+        let reach = e.reach;
         let (plan_id, idx, evidence) = (e.plan.plan_id, e.step, e.evidence);
         let duration_ms = now.saturating_sub(e.step_start_ms) as u32;
         let n_steps = e.plan.steps.len();
@@ -1156,8 +1169,10 @@ impl Controller {
             .as_ref()
             .and_then(|e| e.plan.steps.get(next))
             .cloned();
-        let journal = self.journal_step(next_step.as_ref());
+        let reach = self.step_reach(next_step.as_ref());
+        let journal = self.journal_step(next_step.as_ref(), reach);
         if let Some(e) = self.exec.as_mut() {
+            e.reach = reach;
             e.pre_release = pre_release;
             e.journal = journal;
             e.journaled = journal.is_none();

@@ -35,7 +35,7 @@ use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
     DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request,
-    ResetCause, Status, Telemetry,
+    ResetCause, StateSet, Status, Telemetry,
 };
 
 use crate::config::CraneConfig;
@@ -58,6 +58,11 @@ pub const PROGRESS_PERIOD_MS: u64 = 100;
 /// a snap may complete after the valves closed; both drop a sealed trunk's pressure without
 /// any leak.
 pub const LEAK_SETTLE_MS: u64 = 5_000;
+/// At rest, a confirmed state stops being vouched for when the air in the trunk rises this much
+/// above the lowest it held since (and to [`protocol::transitions::SEALED_ACTS_KPA`] or more): gas
+/// is coming in (a valve stuck open), and it may snap a module up. A load pressing on the sealed
+/// trunk raises it less (the 5.7 kg of §6.5 on D&D: under 1 kPa in the simulator).
+pub const REST_RISE_KPA: f32 = 4.0;
 /// A step waits at most this long for its journal record to be persisted before its first
 /// actuation; then the StateStorage fault is raised (the crane does not move the trunk without a
 /// record a reset could boot from).
@@ -250,6 +255,8 @@ pub struct Controller {
     pressure: Pressure,
     snap: SnapDetector,
     last_snap_ms: Option<u64>,
+    /// At rest with the state confirmed: the lowest pressure since (the rest watch's floor).
+    rest_floor_kpa: Option<f32>,
     leak: LeakWatch,
     inlet: InletWatch,
     buttons: Buttons,
@@ -350,6 +357,7 @@ impl Controller {
             },
             snap: SnapDetector::new(),
             last_snap_ms: None,
+            rest_floor_kpa: None,
             leak: LeakWatch::default(),
             inlet: InletWatch::default(),
             buttons: Buttons::default(),
@@ -594,11 +602,12 @@ impl Controller {
     /// The status snapshot (the one `GetStatus` returns).
     pub fn status(&self) -> Status {
         let stats = self.decoder.stats();
+        let (state_confirmed, candidates, interrupted) = self.reported_belief();
         Status {
             state: self.belief.state(),
-            state_confirmed: self.belief.is_confirmed(),
-            candidates: self.belief.candidates(),
-            interrupted: self.belief.interrupted(),
+            state_confirmed,
+            candidates,
+            interrupted,
             mode: self.mode(),
             pressure_kpa: self.pressure.filt_kpa,
             servo_deg: self.outputs.servo_deg,
@@ -679,6 +688,37 @@ impl Controller {
     /// Whether the trunk state is confirmed.
     fn confirmed(&self) -> bool {
         self.belief.is_confirmed()
+    }
+
+    /// The step of a running plan that moves the trunk to another state, if one is under way,
+    /// and its reach.
+    fn moving_step(&self) -> Option<(&protocol::Step, StateSet)> {
+        let e = self.exec.as_ref()?;
+        let step = e.plan.steps.get(usize::from(e.step))?;
+        (step.from != step.to).then_some((step, e.reach))
+    }
+
+    /// What a report says of the state: the belief, except while a step moves the trunk — then
+    /// the trunk is between the step's ends or further along its reach, and the last confirmed
+    /// state (`state`, the step's `from`) is not claimed: unconfirmed, the step's reach as
+    /// candidates, the step as the one under way (`docs/firmware.md`,
+    /// "What a state report means").
+    fn reported_belief(&self) -> (bool, StateSet, Option<protocol::Transition>) {
+        match self.moving_step() {
+            Some((step, reach)) => (
+                false,
+                reach.with(self.belief.state()),
+                Some(protocol::Transition {
+                    from: step.from,
+                    to: step.to,
+                }),
+            ),
+            None => (
+                self.belief.is_confirmed(),
+                self.belief.candidates(),
+                self.belief.interrupted(),
+            ),
+        }
     }
 
     /// Takes `belief` as what is known; persists and reports it when it changed.
@@ -914,11 +954,13 @@ impl Controller {
         }
 
         // Snap-throughs.
-        if let Some(s) = self.snap.feed(p, now, &self.cfg.snap) {
+        let snapped = self.snap.feed(p, now, &self.cfg.snap);
+        if let Some(s) = snapped {
             self.last_snap_ms = Some(now);
             self.leak = LeakWatch::default();
             self.on_snap(s.sign);
         }
+        self.check_rest(p, snapped.is_some());
 
         self.check_leak(p);
         self.check_inlet(p);
@@ -1014,6 +1056,30 @@ impl Controller {
             }
         } else {
             self.leak.suspect_since_ms = None;
+        }
+    }
+
+    /// The rest watch: with no step running, a confirmed state changes only if something moved
+    /// the trunk — a snap the detector saw, or gas coming in ([`REST_RISE_KPA`]). Then the state
+    /// is unconfirmed, its candidates what a change at rest may make of it
+    /// (`transitions::rest_reach`): the swarm found valves stuck open unpacking a resting F&P and
+    /// D&P while the device held them confirmed.
+    fn check_rest(&mut self, p: f32, snapped: bool) {
+        if self.exec.is_some() || !self.belief.is_confirmed() {
+            self.rest_floor_kpa = None;
+            return;
+        }
+        let floor = self.rest_floor_kpa.map_or(p, |f| f.min(p));
+        self.rest_floor_kpa = Some(floor);
+        let filling = p >= protocol::transitions::SEALED_ACTS_KPA && p - floor >= REST_RISE_KPA;
+        if snapped || filling {
+            let state = self.belief.state();
+            self.rest_floor_kpa = None;
+            self.set_belief(Belief::unconfirmed(
+                state,
+                protocol::transitions::rest_reach(state),
+                None,
+            ));
         }
     }
 
@@ -1277,7 +1343,7 @@ impl Controller {
                 inlet_open: self.outputs.inlet_open,
                 exhaust_open: self.outputs.exhaust_open,
                 state: self.state(),
-                state_confirmed: self.confirmed(),
+                state_confirmed: self.reported_belief().0,
             };
             self.emit(Event::Telemetry(t));
             progress_due = true;

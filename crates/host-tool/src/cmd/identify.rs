@@ -119,11 +119,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let mut conn = device.connect()?;
     let out = identify(&mut conn);
     let truth = conn.close();
-    let candidates: Vec<&str> = out
-        .last_status
-        .as_ref()
-        .map(|s| s.candidates.iter().map(|c| c.name()).collect())
-        .unwrap_or_default();
+    let candidates: Vec<&str> = out.candidates.iter().map(|c| c.name()).collect();
     let v = json!({
         "ok": out.ok(),
         "state": out.final_state.map(|s| s.name()),

@@ -283,6 +283,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     refusal: None,
                     message: e.to_string(),
                 }),
+                candidates: protocol::StateSet::ALL,
                 ..Outcome::default()
             };
             return finish(&cfg, &out, truth);
@@ -435,10 +436,11 @@ fn reached(target: TrunkState, steps: usize, replans: u32) -> String {
     )
 }
 
-/// The `plan --json` object: `ok, from, target, final_state, state_confirmed, steps, error,
-/// failure (kind, step, fault_code, fault), sim`. `final_state` is the last state the device
-/// reported; `state_confirmed` says whether the device had confirmed it then — after a lost
-/// link it is `false`: the report is stale.
+/// The `plan --json` object: `ok, from, target, final_state, state_confirmed, candidates,
+/// steps, error, failure (kind, step, fault_code, fault), sim`. `final_state` is the last state
+/// the device reported; `state_confirmed` says whether the device had confirmed it then — after a
+/// lost link it is `false`: the report is stale, and `candidates` (present when unconfirmed) is
+/// every state the trunk may be in since (all six: unknown).
 pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
     let name = |s: Option<TrunkState>| s.map(|s| s.name());
     let failure = out.failure.as_ref().map(|f| {
@@ -464,11 +466,8 @@ pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
         "target": name(out.target),
         "final_state": name(out.final_state),
         "state_confirmed": out.state_confirmed,
-        "candidates": out
-            .last_status
-            .as_ref()
-            .filter(|_| !out.state_confirmed)
-            .map(|st| st.candidates.iter().map(|c| c.name()).collect::<Vec<_>>()),
+        "candidates": (!out.state_confirmed)
+            .then(|| out.candidates.iter().map(|c| c.name()).collect::<Vec<_>>()),
         "identified": out.identified,
         "steps": out.steps.iter().map(|s| json!({
             "kind": kind_name(s.kind),

@@ -1,7 +1,7 @@
 //! `host-tool status`: one snapshot of the device.
 
 use host::text;
-use protocol::{DeviceInfo, RequestBody, Status};
+use protocol::{DeviceInfo, Mode, RequestBody, Status};
 use serde_json::{json, Value};
 
 use crate::device::DeviceArgs;
@@ -129,6 +129,15 @@ pub fn belief_text(s: &Status) -> String {
     if s.state_confirmed {
         return format!("{} (confirmed)", s.state);
     }
+    if let (true, Some(t)) = (moving(s), s.interrupted) {
+        let may: Vec<&str> = s.candidates.iter().map(|c| c.name()).collect();
+        return format!(
+            "moving from {} toward {} (not confirmed while the step runs; may be any of {})",
+            t.from,
+            t.to,
+            may.join(", ")
+        );
+    }
     let may: Vec<&str> = s.candidates.iter().map(|c| c.name()).collect();
     format!(
         "{} NOT CONFIRMED: the trunk may be {}{}; `host-tool identify` or a plan identifies it \
@@ -210,6 +219,12 @@ fn status_text(s: &Status, info: &DeviceInfo) -> String {
     t
 }
 
+/// Whether the status is of a step moving the trunk (the device then names that step in
+/// `interrupted` and confirms no state).
+fn moving(s: &Status) -> bool {
+    !s.state_confirmed && matches!(s.mode, Mode::Running | Mode::WaitingManual)
+}
+
 /// The `status --json` object.
 pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> Value {
     let faults: Vec<Value> = protocol::FaultCode::ALL
@@ -221,7 +236,10 @@ pub fn status_json(s: &Status, info: &DeviceInfo, truth: Option<&SimTruth>) -> V
         "state": s.state.name(),
         "state_confirmed": s.state_confirmed,
         "candidates": s.candidates.iter().map(|c| c.name()).collect::<Vec<_>>(),
-        "interrupted": s.interrupted.map(|t| json!({"from": t.from.name(), "to": t.to.name()})),
+        // While a step runs the device names it as the step under way: `moving`, not an
+        // interruption.
+        "interrupted": s.interrupted.filter(|_| !moving(s)).map(|t| json!({"from": t.from.name(), "to": t.to.name()})),
+        "moving": s.interrupted.filter(|_| moving(s)).map(|t| json!({"from": t.from.name(), "to": t.to.name()})),
         "mode": text::mode(s.mode),
         "pressure_kpa": s.pressure_kpa,
         "servo_deg": s.servo_deg,

@@ -127,6 +127,37 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
         "the step inflates"
     );
 
+    // A status from another terminal mid-step: the step is moving the trunk, so no state is
+    // claimed confirmed (issue 26 item 2); the text says where from and toward what.
+    let out = cmd(&dir, &["status", "--json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let st: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(st["mode"], "running", "{st}");
+    assert_eq!(st["state_confirmed"], false, "{st}");
+    assert!(st["interrupted"].is_null(), "{st}");
+    let (from, to) = (
+        st["moving"]["from"].as_str().unwrap_or_else(|| panic!("no moving step: {st}")),
+        st["moving"]["to"].as_str().unwrap(),
+    );
+    assert_eq!(st["state"], from, "{st}");
+    let candidates: Vec<&str> = st["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c.as_str().unwrap())
+        .collect();
+    assert!(candidates.contains(&from) && candidates.contains(&to), "{st}");
+    if let Some(truth) = st["sim"]["true_state"].as_str() {
+        assert!(candidates.contains(&truth), "{truth} not among {candidates:?}");
+    }
+    let out = cmd(&dir, &["status"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(&format!("moving from {from} toward "))
+            && text.contains("not confirmed while the step runs"),
+        "{text}"
+    );
+
     // A second terminal: stop.
     let out = cmd(&dir, &["stop", "--json"]).output().unwrap();
     assert_eq!(

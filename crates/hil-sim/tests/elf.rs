@@ -314,6 +314,11 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
         upload <= PASS_BUDGET_CYCLES,
         "upload pass {upload} cycles > {PASS_BUDGET_CYCLES}"
     );
+    let one_pass = |sim: &Sim| {
+        let s = sim.elf_board().unwrap().emu.longest_stretch();
+        !s.back_to_back()
+    };
+    assert!(one_pass(&sim), "the upload's stretch is one pass");
 
     sim.elf_board_mut().unwrap().emu.clear_max_awake();
     let plan = transition_graph::Graph::nominal()
@@ -328,6 +333,7 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
         run <= PASS_BUDGET_CYCLES,
         "longest pass of the plan {run} cycles > {PASS_BUDGET_CYCLES}"
     );
+    assert!(one_pass(&sim), "the plan's longest stretch is one pass");
     eprintln!("upload pass {upload} cycles, longest pass of a plan {run}");
     stack_headroom(&sim, "the largest plan's upload and a plan");
 }

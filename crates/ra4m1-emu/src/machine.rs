@@ -150,9 +150,10 @@ pub struct PassProfile {
 /// What one awake stretch (a wake-up to the next `WFI`) held. A tick-driven loop
 /// (`while now == last { wfi }`) runs one pass per millisecond it sees, so the SysTick
 /// exceptions a stretch took tell one pass from passes back to back: a stretch woken by SysTick
-/// that takes another one was still running when the next millisecond began — its pass
-/// overran the tick (by at least `cycles - ticks_at[1]` less the next pass), and the loop ran
-/// the next pass without sleeping.
+/// that takes another one was still running when the next millisecond began — its first pass
+/// overran the tick (it had run `ticks_at[1]` cycles by then), and the loop ran the next pass
+/// without sleeping. (A stretch woken by another interrupt whose SysTick came before the loop
+/// looked at the time holds one pass with its first tick at a small offset.)
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Stretch {
     /// Awake cycles, wake-up to `WFI` (interrupts and bus waits included).

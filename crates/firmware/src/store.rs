@@ -87,12 +87,13 @@ pub enum BootRecord {
 ///
 /// A byte at a time without a table: for this polynomial the eight bit steps of a byte fold
 /// into `x = (r >> 8) ^ b; x ^= x >> 4; r = (r << 8) ^ (x << 12) ^ (x << 5) ^ x` (the high
-/// nibble's feedback, 0x1021 = x¹² + x⁵ + 1, is linear in `x`). The board computes it for
-/// every pass of a save (the 14-byte slot, record included, each pass until the program
-/// ends), so the bit loop's ≈ 230 cycles a byte on the board (4 100 a pass) were worth
-/// folding; a table in flash would cost 512 B for the last ≈ 10 cycles. By hand rather than
-/// the `crc` crate's `NoTable` (whose generic step is 3× the size on the board): tests hold
-/// it to the crate's and, for every state and byte, to the bit-by-bit definition.
+/// nibble's feedback, 0x1021 = x¹² + x⁵ + 1, is linear in `x`). The board computes it in
+/// every pass of a save until the slot's program ends (the slot's 12 bytes and the record's
+/// 6), so the bit loop's 4 098 cycles in such a pass were worth folding (≈ 700 now, 16 B less
+/// flash; BENCHMARKS.md, "Issue 27"); a 256-entry table would cost 512 B of the flash budget.
+/// By hand rather than the `crc` crate's `NoTable` (whose generic step is 3× the size on the
+/// board): tests hold it to the crate's and, for every state and byte, to the bit-by-bit
+/// definition.
 pub fn crc16(bytes: &[u8]) -> u16 {
     let mut r = 0xFFFFu16;
     for &b in bytes {

@@ -82,24 +82,33 @@ pub enum BootRecord {
 }
 
 /// CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, not reflected, no final xor; the catalogue
-/// calls it CRC-16/IBM-3740) of `bytes`, bit by bit: the check of a stored record (bytes 6–7)
-/// and of the board's flash-log slots (`board::flash_log`), so both stay one on-flash format.
-/// Records are a few bytes and are written rarely, so a table in flash would buy nothing; by
-/// hand rather than the `crc` crate's `NoTable` (whose generic step is 3× the size on the
-/// board): a test holds it to the crate's.
+/// calls it CRC-16/IBM-3740) of `bytes`: the check of a stored record (bytes 6–7) and of the
+/// board's flash-log slots (`board::flash_log`), so both stay one on-flash format.
+///
+/// A byte at a time without a table: for this polynomial the eight bit steps of a byte fold
+/// into `x = (r >> 8) ^ b; x ^= x >> 4; r = (r << 8) ^ (x << 12) ^ (x << 5) ^ x` (the high
+/// nibble's feedback, 0x1021 = x¹² + x⁵ + 1, is linear in `x`). The board computes it in
+/// every pass of a save until the slot's program ends (the slot's 12 bytes and the record's
+/// 6), so the bit loop's 4 098 cycles in such a pass were worth folding (≈ 700 now, 16 B less
+/// flash; BENCHMARKS.md, "Issue 27"); a 256-entry table would cost 512 B of the flash budget.
+/// By hand rather than the `crc` crate's `NoTable` (whose generic step is 3× the size on the
+/// board): tests hold it to the crate's and, for every state and byte, to the bit-by-bit
+/// definition.
 pub fn crc16(bytes: &[u8]) -> u16 {
     let mut r = 0xFFFFu16;
     for &b in bytes {
-        r ^= u16::from(b) << 8;
-        for _ in 0..8 {
-            r = if r & 0x8000 != 0 {
-                (r << 1) ^ 0x1021
-            } else {
-                r << 1
-            };
-        }
+        r = crc16_byte(r, b);
     }
     r
+}
+
+/// One byte of [`crc16`]: the folded form of eight steps of the bit loop.
+#[inline(always)]
+fn crc16_byte(r: u16, b: u8) -> u16 {
+    let mut x = (r >> 8) as u8 ^ b;
+    x ^= x >> 4;
+    let x = u16::from(x);
+    (r << 8) ^ (x << 12) ^ (x << 5) ^ x
 }
 
 fn state_at(index: u8) -> Result<TrunkState, StoreError> {
@@ -214,6 +223,30 @@ mod tests {
                 crate_crc.checksum(&bytes[..n]),
                 "{n} bytes"
             );
+        }
+    }
+
+    #[test]
+    fn the_folded_byte_step_is_eight_bit_steps_for_every_state_and_byte() {
+        let bitwise = |mut r: u16, b: u8| {
+            r ^= u16::from(b) << 8;
+            for _ in 0..8 {
+                r = if r & 0x8000 != 0 {
+                    (r << 1) ^ 0x1021
+                } else {
+                    r << 1
+                };
+            }
+            r
+        };
+        for r in 0..=u16::MAX {
+            for b in 0..=u8::MAX {
+                assert_eq!(
+                    crc16_byte(r, b),
+                    bitwise(r, b),
+                    "state {r:#06x}, byte {b:#04x}"
+                );
+            }
         }
     }
 

@@ -84,8 +84,26 @@ pub struct BoardMeasures {
     /// within those first [`BOOT_MS`].
     pub longest_pass_cycles: Option<u64>,
     /// Where that pass's cycles went: the functions of the ELF that took the most, cycles,
-    /// largest first (at most 8).
+    /// largest first (at most 12).
     pub longest_pass_profile: Vec<(String, u64)>,
+    /// The SysTick exceptions that stretch took, cycles after its wake-up
+    /// (`ra4m1_emu::machine::Stretch::ticks_at`): one entry (at 0) is one loop pass; a second
+    /// is the next millisecond beginning while a pass still ran — that pass overran the tick
+    /// and the loop ran the next one back to back, without a `WFI` between.
+    pub longest_pass_ticks_at: Vec<u64>,
+    /// Of that stretch's cycles, those spent in interrupt handlers.
+    pub longest_pass_handler_cycles: u64,
+    /// When that stretch held passes back to back: what ran before its second SysTick (the
+    /// pass that overran, up to the tick), per function, largest first (at most 12).
+    pub longest_pass_overrun_profile: Vec<(String, u64)>,
+    /// Host bytes SCI9 lost over the session (overrun, framing, or received with RE = 0).
+    pub rx_lost: u64,
+    /// Of those, the overruns: a byte that came before the receive handler had taken the last
+    /// one (the others are bytes sent before the firmware enabled the receiver, at its boot,
+    /// or at a wrong rate).
+    pub rx_overruns: u64,
+    /// When the last overrun happened, ms of virtual time since the power-on.
+    pub last_overrun_ms: Option<u64>,
     /// Resets of the chip after its first start (watchdog, brown-out, software), each one a
     /// boot whose stretch counts as a pass.
     pub resets: usize,
@@ -380,7 +398,17 @@ fn board_measures(sim: &Sim) -> Option<BoardMeasures> {
         stack_high_water: emu.stack_high_water()?,
         stack_size: emu.stack_size()?,
         longest_pass_cycles: (sim.now_ms() > BOOT_MS).then(|| emu.stats().max_awake_cycles),
-        longest_pass_profile: emu.longest_pass_profile().into_iter().take(8).collect(),
+        longest_pass_profile: emu.longest_pass_profile().into_iter().take(12).collect(),
+        longest_pass_ticks_at: emu.longest_stretch().ticks_at.clone(),
+        longest_pass_handler_cycles: emu.longest_stretch().handler_cycles,
+        longest_pass_overrun_profile: emu.longest_overrun_profile().into_iter().take(12).collect(),
+        rx_lost: emu.machine().sci.rx_lost,
+        rx_overruns: emu.machine().sci.rx_overruns,
+        last_overrun_ms: emu
+            .machine()
+            .sci
+            .last_overrun_at
+            .map(|t| ra4m1_emu::clock::ticks_to_ns(t) / 1_000_000),
         resets: emu.resets().len(),
     })
 }

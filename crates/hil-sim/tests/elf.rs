@@ -248,11 +248,11 @@ fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
     }
 }
 
-/// The issue's loop-pass budget is 48 000 cycles (1 ms at 48 MHz, the cycle model with its
-/// flash wait state and the bus bridges' wait states); this keeps what was reached
-/// (BENCHMARKS.md, "Issue 27": 40 713 for the upload, 40 836 over a whole plan) plus ≈ 8 %, so
-/// a regression fails here.
-const PASS_BUDGET_CYCLES: u64 = 44_000;
+/// Issue 27's loop-pass target: 40 800 cycles, 85 % of the 1 ms tick (48 000 at 48 MHz), in
+/// the cycle model with its flash wait state and the bus bridges' wait states. The largest
+/// plan's upload pass and every pass of a whole plan are held to it (BENCHMARKS.md, "Issue
+/// 27": 40 624 and 37 436 when this was set), as the storage test holds the save's.
+const PASS_BUDGET_CYCLES: u64 = 40_800;
 
 /// The pass that receives, validates and stores the largest plan (8 steps × 4 bends, accepted:
 /// the crane is in their `F&F`), with a status request right behind it on the line, and every
@@ -314,6 +314,11 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
         upload <= PASS_BUDGET_CYCLES,
         "upload pass {upload} cycles > {PASS_BUDGET_CYCLES}"
     );
+    let one_pass = |sim: &Sim| {
+        let s = sim.elf_board().unwrap().emu.longest_stretch();
+        !s.back_to_back()
+    };
+    assert!(one_pass(&sim), "the upload's stretch is one pass");
 
     sim.elf_board_mut().unwrap().emu.clear_max_awake();
     let plan = transition_graph::Graph::nominal()
@@ -328,6 +333,7 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
         run <= PASS_BUDGET_CYCLES,
         "longest pass of the plan {run} cycles > {PASS_BUDGET_CYCLES}"
     );
+    assert!(one_pass(&sim), "the plan's longest stretch is one pass");
     eprintln!("upload pass {upload} cycles, longest pass of a plan {run}");
     stack_headroom(&sim, "the largest plan's upload and a plan");
 }
@@ -336,7 +342,11 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
 fn print_profile(emu: &ra4m1_emu::Emulator, what: &str) {
     let p = emu.longest_pass_profile();
     let total: u64 = p.iter().map(|f| f.1).sum();
-    eprintln!("longest pass of {what}: {total} cycles");
+    let s = emu.longest_stretch();
+    eprintln!(
+        "longest pass of {what}: {total} cycles (SysTicks at {:?}, {} in handlers)",
+        s.ticks_at, s.handler_cycles
+    );
     for (name, cycles) in p.iter().take(8) {
         eprintln!("  {cycles:>6}  {name}");
     }

@@ -267,6 +267,8 @@ impl Emulator {
             max_awake_cycles: 0,
             max_awake_at: 0,
             profile: None,
+            stretch: Default::default(),
+            longest_stretch: Default::default(),
             semihost_out: Vec::new(),
             exit_code: None,
             semihost_cmdline: None,
@@ -596,9 +598,17 @@ impl Emulator {
     pub fn clear_max_awake(&mut self) {
         let m = self.m();
         m.max_awake_cycles = 0;
+        m.longest_stretch = Default::default();
         if let Some(p) = m.profile.as_mut() {
             p.longest.clear();
+            p.longest_to_overrun = None;
         }
+    }
+
+    /// What the longest awake stretch so far held ([`machine::Stretch`]: its SysTick entries,
+    /// so whether it was one pass or passes back to back, and its cycles in handlers).
+    pub fn longest_stretch(&self) -> &machine::Stretch {
+        &self.machine().longest_stretch
     }
 
     /// Starts (or stops) recording where the cycles of each awake stretch go, to read the
@@ -610,11 +620,26 @@ impl Emulator {
     /// The longest awake stretch's cycles per function of the ELF (the symbol covering each
     /// executed block; what the compiler inlined counts in its caller), largest first.
     pub fn longest_pass_profile(&self) -> Vec<(String, u64)> {
-        let Some(p) = self.machine().profile.as_ref() else {
-            return Vec::new();
-        };
+        self.machine()
+            .profile
+            .as_ref()
+            .map_or_else(Vec::new, |p| self.per_function(&p.longest))
+    }
+
+    /// Of the longest awake stretch, when it held passes back to back
+    /// ([`machine::Stretch::back_to_back`]): what ran before its second SysTick — the pass
+    /// that overran the tick, up to the tick — per function, largest first (empty otherwise).
+    pub fn longest_overrun_profile(&self) -> Vec<(String, u64)> {
+        self.machine()
+            .profile
+            .as_ref()
+            .and_then(|p| p.longest_to_overrun.as_ref())
+            .map_or_else(Vec::new, |b| self.per_function(b))
+    }
+
+    fn per_function(&self, blocks: &std::collections::HashMap<u32, u64>) -> Vec<(String, u64)> {
         let mut per: std::collections::HashMap<&str, u64> = Default::default();
-        for (&addr, &cycles) in &p.longest {
+        for (&addr, &cycles) in blocks {
             let i = self.functions.partition_point(|f| f.0 <= addr);
             let name = i
                 .checked_sub(1)
@@ -902,6 +927,17 @@ impl Emulator {
             if let Some(e) = self.deliverable()? {
                 self.enter_exception(e)?;
                 self.wake();
+                let m = self.m();
+                m.stretch.exceptions += 1;
+                if e == periph::scs::exc::SYSTICK {
+                    let at = m.awake_cycles - m.wake_start_cycles;
+                    m.stretch.ticks_at.push(at);
+                    if m.stretch.ticks_at.len() == 2 {
+                        if let Some(p) = m.profile.as_mut() {
+                            p.current_to_overrun = Some(p.current.clone());
+                        }
+                    }
+                }
             }
             if self.machine().asleep {
                 let wake = self
@@ -931,11 +967,15 @@ impl Emulator {
                 let m = self.m();
                 m.asleep = true;
                 let stretch = m.awake_cycles - m.wake_start_cycles;
+                m.stretch.cycles = stretch;
+                m.stretch.end = m.now;
                 if stretch > m.max_awake_cycles {
                     m.max_awake_cycles = stretch;
                     m.max_awake_at = m.now;
+                    m.longest_stretch = std::mem::take(&mut m.stretch);
                     if let Some(p) = m.profile.as_mut() {
                         p.longest = std::mem::take(&mut p.current);
+                        p.longest_to_overrun = p.current_to_overrun.take();
                     }
                 }
             }
@@ -948,8 +988,10 @@ impl Emulator {
             m.asleep = false;
             m.wakes += 1;
             m.wake_start_cycles = m.awake_cycles;
+            m.stretch = Default::default();
             if let Some(p) = m.profile.as_mut() {
                 p.current.clear();
+                p.current_to_overrun = None;
             }
         }
     }
@@ -1146,6 +1188,9 @@ fn block_hook(uc: &mut Unicorn<'_, Machine>, addr: u64, size: u32) {
     m.block_pc = addr;
     m.instructions += u64::from(cost.instructions);
     m.awake_cycles += cycles;
+    if !m.scs.active.is_empty() {
+        m.stretch.handler_cycles += cycles;
+    }
     if let Some(p) = m.profile.as_mut() {
         *p.current.entry(addr).or_default() += cycles;
     }

@@ -140,6 +140,47 @@ pub struct PassProfile {
     pub current: HashMap<u32, u64>,
     /// The longest stretch so far.
     pub longest: HashMap<u32, u64>,
+    /// Of the stretch running now, what ran before its second SysTick (when it took one):
+    /// the pass that overran the tick, up to the tick.
+    pub current_to_overrun: Option<HashMap<u32, u64>>,
+    /// The same for the longest stretch.
+    pub longest_to_overrun: Option<HashMap<u32, u64>>,
+}
+
+/// What one awake stretch (a wake-up to the next `WFI`) held. A tick-driven loop
+/// (`while now == last { wfi }`) runs one pass per millisecond it sees, so the SysTick
+/// exceptions a stretch took tell one pass from passes back to back: a stretch woken by SysTick
+/// that takes another one was still running when the next millisecond began — its first pass
+/// overran the tick (it had run `ticks_at[1]` cycles by then), and the loop ran the next pass
+/// without sleeping. (A stretch woken by another interrupt whose SysTick came before the loop
+/// looked at the time holds one pass with its first tick at a small offset.)
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Stretch {
+    /// Awake cycles, wake-up to `WFI` (interrupts and bus waits included).
+    pub cycles: u64,
+    /// Awake cycles after the wake-up at which each SysTick exception was entered (0 for the
+    /// one that woke the core).
+    pub ticks_at: Vec<u64>,
+    /// Cycles spent in exception handlers (handler mode), of [`Stretch::cycles`].
+    pub handler_cycles: u64,
+    /// Exceptions entered, SysTick included.
+    pub exceptions: u32,
+    /// When the stretch ended, ticks of virtual time.
+    pub end: u64,
+}
+
+impl Stretch {
+    /// Whether the stretch holds loop passes back to back: it took a second SysTick, so the
+    /// pass running then overran the tick and the loop saw a new millisecond without sleeping.
+    pub fn back_to_back(&self) -> bool {
+        self.ticks_at.len() >= 2
+    }
+
+    /// Cycles after the wake-up at which the next millisecond began while the stretch was
+    /// still awake (the second SysTick's entry): how long the first pass had run by then.
+    pub fn overran_at(&self) -> Option<u64> {
+        self.ticks_at.get(1).copied()
+    }
 }
 
 /// The chip outside the CPU core.
@@ -228,6 +269,10 @@ pub struct Machine {
     /// Cycles per executed block of the current and of the longest awake stretch, when
     /// profiling ([`crate::Emulator::profile_passes`]).
     pub profile: Option<PassProfile>,
+    /// What the awake stretch running now holds (SysTick entries, handler cycles).
+    pub stretch: Stretch,
+    /// The same for the longest awake stretch so far.
+    pub longest_stretch: Stretch,
     /// Bytes the program wrote through semihosting (SYS_WRITEC/WRITE0/WRITE).
     pub semihost_out: Vec<u8>,
     /// The exit code the program gave through semihosting (SYS_EXIT/SYS_EXIT_EXTENDED).
@@ -275,6 +320,9 @@ impl Machine {
             return;
         }
         self.awake_cycles += w;
+        if !self.scs.active.is_empty() {
+            self.stretch.handler_cycles += w;
+        }
         if let Some(p) = self.profile.as_mut() {
             *p.current.entry(self.block_pc).or_default() += w;
         }

@@ -311,3 +311,49 @@ fn peripheral_bus_accesses_cost_the_bridges_wait_states() {
     assert_eq!(sci - system, 4, "PCLKA at ICLK: 1 extra ICLK per access");
     assert_eq!(icu, system, "two ICLK-bus programs cost the same");
 }
+
+/// The emulator's measure of a tick-driven loop tells a pass that overran the 1 ms tick (and
+/// the next one, run back to back without a `WFI` between) from a pass that did not: a program
+/// with SysTick at 1 kHz whose second pass busy-waits longer than a millisecond.
+#[test]
+fn a_pass_that_overruns_the_tick_shows_as_two_systicks_in_one_stretch() {
+    // 0x4040: cpsie i; SysTick RVR = 47 999, CVR = 0, CSR = 7 (core clock, interrupt, on);
+    // r2 = &count (0x2000_0000), r5 = pass = 0.
+    // loop: r3 = count; r4 = pass == 1 ? LONG : 10; busy: subs r4, #1; bne busy; pass += 1;
+    // wait: if count != r3 goto loop; wfi; b wait.
+    // SysTick (0x406E): count += 1; bx lr.
+    let code = [
+        0xB662, 0x480D, 0x490D, 0x6041, 0x2100, 0x6081, 0x2107, 0x6001, 0x4A0B,
+        0x2500, // init
+        0x6813, 0x4C0B, 0x2D01, 0xD000, 0x240A, 0x3C01, 0xD1FD, 0x3501, // a pass
+        0x6816, 0x429E, 0xD1F4, 0xBF30, 0xE7FA, // the wait for the next millisecond
+        0x4804, 0x6801, 0x3101, 0x6001, 0x4770, // SysTick
+    ];
+    let mut img = program(&code, &[0xE000_E010, 47_999, 0x2000_0000, 12_000], None);
+    img[0x3C..0x40].copy_from_slice(&0x406Fu32.to_le_bytes());
+    let mut emu = Emulator::new(&elf(&img), Options::default()).expect("loads");
+    emu.profile_passes(true);
+    emu.run_until_ns(10_000_000).expect("runs");
+    let s = emu.longest_stretch().clone();
+    assert!(s.back_to_back(), "{s:?}");
+    assert_eq!(s.ticks_at.len(), 2, "{s:?}");
+    assert_eq!(s.ticks_at[0], 0, "woken by the tick: {s:?}");
+    // The next millisecond began 48 000 cycles after the wake-up (the core awake all along),
+    // while the long pass still ran; the stretch ends before a third.
+    let at = s.overran_at().expect("overran");
+    assert!((47_900..=48_100).contains(&at), "{s:?}");
+    assert!(s.cycles > at && s.cycles < 96_000, "{s:?}");
+    assert!(s.handler_cycles > 0 && s.handler_cycles < 200, "{s:?}");
+    let before: u64 = emu.longest_overrun_profile().iter().map(|f| f.1).sum();
+    assert!(
+        before.abs_diff(at) < 100,
+        "the profile before the tick covers its {at} cycles: {before}"
+    );
+    // The short passes after it: one SysTick each, at the wake-up.
+    emu.clear_max_awake();
+    emu.run_until_ns(20_000_000).expect("runs");
+    let s = emu.longest_stretch();
+    assert!(!s.back_to_back() && s.ticks_at == [0], "{s:?}");
+    assert!(s.cycles < 1_000, "{s:?}");
+    assert!(emu.longest_overrun_profile().is_empty());
+}

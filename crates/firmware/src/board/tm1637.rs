@@ -9,8 +9,10 @@
 //!
 //! A whole redraw would take ~0.7 ms (33 000 cycles), too much for one 1 ms loop pass, so
 //! `show` only queues the digits and [`Tm1637::poll`], called once per pass, clocks out one
-//! byte (with its frame's start or stop): a redraw is seven passes, ≈ 90 µs each. A `show`
-//! during a redraw replaces the queued digits (the latest content wins).
+//! byte (with its frame's start or stop): a redraw is seven passes, ≈ 90 µs each. The loop
+//! calls it only in a pass whose step left room for it (`bin/uno_r4.rs`), so a heavy pass does
+//! not also carry a display byte. A `show` during a redraw replaces the queued digits (the
+//! latest content wins).
 
 use embedded_hal::digital::OutputPin;
 

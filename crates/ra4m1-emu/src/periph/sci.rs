@@ -52,6 +52,11 @@ pub struct Sci {
     pub host_baud: u32,
     /// Bytes lost: overrun, framing, or arriving with RE = 0.
     pub rx_lost: u64,
+    /// Of [`Sci::rx_lost`], the overruns: a byte that came while RDR still held the last one
+    /// (its RXI not yet served) or ORER was still set.
+    pub rx_overruns: u64,
+    /// When the last overrun happened, ticks.
+    pub last_overrun_at: Option<u64>,
     /// Bytes sent so far.
     pub tx_count: u64,
 }
@@ -160,8 +165,12 @@ impl Sci {
                     ev.push(SCI9_TEI);
                 }
             } else {
-                let (b, _) = self.rx_line.pop_front().unwrap_or((0, now));
+                let (b, t) = self.rx_line.pop_front().unwrap_or((0, now));
+                let overruns = self.rx_overruns;
                 self.receive(b, pclka, ev);
+                if self.rx_overruns != overruns {
+                    self.last_overrun_at = Some(t);
+                }
             }
         }
     }
@@ -181,6 +190,7 @@ impl Sci {
         } else if self.rdrf || self.errors & ORER != 0 {
             self.errors |= ORER;
             self.rx_lost += 1;
+            self.rx_overruns += 1;
             if self.scr & RIE != 0 {
                 ev.push(SCI9_ERI);
             }
@@ -311,5 +321,28 @@ mod tests {
         assert_eq!(s.read(0x4, 1), Ok(0x80), "shifting: TDRE, not TEND");
         s.advance(u64::MAX / 2, 48_000_000, &mut ev);
         assert_eq!(s.read(0x4, 1), Ok(0x84));
+    }
+
+    /// A byte that arrives while RDR still holds the last one (its RXI not served) is an
+    /// overrun: lost, counted apart from the bytes lost with the receiver off.
+    #[test]
+    fn an_unserved_byte_is_an_overrun_and_one_sent_with_re_off_is_not() {
+        let mut s = Sci::new();
+        let mut ev = Vec::new();
+        // 115 200 Bd from PCLKA = 48 MHz: BRR = 12 (32 × 13 PCLKA a bit, 0.2 % fast).
+        s.write(0x1, 1, 12, 0, 48_000_000, &mut ev).unwrap();
+        s.host_send(&[0x11], 0);
+        s.advance(TICK_HZ, 48_000_000, &mut ev);
+        assert_eq!(
+            (s.rx_lost, s.rx_overruns),
+            (1, 0),
+            "RE = 0: lost, no overrun"
+        );
+        s.write(0x2, 1, u32::from(RE | RIE), TICK_HZ, 48_000_000, &mut ev)
+            .unwrap();
+        s.host_send(&[0x22, 0x33], TICK_HZ);
+        s.advance(2 * TICK_HZ, 48_000_000, &mut ev);
+        assert_eq!((s.rx_lost, s.rx_overruns), (2, 1), "0x33 overran 0x22");
+        assert_eq!(s.read(0x5, 1), Ok(0x22), "RDR keeps the first byte");
     }
 }

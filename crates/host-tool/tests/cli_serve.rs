@@ -136,7 +136,9 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
     assert_eq!(st["state_confirmed"], false, "{st}");
     assert!(st["interrupted"].is_null(), "{st}");
     let (from, to) = (
-        st["moving"]["from"].as_str().unwrap_or_else(|| panic!("no moving step: {st}")),
+        st["moving"]["from"]
+            .as_str()
+            .unwrap_or_else(|| panic!("no moving step: {st}")),
         st["moving"]["to"].as_str().unwrap(),
     );
     assert_eq!(st["state"], from, "{st}");
@@ -146,9 +148,15 @@ fn stop_and_monitor_from_other_processes_while_a_plan_runs_through_serve() {
         .iter()
         .map(|c| c.as_str().unwrap())
         .collect();
-    assert!(candidates.contains(&from) && candidates.contains(&to), "{st}");
+    assert!(
+        candidates.contains(&from) && candidates.contains(&to),
+        "{st}"
+    );
     if let Some(truth) = st["sim"]["true_state"].as_str() {
-        assert!(candidates.contains(&truth), "{truth} not among {candidates:?}");
+        assert!(
+            candidates.contains(&truth),
+            "{truth} not among {candidates:?}"
+        );
     }
     let out = cmd(&dir, &["status"]).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);

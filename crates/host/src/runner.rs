@@ -24,6 +24,9 @@ use crate::text;
 /// While the operator is asked to identify the state, the status is read this often (the
 /// crane's confirm button may settle it first).
 const OPERATOR_POLL_MS: u64 = 500;
+/// Time limit of the vent of air left sealed in the resting trunk (from the cap it takes a few
+/// seconds).
+const VENT_TIMEOUT_MS: u32 = 20_000;
 
 /// What happened to one step that was started on the device.
 #[derive(Debug, Clone, PartialEq)]
@@ -345,6 +348,12 @@ enum Wait {
     Confirm,
     /// Resetting a fault before a replan.
     ResetForReplan,
+    /// A vent of the air left sealed in the trunk is out (`RunStep` within the state).
+    Vent,
+    /// The vent runs: the status is polled until it ends.
+    Venting,
+    /// A status poll while the vent runs.
+    VentPoll,
     /// An abort is out; then the final status.
     Abort,
     /// The status after the abort.
@@ -364,6 +373,7 @@ impl Wait {
                 | Wait::StatusAfterIdentify
                 | Wait::OperatorPoll
                 | Wait::Poll
+                | Wait::VentPoll
                 | Wait::StatusAfterAbort
         )
     }
@@ -411,6 +421,8 @@ pub struct PlanRunner {
     prompted_identify: bool,
     /// Identifications in a row that left the state unconfirmed.
     identify_requests: u32,
+    /// The air left sealed in the trunk was let out before anything else (at most once a run).
+    vented_first: bool,
     /// The steps that ended without evidence (`TransitionNotConfirmed`, their target a
     /// candidate) and were identified to go on: each edge at most twice in a run (a step that
     /// keeps leaving the trunk where it was is not tried forever).
@@ -445,6 +457,7 @@ impl PlanRunner {
             probing_noted: false,
             prompted_identify: false,
             identify_requests: 0,
+            vented_first: false,
             unvouched: Vec::new(),
         }
     }
@@ -607,6 +620,13 @@ impl PlanRunner {
             if self.next_poll_ms.is_some_and(|at| now_ms >= at) {
                 self.next_poll_ms = None;
                 self.ask(session, Wait::OperatorPoll, RequestBody::GetStatus, now_ms);
+            }
+            return;
+        }
+        if self.wait == Wait::Venting && self.waiting_on.is_none() {
+            if self.next_poll_ms.is_some_and(|at| now_ms >= at) {
+                self.next_poll_ms = None;
+                self.ask(session, Wait::VentPoll, RequestBody::GetStatus, now_ms);
             }
             return;
         }
@@ -849,6 +869,28 @@ impl PlanRunner {
                     Err(e) => self.finish(Some(RunFailure::from_session("before planning", &e))),
                 }
             }
+            Wait::Vent => match reply.accepted("RunStep") {
+                Ok(_) => {
+                    self.wait = Wait::Venting;
+                    self.next_poll_ms = Some(now_ms + self.options.poll_ms);
+                }
+                // Refused (the device cannot vent now): go on as before; the air stays.
+                Err(_) => self.ask(
+                    session,
+                    Wait::StatusAfterReset,
+                    RequestBody::GetStatus,
+                    now_ms,
+                ),
+            },
+            Wait::VentPoll => match reply.status() {
+                Ok(st) if matches!(st.mode, Mode::Running | Mode::WaitingManual) => {
+                    self.record_status(&st);
+                    self.wait = Wait::Venting;
+                    self.next_poll_ms = Some(now_ms + self.options.poll_ms);
+                }
+                Ok(st) => self.on_first_status(session, st, Wait::StatusAfterReset, now_ms),
+                Err(e) => self.finish(Some(RunFailure::from_session("venting the trunk", &e))),
+            },
             Wait::Identify => match reply.accepted("Identify") {
                 Ok(_) => self.ask(
                     session,
@@ -1045,7 +1087,7 @@ impl PlanRunner {
                 }
                 self.finish(Some(f));
             }
-            Wait::Operator | Wait::Done => {}
+            Wait::Operator | Wait::Venting | Wait::Done => {}
         }
     }
 
@@ -1064,6 +1106,32 @@ impl PlanRunner {
         // its operator; that is what this run asked for, not another host's plan.
         let identifying =
             matches!(after, Wait::StatusAfterIdentify | Wait::OperatorPoll) && !st.state_confirmed;
+        // Air left sealed in the resting trunk (an interrupted pull compresses it: 37 kPa in the
+        // swarm) may still change its state once the tendons let go — popping a folded top
+        // after the state was identified. It is let out first (venting changes no state), once.
+        if !self.vented_first
+            && !identifying
+            && st.mode == Mode::Standalone
+            && st.faults == 0
+            && st.pressure_kpa >= protocol::transitions::SEALED_ACTS_KPA
+        {
+            self.vented_first = true;
+            self.events.push_back(RunEvent::Note(format!(
+                "the trunk holds {:.1} kPa sealed, air that may still change its state: venting \
+                 it first",
+                st.pressure_kpa
+            )));
+            let mut primitives = heapless::Vec::new();
+            let _ = primitives.push(protocol::Primitive::Vent { pressure_kpa: 0.0 });
+            let step = protocol::Step {
+                kind: StepKind::Pneumatic,
+                from: st.state,
+                to: st.state,
+                primitives,
+                timeout_ms: VENT_TIMEOUT_MS,
+            };
+            return self.ask(session, Wait::Vent, RequestBody::RunStep(step), now_ms);
+        }
         if identifying && !st.estop {
             if st.mode == Mode::Running {
                 if !self.probing_noted {
@@ -1138,6 +1206,9 @@ impl PlanRunner {
                 )));
             }
             self.identify_requests += 1;
+            // A new identification: the operator is asked again if the probes cannot decide.
+            self.prompted_identify = false;
+            self.probing_noted = false;
             self.events.push_back(RunEvent::Note(format!(
                 "the device has not confirmed its state ({}{}): identifying it first",
                 st.state,

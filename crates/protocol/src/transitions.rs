@@ -162,21 +162,25 @@ pub fn step_down(state: TrunkState) -> Option<&'static Transition> {
 /// D&F {D&F, F&F, D&P}, D&D {D&D, F&D, D&F, D&P} (a unit test derives it).
 pub const HAND_REACH: [u8; 6] = [0b000011, 0b000011, 0b000111, 0b011001, 0b011010, 0b111100];
 
-/// The states reached from `from` by following `next` (the same actuation, snap after snap).
-fn chain(from: TrunkState, next: fn(TrunkState) -> Option<&'static Transition>) -> StateSet {
-    let mut set = StateSet::single(from);
-    let mut at = from;
-    // At most one pass per state: the chains of the table end.
-    for _ in 0..TrunkState::ALL.len() {
-        match next(at) {
-            Some(e) => {
-                set = set.with(e.to);
-                at = e.to;
-            }
-            None => break,
+/// The states each state's pneumatic chain reaches (inflating on, snap after snap), itself
+/// included, by [`TrunkState::index`] (bit per index as [`HAND_REACH`]): F&P {F&P, F&F, D&F, D&D},
+/// F&F {F&F, D&F, D&D}, F&D {F&D, D&D}, D&P {D&P, D&F, D&D}, D&F {D&F, D&D}, D&D {D&D} (a unit
+/// test derives it from [`TRANSITIONS`]; a table, so the board's step start stays short).
+pub const UP_REACH: [u8; 6] = [0b110011, 0b110010, 0b100100, 0b111000, 0b110000, 0b100000];
+/// The states each state's tendon chain reaches (pulling on, fold after fold), itself included:
+/// F&P {F&P}, F&F {F&F, F&P}, F&D {F&D, F&F, F&P}, D&P {D&P, F&P}, D&F {D&F, F&F, F&P},
+/// D&D {D&D, F&D, F&F, F&P} (derived in a unit test).
+pub const DOWN_REACH: [u8; 6] = [0b000001, 0b000011, 0b000111, 0b001001, 0b010011, 0b100111];
+
+/// The union of `table`'s entries for every state of `set`.
+fn along(set: StateSet, table: &[u8; 6]) -> StateSet {
+    let mut out = set.0;
+    for (i, t) in table.iter().enumerate() {
+        if set.0 & (1 << i) != 0 {
+            out |= t;
         }
     }
-    set
+    StateSet(out & StateSet::ALL.0)
 }
 
 /// Sealed pressure (kPa) at or above which the air in the trunk may snap a module up once a step
@@ -193,25 +197,15 @@ pub fn reach_sealed(step: &Step, sealed_kpa: f32) -> StateSet {
     if sealed_kpa < SEALED_ACTS_KPA {
         return set;
     }
-    set.iter().fold(set, |all, s| all.union(chain(s, step_up)))
+    along(set, &UP_REACH)
 }
 
 /// Every state a trunk resting in `state` may be in after a change nobody commanded (a snap at
 /// rest, or air coming in through a valve stuck open): what air makes of it (up its pneumatic
 /// chain) and what a load does (down its tendon chain: a collapse).
 pub fn rest_reach(state: TrunkState) -> StateSet {
-    chain(state, step_up).union(chain(state, step_down))
-}
-
-/// Whether `step` inflates (`.0`) and whether it pulls the tendons (`.1`).
-fn actuation(step: &Step) -> (bool, bool) {
-    step.primitives
-        .iter()
-        .fold((false, false), |(kpa, mm), p| match p {
-            Primitive::Inflate { .. } => (true, mm),
-            Primitive::TendonPull { .. } => (kpa, true),
-            _ => (kpa, mm),
-        })
+    let one = StateSet::single(state);
+    along(one, &UP_REACH).union(along(one, &DOWN_REACH))
 }
 
 /// Every state an interrupted `step` may have left the trunk in: `from`, `to`, and every state
@@ -220,30 +214,32 @@ fn actuation(step: &Step) -> (bool, bool) {
 /// what any one hand task makes of `from` (a person may fold the wrong module: fold the top,
 /// fold or pack the bottom).
 pub fn reach(step: &Step) -> StateSet {
-    let mut set = StateSet::single(step.from).with(step.to);
-    let by_hand = step.kind == StepKind::Manual
-        || step
-            .primitives
-            .iter()
-            .any(|p| matches!(p, Primitive::Manual(_)));
+    let from = StateSet::single(step.from);
+    let mut set = from.with(step.to);
+    let (mut by_hand, mut kpa, mut mm) = (step.kind == StepKind::Manual, false, false);
+    for p in &step.primitives {
+        match p {
+            Primitive::Manual(_) => by_hand = true,
+            Primitive::Inflate { .. } => kpa = true,
+            Primitive::TendonPull { .. } => mm = true,
+            _ => {}
+        }
+    }
     if by_hand {
         set = set.union(StateSet(HAND_REACH[step.from.index()]));
     }
     if step.kind == StepKind::Manual {
         return set;
     }
-    let (kpa, mm) = actuation(step);
     if kpa {
-        set = set.union(chain(step.from, step_up));
+        set = set.union(along(from, &UP_REACH));
     }
     if mm {
-        let folds = chain(step.from, step_down);
+        let folds = along(from, &DOWN_REACH);
         set = set.union(folds);
         if step.from.bottom == BottomState::Packed {
             // The sealed spike of a fold over a packed bottom may unpack it.
-            for s in folds.iter() {
-                set = set.union(chain(s, step_up));
-            }
+            set = set.union(along(folds, &UP_REACH));
         }
     }
     set
@@ -398,5 +394,32 @@ mod tests {
         assert_eq!(rest_reach(s("D&P")), set(&["D&P", "D&F", "D&D", "F&P"]));
         assert_eq!(rest_reach(s("F&P")), set(&["F&P", "F&F", "D&F", "D&D"]));
         assert_eq!(rest_reach(s("D&D")), set(&["D&D", "F&D", "F&F", "F&P"]));
+    }
+
+    /// The chain tables are what following the transition table gives.
+    #[test]
+    fn the_chain_tables_follow_the_transition_table() {
+        fn chain(from: TrunkState, next: fn(TrunkState) -> Option<&'static Transition>) -> u8 {
+            let mut set = StateSet::single(from);
+            let mut at = from;
+            while let Some(e) = next(at) {
+                assert!(!set.contains(e.to), "a chain of the table loops at {at}");
+                set = set.with(e.to);
+                at = e.to;
+            }
+            set.0
+        }
+        for from in TrunkState::ALL {
+            assert_eq!(
+                UP_REACH[from.index()],
+                chain(from, step_up),
+                "up from {from}"
+            );
+            assert_eq!(
+                DOWN_REACH[from.index()],
+                chain(from, step_down),
+                "down from {from}"
+            );
+        }
     }
 }

@@ -59,9 +59,9 @@ pub const PROGRESS_PERIOD_MS: u64 = 100;
 /// any leak.
 pub const LEAK_SETTLE_MS: u64 = 5_000;
 /// At rest, a confirmed state stops being vouched for when the air in the trunk rises this much
-/// above the lowest it held since (and to [`protocol::transitions::SEALED_ACTS_KPA`] or more): gas
-/// is coming in (a valve stuck open), and it may snap a module up. A load pressing on the sealed
-/// trunk raises it less (the 5.7 kg of §6.5 on D&D: under 1 kPa in the simulator).
+/// above the lowest it held since, with [`protocol::transitions::SEALED_ACTS_KPA`] or more in it:
+/// gas is coming in (a valve stuck open), and it may snap a module up. A load pressing on the
+/// sealed trunk raises it less (the 5.7 kg of §6.5 on D&D: under 1 kPa in the simulator).
 pub const REST_RISE_KPA: f32 = 4.0;
 /// A step waits at most this long for its journal record to be persisted before its first
 /// actuation; then the StateStorage fault is raised (the crane does not move the trunk without a
@@ -1063,7 +1063,8 @@ impl Controller {
     /// the trunk — a snap the detector saw, or gas coming in ([`REST_RISE_KPA`]). Then the state
     /// is unconfirmed, its candidates what a change at rest may make of it
     /// (`transitions::rest_reach`): the swarm found valves stuck open unpacking a resting F&P and
-    /// D&P while the device held them confirmed.
+    /// D&P while the device held them confirmed. (Air left sealed in the trunk is let out by the
+    /// host before it identifies a state: `host::PlanRunner`.)
     fn check_rest(&mut self, p: f32, snapped: bool) {
         if self.exec.is_some() || !self.belief.is_confirmed() {
             self.rest_floor_kpa = None;
@@ -1343,7 +1344,7 @@ impl Controller {
                 inlet_open: self.outputs.inlet_open,
                 exhaust_open: self.outputs.exhaust_open,
                 state: self.state(),
-                state_confirmed: self.reported_belief().0,
+                state_confirmed: self.confirmed() && self.moving_step().is_none(),
             };
             self.emit(Event::Telemetry(t));
             progress_due = true;

@@ -323,7 +323,16 @@ impl Controller {
                 ));
             }
         }
-        if !self.confirmed() {
+        // Letting the air out changes no state: a single vent within the state is allowed when
+        // the state is not confirmed too (the host lets out air left sealed in the trunk before
+        // it identifies it).
+        let vent_only = steps.len() == 1
+            && steps[0].from == steps[0].to
+            && steps[0]
+                .primitives
+                .iter()
+                .all(|p| matches!(p, Primitive::Vent { .. }));
+        if !self.confirmed() && !vent_only {
             return Err((RejectReason::Unconfirmed, None));
         }
         if steps[0].from != self.state() {

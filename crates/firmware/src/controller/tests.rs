@@ -2837,3 +2837,71 @@ fn a_leak_opening_mid_inflation_is_not_taken_for_the_snap() {
     assert_eq!(r.plan_done().map(|d| d.0), Some(false));
     assert_eq!(r.faults_raised(), [FaultCode::Leak]);
 }
+
+/// Letting the air out changes no state: a single vent within the believed state is accepted
+/// when the state is not confirmed (the host lets out air an interrupted step left sealed before
+/// it identifies the state), leaves the belief as it was, and nothing else is let through.
+#[test]
+fn a_vent_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief() {
+    let mut r = Rig::connected(DD);
+    r.keepalive();
+    r.upload_and_start(Rig::plan(2, &[DD, FD]));
+    r.run(300);
+    assert_eq!(r.request(RequestBody::Abort).0, ResultCode::Ok);
+    r.run(500);
+    let before = r.ctl.status();
+    assert!(!before.state_confirmed);
+    assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+    let vent = |from: TrunkState, to: TrunkState, extra: Option<Primitive>| {
+        let mut primitives = heapless::Vec::new();
+        primitives
+            .push(Primitive::Vent { pressure_kpa: 0.0 })
+            .unwrap();
+        if let Some(p) = extra {
+            primitives.push(p).unwrap();
+        }
+        Step {
+            kind: StepKind::Pneumatic,
+            from,
+            to,
+            primitives,
+            timeout_ms: 20_000,
+        }
+    };
+    // Not a vent alone, or not within the state: refused as before.
+    let grip = Some(Primitive::Gripper { close: true });
+    for step in [
+        vent(before.state, before.state, grip),
+        vent(before.state, FF, None),
+    ] {
+        assert_eq!(
+            r.request(RequestBody::RunStep(step)).0,
+            ResultCode::Rejected(RejectReason::Unconfirmed)
+        );
+    }
+    assert_eq!(
+        r.request(RequestBody::RunStep(vent(before.state, before.state, None)))
+            .0,
+        ResultCode::InProgress
+    );
+    for _ in 0..200 {
+        if r.ctl.mode() != Mode::Running {
+            break;
+        }
+        r.run(100);
+    }
+    assert_ne!(r.ctl.mode(), Mode::Running);
+    let after = r.ctl.status();
+    assert!(!after.state_confirmed);
+    assert_eq!(
+        (after.state, after.candidates),
+        (before.state, before.candidates)
+    );
+    assert!(after.pressure_kpa < 0.6, "{after:?}");
+    assert_eq!(
+        after.plan.map(|p| p.phase),
+        Some(PlanPhase::Done),
+        "{after:?}"
+    );
+    assert_eq!(after.faults, 0);
+}

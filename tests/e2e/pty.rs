@@ -103,3 +103,60 @@ fn sighup_during_a_plan_aborts_it_to_the_safe_state() {
 fn sigint_during_a_plan_aborts_it_to_the_safe_state() {
     signal_mid_plan(nix::sys::signal::Signal::SIGINT);
 }
+
+/// A second terminal without `serve`: `stop --port P` while `plan` holds P is refused naming
+/// the plan's process (pid and command line) and pointing to `host-tool serve`; the plan goes
+/// on untouched and is stopped from its own terminal.
+#[test]
+fn a_second_host_on_a_held_port_names_the_holder_and_points_to_serve() {
+    let sim = hil_sim_pty(&["--initial", "F&P", "--speed", "2", "--seed", "4"]);
+    let mut plan = Command::new(binary("host-tool"))
+        .args(["plan", "--target", "D&D", "--port", &sim.path, "--json"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("host-tool starts");
+    let mut err = BufReader::new(plan.stderr.take().expect("stderr is piped"));
+    let mut line = String::new();
+    loop {
+        line.clear();
+        assert!(
+            err.read_line(&mut line).expect("stderr") > 0,
+            "host-tool ended early"
+        );
+        if line.starts_with("step 1/3") {
+            break;
+        }
+    }
+    let out = host_tool(&["stop", "--port", &sim.path], LIMIT);
+    assert_eq!(out.code(), 1, "{}", out.stderr);
+    assert!(
+        out.stderr.contains(&format!(
+            "in use by process {} ({} plan --target D&D --port {}",
+            plan.id(),
+            binary("host-tool").display(),
+            sim.path
+        )),
+        "{}",
+        out.stderr
+    );
+    assert!(
+        out.stderr
+            .contains(&format!("run `host-tool serve --port {}`", sim.path)),
+        "{}",
+        out.stderr
+    );
+    assert!(!out.stderr.contains("Unable to acquire"), "{}", out.stderr);
+    // The refused host sent nothing: the plan is still running, and stops from its terminal.
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(plan.id() as i32),
+        nix::sys::signal::Signal::SIGINT,
+    )
+    .expect("signal sent");
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).expect("stderr");
+    let status = plan.wait().expect("host-tool exits");
+    assert_eq!(status.code(), Some(130), "{rest}");
+    assert!(rest.contains("aborted by the operator"), "{rest}");
+}

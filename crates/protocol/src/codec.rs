@@ -278,7 +278,7 @@ impl Request {
         self.seq = r.u16()?;
         self.session = r.u32()?;
         let body = &mut self.body;
-        match r.variant(14)? {
+        match r.variant(15)? {
             0 => {
                 *body = RequestBody::Hello {
                     protocol_version: r.u16()?,
@@ -320,7 +320,17 @@ impl Request {
                 }
             }
             12 => *body = RequestBody::Close,
-            _ => *body = RequestBody::Identify,
+            13 => *body = RequestBody::Identify,
+            _ => {
+                let mut key = [0u8; 16];
+                for k in &mut key {
+                    *k = r.byte()?;
+                }
+                *body = RequestBody::SetSigning {
+                    key,
+                    enabled: r.bool()?,
+                }
+            }
         }
         Ok(())
     }
@@ -429,6 +439,7 @@ impl<'a> Writer<'a> {
         self.f32(d.trunk.pressure_limit_kpa);
         self.varint(d.session);
         self.varint(d.reset_cause as u32);
+        self.bool(d.signing);
     }
 
     fn status(&mut self, s: &Status) {

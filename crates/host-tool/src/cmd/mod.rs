@@ -4,6 +4,7 @@ pub mod aim;
 pub mod calibrate;
 pub mod check;
 pub mod declare;
+pub mod signing;
 pub mod demo;
 pub mod design;
 pub mod fk;

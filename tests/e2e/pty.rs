@@ -183,7 +183,9 @@ fn a_live_session_is_taken_over_only_with_take_over() {
     let refused = host_tool(&["status", "--port", &sim.path, "--json"], LIMIT);
     assert_eq!(refused.code(), 1, "{}", refused.stderr);
     assert!(
-        refused.stdout.contains("take over explicitly (host-tool: --take-over)"),
+        refused
+            .stdout
+            .contains("take over explicitly (host-tool: --take-over)"),
         "{}\n{}",
         refused.stdout,
         refused.stderr
@@ -211,13 +213,24 @@ fn a_live_session_is_taken_over_only_with_take_over() {
 /// answer is lost), so none is refused because the one before still held the crane.
 #[test]
 fn a_lost_close_on_a_noisy_line_no_longer_locks_the_next_command_out() {
-    let sim = hil_sim_pty(&["--initial", "F&P", "--seed", "5", "--sim-fault", "line-noise"]);
+    let sim = hil_sim_pty(&[
+        "--initial",
+        "F&P",
+        "--seed",
+        "5",
+        "--sim-fault",
+        "line-noise",
+    ]);
     let mut unconfirmed = 0;
     for i in 0..20 {
         let out = host_tool(&["status", "--port", &sim.path, "--json"], LIMIT);
         assert_eq!(out.code(), 0, "status {i}: {}\n{}", out.stdout, out.stderr);
         assert_eq!(out.json()["state"], "F&P", "status {i}");
-        assert!(!out.stdout.contains("take over"), "status {i}: {}", out.stdout);
+        assert!(
+            !out.stdout.contains("take over"),
+            "status {i}: {}",
+            out.stdout
+        );
         unconfirmed += out.stderr.matches("did not confirm the end").count();
     }
     // Four sends at most: all four lost is rare (≈ 0.4 % a call at one loss in four).

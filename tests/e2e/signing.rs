@@ -26,8 +26,11 @@ fn answer(port: &mut Box<dyn serialport::SerialPort>, seq: u16) -> (ResultCode, 
             Err(e) => panic!("reading the pty: {e}"),
         };
         for &b in &buf[..n] {
-            if let Some(Ok(DeviceMessage::Response { seq: s, result, body })) =
-                d.push::<DeviceMessage>(b)
+            if let Some(Ok(DeviceMessage::Response {
+                seq: s,
+                result,
+                body,
+            })) = d.push::<DeviceMessage>(b)
             {
                 if s == seq {
                     return (result, body);
@@ -69,7 +72,16 @@ fn set_limit(seq: u16, session: u32, kpa: f32) -> Request {
 
 fn limit(path: &str, key: &str) -> f64 {
     let out = host_tool(
-        &["param", "get", "pressure-limit-kpa", "--port", path, "--link-key", key, "--json"],
+        &[
+            "param",
+            "get",
+            "pressure-limit-kpa",
+            "--port",
+            path,
+            "--link-key",
+            key,
+            "--json",
+        ],
         LIMIT,
     );
     assert_eq!(out.code(), 0, "{}", out.stderr);
@@ -89,7 +101,15 @@ fn pairing_then_forged_replayed_and_signed_frames_over_the_pty() {
     let show = host_tool(&["signing", "show", "--port", &sim.path, "--json"], LIMIT);
     assert_eq!(show.json()["signing"], false, "{}", show.stderr);
     let pair = host_tool(
-        &["signing", "pair", "--port", &sim.path, "--key-file", kf, "--json"],
+        &[
+            "signing",
+            "pair",
+            "--port",
+            &sim.path,
+            "--key-file",
+            kf,
+            "--json",
+        ],
         LIMIT,
     );
     assert_eq!(pair.code(), 0, "{}", pair.stderr);
@@ -113,7 +133,14 @@ fn pairing_then_forged_replayed_and_signed_frames_over_the_pty() {
 
     // Without the key a parameter change is refused; with it, obeyed.
     let refused = host_tool(
-        &["param", "set", "pressure-limit-kpa", "30", "--port", &sim.path],
+        &[
+            "param",
+            "set",
+            "pressure-limit-kpa",
+            "30",
+            "--port",
+            &sim.path,
+        ],
         LIMIT,
     );
     assert_eq!(refused.code(), 1, "{}", refused.stderr);
@@ -123,7 +150,16 @@ fn pairing_then_forged_replayed_and_signed_frames_over_the_pty() {
         refused.stderr
     );
     let set = host_tool(
-        &["param", "set", "pressure-limit-kpa", "30", "--port", &sim.path, "--link-key", kf],
+        &[
+            "param",
+            "set",
+            "pressure-limit-kpa",
+            "30",
+            "--port",
+            &sim.path,
+            "--link-key",
+            kf,
+        ],
         LIMIT,
     );
     assert_eq!(set.code(), 0, "{}", set.stderr);
@@ -161,7 +197,10 @@ fn pairing_then_forged_replayed_and_signed_frames_over_the_pty() {
     let first = signed(&set_limit(9_002, s, 35.0), &key, base);
     send(&mut port, &first);
     assert_eq!(answer(&mut port, 9_002).0, ResultCode::Ok);
-    send(&mut port, &signed(&set_limit(9_003, s, 36.0), &key, base + 1));
+    send(
+        &mut port,
+        &signed(&set_limit(9_003, s, 36.0), &key, base + 1),
+    );
     assert_eq!(answer(&mut port, 9_003).0, ResultCode::Ok);
     // Replayed: the first signed frame again, byte for byte.
     send(&mut port, &first);
@@ -177,15 +216,29 @@ fn pairing_then_forged_replayed_and_signed_frames_over_the_pty() {
     send(&mut port, &signed(&close, &key, base + 2));
     assert_eq!(answer(&mut port, 9_004).0, ResultCode::Ok);
     drop(port);
-    assert_eq!(limit(&sim.path, kf), 36.0, "the forged 60 and the replayed 35 never took");
+    assert_eq!(
+        limit(&sim.path, kf),
+        36.0,
+        "the forged 60 and the replayed 35 never took"
+    );
 
     // Off, with the key; then plain commands are obeyed again.
-    let off = host_tool(&["signing", "off", "--port", &sim.path, "--link-key", kf], LIMIT);
+    let off = host_tool(
+        &["signing", "off", "--port", &sim.path, "--link-key", kf],
+        LIMIT,
+    );
     assert_eq!(off.code(), 0, "{}", off.stderr);
     let show = host_tool(&["signing", "show", "--port", &sim.path, "--json"], LIMIT);
     assert_eq!(show.json()["signing"], false);
     let set = host_tool(
-        &["param", "set", "pressure-limit-kpa", "40", "--port", &sim.path],
+        &[
+            "param",
+            "set",
+            "pressure-limit-kpa",
+            "40",
+            "--port",
+            &sim.path,
+        ],
         LIMIT,
     );
     assert_eq!(set.code(), 0, "{}", set.stderr);

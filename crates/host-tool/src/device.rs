@@ -76,9 +76,8 @@ static LINK_KEY: std::sync::Mutex<Option<protocol::sign::LinkKey>> = std::sync::
 
 /// Reads a link key file: 32 hexadecimal digits (whitespace around them ignored).
 pub fn read_link_key(path: &std::path::Path) -> Result<protocol::sign::LinkKey, Failure> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        Failure::usage(format!("cannot read the link key {}: {e}", path.display()))
-    })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::usage(format!("cannot read the link key {}: {e}", path.display())))?;
     parse_link_key(text.trim()).ok_or_else(|| {
         Failure::usage(format!(
             "{} is not a link key: expected 32 hexadecimal digits (as `host-tool signing pair` \
@@ -219,7 +218,8 @@ impl Drop for Connection {
     /// A port's session ends confirmed ([`CLOSE_ATTEMPTS`]): the next command on this crane
     /// finds it free. The in-process simulator ends with the process, as before.
     fn drop(&mut self) {
-        if !matches!(self.session.io.inner, AnyIo::Serial(_)) || !self.session.host.session().is_open()
+        if !matches!(self.session.io.inner, AnyIo::Serial(_))
+            || !self.session.host.session().is_open()
         {
             return;
         }

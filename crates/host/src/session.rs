@@ -17,11 +17,11 @@
 
 use std::collections::VecDeque;
 
+use protocol::sign::LinkKey;
 use protocol::{
     DeviceInfo, DeviceMessage, Event, FrameDecoder, RejectReason, Request, RequestBody,
     ResponseBody, ResultCode, Status, MAX_FRAME_LEN,
 };
-use protocol::sign::LinkKey;
 
 use crate::text;
 
@@ -497,7 +497,8 @@ impl Session {
                         // An unanswered Close: closed on this side; the link is not "lost",
                         // it was being ended.
                         self.phase = Phase::Closed;
-                        self.events.push_back(SessionEvent::Failed { id: p.id, error });
+                        self.events
+                            .push_back(SessionEvent::Failed { id: p.id, error });
                         return;
                     }
                     self.lose(p, error);

@@ -289,9 +289,7 @@ pub fn request_line(req: &Request) -> String {
             format!("{} = {value} {}", param_name(*id), param_unit(*id))
         }
         // Never the key.
-        RequestBody::SetSigning { enabled, .. } => {
-            if *enabled { "on" } else { "off" }.to_string()
-        }
+        RequestBody::SetSigning { enabled, .. } => if *enabled { "on" } else { "off" }.to_string(),
         RequestBody::GetStatus
         | RequestBody::Heartbeat
         | RequestBody::Abort

@@ -51,6 +51,16 @@ impl<'a> Reader<'a> {
         self.rest
     }
 
+    /// `SetSigning`'s fields (out of line: rare, and the board pays for it in flash).
+    #[inline(never)]
+    fn set_signing_into(&mut self, body: &mut RequestBody) -> Read<()> {
+        let (key, rest) = self.rest.split_first_chunk::<16>().ok_or(Invalid)?;
+        self.rest = rest;
+        let enabled = self.bool()?;
+        *body = RequestBody::SetSigning { key: *key, enabled };
+        Ok(())
+    }
+
     /// One byte (a `u8`).
     #[inline(always)]
     pub fn byte(&mut self) -> Read<u8> {
@@ -321,16 +331,7 @@ impl Request {
             }
             12 => *body = RequestBody::Close,
             13 => *body = RequestBody::Identify,
-            _ => {
-                let mut key = [0u8; 16];
-                for k in &mut key {
-                    *k = r.byte()?;
-                }
-                *body = RequestBody::SetSigning {
-                    key,
-                    enabled: r.bool()?,
-                }
-            }
+            _ => r.set_signing_into(body)?,
         }
         Ok(())
     }

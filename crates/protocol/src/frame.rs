@@ -292,10 +292,14 @@ fn checked_payload(raw: &[u8], crc: u32, trailer: usize) -> Result<&[u8], FrameE
     if crc.to_le_bytes() != *check {
         return Err(legacy_or_crc(raw));
     }
-    payload
+    #[cfg(feature = "signing")]
+    let payload = payload
         .get(..payload.len().saturating_sub(trailer))
         .filter(|p| !p.is_empty())
-        .ok_or(FrameError::Payload)
+        .ok_or(FrameError::Payload)?;
+    #[cfg(not(feature = "signing"))]
+    let _ = trailer;
+    Ok(payload)
 }
 
 /// Longest frame checked for being protocol v1's: a v1 `Hello`, heartbeat or status answer is
@@ -368,6 +372,7 @@ pub struct FrameDecoder {
     #[cfg(feature = "signing")]
     mac: Option<crate::sign::Mac>,
     /// The counter of the frame the last delimiter closed, when its signature checked out.
+    #[cfg(feature = "signing")]
     signed: Option<u64>,
 }
 
@@ -395,6 +400,7 @@ impl FrameDecoder {
             },
             #[cfg(feature = "signing")]
             mac: None,
+            #[cfg(feature = "signing")]
             signed: None,
         }
     }
@@ -412,7 +418,10 @@ impl FrameDecoder {
 
     /// The counter of the frame the last delimiter closed, if it carried a valid signature.
     pub fn signed_counter(&self) -> Option<u64> {
-        self.signed
+        #[cfg(feature = "signing")]
+        return self.signed;
+        #[cfg(not(feature = "signing"))]
+        None
     }
 
     /// The counters.
@@ -450,7 +459,10 @@ impl FrameDecoder {
         }
         #[cfg(feature = "signing")]
         if let Some(m) = self.mac.as_mut() {
-            if let Some(&old) = self.buf.get(self.len.wrapping_sub(CRC_LEN + crate::sign::TAG_LEN)) {
+            if let Some(&old) = self
+                .buf
+                .get(self.len.wrapping_sub(CRC_LEN + crate::sign::TAG_LEN))
+            {
                 m.update(old);
             }
         }
@@ -531,7 +543,6 @@ impl FrameDecoder {
         let overflow = core::mem::replace(&mut self.overflow, false);
         self.last_len = if overflow { 0 } else { len };
         let crc = core::mem::replace(&mut self.crc, CRC_INIT) ^ CRC_ALGORITHM.xorout;
-        self.signed = None;
         let trailer = self.signature(len);
         let result = if overflow {
             Err(FrameError::TooLong)
@@ -558,6 +569,7 @@ impl FrameDecoder {
     #[cfg(feature = "signing")]
     fn signature(&mut self, len: usize) -> usize {
         use crate::sign::{COUNTER_LEN, TAG_LEN, TRAILER_LEN};
+        self.signed = None;
         let Some(m) = self.mac.as_mut() else {
             return 0;
         };

@@ -144,12 +144,21 @@ mod tests {
         // Another key, or no key: the trailer is left over, the frame is dropped.
         let mut other = FrameDecoder::new();
         other.set_key(Some(b"fedcba9876543210"));
-        assert_eq!(push_all(&mut other, &buf[..n]), Some(Err(FrameError::Payload)));
+        assert_eq!(
+            push_all(&mut other, &buf[..n]),
+            Some(Err(FrameError::Payload))
+        );
         assert_eq!(other.signed_counter(), None);
         let mut none = FrameDecoder::new();
-        assert_eq!(push_all(&mut none, &buf[..n]), Some(Err(FrameError::Payload)));
+        assert_eq!(
+            push_all(&mut none, &buf[..n]),
+            Some(Err(FrameError::Payload))
+        );
         // After a dropped frame the next one verifies again (the MAC starts over).
-        assert_eq!(push_all(&mut keyed, &[1, 2, 3, 0]).map(|r| r.is_err()), Some(true));
+        assert_eq!(
+            push_all(&mut keyed, &[1, 2, 3, 0]).map(|r| r.is_err()),
+            Some(true)
+        );
         let (buf2, n2) = signed(&KEY, 100);
         assert_eq!(push_all(&mut keyed, &buf2[..n2]), Some(Ok(request())));
         assert_eq!(keyed.signed_counter(), Some(100));
@@ -164,7 +173,13 @@ mod tests {
         raw[used..used + COUNTER_LEN].copy_from_slice(&5u64.to_le_bytes());
         let t = tag(&KEY, &raw[..used + COUNTER_LEN]);
         raw[used + COUNTER_LEN..used + TRAILER_LEN].copy_from_slice(&t);
-        for at in [0, used - 1, used, used + COUNTER_LEN - 1, used + COUNTER_LEN] {
+        for at in [
+            0,
+            used - 1,
+            used,
+            used + COUNTER_LEN - 1,
+            used + COUNTER_LEN,
+        ] {
             let mut bad = raw;
             bad[at] ^= 0x01;
             let len = used + TRAILER_LEN;

@@ -2620,7 +2620,10 @@ fn a_close_whose_answer_is_lost_is_resent_and_frees_the_crane_for_the_next_host_
     let frames_before = r.ctl.status().frames_rx;
     r.line_fault = Some(LineFault::LoseToHost);
     let now = r.now;
-    let id = r.host().close_confirmed(4, now).expect("the session is open");
+    let id = r
+        .host()
+        .close_confirmed(4, now)
+        .expect("the session is open");
     r.exchange();
     assert!(!r.lost.is_empty(), "the answer was lost");
     assert_eq!(r.reply(id), None);
@@ -2631,7 +2634,11 @@ fn a_close_whose_answer_is_lost_is_resent_and_frees_the_crane_for_the_next_host_
     assert_eq!(waited, Timing::standard().request_timeout_ms);
     assert_eq!(r.reply(id).map(|(res, _)| res), Some(ResultCode::Ok));
     assert!(r.host().is_closed());
-    assert_eq!(r.ctl.status().frames_rx, frames_before + 2, "Close and its resend");
+    assert_eq!(
+        r.ctl.status().frames_rx,
+        frames_before + 2,
+        "Close and its resend"
+    );
     let (_, hello) = r.join(false);
     assert!(hello.is_ok(), "freed at once: {hello:?}");
     // A Close that never gets through (the line dead toward the device) is given up after
@@ -2658,7 +2665,10 @@ fn a_close_whose_answer_is_lost_is_resent_and_frees_the_crane_for_the_next_host_
         _ => None,
     });
     assert!(
-        matches!(failed, Some((750, SessionError::Timeout { attempts: 3, .. }))),
+        matches!(
+            failed,
+            Some((750, SessionError::Timeout { attempts: 3, .. }))
+        ),
         "{failed:?}"
     );
     assert!(r.host().is_closed());
@@ -2958,7 +2968,11 @@ mod signing {
         });
         assert_eq!(res, ResultCode::Ok);
         assert!(r.ctl.signing());
-        assert_eq!(r.ctl.poll_link_key(), Some(Some(KEY)), "the key goes to the store");
+        assert_eq!(
+            r.ctl.poll_link_key(),
+            Some(Some(KEY)),
+            "the key goes to the store"
+        );
         assert!(r.host().signs(), "the host signs from the next request on");
         r
     }
@@ -2984,7 +2998,8 @@ mod signing {
             ResultCode::Rejected(RejectReason::Unsigned)
         );
         assert_eq!(
-            r.forged(session, RequestBody::UploadPlan(Rig::plan(9, &[FF, FP]))).0,
+            r.forged(session, RequestBody::UploadPlan(Rig::plan(9, &[FF, FP])))
+                .0,
             ResultCode::Rejected(RejectReason::Unsigned)
         );
         assert_eq!(

@@ -97,9 +97,7 @@ fn pair(key_file: &std::path::Path, device: &DeviceArgs, json: bool) -> Result<(
             .create_new(true)
             .mode(0o600)
             .open(key_file)
-            .map_err(|e| {
-                Failure::usage(format!("cannot create {}: {e}", key_file.display()))
-            })?
+            .map_err(|e| Failure::usage(format!("cannot create {}: {e}", key_file.display())))?
     };
     let hex: String = key.iter().map(|b| format!("{b:02x}")).collect();
     writeln!(f, "{hex}")

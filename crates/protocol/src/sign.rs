@@ -50,7 +50,7 @@ impl Mac {
     pub fn new(key: &LinkKey) -> Self {
         let fresh = siphasher::sip::SipHasher24::new_with_key(key);
         Self {
-            state: fresh.clone(),
+            state: fresh,
             fresh,
         }
     }
@@ -70,7 +70,7 @@ impl Mac {
 
     /// Starts over, under the same key.
     pub fn reset(&mut self) {
-        self.state = self.fresh.clone();
+        self.state = self.fresh;
     }
 }
 

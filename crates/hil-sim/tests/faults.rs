@@ -78,9 +78,12 @@ const CASES: [Case; 24] = [
     (Fault::LinkDrop, None, "F&P", "D&D", 3, 0xdbfe7258bd1a03f8),
     (Fault::LinkDrop, None, "D&D", "F&P", 3, 0x0056e74db6bb4b19),
     (Fault::LinkDrop, Some(700), "F&F", "D&F", 3, 0x2f64fc3d304292f3),
-    (Fault::LineNoise, None, "F&P", "D&D", 3, 0x99cd7d1fb6d4114b),
-    (Fault::LineNoise, None, "D&D", "F&P", 3, 0xb611cd6f74408403),
-    (Fault::LineNoise, Some(700), "F&F", "D&F", 3, 0x06e4688939b4d7af),
+    // The three line-noise runs re-recorded when the handshake's answer grew by one byte
+    // (`DeviceInfo::signing`, issue 26): the noise then falls on other bytes. Every other
+    // fault kept its run.
+    (Fault::LineNoise, None, "F&P", "D&D", 3, 0xf842257a3c69c992),
+    (Fault::LineNoise, None, "D&D", "F&P", 3, 0x3fb2d583b81d1791),
+    (Fault::LineNoise, Some(700), "F&F", "D&F", 3, 0x1cd41c34d1544d3c),
 ];
 
 #[test]
@@ -118,11 +121,13 @@ fn the_swarm_with_faults_at_random_onsets_runs_as_before_the_layer() {
     // probe used to decide), still 0 violations; and with the plan runner identifying the state
     // after a step the device cannot confirm (the operator is asked, the plan goes on from
     // what is identified) and an unconfirmed tendon fold vented like a confirmed one:
-    // 13 313 770 ms, 732 reached, 0 violations. A change here is a change of behaviour
-    // somewhere in the system.
+    // 13 313 770 ms, 732 reached, 0 violations. With the handshake's answer one byte longer
+    // (`DeviceInfo::signing`, issue 26; the line noise falls on other bytes, as in the three
+    // line-noise runs above, not bisected further): 13 698 294 ms, 732 reached, 0 violations.
+    // A change here is a change of behaviour somewhere in the system.
     let r = hil_sim::swarm::swarm(1000, 300, 1);
     assert_eq!(
         (r.runs, r.virtual_ms, r.reached, r.violations.len()),
-        (300, 13_313_770, 732, 0)
+        (300, 13_698_294, 732, 0)
     );
 }

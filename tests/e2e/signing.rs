@@ -244,3 +244,43 @@ fn pairing_then_forged_replayed_and_signed_frames_over_the_pty() {
     assert_eq!(set.code(), 0, "{}", set.stderr);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A key file that cannot be read, or is not 32 hex digits, is a usage error before anything
+/// is opened; so is pairing over an existing key file.
+#[test]
+fn bad_key_files_are_usage_errors() {
+    let dir = std::env::temp_dir().join(format!("e2e-badkey-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let short = dir.join("short.key");
+    std::fs::write(&short, "0123abcd\n").unwrap();
+    let missing = dir.join("missing.key");
+    for (file, why) in [
+        (&missing, "cannot read the link key"),
+        (&short, "expected 32 hexadecimal digits"),
+    ] {
+        let out = host_tool(
+            &["status", "--sim", "--link-key", file.to_str().unwrap()],
+            LIMIT,
+        );
+        assert_eq!(out.code(), 2, "{}", out.stderr);
+        assert!(out.stderr.contains(why), "{}", out.stderr);
+    }
+    let out = host_tool(
+        &[
+            "signing",
+            "pair",
+            "--sim",
+            "--key-file",
+            short.to_str().unwrap(),
+        ],
+        LIMIT,
+    );
+    assert_eq!(out.code(), 2, "{}", out.stderr);
+    assert!(out.stderr.contains("never overwrites"), "{}", out.stderr);
+    assert_eq!(
+        std::fs::read_to_string(&short).unwrap(),
+        "0123abcd\n",
+        "left as it was"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -12,5 +12,6 @@ mod graph_agreement;
 mod plans;
 mod pty;
 mod serial_garbage;
+mod signing;
 mod swarm;
 mod usage;

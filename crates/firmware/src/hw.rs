@@ -81,6 +81,21 @@ pub trait StateStore {
     fn load(&mut self) -> Result<Option<StoredState>, Self::Error>;
     /// Stores `state`, replacing the previous one.
     fn save(&mut self, state: &StoredState) -> Result<(), Self::Error>;
+
+    /// Whether this store keeps a link-signing key ([`StateStore::save_link_key`]); one that
+    /// does not (the default) makes the controller refuse pairing, so signing never silently
+    /// ends at a reset.
+    fn keeps_link_key(&self) -> bool {
+        false
+    }
+    /// The link-signing key kept (`Ok(None)`: none, signing off).
+    fn load_link_key(&mut self) -> Result<Option<[u8; 16]>, Self::Error> {
+        Ok(None)
+    }
+    /// Keeps `key` (`None`: forgets it), replacing the previous one.
+    fn save_link_key(&mut self, _key: Option<&[u8; 16]>) -> Result<(), Self::Error> {
+        Ok(())
+    }
 }
 
 /// Servo pulse timing: angle 0 → `min_us`, angle `range_deg` → `max_us`, linear in between.
@@ -359,6 +374,8 @@ pub struct Shell<I, O, D, S, L> {
     pub stats: ShellStats,
     last_display: Option<[u8; 4]>,
     pending_store: Option<StoredState>,
+    #[cfg(feature = "link-signing")]
+    pending_key: Option<Option<[u8; 16]>>,
     tx: [u8; SHELL_IO_CHUNK],
     tx_len: usize,
     tx_pos: usize,
@@ -383,6 +400,8 @@ where
             stats: ShellStats::default(),
             last_display: None,
             pending_store: None,
+            #[cfg(feature = "link-signing")]
+            pending_key: None,
             tx: [0; SHELL_IO_CHUNK],
             tx_len: 0,
             tx_pos: 0,
@@ -397,7 +416,22 @@ where
             Ok(None) => crate::BootRecord::Empty,
             Err(_) => crate::BootRecord::Corrupt,
         };
-        Controller::new(config, record, now_ms)
+        #[allow(unused_mut)]
+        let mut ctl = Controller::new(config, record, now_ms);
+        #[cfg(feature = "link-signing")]
+        {
+            // An unreadable key boots with signing off (the store error counted): the
+            // operator pairs again.
+            let key = match self.store.load_link_key() {
+                Ok(k) => k,
+                Err(_) => {
+                    self.stats.store_errors = self.stats.store_errors.wrapping_add(1);
+                    None
+                }
+            };
+            ctl.set_link_key(key, self.store.keeps_link_key());
+        }
+        ctl
     }
 
     /// One pass of the loop at time `now_ms`.
@@ -440,6 +474,19 @@ where
                     ctl.handle_stored();
                 }
                 Err(_) => self.stats.store_errors = self.stats.store_errors.wrapping_add(1),
+            }
+        }
+        // 5b. A link key paired or forgotten (kept and retried until saved).
+        #[cfg(feature = "link-signing")]
+        {
+            if let Some(k) = ctl.poll_link_key() {
+                self.pending_key = Some(k);
+            }
+            if let Some(k) = self.pending_key {
+                match self.store.save_link_key(k.as_ref()) {
+                    Ok(()) => self.pending_key = None,
+                    Err(_) => self.stats.store_errors = self.stats.store_errors.wrapping_add(1),
+                }
             }
         }
         // 6. Bytes to the host.

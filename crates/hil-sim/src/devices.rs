@@ -179,6 +179,8 @@ pub struct SimFlash {
     pub writes: u32,
     /// Reads and writes fail (a broken flash).
     pub failed: bool,
+    /// The link-signing key kept beside the record (`None`: signing off).
+    pub link_key: Option<[u8; 16]>,
 }
 
 impl Default for SimFlash {
@@ -187,6 +189,7 @@ impl Default for SimFlash {
             bytes: [0xFF; STORED_LEN],
             writes: 0,
             failed: false,
+            link_key: None,
         }
     }
 }
@@ -218,6 +221,23 @@ impl StateStore for SimFlash {
             return Err(FlashError);
         }
         self.bytes = state.to_bytes();
+        self.writes = self.writes.wrapping_add(1);
+        Ok(())
+    }
+    fn keeps_link_key(&self) -> bool {
+        true
+    }
+    fn load_link_key(&mut self) -> Result<Option<[u8; 16]>, FlashError> {
+        if self.failed {
+            return Err(FlashError);
+        }
+        Ok(self.link_key)
+    }
+    fn save_link_key(&mut self, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
+        if self.failed {
+            return Err(FlashError);
+        }
+        self.link_key = key.copied();
         self.writes = self.writes.wrapping_add(1);
         Ok(())
     }

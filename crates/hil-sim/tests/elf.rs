@@ -490,3 +490,85 @@ fn a_step_actuates_only_after_its_journal_is_in_flash_and_a_cut_before_boots_tru
         }
     }
 }
+
+/// Link signing on the board ELF: its handshake says signing is off; pairing is refused
+/// (`NotAllowed`: the board binary is built without `link-signing`, and its flash log keeps no
+/// key); a signed frame is not taken for a plain one (its trailer is left over: dropped,
+/// counted, unanswered), while plain requests go on being obeyed.
+#[test]
+fn the_board_elf_says_signing_is_off_refuses_pairing_and_drops_a_signed_frame() {
+    use protocol::messages::{DeviceMessage, ParamId, RejectReason, Request, RequestBody};
+    use protocol::ResultCode;
+    let mut sim = Sim::try_new(SimOptions {
+        initial: "F&F".parse().unwrap(),
+        firmware_elf: Some(elf()),
+        ..SimOptions::default()
+    })
+    .expect("the ELF loads");
+    sim.run_for(50);
+    let mut host = SimHost::new();
+    let ResponseBody::Hello(info) = host.hello(&mut sim).expect("handshake") else {
+        panic!("no device info")
+    };
+    assert!(!info.signing, "{info:?}");
+    let (res, _) = host
+        .request(
+            &mut sim,
+            RequestBody::SetSigning {
+                key: *b"crane-test-key-1",
+                enabled: true,
+            },
+            1_000,
+        )
+        .expect("answered");
+    assert_eq!(res, ResultCode::Rejected(RejectReason::NotAllowed));
+    let status = |host: &mut SimHost, sim: &mut Sim| match host
+        .request(sim, RequestBody::GetStatus, 1_000)
+        .expect("answered")
+    {
+        (ResultCode::Ok, ResponseBody::Status(s)) => s,
+        other => panic!("{other:?}"),
+    };
+    let before = status(&mut host, &mut sim).frames_dropped;
+    let _ = sim.read_device_bytes();
+    let mut buf = [0u8; protocol::MAX_FRAME_LEN];
+    let n = protocol::frame::encode_signed(
+        &Request {
+            seq: 4_321,
+            session: host.session(),
+            body: RequestBody::SetParam {
+                id: ParamId::PressureLimitKpa,
+                value: 20.0,
+            },
+        },
+        b"crane-test-key-1",
+        7,
+        &mut buf,
+    )
+    .unwrap();
+    sim.write_host_bytes(&buf[..n]);
+    let mut dec = protocol::FrameDecoder::new();
+    for _ in 0..100 {
+        sim.step();
+        for b in sim.read_device_bytes() {
+            if let Some(Ok(DeviceMessage::Response { seq, result, .. })) =
+                dec.push::<DeviceMessage>(b)
+            {
+                assert_ne!(seq, 4_321, "a signed frame answered ({result:?})");
+            }
+        }
+    }
+    assert_eq!(status(&mut host, &mut sim).frames_dropped, before + 1);
+    let (res, body) = host
+        .request(
+            &mut sim,
+            RequestBody::GetParam(ParamId::PressureLimitKpa),
+            1_000,
+        )
+        .expect("answered");
+    assert_eq!(res, ResultCode::Ok);
+    assert!(
+        matches!(body, ResponseBody::Param { value, .. } if value == 40.0),
+        "{body:?}"
+    );
+}

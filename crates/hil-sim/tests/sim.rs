@@ -599,3 +599,40 @@ fn the_gripper_button_toggles_the_gripper_and_the_e_stop_latches() {
     assert!(t.actuators_safe, "{t:?}");
     assert!(t.display.starts_with("E-06"), "{t:?}");
 }
+
+/// Link signing's key is kept in the emulated flash: after a power cycle the device boots
+/// signing, and its handshake says so.
+#[test]
+fn a_paired_link_key_survives_a_power_cycle() {
+    use protocol::messages::{RequestBody, ResponseBody};
+    let mut sim = Sim::new(SimOptions::default());
+    sim.run_for(100);
+    let mut host = SimHost::new();
+    let ResponseBody::Hello(info) = host.hello(&mut sim).unwrap() else {
+        panic!("no device info")
+    };
+    assert!(!info.signing, "off by default");
+    let writes = sim.flash_writes();
+    host.request_ok(
+        &mut sim,
+        RequestBody::SetSigning {
+            key: *b"crane-test-key-1",
+            enabled: true,
+        },
+        1_000,
+    )
+    .unwrap();
+    sim.run_for(10);
+    assert_eq!(sim.flash_writes(), writes + 1, "the key went to the flash");
+    sim.power_cycle();
+    sim.run_for(100);
+    assert!(sim.controller().signing());
+    let mut next = SimHost::new();
+    let ResponseBody::Hello(info) = next.hello(&mut sim).unwrap() else {
+        panic!("no device info")
+    };
+    assert!(
+        info.signing,
+        "the handshake after the power cycle says signing is on"
+    );
+}

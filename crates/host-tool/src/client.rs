@@ -68,7 +68,16 @@ pub fn server_for(args: &DeviceArgs) -> Result<Option<PathBuf>, Failure> {
     let dir = socket_dir();
     if let Some(port) = &args.port {
         let path = dir.join(socket_name(Some(port)));
-        return Ok(UnixStream::connect(&path).is_ok().then_some(path));
+        let served = UnixStream::connect(&path).is_ok();
+        if served && args.take_over {
+            return Err(Failure::usage(format!(
+                "--take-over takes the device's session directly, but a `host-tool serve` \
+                 server holds {port} (socket {}): run the command without --take-over (it goes \
+                 through the server), or stop the server first",
+                path.display()
+            )));
+        }
+        return Ok(served.then_some(path));
     }
     let Ok(entries) = std::fs::read_dir(&dir) else {
         return Ok(None);
@@ -79,6 +88,13 @@ pub fn server_for(args: &DeviceArgs) -> Result<Option<PathBuf>, Failure> {
         .filter(|p| p.extension().is_some_and(|e| e == "sock"))
         .filter(|p| UnixStream::connect(p).is_ok())
         .collect();
+    if args.take_over && !live.is_empty() {
+        return Err(Failure::usage(
+            "--take-over takes the device's session directly, but a `host-tool serve` server \
+             holds it: run the command without --take-over (it goes through the server), or \
+             stop the server first",
+        ));
+    }
     match live.len() {
         0 => Ok(None),
         1 => Ok(live.into_iter().next()),

@@ -57,7 +57,63 @@ pub struct DeviceArgs {
     #[arg(long, value_name = "K", allow_negative_numbers = true,
           value_parser = hil_sim::cli::parse_trunk_scale)]
     pub sim_trunk_scale: Option<f64>,
+    /// Take the crane's session over from the host that holds it (one whose `Close` was lost,
+    /// or one still running): the device allows it, and that host's next command is refused.
+    /// Said on stderr when used; refused when a `serve` server holds the device.
+    #[arg(long)]
+    pub take_over: bool,
+    /// The crane's link-signing key (a file of 32 hex digits, as `signing pair` writes it):
+    /// requests are signed when the device says signing is on. Default: $CRANE_LINK_KEY.
+    #[arg(long, value_name = "FILE")]
+    pub link_key: Option<std::path::PathBuf>,
 }
+
+/// The environment variable naming the link-signing key file when `--link-key` is not given.
+pub const LINK_KEY_ENV: &str = "CRANE_LINK_KEY";
+
+/// The link key of this process's one device selection, read by [`DeviceArgs::validate`].
+static LINK_KEY: std::sync::Mutex<Option<protocol::sign::LinkKey>> = std::sync::Mutex::new(None);
+
+/// Reads a link key file: 32 hexadecimal digits (whitespace around them ignored).
+pub fn read_link_key(path: &std::path::Path) -> Result<protocol::sign::LinkKey, Failure> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::usage(format!("cannot read the link key {}: {e}", path.display())))?;
+    parse_link_key(text.trim()).ok_or_else(|| {
+        Failure::usage(format!(
+            "{} is not a link key: expected 32 hexadecimal digits (as `host-tool signing pair` \
+             writes)",
+            path.display()
+        ))
+    })
+}
+
+/// 32 hex digits → a key.
+pub fn parse_link_key(hex: &str) -> Option<protocol::sign::LinkKey> {
+    if hex.len() != 32 || !hex.is_ascii() {
+        return None;
+    }
+    let mut key = [0u8; 16];
+    for (i, k) in key.iter_mut().enumerate() {
+        *k = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).ok()?;
+    }
+    Some(key)
+}
+
+/// A counter base that rises across host processes: the wall clock's µs since 1970.
+fn signing_counter_base() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(1, |d| d.as_micros() as u64)
+}
+
+/// `--take-over` of this process's one device selection, set by [`DeviceArgs::validate`].
+static TAKE_OVER: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Sends of `Close` at most when a connection ends (its answer lost on a noisy line), one
+/// response timeout apart: 4 × 250 ms, so a dead line holds an ending command ≤ 1 s, and a
+/// line that loses one round trip in four still frees the session for the next command with
+/// 99.6 % odds (without it the next command is refused for the device's 3 s link timeout).
+pub const CLOSE_ATTEMPTS: u32 = 1 + protocol::MAX_RETRIES as u32;
 
 /// A validated device selection.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,6 +139,14 @@ impl DeviceArgs {
     /// Validates the selection. `default_speed`: the simulator's pacing when none is given
     /// (`None`: as fast as possible).
     pub fn validate(&self, default_speed: Option<f64>) -> Result<DeviceConfig, Failure> {
+        TAKE_OVER.store(self.take_over, std::sync::atomic::Ordering::Relaxed);
+        let key_file = self.link_key.clone().or_else(|| {
+            std::env::var_os(LINK_KEY_ENV)
+                .filter(|v| !v.is_empty())
+                .map(std::path::PathBuf::from)
+        });
+        let key = key_file.as_deref().map(read_link_key).transpose()?;
+        *LINK_KEY.lock().unwrap_or_else(|e| e.into_inner()) = key;
         let from_env = if self.sim {
             None
         } else {
@@ -148,6 +212,31 @@ pub struct Connection {
     pub session: Driver<Recorder<AnyIo>>,
     /// Who the device is.
     pub info: DeviceInfo,
+}
+
+impl Drop for Connection {
+    /// A port's session ends confirmed ([`CLOSE_ATTEMPTS`]): the next command on this crane
+    /// finds it free. The in-process simulator ends with the process, as before.
+    fn drop(&mut self) {
+        if !matches!(self.session.io.inner, AnyIo::Serial(_))
+            || !self.session.host.session().is_open()
+        {
+            return;
+        }
+        match self.session.close_confirmed(CLOSE_ATTEMPTS) {
+            Ok(()) => crate::debug!("session closed on the device"),
+            Err(e) => {
+                if crate::cli::notes() {
+                    eprintln!(
+                        "note: the device did not confirm the end of the session ({e}); it \
+                         frees it after its link timeout ({} s), or the next command takes it \
+                         over with --take-over",
+                        protocol::DEFAULT_LINK_TIMEOUT_MS / 1000
+                    );
+                }
+            }
+        }
+    }
 }
 
 impl Connection {
@@ -249,17 +338,38 @@ impl DeviceConfig {
             Host::new(Timing::standard(), seq),
             Recorder::new(io, recording),
         );
+        let key = *LINK_KEY.lock().unwrap_or_else(|e| e.into_inner());
+        // The simulator in-process keeps its own clock: counters from 1, same seed same run.
+        let base = match self {
+            DeviceConfig::Port(_) => signing_counter_base(),
+            DeviceConfig::Sim(_) => 1,
+        };
+        session.host.set_signing(key, base);
         let started = std::time::Instant::now();
-        match session.connect() {
+        let take_over = TAKE_OVER.load(std::sync::atomic::Ordering::Relaxed);
+        if take_over && crate::cli::notes() {
+            eprintln!(
+                "--take-over: taking {name}'s session over from any host that holds it (that \
+                 host's next command will be refused)"
+            );
+        }
+        match session.connect_with(take_over) {
             Ok(info) => {
                 crate::debug!(
                     "handshake with {name}: {} ms wall time; protocol {}, schema {:#010x}, \
-                     session {}",
+                     session {}, signing {}",
                     started.elapsed().as_millis(),
                     info.protocol_version,
                     info.schema_id,
-                    info.session
+                    info.session,
+                    if info.signing { "on" } else { "off" }
                 );
+                if info.signing && key.is_none() && crate::cli::notes() {
+                    eprintln!(
+                        "note: {name} signs its link: without its key (--link-key FILE or \
+                         ${LINK_KEY_ENV}) every request that changes anything is refused"
+                    );
+                }
                 Ok(Connection { session, info })
             }
             Err(source) => {
@@ -291,6 +401,8 @@ mod tests {
             seed: None,
             sim_trunk: None,
             sim_trunk_scale: None,
+            take_over: false,
+            link_key: None,
         }
     }
 

@@ -231,6 +231,8 @@ enum Command {
     Param(cmd::param::Args),
     /// Abort whatever runs; report the safe state.
     Stop(cmd::stop::Args),
+    /// Link signing: pair the crane with a new key (signing on), turn it off, or show it.
+    Signing(cmd::signing::Args),
     /// Identify an unconfirmed trunk state: the crane's probes, then the operator.
     Identify(cmd::identify::Args),
     /// List serial ports; recognise Arduino UNO R4 boards.
@@ -299,6 +301,7 @@ impl Command {
             Command::Status(a) | Command::Stop(a) => a.json,
             Command::Monitor(a) => a.json,
             Command::Declare(a) => a.json,
+            Command::Signing(a) => a.json,
             Command::Param(a) => a.json(),
             Command::Identify(a) => a.json,
             Command::Ports(a) => a.json,
@@ -333,6 +336,7 @@ impl Command {
             Command::Status(a) | Command::Stop(a) => a.json = on,
             Command::Monitor(a) => a.json = on,
             Command::Declare(a) => a.json = on,
+            Command::Signing(a) => a.json = on,
             Command::Param(a) => a.set_json(on),
             Command::Identify(a) => a.json = on,
             Command::Ports(a) => a.json = on,
@@ -415,6 +419,7 @@ fn main() -> ExitCode {
         Command::Declare(args) => cmd::declare::run(args),
         Command::Param(args) => cmd::param::run(args),
         Command::Stop(args) => cmd::stop::run(args),
+        Command::Signing(args) => cmd::signing::run(args),
         Command::Identify(args) => cmd::identify::run(args),
         Command::Ports(args) => cmd::ports::run(args),
         Command::Flash(args) => cmd::flash::run(args),

@@ -5,7 +5,6 @@
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use anyhow::Context;
 use hil_sim::pair::SimIo;
 
 /// The link's baud rate (ignored by USB CDC-ACM and ptys, used by a real UART bridge).
@@ -113,16 +112,28 @@ pub fn open(path: &str) -> anyhow::Result<Port> {
 
 /// As [`open`], at `baud` (the bootloader's rate for `flash`).
 pub fn open_at(path: &str, baud: u32) -> anyhow::Result<Port> {
-    let port = serialport::new(path, baud)
+    // serialport takes TIOCEXCL and an exclusive `flock` itself (root ignores TIOCEXCL, the
+    // flock keeps a second host-tool out even then); its own refusal names nobody, so a port
+    // that will not open is checked for a holder before its error is passed on.
+    let port = match serialport::new(path, baud)
         .data_bits(serialport::DataBits::Eight)
         .parity(serialport::Parity::None)
         .stop_bits(serialport::StopBits::One)
         .flow_control(serialport::FlowControl::None)
         .timeout(READ_TIMEOUT)
         .open_native()
-        .with_context(|| format!("cannot open serial port {path}"))?;
-    // One host per crane: an advisory lock that every host-tool takes (root ignores the
-    // port's TIOCEXCL, so that alone does not keep a second host out).
+    {
+        Ok(port) => port,
+        Err(e) => {
+            // Whatever the error, a holder of the lock is the reason to name.
+            if let Some(holder) = lock_holder(path) {
+                anyhow::bail!(in_use(path, &holder));
+            }
+            return Err(anyhow::Error::new(e).context(format!("cannot open serial port {path}")));
+        }
+    };
+    // One host per crane: the lock serialport took, checked (a build of it that did not take
+    // one would let a second host in).
     {
         use std::os::fd::AsRawFd;
         #[allow(deprecated)]
@@ -132,11 +143,7 @@ pub fn open_at(path: &str, baud: u32) -> anyhow::Result<Port> {
         );
         if locked.is_err() {
             let holder = lock_holder(path).unwrap_or_else(|| "another process".to_string());
-            anyhow::bail!(
-                "serial port {path} is in use by {holder}: only one host drives the crane at a \
-                 time; stop the crane from there (Ctrl-C in that terminal) or with the crane's \
-                 e-stop"
-            );
+            anyhow::bail!(in_use(path, &holder));
         }
     }
     let port: Port = Box::new(port);
@@ -146,32 +153,64 @@ pub fn open_at(path: &str, baud: u32) -> anyhow::Result<Port> {
     Ok(port)
 }
 
+/// The refusal of a port another process holds: who holds it, and the two ways on.
+fn in_use(path: &str, holder: &str) -> String {
+    format!(
+        "serial port {path} is in use by {holder}: only one host drives the crane at a time. \
+         Stop the crane from there (Ctrl-C in that terminal) or with the crane's e-stop; to \
+         command it from several terminals, run `host-tool serve --port {path}` in one and \
+         `status`, `stop`, `plan`, `param`, `declare` and `monitor` in the others go through it"
+    )
+}
+
 /// The process that holds the advisory lock on `path` (from `/proc/locks`, Linux), as
-/// "process PID (COMMAND)".
+/// "process PID (COMMAND LINE)"; none when the system does not tell.
 fn lock_holder(path: &str) -> Option<String> {
     use std::os::unix::fs::MetadataExt;
-    let inode = std::fs::metadata(path).ok()?.ino();
+    let meta = std::fs::metadata(path).ok()?;
     let locks = std::fs::read_to_string("/proc/locks").ok()?;
+    let me = std::process::id().to_string();
+    let pid = locks_holder(&locks, meta.dev(), meta.ino(), &me)?;
+    let cmd = std::fs::read(format!("/proc/{pid}/cmdline"))
+        .map(|b| {
+            String::from_utf8_lossy(&b)
+                .split('\0')
+                .filter(|s| !s.is_empty())
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .unwrap_or_default();
+    Some(if cmd.is_empty() {
+        format!("process {pid}")
+    } else {
+        format!("process {pid} ({cmd})")
+    })
+}
+
+/// The pid (not `me`) holding a `flock` on the file (`dev`, `ino`) in `/proc/locks`' text,
+/// whose lines read "1: FLOCK  ADVISORY  WRITE 12345 88:05:7 0 EOF" (the device's major and
+/// minor in hex, the inode in decimal).
+fn locks_holder(locks: &str, dev: u64, ino: u64, me: &str) -> Option<String> {
+    // Linux's st_dev encoding (glibc's gnu_dev_major/minor).
+    let major = ((dev >> 8) & 0xfff) | ((dev >> 32) & !0xfff);
+    let minor = (dev & 0xff) | ((dev >> 12) & !0xff);
     for line in locks.lines() {
-        // "1: FLOCK  ADVISORY  WRITE 12345 00:19:7 0 EOF"
         let f: Vec<&str> = line.split_whitespace().collect();
-        if f.len() < 6 || f[1] != "FLOCK" {
+        // A lock waiting for another is marked "->" and shifts the fields by one.
+        let f: Vec<&str> = f.into_iter().filter(|w| *w != "->").collect();
+        if f.len() < 6 || f[1] != "FLOCK" || f[4] == me {
             continue;
         }
-        let pid = f[4];
-        if f[5].rsplit(':').next().and_then(|i| i.parse::<u64>().ok()) != Some(inode) {
+        let mut id = f[5].split(':');
+        let (Some(ma), Some(mi), Some(i)) = (id.next(), id.next(), id.next()) else {
             continue;
+        };
+        let same = u64::from_str_radix(ma, 16).ok() == Some(major)
+            && u64::from_str_radix(mi, 16).ok() == Some(minor)
+            && i.parse::<u64>().ok() == Some(ino);
+        if same {
+            return Some(f[4].to_string());
         }
-        let cmd = std::fs::read(format!("/proc/{pid}/cmdline"))
-            .map(|b| {
-                String::from_utf8_lossy(&b)
-                    .split('\0')
-                    .filter(|s| !s.is_empty())
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            })
-            .unwrap_or_default();
-        return Some(format!("process {pid} ({cmd})"));
     }
     None
 }
@@ -198,6 +237,23 @@ pub fn arduino_board(vid: u16, pid: u16) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_lock_holder_is_read_from_proc_locks_by_device_and_inode() {
+        let locks = "1: POSIX  ADVISORY  WRITE 900 00:19:7 0 EOF\n\
+                     2: FLOCK  ADVISORY  WRITE 4242 00:1a:7 0 EOF\n\
+                     3: FLOCK  ADVISORY  WRITE 4343 00:19:7 0 EOF\n\
+                     3: -> FLOCK  ADVISORY  WRITE 4444 00:19:7 0 EOF\n";
+        // dev 0x19 = major 0, minor 25: the POSIX lock and the other device's inode 7 are not it.
+        assert_eq!(locks_holder(locks, 0x19, 7, "1"), Some("4343".into()));
+        assert_eq!(locks_holder(locks, 0x1a, 7, "1"), Some("4242".into()));
+        // Our own lock is not a holder to name; nor is a file nobody locked.
+        assert_eq!(locks_holder(locks, 0x1a, 7, "4242"), None);
+        assert_eq!(locks_holder(locks, 0x19, 8, "1"), None);
+        // Major 136 (pty slaves), minor 3.
+        let pts = "5: FLOCK  ADVISORY  WRITE 77 88:03:6 0 EOF\n";
+        assert_eq!(locks_holder(pts, (136 << 8) | 3, 6, "1"), Some("77".into()));
+    }
 
     #[test]
     fn uno_r4_boards_are_recognised_by_usb_id() {

@@ -98,6 +98,7 @@ fn mismatched_device() -> (
                             },
                             session: 0,
                             reset_cause: protocol::ResetCause::Unknown,
+                            signing: false,
                         }),
                     };
                     let mut frame = [0u8; MAX_FRAME_LEN];

@@ -521,6 +521,14 @@ fn status_names_the_server_and_flags_a_wrong_belief() {
         "{shown}"
     );
     assert!(!shown.contains("WRONG"), "{shown}");
+    // Taking the session over is the server's business: refused up front, saying why.
+    let out = cmd(&dir, &["status", "--take-over"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let why = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        why.contains("--take-over") && why.contains("a `host-tool serve` server holds it"),
+        "{why}"
+    );
     let out = cmd(&dir, &["declare", "D&D"]).output().unwrap();
     assert_eq!(out.status.code(), Some(0));
     let out = cmd(&dir, &["status"]).output().unwrap();

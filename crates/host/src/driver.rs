@@ -196,6 +196,36 @@ impl<I: Io> Driver<I> {
         }
     }
 
+    /// Ends the device's session and waits for the device to say so: `Close` is resent while
+    /// its answer is lost, `attempts` sends at most (one [`crate::Timing::request_timeout_ms`]
+    /// apart), so the next host can shake hands at once even on a noisy line. `Ok` when the
+    /// device answered (or nothing was open); the last attempt's timeout otherwise (the device
+    /// then frees the session after its link timeout). Closed on this side either way.
+    pub fn close_confirmed(&mut self, attempts: u32) -> Result<(), SessionError> {
+        let now = self.io.now_ms();
+        let Some(id) = self.host.close_confirmed(attempts, now) else {
+            return Ok(());
+        };
+        loop {
+            while let Some(ev) = self.host.poll_event() {
+                match ev {
+                    HostEvent::Session(SessionEvent::Reply { id: got, .. }) if got == id => {
+                        return Ok(())
+                    }
+                    HostEvent::Session(SessionEvent::Failed { id: got, error }) if got == id => {
+                        return Err(error)
+                    }
+                    HostEvent::Session(SessionEvent::Device(e)) => self.device_events.push_back(e),
+                    _ => {}
+                }
+            }
+            if let Err(e) = self.turn() {
+                self.host.close();
+                return Err(io_error("Close", &e));
+            }
+        }
+    }
+
     /// Sends `body` and requires `Ok`/`InProgress`.
     pub fn command(&mut self, body: RequestBody) -> Result<protocol::ResponseBody, SessionError> {
         let name = crate::text::request_name(&body);

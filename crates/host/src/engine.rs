@@ -59,6 +59,19 @@ impl Host {
         self.session.close();
     }
 
+    /// Ends the device's session and waits for its answer, resending a lost one (see
+    /// [`Session::close_confirmed`]); the outcome is the returned id's event.
+    pub fn close_confirmed(&mut self, attempts: u32, now_ms: u64) -> Option<RequestId> {
+        let id = self.session.close_confirmed(attempts, now_ms);
+        self.route(now_ms);
+        id
+    }
+
+    /// Link signing's key and first counter (see [`Session::set_signing`]).
+    pub fn set_signing(&mut self, key: Option<protocol::sign::LinkKey>, first_counter: u64) {
+        self.session.set_signing(key, first_counter);
+    }
+
     /// The session.
     pub fn session(&self) -> &Session {
         &self.session

@@ -17,6 +17,7 @@
 
 use std::collections::VecDeque;
 
+use protocol::sign::LinkKey;
 use protocol::{
     DeviceInfo, DeviceMessage, Event, FrameDecoder, RejectReason, Request, RequestBody,
     ResponseBody, ResultCode, Status, MAX_FRAME_LEN,
@@ -209,6 +210,8 @@ enum Phase {
     Handshaking,
     /// Handshake done.
     Open,
+    /// `Close` sent as a request ([`Session::close_confirmed`]), its answer awaited.
+    Closing,
     /// Lost or failed.
     Closed,
 }
@@ -220,10 +223,14 @@ struct Pending {
     name: &'static str,
     frame: Vec<u8>,
     attempts: u32,
+    /// Sends of it (the first included) before it is given up.
+    max_attempts: u32,
     first_sent_ms: u64,
     retry_at_ms: u64,
     /// An automatic heartbeat: its answer is not reported.
     internal: bool,
+    /// A `SetSigning`: the device's signing once it says Ok (`Some(key)`: on with it).
+    signing_change: Option<Option<LinkKey>>,
 }
 
 /// A conversation with one device, as a state machine.
@@ -245,6 +252,8 @@ pub struct Session {
     session_id: u32,
     stats: SessionStats,
     keepalive: bool,
+    /// The link key and the next signed frame's counter ([`Session::set_signing`]).
+    signing: Option<(LinkKey, u64)>,
 }
 
 impl Session {
@@ -267,6 +276,7 @@ impl Session {
             session_id: 0,
             stats: SessionStats::default(),
             keepalive: true,
+            signing: None,
         }
     }
 
@@ -274,6 +284,12 @@ impl Session {
     /// [`Session::poll_transmit`], not waited for: if it is lost, the device frees the session
     /// after its link timeout) and closes this side. Nothing happens unless it is open.
     pub fn close(&mut self) {
+        if self.phase == Phase::Closing {
+            // Its `Close` is already on the wire: stop waiting for the answer.
+            self.pending = None;
+            self.phase = Phase::Closed;
+            return;
+        }
         if self.phase != Phase::Open {
             return;
         }
@@ -283,15 +299,79 @@ impl Session {
             body: RequestBody::Close,
         };
         self.next_seq = self.next_seq.wrapping_add(1).max(1);
-        let mut frame = vec![0u8; MAX_FRAME_LEN + 1];
-        if let Ok(n) = protocol::encode(&request, &mut frame[1..]) {
-            frame.truncate(n + 1);
+        if let Ok(frame) = self.frame(&request) {
             self.transmit.push_back(frame);
             self.stats.frames_tx += 1;
         }
         self.pending = None;
         self.queue.clear();
         self.phase = Phase::Closed;
+    }
+
+    /// Ends the session on the device and waits for the answer: `Close` goes out as a request,
+    /// sent `attempts` times at most (the first included, every
+    /// [`Timing::request_timeout_ms`]) while its answer is lost. A resend carries the same
+    /// `seq`, so the device answers it from its cache and closes nothing twice. Whatever waited
+    /// or was queued fails ([`SessionError::Preempted`], [`SessionError::Closed`]). The outcome
+    /// is an event for the returned id: [`SessionEvent::Reply`] (the device answered), or
+    /// [`SessionEvent::Failed`] with [`SessionError::Timeout`] after the last attempt (the
+    /// device then frees the session after its link timeout); the session is closed either
+    /// way. `None` (nothing sent) unless the session is open.
+    pub fn close_confirmed(&mut self, attempts: u32, now_ms: u64) -> Option<RequestId> {
+        if self.phase != Phase::Open {
+            return None;
+        }
+        if let Some(p) = self.pending.take() {
+            if !p.internal {
+                self.events.push_back(SessionEvent::Failed {
+                    id: p.id,
+                    error: SessionError::Preempted { request: p.name },
+                });
+            }
+        }
+        for (id, _, internal) in self.queue.drain(..) {
+            if !internal {
+                self.events.push_back(SessionEvent::Failed {
+                    id,
+                    error: SessionError::Closed,
+                });
+            }
+        }
+        let id = self.alloc_id();
+        self.stats.requests += 1;
+        self.phase = Phase::Closing;
+        self.send_new(id, RequestBody::Close, false, attempts.max(1), now_ms);
+        Some(id)
+    }
+
+    /// Link signing ([`protocol::sign`]): signs every request after the handshake with `key`
+    /// when the device says signing is on ([`DeviceInfo::signing`]), counters from
+    /// `first_counter` up (it must rise above every counter the device accepted since it
+    /// booted: host-tool gives the wall clock's µs). `None`: never signs. A `SetSigning` the
+    /// device accepts turns signing on with its key (or off) from the next request.
+    pub fn set_signing(&mut self, key: Option<LinkKey>, first_counter: u64) {
+        self.signing = key.map(|k| (k, first_counter.max(1)));
+    }
+
+    /// Whether requests go out signed now.
+    pub fn signs(&self) -> bool {
+        self.signing.is_some() && self.info.as_ref().is_some_and(|i| i.signing)
+    }
+
+    /// `request` as one frame with a leading delimiter; signed when [`Session::signs`].
+    fn frame(&mut self, request: &Request) -> Result<Vec<u8>, protocol::FrameError> {
+        let mut frame = vec![0u8; MAX_FRAME_LEN + 1];
+        let signs = self.signs() && !matches!(request.body, RequestBody::Hello { .. });
+        let n = match self.signing.as_mut() {
+            Some((key, counter)) if signs => {
+                let c = *counter;
+                *counter = counter.saturating_add(1);
+                protocol::frame::encode_signed(request, key, c, &mut frame[1..])?
+            }
+            _ => protocol::encode(request, &mut frame[1..])?,
+        };
+        frame.truncate(n + 1);
+        Ok(frame)
     }
 
     /// Starts the handshake.
@@ -406,13 +486,21 @@ impl Session {
         if let Some(p) = &self.pending {
             if now_ms >= p.retry_at_ms {
                 let silent = now_ms.saturating_sub(self.last_rx_ms) >= self.timing.silence_ms;
-                if p.attempts >= self.timing.max_attempts || silent {
+                if p.attempts >= p.max_attempts || silent {
                     let p = self.pending.take().expect("checked above");
                     let error = SessionError::Timeout {
                         request: p.name,
                         attempts: p.attempts,
                         waited_ms: now_ms.saturating_sub(p.first_sent_ms),
                     };
+                    if self.phase == Phase::Closing {
+                        // An unanswered Close: closed on this side; the link is not "lost",
+                        // it was being ended.
+                        self.phase = Phase::Closed;
+                        self.events
+                            .push_back(SessionEvent::Failed { id: p.id, error });
+                        return;
+                    }
                     self.lose(p, error);
                     return;
                 }
@@ -447,7 +535,7 @@ impl Session {
     fn admit(&mut self) -> Result<RequestId, ()> {
         let id = self.alloc_id();
         self.stats.requests += 1;
-        if self.phase == Phase::Closed {
+        if matches!(self.phase, Phase::Closed | Phase::Closing) {
             self.events.push_back(SessionEvent::Failed {
                 id,
                 error: SessionError::Closed,
@@ -501,10 +589,26 @@ impl Session {
                 };
                 let p_id = p.id;
                 let internal = p.internal;
+                let signing_change = p.signing_change;
                 self.pending = None;
+                if let (Some(change), ResultCode::Ok) = (signing_change, result) {
+                    if let Some(key) = change {
+                        let counter = self.signing.map_or(1, |(_, c)| c);
+                        self.signing = Some((key, counter));
+                    }
+                    if let Some(info) = self.info.as_mut() {
+                        info.signing = change.is_some();
+                    }
+                }
                 let reply = Reply { result, body };
                 if self.phase == Phase::Handshaking {
                     self.finish_handshake(reply);
+                } else if self.phase == Phase::Closing {
+                    // Any answer ends it: Ok, or a refusal that says the session is no longer
+                    // ours to close.
+                    self.phase = Phase::Closed;
+                    self.events
+                        .push_back(SessionEvent::Reply { id: p_id, reply });
                 } else if !internal {
                     self.events
                         .push_back(SessionEvent::Reply { id: p_id, reply });
@@ -554,7 +658,9 @@ impl Session {
 
     /// Sends the next queued request if none waits; a heartbeat when idle for too long.
     fn pump(&mut self, now_ms: u64) {
-        if self.pending.is_some() || matches!(self.phase, Phase::New | Phase::Closed) {
+        if self.pending.is_some()
+            || matches!(self.phase, Phase::New | Phase::Closed | Phase::Closing)
+        {
             return;
         }
         let next = match self.queue.pop_front() {
@@ -571,9 +677,26 @@ impl Session {
         let Some((id, body, internal)) = next else {
             return;
         };
+        let max_attempts = self.timing.max_attempts;
+        self.send_new(id, body, internal, max_attempts, now_ms);
+    }
+
+    /// Puts a new request on the wire as the one pending, with the next `seq`.
+    fn send_new(
+        &mut self,
+        id: RequestId,
+        body: RequestBody,
+        internal: bool,
+        max_attempts: u32,
+        now_ms: u64,
+    ) {
         let seq = self.next_seq;
         self.next_seq = self.next_seq.wrapping_add(1).max(1);
         let name = text::request_name(&body);
+        let signing_change = match body {
+            RequestBody::SetSigning { key, enabled } => Some(enabled.then_some(key)),
+            _ => None,
+        };
         let request = Request {
             seq,
             session: self.session_id,
@@ -581,12 +704,8 @@ impl Session {
         };
         // A lone delimiter first closes whatever half frame or noise the device's decoder
         // holds, so a request is never glued to garbage.
-        let mut frame = vec![0u8; MAX_FRAME_LEN + 1];
-        let frame = match protocol::encode(&request, &mut frame[1..]) {
-            Ok(n) => {
-                frame.truncate(n + 1);
-                frame
-            }
+        let frame = match self.frame(&request) {
+            Ok(frame) => frame,
             Err(_) => {
                 self.events.push_back(SessionEvent::Failed {
                     id,
@@ -595,6 +714,9 @@ impl Session {
                         got: "the request does not fit in one frame".into(),
                     },
                 });
+                if self.phase == Phase::Closing {
+                    self.phase = Phase::Closed;
+                }
                 return self.pump(now_ms);
             }
         };
@@ -604,9 +726,11 @@ impl Session {
             name,
             frame,
             attempts: 0,
+            max_attempts,
             first_sent_ms: now_ms,
             retry_at_ms: now_ms,
             internal,
+            signing_change,
         });
         self.resend(now_ms);
     }

@@ -69,10 +69,16 @@ pub const fn reject(reason: RejectReason) -> &'static str {
             "another host's session holds the crane (or it restarted): handshake again"
         }
         RejectReason::SessionBusy => {
-            "another host is connected to the crane (it holds the session); take over explicitly"
+            "another host is connected to the crane (it holds the session); take over explicitly \
+             (host-tool: --take-over)"
         }
         RejectReason::Unconfirmed => {
             "the trunk state is unconfirmed: identify or declare it before running steps"
+        }
+        RejectReason::Unsigned => {
+            "link signing is on and the request is not validly signed (no key given, or a \
+             replayed counter): give the crane's key (host-tool: --link-key FILE or \
+             $CRANE_LINK_KEY)"
         }
     }
 }
@@ -185,6 +191,7 @@ pub const fn reject_name(reason: RejectReason) -> &'static str {
         RejectReason::NotSessionOwner => "not-session-owner",
         RejectReason::SessionBusy => "session-busy",
         RejectReason::Unconfirmed => "unconfirmed",
+        RejectReason::Unsigned => "unsigned",
     }
 }
 
@@ -205,6 +212,7 @@ pub const fn request_name(body: &RequestBody) -> &'static str {
         RequestBody::SetParam { .. } => "SetParam",
         RequestBody::Close => "Close",
         RequestBody::Identify => "Identify",
+        RequestBody::SetSigning { .. } => "SetSigning",
     }
 }
 
@@ -293,6 +301,8 @@ pub fn request_line(req: &Request) -> String {
         RequestBody::SetParam { id, value } => {
             format!("{} = {value} {}", param_name(*id), param_unit(*id))
         }
+        // Never the key.
+        RequestBody::SetSigning { enabled, .. } => if *enabled { "on" } else { "off" }.to_string(),
         RequestBody::GetStatus
         | RequestBody::Heartbeat
         | RequestBody::Abort

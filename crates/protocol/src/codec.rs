@@ -51,6 +51,16 @@ impl<'a> Reader<'a> {
         self.rest
     }
 
+    /// `SetSigning`'s fields (out of line: rare, and the board pays for it in flash).
+    #[inline(never)]
+    fn set_signing_into(&mut self, body: &mut RequestBody) -> Read<()> {
+        let (key, rest) = self.rest.split_first_chunk::<16>().ok_or(Invalid)?;
+        self.rest = rest;
+        let enabled = self.bool()?;
+        *body = RequestBody::SetSigning { key: *key, enabled };
+        Ok(())
+    }
+
     /// One byte (a `u8`).
     #[inline(always)]
     pub fn byte(&mut self) -> Read<u8> {
@@ -278,7 +288,7 @@ impl Request {
         self.seq = r.u16()?;
         self.session = r.u32()?;
         let body = &mut self.body;
-        match r.variant(14)? {
+        match r.variant(15)? {
             0 => {
                 *body = RequestBody::Hello {
                     protocol_version: r.u16()?,
@@ -320,7 +330,8 @@ impl Request {
                 }
             }
             12 => *body = RequestBody::Close,
-            _ => *body = RequestBody::Identify,
+            13 => *body = RequestBody::Identify,
+            _ => r.set_signing_into(body)?,
         }
         Ok(())
     }
@@ -429,6 +440,7 @@ impl<'a> Writer<'a> {
         self.f32(d.trunk.pressure_limit_kpa);
         self.varint(d.session);
         self.varint(d.reset_cause as u32);
+        self.bool(d.signing);
     }
 
     fn status(&mut self, s: &Status) {

@@ -118,6 +118,12 @@ fn crc32(bytes: &[u8]) -> u32 {
     bytes.iter().fold(CRC_INIT, |r, &b| crc_step(r, b)) ^ CRC_ALGORITHM.xorout
 }
 
+/// [`crc32`] for the signing tests, which build frames by hand.
+#[cfg(all(test, feature = "signing"))]
+pub(crate) fn crc32_for_tests(bytes: &[u8]) -> u32 {
+    crc32(bytes)
+}
+
 /// Why a frame could not be encoded or decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FrameError {
@@ -147,6 +153,27 @@ pub fn encode<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, FrameError
         .map_err(|_| FrameError::TooLong)?
         .len();
     stuff(&mut raw, used, out)
+}
+
+/// [`encode`] for a signed request ([`crate::sign`]): `postcard(msg) ‖ counter ‖ tag` as the
+/// payload, `tag` the MAC under `key` of the bytes before it.
+#[cfg(feature = "signing")]
+pub fn encode_signed<T: Serialize>(
+    msg: &T,
+    key: &crate::sign::LinkKey,
+    counter: u64,
+    out: &mut [u8],
+) -> Result<usize, FrameError> {
+    use crate::sign::{COUNTER_LEN, TAG_LEN, TRAILER_LEN};
+    let mut raw = [0u8; MAX_RAW_LEN];
+    let used = postcard::to_slice(msg, &mut raw[..MAX_RAW_LEN - CRC_LEN - TRAILER_LEN])
+        .map_err(|_| FrameError::TooLong)?
+        .len();
+    raw[used..used + COUNTER_LEN].copy_from_slice(&counter.to_le_bytes());
+    let tag = crate::sign::tag(key, &raw[..used + COUNTER_LEN]);
+    raw[used + COUNTER_LEN..used + TRAILER_LEN].copy_from_slice(&tag);
+    debug_assert_eq!(tag.len(), TAG_LEN);
+    stuff(&mut raw, used + TRAILER_LEN, out)
 }
 
 /// [`encode`] for a [`DeviceMessage`] through the hand-written codec ([`crate::codec`]): the
@@ -211,13 +238,17 @@ fn decode_stuffed<T: DeserializeOwned>(frame: &mut [u8]) -> Result<T, FrameError
         Some((payload, _)) => crc32(payload),
         None => 0,
     };
-    check_and_deserialize(raw, crc)
+    check_and_deserialize(raw, crc, 0)
 }
 
 /// `raw`: one unstuffed frame, more than [`CRC_LEN`] bytes long; `crc`: the CRC of all but its
 /// last [`CRC_LEN`] bytes, which must equal them (little-endian).
-fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T, FrameError> {
-    let payload = checked_payload(raw, crc)?;
+fn check_and_deserialize<T: DeserializeOwned>(
+    raw: &[u8],
+    crc: u32,
+    trailer: usize,
+) -> Result<T, FrameError> {
+    let payload = checked_payload(raw, crc, trailer)?;
     // An empty remainder is required: a frame carries exactly one message, so trailing bytes
     // mean a sender bug and are refused rather than silently ignored. (The deserialiser by
     // hand rather than `take_from_bytes`: the message is not moved through a tuple, one
@@ -231,8 +262,13 @@ fn check_and_deserialize<T: DeserializeOwned>(raw: &[u8], crc: u32) -> Result<T,
 }
 
 /// [`check_and_deserialize`] for a [`Request`] read into `out` by the hand-written codec.
-fn check_and_read_request(raw: &[u8], crc: u32, out: &mut Request) -> Result<(), FrameError> {
-    let mut r = Reader::new(checked_payload(raw, crc)?);
+fn check_and_read_request(
+    raw: &[u8],
+    crc: u32,
+    trailer: usize,
+    out: &mut Request,
+) -> Result<(), FrameError> {
+    let mut r = Reader::new(checked_payload(raw, crc, trailer)?);
     out.decode_into(&mut r).map_err(|_| FrameError::Payload)?;
     match r.rest() {
         [] => Ok(()),
@@ -240,8 +276,9 @@ fn check_and_read_request(raw: &[u8], crc: u32, out: &mut Request) -> Result<(),
     }
 }
 
-/// The payload of `raw` (see [`check_and_deserialize`]) when its CRC checks out.
-fn checked_payload(raw: &[u8], crc: u32) -> Result<&[u8], FrameError> {
+/// The payload of `raw` (see [`check_and_deserialize`]) when its CRC checks out, without its
+/// last `trailer` bytes (a verified signature's, [`crate::sign`]).
+fn checked_payload(raw: &[u8], crc: u32, trailer: usize) -> Result<&[u8], FrameError> {
     let Some((payload, check)) = raw
         .split_last_chunk::<CRC_LEN>()
         .filter(|(p, _)| !p.is_empty())
@@ -255,6 +292,13 @@ fn checked_payload(raw: &[u8], crc: u32) -> Result<&[u8], FrameError> {
     if crc.to_le_bytes() != *check {
         return Err(legacy_or_crc(raw));
     }
+    #[cfg(feature = "signing")]
+    let payload = payload
+        .get(..payload.len().saturating_sub(trailer))
+        .filter(|p| !p.is_empty())
+        .ok_or(FrameError::Payload)?;
+    #[cfg(not(feature = "signing"))]
+    let _ = trailer;
     Ok(payload)
 }
 
@@ -322,6 +366,14 @@ pub struct FrameDecoder {
     /// Length of the frame the last delimiter closed (its bytes stay in `buf`).
     last_len: usize,
     stats: DecoderStats,
+    /// Link signing's MAC ([`FrameDecoder::set_key`]) over `buf[..len - CRC_LEN - TAG_LEN]`,
+    /// advanced as the bytes arrive, like the CRC (the tag and the CRC are the frame's last
+    /// bytes).
+    #[cfg(feature = "signing")]
+    mac: Option<crate::sign::Mac>,
+    /// The counter of the frame the last delimiter closed, when its signature checked out.
+    #[cfg(feature = "signing")]
+    signed: Option<u64>,
 }
 
 impl Default for FrameDecoder {
@@ -346,7 +398,30 @@ impl FrameDecoder {
                 frames_ok: 0,
                 frames_dropped: 0,
             },
+            #[cfg(feature = "signing")]
+            mac: None,
+            #[cfg(feature = "signing")]
+            signed: None,
         }
+    }
+
+    /// Verifies link signatures under `key` from the next frame on (`None`: none, every frame
+    /// is read as unsigned). A frame whose last [`crate::sign::TRAILER_LEN`] bytes before the
+    /// CRC are a valid counter and tag is read without them and its counter reported by
+    /// [`FrameDecoder::signed_counter`]; any other frame is read as an unsigned one (so one
+    /// signed with another key does not decode: its trailer is left over).
+    #[cfg(feature = "signing")]
+    pub fn set_key(&mut self, key: Option<&crate::sign::LinkKey>) {
+        self.mac = key.map(crate::sign::Mac::new);
+        self.reset();
+    }
+
+    /// The counter of the frame the last delimiter closed, if it carried a valid signature.
+    pub fn signed_counter(&self) -> Option<u64> {
+        #[cfg(feature = "signing")]
+        return self.signed;
+        #[cfg(not(feature = "signing"))]
+        None
     }
 
     /// The counters.
@@ -369,6 +444,10 @@ impl FrameDecoder {
         self.code = 0;
         self.overflow = false;
         self.crc = CRC_INIT;
+        #[cfg(feature = "signing")]
+        if let Some(m) = self.mac.as_mut() {
+            m.reset();
+        }
     }
 
     /// Appends one decoded byte; the byte [`CRC_LEN`] places before it joins the CRC.
@@ -377,6 +456,15 @@ impl FrameDecoder {
         // `len - 4` wraps for the first four bytes: `get` finds nothing, nothing to add yet.
         if let Some(&old) = self.buf.get(self.len.wrapping_sub(CRC_LEN)) {
             self.crc = crc_step(self.crc, old);
+        }
+        #[cfg(feature = "signing")]
+        if let Some(m) = self.mac.as_mut() {
+            if let Some(&old) = self
+                .buf
+                .get(self.len.wrapping_sub(CRC_LEN + crate::sign::TAG_LEN))
+            {
+                m.update(old);
+            }
         }
         // Never full: a frame decodes to at most as many bytes as it has encoded, and those
         // are capped at `MAX_STUFFED_LEN`.
@@ -424,7 +512,7 @@ impl FrameDecoder {
             self.accept(byte);
             return None;
         }
-        self.finish(|raw, crc| check_and_read_request(raw, crc, out))
+        self.finish(|raw, crc, trailer| check_and_read_request(raw, crc, trailer, out))
     }
 
     /// A non-zero byte: the per-byte work, kept small (it runs for every byte received).
@@ -446,7 +534,7 @@ impl FrameDecoder {
     #[inline(never)]
     fn finish<T>(
         &mut self,
-        read: impl FnOnce(&[u8], u32) -> Result<T, FrameError>,
+        read: impl FnOnce(&[u8], u32, usize) -> Result<T, FrameError>,
     ) -> Option<Result<T, FrameError>> {
         let stuffed = core::mem::replace(&mut self.stuffed, 0);
         let len = core::mem::replace(&mut self.len, 0);
@@ -455,6 +543,7 @@ impl FrameDecoder {
         let overflow = core::mem::replace(&mut self.overflow, false);
         self.last_len = if overflow { 0 } else { len };
         let crc = core::mem::replace(&mut self.crc, CRC_INIT) ^ CRC_ALGORITHM.xorout;
+        let trailer = self.signature(len);
         let result = if overflow {
             Err(FrameError::TooLong)
         } else if stuffed == 0 {
@@ -464,7 +553,7 @@ impl FrameDecoder {
             Err(FrameError::Cobs)
         } else {
             match self.buf.get(..len) {
-                Some(raw) => read(raw, crc),
+                Some(raw) => read(raw, crc, trailer),
                 None => Err(FrameError::TooLong),
             }
         };
@@ -473,6 +562,43 @@ impl FrameDecoder {
             Err(_) => self.stats.frames_dropped = self.stats.frames_dropped.wrapping_add(1),
         }
         Some(result)
+    }
+
+    /// At the delimiter of a frame of `len` decoded bytes: the trailer to strip when the frame
+    /// carries a valid signature (its counter then in `signed`), else 0; the MAC starts over.
+    #[cfg(feature = "signing")]
+    fn signature(&mut self, len: usize) -> usize {
+        use crate::sign::{COUNTER_LEN, TAG_LEN, TRAILER_LEN};
+        self.signed = None;
+        let Some(m) = self.mac.as_mut() else {
+            return 0;
+        };
+        let tag = m.tag();
+        m.reset();
+        if len < TRAILER_LEN + CRC_LEN + 1 {
+            return 0;
+        }
+        let at = len - CRC_LEN - TAG_LEN;
+        let (Some(got), Some(counter)) = (
+            self.buf.get(at..at + TAG_LEN),
+            self.buf
+                .get(at - COUNTER_LEN..at)
+                .and_then(|c| <[u8; COUNTER_LEN]>::try_from(c).ok()),
+        ) else {
+            return 0;
+        };
+        if got != tag {
+            return 0;
+        }
+        self.signed = Some(u64::from_le_bytes(counter));
+        TRAILER_LEN
+    }
+
+    /// Without the feature `signing` no frame is signed.
+    #[cfg(not(feature = "signing"))]
+    #[inline(always)]
+    fn signature(&mut self, _len: usize) -> usize {
+        0
     }
 
     /// Feeds a chunk of bytes; the returned iterator yields each frame result the chunk

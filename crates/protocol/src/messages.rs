@@ -101,6 +101,18 @@ pub enum RequestBody {
     /// [`Event::IdentifyNeedsOperator`]: a [`RequestBody::DeclareState`] or the confirm button
     /// on the crane resolves it.
     Identify,
+    /// Link signing ([`crate::sign`]): pairs the device with `key` and turns signing on
+    /// (`enabled`), or turns it off and forgets the key (`enabled: false`, `key` ignored). The
+    /// key is kept in the device's non-volatile store. While signing is off this is the pairing
+    /// (over a link the operator trusts: the crane's own cable); while it is on, it must be
+    /// signed with the key in force, like every session-bound request. Refused with
+    /// [`RejectReason::NotAllowed`] by a build without link signing.
+    SetSigning {
+        /// The shared key (SipHash-2-4's 128-bit key).
+        key: [u8; 16],
+        /// Signing on (with `key`) or off.
+        enabled: bool,
+    },
 }
 
 /// A plan: steps executed in order, each a transition between trunk states.
@@ -510,6 +522,10 @@ pub enum RejectReason {
     SessionBusy,
     /// The trunk state is unconfirmed, so a step's `from` cannot be vouched for: identify first.
     Unconfirmed,
+    /// Link signing is on ([`DeviceInfo::signing`]) and this session-bound request (`Close`
+    /// excepted) carries no valid signature: none, or a counter not above the last one accepted (a replay).
+    /// A frame signed with another key does not decode at all (dropped).
+    Unsigned,
 }
 
 /// Data carried by a response.
@@ -585,6 +601,9 @@ pub struct DeviceInfo {
     pub session: u32,
     /// Why the device last started.
     pub reset_cause: ResetCause,
+    /// Link signing is on: every session-bound request but `Close` must be signed
+    /// ([`crate::sign`]).
+    pub signing: bool,
 }
 
 /// Why the device last started.

@@ -227,6 +227,22 @@ struct LinkSession {
     last_rx_ms: u64,
 }
 
+/// Link signing (feature `link-signing`): the key in force and the replay guard.
+#[cfg(feature = "link-signing")]
+#[derive(Debug, Clone)]
+struct Signing {
+    /// The paired key; signing is on while there is one.
+    key: Option<protocol::sign::LinkKey>,
+    /// The highest counter of a signed request accepted since boot (signed requests must
+    /// rise above it; across a boot the session rule refuses old frames).
+    last_counter: u64,
+    /// A key change to persist ([`Controller::poll_link_key`]).
+    to_store: Option<Option<protocol::sign::LinkKey>>,
+    /// Whether the store keeps a key ([`Controller::set_link_key`]): pairing is refused
+    /// otherwise, so a reset never turns signing off behind the operator's back.
+    store_keeps_key: bool,
+}
+
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
 #[derive(Debug, Clone)]
 pub struct Controller {
@@ -296,6 +312,8 @@ pub struct Controller {
     defer_events: bool,
     deferred: Vec<Event, 8>,
     periodic: Periodic,
+    #[cfg(feature = "link-signing")]
+    signing: Signing,
 }
 
 impl Controller {
@@ -400,6 +418,13 @@ impl Controller {
                 last_rx_ms: now_ms,
             },
             cache: ResponseCache::new(),
+            #[cfg(feature = "link-signing")]
+            signing: Signing {
+                key: None,
+                last_counter: 0,
+                to_store: None,
+                store_keeps_key: false,
+            },
             tx: TxQueue::new(),
             defer_events: false,
             deferred: Vec::new(),
@@ -556,6 +581,31 @@ impl Controller {
             self.journal.polled = self.journal.made;
         }
         s
+    }
+
+    /// Link signing at boot: the key the store holds (`None`: signing off), and whether the
+    /// store can keep one at all (pairing is refused when it cannot). The shell calls it once
+    /// after [`Controller::new`] ([`crate::hw::Shell::boot`]).
+    #[cfg(feature = "link-signing")]
+    pub fn set_link_key(&mut self, key: Option<protocol::sign::LinkKey>, store_keeps_key: bool) {
+        self.signing.key = key;
+        self.signing.store_keeps_key = store_keeps_key;
+        self.decoder.set_key(key.as_ref());
+    }
+
+    /// A link key change to persist (`Some(None)`: forget the key), taken once; the shell
+    /// writes it to its store ([`crate::hw::StateStore::save_link_key`]).
+    #[cfg(feature = "link-signing")]
+    pub fn poll_link_key(&mut self) -> Option<Option<protocol::sign::LinkKey>> {
+        self.signing.to_store.take()
+    }
+
+    /// Whether link signing is on (every session-bound request must be signed).
+    pub fn signing(&self) -> bool {
+        #[cfg(feature = "link-signing")]
+        return self.signing.key.is_some();
+        #[cfg(not(feature = "link-signing"))]
+        false
     }
 
     /// The record last taken with [`Controller::poll_store`] is persisted. A step's first

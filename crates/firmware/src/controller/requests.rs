@@ -135,7 +135,51 @@ impl Controller {
             trunk: self.cfg.trunk,
             session,
             reset_cause: self.link.reset_cause,
+            signing: self.signing(),
         }
+    }
+
+    /// While signing is on, a session-bound request must carry a valid signature whose counter
+    /// rises above the last accepted (a replayed frame does not).
+    #[cfg(feature = "link-signing")]
+    fn signature_ok(&mut self) -> bool {
+        if self.signing.key.is_none() {
+            return true;
+        }
+        match self.decoder.signed_counter() {
+            Some(c) if c > self.signing.last_counter => {
+                self.signing.last_counter = c;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    #[cfg(not(feature = "link-signing"))]
+    #[inline(always)]
+    fn signature_ok(&mut self) -> bool {
+        true
+    }
+
+    /// Pairs (a key, signing on) or unpairs (signing off, the key forgotten).
+    #[cfg(feature = "link-signing")]
+    fn set_signing(&mut self, key: &protocol::sign::LinkKey, enabled: bool) -> Answer {
+        if !self.signing.store_keeps_key {
+            return reject(RejectReason::NotAllowed);
+        }
+        if enabled && key.iter().all(|&b| b == 0) {
+            return reject(RejectReason::OutOfRange);
+        }
+        let key = enabled.then_some(*key);
+        self.signing.key = key;
+        self.signing.to_store = Some(key);
+        self.decoder.set_key(key.as_ref());
+        ok()
+    }
+
+    #[cfg(not(feature = "link-signing"))]
+    fn set_signing(&mut self, _key: &[u8; 16], _enabled: bool) -> Answer {
+        reject(RejectReason::NotAllowed)
     }
 
     /// Whether the session's owner was heard within the link timeout.
@@ -216,6 +260,11 @@ impl Controller {
         if body.needs_session() && (self.link.session == 0 || req.session != self.link.session) {
             return reject(RejectReason::NotSessionOwner);
         }
+        // `Close` stays unsigned: it only ends the session, as an unsigned `Hello` with
+        // `takeover` does, and a host without the key must still be able to let go.
+        if body.needs_session() && !matches!(body, RequestBody::Close) && !self.signature_ok() {
+            return reject(RejectReason::Unsigned);
+        }
         match *body {
             RequestBody::Hello { .. } | RequestBody::Abort => ok(), // handled above
             RequestBody::Close => {
@@ -223,6 +272,7 @@ impl Controller {
                 ok()
             }
             RequestBody::Identify => self.identify(),
+            RequestBody::SetSigning { ref key, enabled } => self.set_signing(key, enabled),
             RequestBody::GetStatus => (ResultCode::Ok, ResponseBody::Status(self.status())),
             RequestBody::Heartbeat => ok(),
             RequestBody::UploadPlan(ref plan) => self.upload(plan),

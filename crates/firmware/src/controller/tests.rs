@@ -2599,6 +2599,82 @@ fn a_silent_owner_frees_the_crane_after_the_link_timeout_and_close_frees_it_at_o
 }
 
 #[test]
+fn a_close_whose_answer_is_lost_is_resent_and_frees_the_crane_for_the_next_host_at_once() {
+    // Fire and forget: a Close lost on the way keeps the session live, and the next host is
+    // refused until the link timeout, unless it takes over explicitly.
+    let mut r = Rig::connected(FF);
+    r.line_fault = Some(LineFault::CorruptToDevice);
+    r.host().close();
+    r.exchange();
+    let (_, hello) = r.join(false);
+    assert_eq!(
+        refusal(&hello),
+        Some(RejectReason::SessionBusy),
+        "{hello:?}"
+    );
+    let (_, hello) = r.join(true);
+    assert!(hello.is_ok(), "an explicit takeover is allowed: {hello:?}");
+    // Confirmed: the device closes the session, its answer is lost, and the resend (same
+    // seq) is answered from the cache: one close, one answer reaching the host.
+    let mut r = Rig::connected(FF);
+    let frames_before = r.ctl.status().frames_rx;
+    r.line_fault = Some(LineFault::LoseToHost);
+    let now = r.now;
+    let id = r
+        .host()
+        .close_confirmed(4, now)
+        .expect("the session is open");
+    r.exchange();
+    assert!(!r.lost.is_empty(), "the answer was lost");
+    assert_eq!(r.reply(id), None);
+    assert!(!r.host().is_closed(), "still waiting for the answer");
+    let waited = r
+        .run_until(1_000, |r| r.reply(id).is_some())
+        .expect("the resend is answered");
+    assert_eq!(waited, Timing::standard().request_timeout_ms);
+    assert_eq!(r.reply(id).map(|(res, _)| res), Some(ResultCode::Ok));
+    assert!(r.host().is_closed());
+    assert_eq!(
+        r.ctl.status().frames_rx,
+        frames_before + 2,
+        "Close and its resend"
+    );
+    let (_, hello) = r.join(false);
+    assert!(hello.is_ok(), "freed at once: {hello:?}");
+    // A Close that never gets through (the line dead toward the device) is given up after
+    // its attempts, one timeout apart.
+    let mut r = Rig::connected(FF);
+    let h = r.primary;
+    let t0 = r.now;
+    let id = r.hosts[h].close_confirmed(3, t0).expect("open");
+    let (mut sent, mut t) = (0, t0);
+    while !r.hosts[h].is_closed() && t < t0 + 5_000 {
+        while r.hosts[h].poll_transmit().is_some() {
+            sent += 1;
+        }
+        t += 1;
+        if r.hosts[h].poll_timeout().is_some_and(|d| d <= t) {
+            r.hosts[h].handle_timeout(t);
+        }
+    }
+    r.now = t;
+    r.collect();
+    assert_eq!(sent, 3);
+    let failed = r.log.iter().find_map(|(t, _, ev)| match ev {
+        SessionEvent::Failed { id: got, error } if *got == id => Some((*t - t0, error.clone())),
+        _ => None,
+    });
+    assert!(
+        matches!(
+            failed,
+            Some((750, SessionError::Timeout { attempts: 3, .. }))
+        ),
+        "{failed:?}"
+    );
+    assert!(r.host().is_closed());
+}
+
+#[test]
 fn a_replayed_upload_and_start_from_a_stranger_is_refused_and_abort_from_anyone_is_honoured() {
     // Host A runs a plan; its frames are recorded off the wire.
     let mut r = Rig::connected(FP);
@@ -2904,4 +2980,235 @@ fn a_vent_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief(
         "{after:?}"
     );
     assert_eq!(after.faults, 0);
+
+#[test]
+fn pairing_is_refused_where_no_key_can_be_kept_and_the_handshake_says_signing_is_off() {
+    // Without the feature `link-signing` (the board binary's default), or with a store that
+    // keeps no key (the controller alone): refused, nothing changes, plain requests obeyed.
+    let mut r = Rig::connected(FF);
+    assert_eq!(
+        r.request(RequestBody::SetSigning {
+            key: *b"crane-test-key-1",
+            enabled: true
+        })
+        .0,
+        ResultCode::Rejected(RejectReason::NotAllowed)
+    );
+    assert!(!r.ctl.signing());
+    let (c, hello) = r.join(true);
+    assert!(!hello.expect("handshake").signing);
+    assert_eq!(
+        r.request_from(c, RequestBody::DeclareState(FD)).0,
+        ResultCode::Ok
+    );
+}
+
+/// Link signing: pairing, forged, replayed and correctly signed frames (`protocol::sign`).
+#[cfg(feature = "link-signing")]
+mod signing {
+    use super::*;
+
+    const KEY: [u8; 16] = *b"crane-test-key-1";
+
+    fn limit(r: &mut Rig) -> f32 {
+        match r.request(RequestBody::GetParam(ParamId::PressureLimitKpa)) {
+            (ResultCode::Ok, ResponseBody::Param { value, .. }) => value,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    fn set_limit(kpa: f32) -> RequestBody {
+        RequestBody::SetParam {
+            id: ParamId::PressureLimitKpa,
+            value: kpa,
+        }
+    }
+
+    /// A rig whose store keeps a key, paired with [`KEY`] by its primary host.
+    fn paired() -> Rig {
+        let mut r = Rig::connected(FF);
+        r.ctl.set_link_key(None, true);
+        assert!(!r.ctl.signing());
+        let (res, _) = r.request(RequestBody::SetSigning {
+            key: KEY,
+            enabled: true,
+        });
+        assert_eq!(res, ResultCode::Ok);
+        assert!(r.ctl.signing());
+        assert_eq!(
+            r.ctl.poll_link_key(),
+            Some(Some(KEY)),
+            "the key goes to the store"
+        );
+        assert!(r.host().signs(), "the host signs from the next request on");
+        r
+    }
+
+    /// The request the primary host signs, as it went on the wire (and its answer).
+    fn signed_frame(r: &mut Rig, body: RequestBody) -> (StdVec<u8>, ResultCode) {
+        let id = r.send(body);
+        let frame = r.host().poll_transmit().expect("sent at once");
+        r.inject(&frame);
+        (frame, r.reply(id).expect("answered").0)
+    }
+
+    #[test]
+    fn a_signed_request_is_obeyed_and_a_forged_one_with_the_session_id_is_refused() {
+        let mut r = paired();
+        assert_eq!(r.request(set_limit(30.0)).0, ResultCode::Ok);
+        assert_eq!(limit(&mut r), 30.0);
+        // A stranger who read the session id off the line: its frame, correct in every other
+        // way, carries no signature.
+        let session = r.session();
+        assert_eq!(
+            r.forged(session, set_limit(60.0)).0,
+            ResultCode::Rejected(RejectReason::Unsigned)
+        );
+        assert_eq!(
+            r.forged(session, RequestBody::UploadPlan(Rig::plan(9, &[FF, FP])))
+                .0,
+            ResultCode::Rejected(RejectReason::Unsigned)
+        );
+        assert_eq!(
+            r.forged(session, RequestBody::StartPlan { plan_id: 9 }).0,
+            ResultCode::Rejected(RejectReason::Unsigned)
+        );
+        // Signed with another key: the trailer does not check out, so the frame does not
+        // decode at all (dropped, counted, unanswered).
+        let dropped = r.ctl.status().frames_dropped;
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = protocol::frame::encode_signed(
+            &Request {
+                seq: 41_000,
+                session,
+                body: set_limit(60.0),
+            },
+            b"not-the-crane-ky",
+            u64::MAX,
+            &mut buf,
+        )
+        .unwrap();
+        assert!(r.inject(&buf[..n]).is_empty(), "no answer");
+        assert_eq!(r.ctl.status().frames_dropped, dropped + 1);
+        assert_eq!(limit(&mut r), 30.0, "nothing forged took effect");
+        // What anyone may do stays unsigned: status, parameters read, abort.
+        assert_eq!(r.forged(0, RequestBody::GetStatus).0, ResultCode::Ok);
+        assert_eq!(r.forged(0, RequestBody::Abort).0, ResultCode::Ok);
+        // A plan from the owner, signed, runs.
+        assert_eq!(r.request(RequestBody::ResetFaults).0, ResultCode::Ok);
+        r.upload_and_start(Rig::plan(3, &[FF, FP]));
+        assert_eq!(r.ctl.mode(), Mode::Running);
+    }
+
+    #[test]
+    fn a_replayed_signed_frame_is_refused_and_a_retry_is_answered_from_the_cache() {
+        let mut r = paired();
+        let (first, res) = signed_frame(&mut r, set_limit(25.0));
+        assert_eq!(res, ResultCode::Ok);
+        // The same bytes at once are a retry: the cached answer, nothing executed again.
+        let answers = r.inject(&first);
+        assert!(
+            matches!(
+                answers.as_slice(),
+                [DeviceMessage::Response {
+                    result: ResultCode::Ok,
+                    ..
+                }]
+            ),
+            "{answers:?}"
+        );
+        assert_eq!(r.request(set_limit(35.0)).0, ResultCode::Ok);
+        // Replayed later (another request answered since): its counter is not above the last
+        // accepted, refused, and the value it carried is not set again.
+        let answers = r.inject(&first);
+        assert!(
+            matches!(
+                answers.as_slice(),
+                [DeviceMessage::Response {
+                    result: ResultCode::Rejected(RejectReason::Unsigned),
+                    ..
+                }]
+            ),
+            "{answers:?}"
+        );
+        assert_eq!(limit(&mut r), 35.0);
+        // A frame signed with the right key but an old counter, under a new seq: refused too.
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = protocol::frame::encode_signed(
+            &Request {
+                seq: 42_000,
+                session: r.session(),
+                body: set_limit(20.0),
+            },
+            &KEY,
+            1,
+            &mut buf,
+        )
+        .unwrap();
+        assert!(matches!(
+            r.inject(&buf[..n]).as_slice(),
+            [DeviceMessage::Response {
+                result: ResultCode::Rejected(RejectReason::Unsigned),
+                ..
+            }]
+        ));
+        assert_eq!(limit(&mut r), 35.0);
+    }
+
+    #[test]
+    fn the_handshake_says_signing_is_on_and_unpairing_turns_it_off() {
+        let mut r = paired();
+        // A new host learns it at the handshake; without the key its requests are refused.
+        let (b, hello) = r.join(true);
+        assert!(hello.expect("taken over").signing);
+        assert_eq!(
+            r.request_from(b, set_limit(50.0)).0,
+            ResultCode::Rejected(RejectReason::Unsigned)
+        );
+        // With the key it is obeyed (its counters continue above the first host's).
+        r.hosts[b].set_signing(Some(KEY), 1_000);
+        assert_eq!(r.request_from(b, set_limit(32.0)).0, ResultCode::Ok);
+        // Unpairing is itself signed; then plain requests are obeyed again.
+        assert_eq!(
+            r.request_from(
+                b,
+                RequestBody::SetSigning {
+                    key: [0; 16],
+                    enabled: false
+                }
+            )
+            .0,
+            ResultCode::Ok
+        );
+        assert!(!r.ctl.signing());
+        assert_eq!(r.ctl.poll_link_key(), Some(None));
+        assert!(!r.hosts[b].signs());
+        assert_eq!(r.request_from(b, set_limit(33.0)).0, ResultCode::Ok);
+        // An all-zero key is refused; a store that keeps no key refuses pairing.
+        assert_eq!(
+            r.request_from(
+                b,
+                RequestBody::SetSigning {
+                    key: [0; 16],
+                    enabled: true
+                }
+            )
+            .0,
+            ResultCode::Rejected(RejectReason::OutOfRange)
+        );
+        let mut bare = Rig::connected(FF);
+        assert_eq!(
+            bare.request(RequestBody::SetSigning {
+                key: KEY,
+                enabled: true
+            })
+            .0,
+            ResultCode::Rejected(RejectReason::NotAllowed)
+        );
+        // A device that boots with the key kept is signing from the start.
+        let mut boot = Rig::new(FF);
+        boot.ctl.set_link_key(Some(KEY), true);
+        let (_, hello) = boot.join(false);
+        assert!(hello.expect("handshake").signing);
+    }
 }

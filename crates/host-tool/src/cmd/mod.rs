@@ -23,6 +23,7 @@ pub mod prim;
 pub mod reach;
 pub mod run;
 pub mod serve;
+pub mod signing;
 pub mod states;
 pub mod station;
 pub mod status;

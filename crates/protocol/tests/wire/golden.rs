@@ -18,7 +18,7 @@ use crate::samples::{largest_request, st, status_response};
 /// field, variant or type; not a comment): update this one constant deliberately, together with
 /// the golden bytes if the wire form changed (old builds will refuse the new ones at the
 /// handshake).
-const EXPECTED_SCHEMA_ID: u32 = 0xbb19_3faf;
+const EXPECTED_SCHEMA_ID: u32 = 0xbc19_fbdd;
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
@@ -129,6 +129,7 @@ fn device_info() -> DeviceInfo {
         },
         session: 0x0102_0304,
         reset_cause: ResetCause::Watchdog,
+        signing: true,
     }
 }
 
@@ -170,6 +171,7 @@ fn request_index(b: &RequestBody) -> usize {
         RequestBody::SetParam { .. } => 11,
         RequestBody::Close => 12,
         RequestBody::Identify => 13,
+        RequestBody::SetSigning { .. } => 14,
     }
 }
 
@@ -215,12 +217,19 @@ fn requests() {
         ),
         (req(RequestBody::Close), "8202010c"),
         (req(RequestBody::Identify), "8202010d"),
+        (
+            req(RequestBody::SetSigning {
+                key: *b"0123456789abcdef",
+                enabled: true,
+            }),
+            "8202010e3031323334353637383961626364656601",
+        ),
     ];
     check("Request", &cases);
     covers(
         "RequestBody",
         cases.iter().map(|c| request_index(&c.0.body)),
-        14,
+        15,
     );
     // The first byte after the seq and session varints is the variant index.
     for (r, _) in &cases {
@@ -419,6 +428,7 @@ fn reject_reasons_and_result_codes() {
         RejectReason::NotSessionOwner => 10,
         RejectReason::SessionBusy => 11,
         RejectReason::Unconfirmed => 12,
+        RejectReason::Unsigned => 13,
     };
     let reasons = [
         RejectReason::VersionMismatch,
@@ -434,15 +444,16 @@ fn reject_reasons_and_result_codes() {
         RejectReason::NotSessionOwner,
         RejectReason::SessionBusy,
         RejectReason::Unconfirmed,
+        RejectReason::Unsigned,
     ];
-    let hexes: Vec<String> = (0..13).map(|i| format!("01{i:02x}")).collect();
+    let hexes: Vec<String> = (0..14).map(|i| format!("01{i:02x}")).collect();
     let cases: Vec<(ResultCode, &str)> = reasons
         .iter()
         .zip(&hexes)
         .map(|(&r, h)| (ResultCode::Rejected(r), h.as_str()))
         .collect();
     check("ResultCode::Rejected", &cases);
-    covers("RejectReason", reasons.iter().map(|&r| reason(r)), 13);
+    covers("RejectReason", reasons.iter().map(|&r| reason(r)), 14);
 
     let cause = |c: ResetCause| match c {
         ResetCause::PowerOn => 0,
@@ -531,7 +542,8 @@ fn responses() {
     let cases = [
         (resp(ResultCode::Ok, ResponseBody::None), "0082020000"),
         (resp(ResultCode::InProgress, ResponseBody::None), "0082020300"),
-        (resp(ResultCode::Ok, ResponseBody::Hello(device_info())), "008202000102effdb6f50d000102000600000c420000c84103068fc2fd410000c84103000020428486880801"),
+        (resp(ResultCode::Ok, ResponseBody::Hello(device_info())), "008202000102effdb6f50d000102000600000c420000c84103068fc2fd410000c84103000020428486880801\
+             01"),
         (
             resp(
                 ResultCode::Rejected(RejectReason::VersionMismatch),
@@ -540,7 +552,8 @@ fn responses() {
                     ..device_info()
                 }),
             ),
-            "00820201000102effdb6f50d000102020600000c420000c84103068fc2fd410000c84103000020428486880801",
+            "00820201000102effdb6f50d000102020600000c420000c84103068fc2fd410000c84103000020428486880801\
+             01",
         ),
         (resp(ResultCode::Ok, ResponseBody::Status(idle)), "00820200020101003f0101020101000000be410000b4420000b7420080b042010001000000c002e80702808004"),
         (status_response(), "00ffff0300020101003f0101020101010000be410000b4420000b7420080b0420100010001ffff03070804090102ffff03ffffffff0fffffffff0fffffffff0f"),

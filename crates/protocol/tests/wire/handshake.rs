@@ -63,6 +63,7 @@ fn the_host_checks_device_info() {
         },
         session: 0x1234_5678,
         reset_cause: ResetCause::PowerOn,
+        signing: false,
     };
     assert_eq!(info.check(), Ok(()));
     info.schema_id = 7;

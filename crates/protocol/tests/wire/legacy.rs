@@ -68,6 +68,7 @@ fn info() -> DeviceInfo {
         },
         session: 0,
         reset_cause: ResetCause::PowerOn,
+        signing: false,
     }
 }
 

@@ -98,6 +98,8 @@ fn request_body() -> impl Strategy<Value = RequestBody> {
         (param_id(), f()).prop_map(|(id, value)| RequestBody::SetParam { id, value }),
         Just(RequestBody::Close),
         Just(RequestBody::Identify),
+        (any::<[u8; 16]>(), any::<bool>())
+            .prop_map(|(key, enabled)| RequestBody::SetSigning { key, enabled }),
     ]
 }
 
@@ -167,7 +169,7 @@ fn device_info() -> impl Strategy<Value = DeviceInfo> {
             Just(Board::Simulator)
         ],
         (module(), module(), f()),
-        (any::<u32>(), reset_cause()),
+        (any::<u32>(), reset_cause(), any::<bool>()),
     )
         .prop_map(
             |(
@@ -176,7 +178,7 @@ fn device_info() -> impl Strategy<Value = DeviceInfo> {
                 firmware_version,
                 board,
                 (bottom, top, p),
-                (session, reset_cause),
+                (session, reset_cause, signing),
             )| DeviceInfo {
                 protocol_version,
                 schema_id,
@@ -189,6 +191,7 @@ fn device_info() -> impl Strategy<Value = DeviceInfo> {
                 },
                 session,
                 reset_cause,
+                signing,
             },
         )
 }

@@ -2980,6 +2980,7 @@ fn a_vent_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief(
         "{after:?}"
     );
     assert_eq!(after.faults, 0);
+}
 
 #[test]
 fn pairing_is_refused_where_no_key_can_be_kept_and_the_handshake_says_signing_is_off() {

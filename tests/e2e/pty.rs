@@ -236,3 +236,67 @@ fn a_lost_close_on_a_noisy_line_no_longer_locks_the_next_command_out() {
     // Four sends at most: all four lost is rare (≈ 0.4 % a call at one loss in four).
     assert!(unconfirmed <= 1, "{unconfirmed} sessions ended unconfirmed");
 }
+
+/// Issue 26 item 4: a plan through `host-tool serve --port`, stopped from a second terminal
+/// (`stop` through the same server: an urgent `Abort` ahead of the plan's own requests): the
+/// plan reports the abort, never "GetStatus was superseded by an urgent request" (5 of 9 plan
+/// clients over a port did). Three runs, the stop at different moments of the plan's polling.
+#[test]
+fn a_stop_through_serve_on_a_port_is_reported_by_the_plan_as_an_abort() {
+    for (seed, wait_for) in [("4", "step 1/3"), ("5", "step 1/3"), ("6", "step 2/3")] {
+        let sim = hil_sim_pty(&["--initial", "F&P", "--speed", "2", "--seed", seed]);
+        let dir =
+            std::env::temp_dir().join(format!("e2e-serve-port-{}-{seed}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("socket directory");
+        let tool = |args: &[&str]| {
+            let mut c = Command::new(binary("host-tool"));
+            c.args(args)
+                .env("XDG_RUNTIME_DIR", &dir)
+                .stdin(Stdio::null());
+            c
+        };
+        let mut server = tool(&["serve", "--port", &sim.path, "--no-record"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("serve starts");
+        let mut said = BufReader::new(server.stderr.take().expect("stderr is piped"));
+        let mut line = String::new();
+        said.read_line(&mut line).expect("serve's first line");
+        assert!(line.starts_with("serving "), "{line}");
+        std::thread::spawn(move || for _ in said.lines() {});
+        let mut plan = tool(&["plan", "--target", "D&D", "--json"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("the plan client starts");
+        let mut err = BufReader::new(plan.stderr.take().expect("stderr is piped"));
+        let mut seen = String::new();
+        loop {
+            let mut l = String::new();
+            assert!(err.read_line(&mut l).expect("stderr") > 0, "{seen}");
+            seen.push_str(&l);
+            if l.starts_with(wait_for) {
+                break;
+            }
+        }
+        let stop = tool(&["stop", "--json"]).output().expect("stop runs");
+        assert_eq!(
+            stop.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&stop.stderr)
+        );
+        let mut rest = String::new();
+        std::io::Read::read_to_string(&mut err, &mut rest).expect("stderr");
+        let mut stdout = String::new();
+        std::io::Read::read_to_string(&mut plan.stdout.take().unwrap(), &mut stdout).unwrap();
+        assert_eq!(plan.wait().expect("plan exits").code(), Some(1), "{rest}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).expect("the plan's JSON");
+        assert_eq!(v["failure"]["kind"], "aborted", "seed {seed}: {v}");
+        assert!(!rest.contains("superseded"), "seed {seed}: {rest}");
+        let _ = server.kill();
+        let _ = server.wait();
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -140,3 +140,42 @@ fn a_plan_resumed_after_an_aborted_fold_reaches_its_target() {
         assert_eq!(io.sim.ground_truth().true_state, Some(st("F&P")));
     }
 }
+
+/// A load over what a state holds, hung on the resting trunk: the trunk collapses and the
+/// controller, which commanded nothing, notices (the rest watch: the sealed trunk's air rises as
+/// its volume shrinks) and says the state is unconfirmed, the truth among its candidates.
+#[test]
+fn a_collapse_under_a_load_at_rest_unconfirms_the_state() {
+    // Each state that collapses under a load the simulator can hang (BENCHMARKS.md, "Largest
+    // tip load each state holds"), 50 % over what it holds.
+    for (state, holds_kg) in [("D&D", 8.03), ("D&F", 8.11), ("D&P", 8.0), ("F&D", 14.42)] {
+        let mut io = sim_at(state, 1);
+        io.sim.run_for(500);
+        let before = io.sim.controller().status();
+        assert!(before.state_confirmed, "{state}: {before:?}");
+        let kg = (holds_kg * 1.5_f64).min(hil_sim::world::MAX_MASS_KG);
+        *io.sim.world_mut() = hil_sim::world::World::with(Vec::new(), kg).unwrap();
+        io.sim.run_for(3_000);
+        let truth = io.sim.trunk().state();
+        let after = io.sim.controller().status();
+        println!(
+            "{state} with {kg:.1} kg: truth {truth:?}, device {} confirmed {} may be {:?}, {:.1} kPa",
+            after.state,
+            after.state_confirmed,
+            after.candidates.iter().map(|s| s.name()).collect::<Vec<_>>(),
+            after.pressure_kpa
+        );
+        assert_ne!(
+            truth,
+            Some(st(state)),
+            "{state}: the load did not collapse it"
+        );
+        assert!(!after.state_confirmed, "{state}: {after:?}");
+        if let Some(t) = truth {
+            assert!(
+                after.candidates.contains(t),
+                "{state}: {t} not among {after:?}"
+            );
+        }
+    }
+}

@@ -482,7 +482,7 @@ impl Controller {
             if b == 0 {
                 let fp = core::mem::replace(&mut self.fingerprint, Fingerprint::START);
                 match decoded {
-                    Some(Ok(())) => self.on_request(&req, fp.0),
+                    Some(Ok(())) => self.on_request(&mut req, fp.0),
                     Some(Err(protocol::FrameError::Legacy)) => self.on_v1_frame(),
                     _ => {}
                 }

@@ -11,6 +11,9 @@ if ! command -v cargo-deny >/dev/null; then
 fi
 cargo deny --version
 
+# `cargo metadata` (what cargo-deny reads) needs every package of the lock file, other
+# platforms' too, which the builds never download: fetched first (from crates.io, as the builds).
+cargo fetch --locked
 deny() { cargo deny --locked --offline "$@"; }
 
 echo "workspace:"

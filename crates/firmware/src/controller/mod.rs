@@ -20,6 +20,9 @@
 //!   servo slewing, the valve overlay of the safe state, periodic events, the display.
 //!
 //! The full behaviour, with every number, is in `docs/firmware.md`.
+// The controller is plain logic over its inputs and outputs: no unsafe code anywhere in it (the
+// board shell, `board/`, holds the register access).
+#![forbid(unsafe_code)]
 
 pub mod belief;
 mod exec;

@@ -9,6 +9,23 @@ use e2e::{binary, hil_sim_pty, host_tool, run};
 
 const LIMIT: Duration = Duration::from_secs(60);
 
+/// Reads `err` up to and including the first line that starts with `prefix`; the child ending
+/// first fails the test, naming what it said.
+fn read_to_line(err: &mut impl BufRead, prefix: &str) -> String {
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        assert!(
+            err.read_line(&mut line).expect("stderr") > 0,
+            "host-tool ended before a line starting {prefix:?}:\n{seen}"
+        );
+        seen.push_str(&line);
+        if line.starts_with(prefix) {
+            return seen;
+        }
+    }
+}
+
 #[test]
 fn a_plan_over_the_pty_at_the_fastest_accepted_speed_reaches_its_target() {
     let sim = hil_sim_pty(&["--initial", "F&P", "--speed", "20", "--seed", "2"]);
@@ -65,17 +82,7 @@ fn signal_mid_plan(signal: nix::sys::signal::Signal) {
         .spawn()
         .expect("host-tool starts");
     let mut err = BufReader::new(plan.stderr.take().expect("stderr is piped"));
-    let mut line = String::new();
-    loop {
-        line.clear();
-        assert!(
-            err.read_line(&mut line).expect("stderr") > 0,
-            "host-tool ended early"
-        );
-        if line.starts_with("step 1/3") {
-            break;
-        }
-    }
+    read_to_line(&mut err, "step 1/3");
     let pid = nix::unistd::Pid::from_raw(plan.id() as i32);
     nix::sys::signal::kill(pid, signal).expect("signal sent");
     let mut rest = String::new();
@@ -118,17 +125,7 @@ fn a_second_host_on_a_held_port_names_the_holder_and_points_to_serve() {
         .spawn()
         .expect("host-tool starts");
     let mut err = BufReader::new(plan.stderr.take().expect("stderr is piped"));
-    let mut line = String::new();
-    loop {
-        line.clear();
-        assert!(
-            err.read_line(&mut line).expect("stderr") > 0,
-            "host-tool ended early"
-        );
-        if line.starts_with("step 1/3") {
-            break;
-        }
-    }
+    read_to_line(&mut err, "step 1/3");
     let out = host_tool(&["stop", "--port", &sim.path], LIMIT);
     assert_eq!(out.code(), 1, "{}", out.stderr);
     assert!(
@@ -271,15 +268,7 @@ fn a_stop_through_serve_on_a_port_is_reported_by_the_plan_as_an_abort() {
             .spawn()
             .expect("the plan client starts");
         let mut err = BufReader::new(plan.stderr.take().expect("stderr is piped"));
-        let mut seen = String::new();
-        loop {
-            let mut l = String::new();
-            assert!(err.read_line(&mut l).expect("stderr") > 0, "{seen}");
-            seen.push_str(&l);
-            if l.starts_with(wait_for) {
-                break;
-            }
-        }
+        read_to_line(&mut err, wait_for);
         let stop = tool(&["stop", "--json"]).output().expect("stop runs");
         assert_eq!(
             stop.status.code(),

@@ -616,17 +616,16 @@ impl PlanRunner {
 
     /// Time has passed: poll the status when due.
     pub fn handle_timeout(&mut self, session: &mut Session, now_ms: u64) {
-        if self.wait == Wait::Operator && self.waiting_on.is_none() {
+        // Waiting on the operator or on a vent: a status poll when due.
+        let poll = match self.wait {
+            Wait::Operator => Some(Wait::OperatorPoll),
+            Wait::Venting => Some(Wait::VentPoll),
+            _ => None,
+        };
+        if let Some(poll) = poll.filter(|_| self.waiting_on.is_none()) {
             if self.next_poll_ms.is_some_and(|at| now_ms >= at) {
                 self.next_poll_ms = None;
-                self.ask(session, Wait::OperatorPoll, RequestBody::GetStatus, now_ms);
-            }
-            return;
-        }
-        if self.wait == Wait::Venting && self.waiting_on.is_none() {
-            if self.next_poll_ms.is_some_and(|at| now_ms >= at) {
-                self.next_poll_ms = None;
-                self.ask(session, Wait::VentPoll, RequestBody::GetStatus, now_ms);
+                self.ask(session, poll, RequestBody::GetStatus, now_ms);
             }
             return;
         }

@@ -801,6 +801,12 @@ impl Emulator {
         Some(u32::from_le_bytes(b))
     }
 
+    /// Attaches (or detaches) a debug probe: DHCSR.C_DEBUGEN reads it, and in on-chip-debug
+    /// mode DBGSTOPCR's reset value masks the watchdogs' resets ([`Options::probe`] at start).
+    pub fn set_probe(&mut self, attached: bool) {
+        self.m().probe = attached;
+    }
+
     /// Writes RAM as a debug probe would (`false` outside RAM).
     pub fn write_u32(&mut self, addr: u32, v: u32) -> bool {
         (RAM.0..RAM.0 + RAM.1 - 3).contains(&addr)

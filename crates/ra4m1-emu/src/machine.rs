@@ -389,6 +389,9 @@ impl Machine {
                 (0x10, 4) => Ok(self.dbgstopcr),
                 _ => Err(Why::Unmodelled),
             },
+            // DHCSR: C_DEBUGEN (bit 0) reads 1 while a probe has halting debug enabled
+            // (cortex-m's `DCB::is_debugger_attached` reads its low byte).
+            Page::Scs if off == 0xDF0 => Ok(u32::from(self.probe)),
             Page::Scs => {
                 let cvr = self.systick_cvr();
                 self.scs.read(off, size, cvr)

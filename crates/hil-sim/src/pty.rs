@@ -176,7 +176,7 @@ impl PtySim {
                             let closed = sim.ground_truth().gripper_closed;
                             *sim.world_mut() = world;
                             sim.world_mut().set_gripper(closed);
-                            truth.set(sim.ground_truth());
+                            truth.publish(&sim);
                             let clock = (Instant::now(), sim.now_ms());
                             let _ = tx.send(Ok(clock));
                             serve(sim, clock, pty.master, pty.slave, &stop, &truth, log);
@@ -252,6 +252,39 @@ impl PtySim {
         }
     }
 
+    /// Places `object` in the simulator's world, as the person at the crane does when asked,
+    /// and waits (at most `limit` of wall time) until the simulator has it; refused when an
+    /// object of that name is already there.
+    pub fn place_object(
+        &self,
+        object: crate::world::Object,
+        limit: Duration,
+    ) -> Result<(), crate::world::WorldError> {
+        let name = object.name.clone();
+        if self.objects().iter().any(|o| o.name == name) {
+            return Err(crate::world::WorldError::Duplicate(name));
+        }
+        lock(&self.truth.inbox).push(object);
+        let deadline = Instant::now() + limit;
+        let mut now = lock(&self.truth.now);
+        while !lock(&self.truth.objects).iter().any(|o| o.name == name) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() || self.thread.as_ref().is_none_or(|t| t.is_finished()) {
+                break;
+            }
+            now = match self.truth.changed.wait_timeout(now, left) {
+                Ok((g, _)) => g,
+                Err(e) => e.into_inner().0,
+            };
+        }
+        Ok(())
+    }
+
+    /// The objects of the simulator's world now (updated with the ground truth).
+    pub fn objects(&self) -> Vec<crate::world::Object> {
+        lock(&self.truth.objects).clone()
+    }
+
     /// Stops the simulator and returns its final ground truth.
     pub fn stop(mut self) -> GroundTruth {
         self.halt();
@@ -291,18 +324,28 @@ struct Truth {
     now: Mutex<Option<GroundTruth>>,
     changed: Condvar,
     board: Mutex<Option<BoardMeasures>>,
+    /// Objects a person placed, for the simulator thread to put into its world.
+    inbox: Mutex<Vec<crate::world::Object>>,
+    /// The world's objects, with each update of the ground truth.
+    objects: Mutex<Vec<crate::world::Object>>,
 }
 
 impl Truth {
+    /// The simulator's ground truth and its world's objects now.
+    fn publish(&self, sim: &Sim) {
+        *lock(&self.objects) = sim.world().objects().to_vec();
+        self.set(sim.ground_truth());
+    }
+
     fn set(&self, t: GroundTruth) {
         *lock(&self.now) = Some(t);
         self.changed.notify_all();
     }
 }
 
-fn lock(m: &Mutex<Option<GroundTruth>>) -> std::sync::MutexGuard<'_, Option<GroundTruth>> {
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     // A poisoned lock only means the simulator thread panicked mid-update: the value is still
-    // a complete GroundTruth.
+    // a complete one (each is replaced whole).
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
@@ -342,6 +385,16 @@ fn serve(
                 Err(_) => break,
             }
         }
+        // Objects a person placed.
+        let placed: Vec<_> = lock(&truth.inbox).drain(..).collect();
+        if !placed.is_empty() {
+            for o in placed {
+                // A name already there was refused by `place_object`; a race with a second
+                // placement of the same name keeps the first.
+                let _ = sim.place_object(o);
+            }
+            truth.publish(&sim);
+        }
         // Virtual time.
         let target = if speed.is_finite() {
             v0 + (start.elapsed().as_secs_f64() * speed * 1000.0) as u64
@@ -376,7 +429,7 @@ fn serve(
             }
         }
         if last_truth.elapsed() >= Duration::from_millis(5) {
-            truth.set(sim.ground_truth());
+            truth.publish(&sim);
             last_truth = Instant::now();
         }
         if speed.is_finite() {
@@ -384,7 +437,7 @@ fn serve(
         }
     }
     *truth.board.lock().unwrap_or_else(|e| e.into_inner()) = board_measures(&sim);
-    truth.set(sim.ground_truth());
+    truth.publish(&sim);
     if let Some((f, l)) = log.as_mut() {
         append(l.finish(&sim), f);
         let _ = f.flush();

@@ -516,6 +516,18 @@ impl Sim {
         crate::world::true_tip(&self.trunk)
     }
 
+    /// Places `object` in the world while the crane runs, as a person does: the world first
+    /// learns whether the gripper is closed now (an empty world does not follow it), so only a
+    /// later closing catches the object.
+    pub fn place_object(
+        &mut self,
+        object: crate::world::Object,
+    ) -> Result<(), crate::world::WorldError> {
+        let closed = self.shell.outputs.gripper.high;
+        self.world.set_gripper(closed);
+        self.world.place(object)
+    }
+
     /// The world, to place objects or hang a load (and to take its grasp events).
     pub fn world_mut(&mut self) -> &mut crate::world::World {
         &mut self.world

@@ -157,6 +157,19 @@ impl World {
         })
     }
 
+    /// Puts `object` into the world, as a person places it at the crane (not held: only
+    /// closing the gripper catches). Refused when an object of that name is already there.
+    pub fn place(&mut self, object: Object) -> Result<(), WorldError> {
+        if self.objects.iter().any(|o| o.name == object.name) {
+            return Err(WorldError::Duplicate(object.name));
+        }
+        self.objects.push(Object {
+            held: false,
+            ..object
+        });
+        Ok(())
+    }
+
     /// Tells the world where the gripper is without catching or dropping anything (objects
     /// placed at a closed gripper are not held; only closing catches).
     pub fn set_gripper(&mut self, closed: bool) {
@@ -447,6 +460,32 @@ mod tests {
             e => panic!("{e:?}"),
         }
         assert_eq!(w.load_n(), 0.0);
+    }
+
+    /// A person places an object at a closed gripper while the crane runs: it is not held
+    /// until the gripper opens and closes again; a second object of that name is refused.
+    #[test]
+    fn an_object_placed_at_a_closed_gripper_is_caught_only_by_the_next_closing() {
+        let trunk = Trunk::new(
+            TrunkParams::pdf().unwrap(),
+            "F&P".parse::<TrunkState>().unwrap(),
+        );
+        let top = trunk.height_mm();
+        let mut w = World::new();
+        w.set_gripper(true);
+        let cup = Object::parse(&format!("cup:0,0,{top}")).unwrap();
+        w.place(cup.clone()).unwrap();
+        assert_eq!(
+            w.place(cup),
+            Err(WorldError::Duplicate("cup".into())),
+            "one object per name"
+        );
+        w.after_step(&trunk, true);
+        assert!(w.take_events().is_empty() && !w.objects()[0].held);
+        w.after_step(&trunk, false);
+        assert!(w.take_events().is_empty(), "nothing held, nothing dropped");
+        w.after_step(&trunk, true);
+        assert_eq!(w.take_events(), vec![Grasp::Captured("cup".into())]);
     }
 
     #[test]

@@ -72,6 +72,7 @@ mod completions;
 mod device;
 mod failure;
 mod figure;
+mod keyboard;
 mod live;
 mod mission;
 mod num;

@@ -191,18 +191,16 @@ pub fn pick(
 
 /// Asks the person at the crane to do something, and waits for Enter (a terminal is needed).
 pub fn ask_person(what: &str) -> Result<(), Failure> {
-    use std::io::IsTerminal;
-    if !std::io::stdin().is_terminal() {
+    if !crate::keyboard::available() {
         return Err(Failure::Runtime(anyhow::anyhow!(
             "refused: a person must {what} first, and confirm with Enter: run this on a terminal"
         )));
     }
+    crate::keyboard::discard_typed();
     crate::say!("please {what}, then press Enter");
-    let mut line = String::new();
-    std::io::stdin()
-        .read_line(&mut line)
-        .map_err(|e| anyhow::anyhow!("reading the confirmation: {e}"))?;
-    Ok(())
+    crate::keyboard::next_line()
+        .map(|_| ())
+        .ok_or_else(|| anyhow::anyhow!("the terminal closed before the confirmation").into())
 }
 
 /// Runs `host-tool pick`.
@@ -502,11 +500,19 @@ fn manipulation(args: &DemoArgs) -> Result<(), Failure> {
             );
         }
     }
+    let checked = link.sim().is_some();
+    if !checked && failure.is_none() {
+        note(
+            args.json,
+            "the objects' places are not checked: over a port the host cannot see them (look)",
+        );
+    }
     let st = link.status().ok();
     link.close();
     if args.json {
         crate::cli::print_json(json!({
             "ok": all_placed,
+            "checked": checked,
             "demo": "manipulation",
             "parts": parts,
             "verdict": verdict,

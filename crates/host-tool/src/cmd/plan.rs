@@ -5,7 +5,6 @@
 
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc;
 use std::sync::Arc;
 
 use geometry::TrunkState;
@@ -121,7 +120,9 @@ pub(crate) struct CliShell {
     plan: Option<Plan>,
     interrupted: Arc<AtomicBool>,
     cancel_sent: bool,
-    confirm: Option<mpsc::Receiver<String>>,
+    /// A person can type at a terminal (Enter confirms a manual step; a state name answers
+    /// an identify prompt).
+    confirm: bool,
     identify: Option<Vec<TrunkState>>,
 }
 
@@ -140,7 +141,7 @@ impl CliShell {
             plan: None,
             interrupted,
             cancel_sent: false,
-            confirm: stdin_lines(),
+            confirm: crate::keyboard::available(),
             identify: None,
         }
     }
@@ -169,7 +170,7 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
                 pressure_kpa,
             } => self.ui.step_progress(*index, *elapsed_ms, *pressure_kpa),
             RunEvent::ManualPrompt { index, task } => {
-                self.ui.manual_prompt(*index, *task, self.confirm.is_some())
+                self.ui.manual_prompt(*index, *task, self.confirm)
             }
             RunEvent::StepFinished { index, report } => {
                 self.ui
@@ -195,7 +196,7 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
                     ));
                     self.identify = None;
                     self.pending = Some(ShellAction::Declare(truth));
-                } else if self.confirm.is_some() {
+                } else if self.confirm {
                     self.ui.note(
                         "look at the trunk and type its state (e.g. D&F) and Enter, or an empty \
                          line if you cannot tell",
@@ -225,7 +226,7 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
         if let Some(a) = self.pending.take() {
             return Some(a);
         }
-        let line = self.confirm.as_ref()?.try_recv().ok()?;
+        let line = crate::keyboard::try_line()?;
         match self.identify.take() {
             Some(candidates) => {
                 let answer = line.trim();
@@ -481,25 +482,6 @@ pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
         "failure": failure,
         "sim": truth.map(SimTruth::to_json),
     })
-}
-
-/// A thread that hands on each line typed on a terminal (Enter confirms a manual step; a state
-/// name answers an identify prompt); none when stdin is not a terminal (never block on a pipe
-/// or /dev/null).
-pub(crate) fn stdin_lines() -> Option<mpsc::Receiver<String>> {
-    if !std::io::stdin().is_terminal() {
-        return None;
-    }
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        while std::io::stdin().read_line(&mut line).is_ok_and(|n| n > 0) {
-            if tx.send(std::mem::take(&mut line)).is_err() {
-                break;
-            }
-        }
-    });
-    Some(rx)
 }
 
 fn dry_run(cfg: &Config) -> Result<(), Failure> {

@@ -259,8 +259,9 @@ mod tests {
         on_target::pass()
     }
 
-    /// Data-flash blocks 2 and 3: free in the board binary (its log is on 0 and 1).
-    const BLOCK: usize = 2;
+    /// Data-flash blocks 4 and 5: free in the board binary (its log is on 0 and 1, its link
+    /// key on 2).
+    const BLOCK: usize = 4;
 
     fn record(k: usize) -> StoredState {
         StoredState::confirmed(TrunkState::ALL[k])

@@ -359,9 +359,10 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
 
 /// The same upload signed, with signing on (the key paired and in flash): the MAC runs on
 /// every received byte and its tag is checked at the delimiter, and the pass that receives,
-/// verifies, validates and stores the largest plan stays within the budget.
+/// verifies, validates and stores the largest plan stays within the budget; so does every pass
+/// of a whole plan run by a host that signs.
 #[test]
-fn the_signed_plan_upload_pass_stays_within_the_cycle_budget() {
+fn the_signed_plan_upload_pass_and_every_pass_of_a_signed_plan_stay_within_the_cycle_budget() {
     let (mut sim, _, _) = paired_board();
     sim.power_cycle();
     sim.run_for(100);
@@ -384,7 +385,23 @@ fn the_signed_plan_upload_pass_stays_within_the_cycle_budget() {
             .back_to_back(),
         "the upload's stretch is one pass"
     );
-    stack_headroom(&sim, "the largest plan's signed upload");
+
+    // A plan F&F -> D&D from a host that signs every request (counters above the upload's).
+    host.set_signing(Some(LINK_KEY), 1_000);
+    sim.elf_board_mut().unwrap().emu.clear_max_awake();
+    let (ff, dd): (TrunkState, TrunkState) = ("F&F".parse().unwrap(), "D&D".parse().unwrap());
+    let plan = transition_graph::Graph::nominal().plan(ff, dd).unwrap();
+    let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
+    let (ok, state) = host.run_plan(&mut sim, 3, &steps, 120_000).unwrap();
+    assert!(ok && state == dd, "a signed plan: {ok} {state}");
+    let run = sim.elf_board().unwrap().emu.stats().max_awake_cycles;
+    print_profile(&sim.elf_board().unwrap().emu, "a signed plan");
+    eprintln!("longest pass of a signed plan {run} cycles");
+    assert!(
+        run <= PASS_BUDGET_CYCLES,
+        "longest pass of the signed plan {run} cycles > {PASS_BUDGET_CYCLES}"
+    );
+    stack_headroom(&sim, "the largest plan's signed upload and a signed plan");
 }
 
 /// Prints where the longest pass's cycles went, per ELF function (largest first).

@@ -426,6 +426,65 @@ mod backoff {
         }
     }
 
+    /// A store whose key block is broken: its key saves fail, its state saves succeed.
+    struct BrokenKeyBlock {
+        state_saves: u32,
+        key_saves: u32,
+    }
+
+    impl StateStore for BrokenKeyBlock {
+        type Error = FlashError;
+        fn load(&mut self) -> Result<Option<StoredState>, FlashError> {
+            Ok(None)
+        }
+        fn save(&mut self, _: &StoredState) -> Result<(), FlashError> {
+            self.state_saves += 1;
+            Ok(())
+        }
+        fn keeps_link_key(&self) -> bool {
+            true
+        }
+        fn save_link_key(&mut self, _: Option<&[u8; 16]>) -> Result<(), FlashError> {
+            self.key_saves += 1;
+            Err(FlashError::Erase)
+        }
+    }
+
+    /// Its own clock: the tests run in parallel.
+    static KEY_NOW: AtomicU32 = AtomicU32::new(0);
+    fn key_now() -> u32 {
+        KEY_NOW.load(Ordering::Relaxed)
+    }
+
+    #[test]
+    fn a_failing_key_save_backs_off_without_delaying_the_state_saves() {
+        let s = StoredState::confirmed(TrunkState::AS_MANUFACTURED);
+        KEY_NOW.store(500, Ordering::Relaxed);
+        let mut b = Backoff::new(
+            BrokenKeyBlock {
+                state_saves: 0,
+                key_saves: 0,
+            },
+            key_now,
+        );
+        assert!(b.keeps_link_key());
+        assert_eq!(b.save_link_key(Some(&[7; 16])), Err(FlashError::Erase));
+        assert_eq!(b.save_link_key(Some(&[7; 16])), Err(FlashError::BackingOff));
+        // The state's saves go on at once, every pass.
+        for t in 501..510 {
+            KEY_NOW.store(t, Ordering::Relaxed);
+            assert_eq!(b.save(&s), Ok(()));
+        }
+        // And do not reset the key's back-off: it still waits out its 50 ms, then doubles.
+        KEY_NOW.store(549, Ordering::Relaxed);
+        assert_eq!(b.save_link_key(Some(&[7; 16])), Err(FlashError::BackingOff));
+        KEY_NOW.store(550, Ordering::Relaxed);
+        assert_eq!(b.save_link_key(Some(&[7; 16])), Err(FlashError::Erase));
+        KEY_NOW.store(649, Ordering::Relaxed);
+        assert_eq!(b.save_link_key(Some(&[7; 16])), Err(FlashError::BackingOff));
+        assert_eq!(b.save(&s), Ok(()));
+    }
+
     #[test]
     fn a_failing_save_is_retried_with_doubling_waits_and_busy_is_not_a_failure() {
         let s = StoredState::confirmed(TrunkState::AS_MANUFACTURED);

@@ -445,14 +445,15 @@ impl<F: NorFlash> StateStore for FlashLog<F> {
 /// waits [`Backoff::FIRST_MS`], doubling up to [`Backoff::MAX_MS`]; meanwhile `save` returns
 /// [`FlashError::BackingOff`] at once without touching the flash, so a broken flash costs the
 /// loop one failed attempt per back-off period, not one per pass. [`FlashError::Busy`] (a
-/// background erase) is not a failure: it is retried at the next call. `now_ms` is the board's
-/// millisecond clock.
+/// background erase) is not a failure: it is retried at the next call. The state's saves and
+/// the link key's back off apart (a failing key block never delays a step's journal). `now_ms`
+/// is the board's millisecond clock.
 #[derive(Debug)]
 pub struct Backoff<S> {
     inner: S,
     now_ms: fn() -> u32,
-    wait_ms: u32,
-    next_ms: u32,
+    /// The state's saves' back-off, then the key's: the current wait and when it ends.
+    waits: ((u32, u32), (u32, u32)),
 }
 
 impl<S> Backoff<S> {
@@ -466,31 +467,37 @@ impl<S> Backoff<S> {
         Self {
             inner,
             now_ms,
-            wait_ms: 0,
-            next_ms: 0,
+            waits: ((0, 0), (0, 0)),
         }
     }
 }
 
 impl<S> Backoff<S> {
-    /// One attempt of `save` on the inner store, unless a failure's back-off still runs.
+    /// One attempt of `save` on the inner store (the key's when `key`), unless that save's
+    /// back-off still runs.
     fn attempt(
         &mut self,
+        key: bool,
         save: impl FnOnce(&mut S) -> Result<(), FlashError>,
     ) -> Result<(), FlashError> {
         let now = (self.now_ms)();
-        if self.wait_ms > 0 && (now.wrapping_sub(self.next_ms) as i32) < 0 {
+        let (wait_ms, next_ms) = if key {
+            &mut self.waits.1
+        } else {
+            &mut self.waits.0
+        };
+        if *wait_ms > 0 && (now.wrapping_sub(*next_ms) as i32) < 0 {
             return Err(FlashError::BackingOff);
         }
         match save(&mut self.inner) {
             Ok(()) => {
-                self.wait_ms = 0;
+                *wait_ms = 0;
                 Ok(())
             }
             Err(FlashError::Busy) => Err(FlashError::Busy),
             Err(e) => {
-                self.wait_ms = (self.wait_ms * 2).clamp(Self::FIRST_MS, Self::MAX_MS);
-                self.next_ms = now.wrapping_add(self.wait_ms);
+                *wait_ms = (*wait_ms * 2).clamp(Self::FIRST_MS, Self::MAX_MS);
+                *next_ms = now.wrapping_add(*wait_ms);
                 Err(e)
             }
         }
@@ -505,7 +512,7 @@ impl<S: StateStore<Error = FlashError>> StateStore for Backoff<S> {
     }
 
     fn save(&mut self, state: &StoredState) -> Result<(), FlashError> {
-        self.attempt(|s| s.save(state))
+        self.attempt(false, |s| s.save(state))
     }
 
     fn keeps_link_key(&self) -> bool {
@@ -517,6 +524,6 @@ impl<S: StateStore<Error = FlashError>> StateStore for Backoff<S> {
     }
 
     fn save_link_key(&mut self, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
-        self.attempt(|s| s.save_link_key(key))
+        self.attempt(true, |s| s.save_link_key(key))
     }
 }

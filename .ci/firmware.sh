@@ -3,7 +3,7 @@
 #  1. builds `uno-r4` in the `firmware` profile for thumbv7em-none-eabihf (`cargo firmware`);
 #  2. checks that no loadable segment or allocated section lies below 0x4000 (the Arduino
 #     bootloader and the option-setting memory at 0x400..0x4FF: never written by us);
-#  3. reports flash and static RAM, and fails above the budget (41 KiB flash, 16 KiB RAM): the
+#  3. reports flash and static RAM, and fails above the budget (44.5 KiB flash, 16 KiB RAM): the
 #     budget follows the size reached (BENCHMARKS.md) with a small margin, so a regression is red.
 # Needs only cargo and python3 (the ELF is parsed here, no binutils required).
 set -euo pipefail
@@ -17,7 +17,7 @@ elf="$target_dir/thumbv7em-none-eabihf/firmware/uno-r4"
 python3 - "$elf" <<'PY'
 import struct, sys
 
-FLASH_BUDGET = 41 * 1024            # 40.2 KiB reached (BENCHMARKS.md, "Issue 26: the flash")
+FLASH_BUDGET = 44 * 1024 + 512      # 43.8 KiB reached with link signing (BENCHMARKS.md, "Issue 26: link signing on the board")
 RAM_BUDGET = 16 * 1024
 APP_START = 0x4000                      # memory.x FLASH ORIGIN
 RAM = (0x2000_0000, 0x2000_8000)        # 32 KiB SRAM
@@ -65,7 +65,7 @@ for i in range(e_phnum):
 
 for n, a, s, where in rows:
     print(f"  {n:<24} {a:#010x} {s:>7} B  {where}")
-print(f"firmware size: flash {flash} B ({flash / 1024:.1f} KiB, budget {FLASH_BUDGET // 1024} KiB), "
+print(f"firmware size: flash {flash} B ({flash / 1024:.1f} KiB, budget {FLASH_BUDGET / 1024:g} KiB), "
       f"static RAM {ram} B ({ram / 1024:.1f} KiB, budget 16 KiB)")
 if flash > FLASH_BUDGET or ram > RAM_BUDGET:
     sys.exit("FAIL: firmware over its size budget")

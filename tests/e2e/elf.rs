@@ -1,7 +1,8 @@
 //! Processor in the loop, end to end: the board's own `uno-r4` ELF in the RA4M1 emulator
 //! behind a pty (hil-sim's `PtySim` with `firmware_elf`, what `hil-sim --pty --firmware-elf`
 //! serves), driven by the real `host-tool` binary over `--port`. The handshake and status,
-//! all 36 (initial, target) plans, and a fault that must end with the actuators safe.
+//! all 36 (initial, target) plans, a fault that must end with the actuators safe, and link
+//! signing (pair, a refused and an obeyed change, unpair).
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::PathBuf;
@@ -452,4 +453,80 @@ fn the_manipulation_demo_places_every_object_on_the_elf() {
             out.stderr
         );
     }
+}
+
+/// Link signing on the board ELF through the binaries: `host-tool signing pair` gives the
+/// emulated board a key (kept in its data flash), the handshake then says it signs, a
+/// parameter change without the key is refused and with it obeyed, and `signing off` turns it
+/// off again.
+#[test]
+fn host_tool_pairs_the_elf_obeys_only_signed_changes_and_unpairs() {
+    let sim = board("F&F", vec![]);
+    let path = sim.path().display().to_string();
+    let dir = std::env::temp_dir().join(format!("e2e-elf-signing-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let key_file = dir.join("crane.key");
+    let _ = std::fs::remove_file(&key_file);
+    let kf = key_file.to_str().unwrap();
+    let limit = Duration::from_secs(60);
+    let signs = || {
+        let out = host_tool(&["signing", "show", "--port", &path, "--json"], limit);
+        assert_eq!(out.code(), 0, "{}", out.stderr);
+        out.json()["signing"].as_bool().expect("a flag")
+    };
+    assert!(!signs(), "a fresh board does not sign");
+    let pair = host_tool(
+        &[
+            "signing",
+            "pair",
+            "--port",
+            &path,
+            "--key-file",
+            kf,
+            "--json",
+        ],
+        limit,
+    );
+    assert_eq!(pair.code(), 0, "{}", pair.stderr);
+    assert!(signs(), "the handshake says the board signs");
+    let set = |value: &str, key: Option<&str>| {
+        let mut args = vec!["param", "set", "pressure-limit-kpa", value, "--port", &path];
+        if let Some(k) = key {
+            args.extend_from_slice(&["--link-key", k]);
+        }
+        host_tool(&args, limit)
+    };
+    let refused = set("30", None);
+    assert_eq!(refused.code(), 1, "{}", refused.stderr);
+    assert!(
+        refused.stderr.contains("not validly signed"),
+        "{}",
+        refused.stderr
+    );
+    let obeyed = set("31", Some(kf));
+    assert_eq!(obeyed.code(), 0, "{}", obeyed.stderr);
+    let get = host_tool(
+        &[
+            "param",
+            "get",
+            "pressure-limit-kpa",
+            "--port",
+            &path,
+            "--link-key",
+            kf,
+            "--json",
+        ],
+        limit,
+    );
+    assert_eq!(get.code(), 0, "{}", get.stderr);
+    assert_eq!(get.json()["params"][0]["value"].as_f64(), Some(31.0));
+    let off = host_tool(
+        &["signing", "off", "--port", &path, "--link-key", kf],
+        limit,
+    );
+    assert_eq!(off.code(), 0, "{}", off.stderr);
+    assert!(!signs(), "unpaired");
+    assert_eq!(set("40", None).code(), 0, "plain changes obeyed again");
+    drop(sim);
+    let _ = std::fs::remove_dir_all(&dir);
 }

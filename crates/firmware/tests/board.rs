@@ -259,8 +259,9 @@ mod tests {
         on_target::pass()
     }
 
-    /// Data-flash blocks 2 and 3: free in the board binary (its log is on 0 and 1).
-    const BLOCK: usize = 2;
+    /// Data-flash blocks 4 and 5 (and 6 for a key): free in the board binary (its log is on 0
+    /// and 1, its link key on 2).
+    const BLOCK: usize = 4;
 
     fn record(k: usize) -> StoredState {
         StoredState::confirmed(TrunkState::ALL[k])
@@ -304,6 +305,31 @@ mod tests {
         on_target::init();
         let mut log = FlashLog::new(flash(), BLOCK);
         assert_eq!(log.load(), Ok(Some(record(3))));
+        on_target::pass()
+    }
+
+    /// Data-flash block 6 holds the link key in these tests (block 2 in the board binary).
+    const KEY_BLOCK: usize = BLOCK + 2;
+    const KEY: [u8; 16] = *b"crane-test-key-1";
+
+    /// A link key saved beside the log (an erase in the background, then its slot one byte
+    /// per call) is the one loaded after a reset; unpairing erases it.
+    #[test]
+    fn a_link_key_survives_a_reset_and_unpairing_erases_it(_b: Board) {
+        let mut log = fresh_log().with_key_block(KEY_BLOCK);
+        assert_eq!(done(|| log.save_link_key(None)), Ok(()), "erase the block");
+        assert_eq!(log.load_link_key(), Ok(None), "erased: no key");
+        assert_eq!(done(|| log.save_link_key(Some(&KEY))), Ok(()));
+        on_target::resume_after_reset(after_key_save);
+        cortex_m::peripheral::SCB::sys_reset();
+    }
+
+    fn after_key_save() -> ! {
+        on_target::init();
+        let mut log = FlashLog::new(flash(), BLOCK).with_key_block(KEY_BLOCK);
+        assert_eq!(log.load_link_key(), Ok(Some(KEY)));
+        assert_eq!(done(|| log.save_link_key(None)), Ok(()));
+        assert_eq!(log.load_link_key(), Ok(None), "unpaired: erased");
         on_target::pass()
     }
 

@@ -26,6 +26,9 @@ use crate::devices::PWM_MAX_DUTY;
 #[allow(dead_code, missing_docs)]
 mod flash_log;
 
+/// The data-flash block of the link-signing key (`crates/firmware/src/bin/uno_r4.rs`).
+pub const LINK_KEY_BLOCK: usize = 2;
+
 /// The board's pins (`crates/firmware/src/board/pins.rs`), as `(port, pin)`.
 mod pin {
     pub const INLET: (usize, usize) = (1, 4);
@@ -163,6 +166,17 @@ impl ElfBoard {
         let mut copy = self.emu.data_flash().to_vec();
         flash_log::FlashLog::new(DataFlashImage(&mut copy), 0)
             .load()
+            .ok()
+            .flatten()
+    }
+
+    /// The link-signing key in the data flash, as the firmware reads it at boot (`None`: the
+    /// slot is erased, or torn and so failing its CRC: signing off at the next boot).
+    pub fn stored_link_key(&self) -> Option<[u8; 16]> {
+        let mut copy = self.emu.data_flash().to_vec();
+        flash_log::FlashLog::new(DataFlashImage(&mut copy), 0)
+            .with_key_block(LINK_KEY_BLOCK)
+            .load_link_key()
             .ok()
             .flatten()
     }

@@ -69,6 +69,12 @@ impl SimHost {
         }
     }
 
+    /// Signs requests under `key` from the next one on, counters from `first_counter`, once
+    /// the handshake says the device signs (`None`: plain; see `host::Session::set_signing`).
+    pub fn set_signing(&mut self, key: Option<protocol::sign::LinkKey>, first_counter: u64) {
+        self.host.set_signing(key, first_counter);
+    }
+
     /// The session the handshake opened (0: none yet).
     pub fn session(&self) -> u32 {
         self.host.session().device().map_or(0, |d| d.session)

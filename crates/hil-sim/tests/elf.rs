@@ -255,22 +255,12 @@ fn the_elf_drives_the_display_and_reads_the_buttons_like_the_controller() {
 const PASS_BUDGET_CYCLES: u64 = 40_800;
 
 /// The pass that receives, validates and stores the largest plan (8 steps × 4 bends, accepted:
-/// the crane is in their `F&F`), with a status request right behind it on the line, and every
-/// pass of a whole plan after it, stay within the budget.
-#[test]
-fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() {
+/// the crane is in their `F&F`), with a status request right behind it on the line; the
+/// upload signed under `signed` (key, counter) when given. Returns its cycles (the longest
+/// pass from the burst to both answers).
+fn largest_upload_pass(sim: &mut Sim, host: &SimHost, signed: Option<(&[u8; 16], u64)>) -> u64 {
     use protocol::messages::{DeviceMessage, Request, RequestBody};
     use protocol::ResultCode;
-    let ff: TrunkState = "F&F".parse().unwrap();
-    let mut sim = Sim::try_new(SimOptions {
-        initial: ff,
-        firmware_elf: Some(elf()),
-        ..SimOptions::default()
-    })
-    .expect("loads");
-    sim.run_for(50);
-    let mut host = SimHost::new();
-    host.hello(&mut sim).expect("handshake");
     sim.run_for(20);
     let _ = sim.read_device_bytes();
     sim.elf_board_mut().unwrap().emu.profile_passes(true);
@@ -286,8 +276,15 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
         ),
         (101, RequestBody::GetStatus),
     ] {
+        let req = Request { seq, session, body };
         let mut buf = [0u8; protocol::MAX_FRAME_LEN];
-        let n = protocol::encode(&Request { seq, session, body }, &mut buf).unwrap();
+        let n = match signed {
+            Some((key, counter)) if seq == 100 => {
+                protocol::frame::encode_signed(&req, key, counter, &mut buf)
+            }
+            _ => protocol::encode(&req, &mut buf),
+        }
+        .unwrap();
         line.extend_from_slice(&buf[..n]);
     }
     sim.write_host_bytes(&line);
@@ -308,8 +305,30 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
         [(100, ResultCode::Ok), (101, ResultCode::Ok)],
         "the plan stored, the status answered"
     );
-    let upload = sim.elf_board().unwrap().emu.stats().max_awake_cycles;
-    print_profile(&sim.elf_board().unwrap().emu, "the largest plan's upload");
+    let what = if signed.is_some() {
+        "the largest plan's signed upload"
+    } else {
+        "the largest plan's upload"
+    };
+    print_profile(&sim.elf_board().unwrap().emu, what);
+    sim.elf_board().unwrap().emu.stats().max_awake_cycles
+}
+
+/// The largest plan's upload pass (with a status behind it) and every pass of a whole plan
+/// after it stay within the budget.
+#[test]
+fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() {
+    let ff: TrunkState = "F&F".parse().unwrap();
+    let mut sim = Sim::try_new(SimOptions {
+        initial: ff,
+        firmware_elf: Some(elf()),
+        ..SimOptions::default()
+    })
+    .expect("loads");
+    sim.run_for(50);
+    let mut host = SimHost::new();
+    host.hello(&mut sim).expect("handshake");
+    let upload = largest_upload_pass(&mut sim, &host, None);
     assert!(
         upload <= PASS_BUDGET_CYCLES,
         "upload pass {upload} cycles > {PASS_BUDGET_CYCLES}"
@@ -336,6 +355,53 @@ fn the_plan_upload_pass_and_every_pass_of_a_plan_stay_within_the_cycle_budget() 
     assert!(one_pass(&sim), "the plan's longest stretch is one pass");
     eprintln!("upload pass {upload} cycles, longest pass of a plan {run}");
     stack_headroom(&sim, "the largest plan's upload and a plan");
+}
+
+/// The same upload signed, with signing on (the key paired and in flash): the MAC runs on
+/// every received byte and its tag is checked at the delimiter, and the pass that receives,
+/// verifies, validates and stores the largest plan stays within the budget; so does every pass
+/// of a whole plan run by a host that signs.
+#[test]
+fn the_signed_plan_upload_pass_and_every_pass_of_a_signed_plan_stay_within_the_cycle_budget() {
+    let (mut sim, _, _) = paired_board();
+    sim.power_cycle();
+    sim.run_for(100);
+    let mut host = SimHost::new();
+    let ResponseBody::Hello(info) = host.hello(&mut sim).expect("handshake") else {
+        panic!("no device info")
+    };
+    assert!(info.signing, "{info:?}");
+    let upload = largest_upload_pass(&mut sim, &host, Some((&LINK_KEY, 1)));
+    eprintln!("signed upload pass {upload} cycles");
+    assert!(
+        upload <= PASS_BUDGET_CYCLES,
+        "signed upload pass {upload} cycles > {PASS_BUDGET_CYCLES}"
+    );
+    assert!(
+        !sim.elf_board()
+            .unwrap()
+            .emu
+            .longest_stretch()
+            .back_to_back(),
+        "the upload's stretch is one pass"
+    );
+
+    // A plan F&F -> D&D from a host that signs every request (counters above the upload's).
+    host.set_signing(Some(LINK_KEY), 1_000);
+    sim.elf_board_mut().unwrap().emu.clear_max_awake();
+    let (ff, dd): (TrunkState, TrunkState) = ("F&F".parse().unwrap(), "D&D".parse().unwrap());
+    let plan = transition_graph::Graph::nominal().plan(ff, dd).unwrap();
+    let steps: Vec<Step> = plan.steps().iter().map(|s| s.to_protocol()).collect();
+    let (ok, state) = host.run_plan(&mut sim, 3, &steps, 120_000).unwrap();
+    assert!(ok && state == dd, "a signed plan: {ok} {state}");
+    let run = sim.elf_board().unwrap().emu.stats().max_awake_cycles;
+    print_profile(&sim.elf_board().unwrap().emu, "a signed plan");
+    eprintln!("longest pass of a signed plan {run} cycles");
+    assert!(
+        run <= PASS_BUDGET_CYCLES,
+        "longest pass of the signed plan {run} cycles > {PASS_BUDGET_CYCLES}"
+    );
+    stack_headroom(&sim, "the largest plan's signed upload and a signed plan");
 }
 
 /// Prints where the longest pass's cycles went, per ELF function (largest first).
@@ -491,13 +557,88 @@ fn a_step_actuates_only_after_its_journal_is_in_flash_and_a_cut_before_boots_tru
     }
 }
 
-/// Link signing on the board ELF: its handshake says signing is off; pairing is refused
-/// (`NotAllowed`: the board binary is built without `link-signing`, and its flash log keeps no
-/// key); a signed frame is not taken for a plain one (its trailer is left over: dropped,
-/// counted, unanswered), while plain requests go on being obeyed.
-#[test]
-fn the_board_elf_says_signing_is_off_refuses_pairing_and_drops_a_signed_frame() {
-    use protocol::messages::{DeviceMessage, ParamId, RejectReason, Request, RequestBody};
+/// The key the signing tests pair with.
+const LINK_KEY: [u8; 16] = *b"crane-test-key-1";
+
+/// Frames `body` (signed under `key` with `counter`, or plain with `None`), puts it on the
+/// line as one burst, and steps the board until the answer to `seq` comes (`None`: none in
+/// 200 ms, the frame dropped).
+fn exchange(
+    sim: &mut Sim,
+    session: u32,
+    seq: u16,
+    body: protocol::RequestBody,
+    signed: Option<(&[u8; 16], u64)>,
+) -> (Vec<u8>, Option<(protocol::ResultCode, ResponseBody)>) {
+    let req = protocol::messages::Request { seq, session, body };
+    let mut buf = [0u8; protocol::MAX_FRAME_LEN];
+    let n = match signed {
+        Some((key, counter)) => protocol::frame::encode_signed(&req, key, counter, &mut buf),
+        None => protocol::encode(&req, &mut buf),
+    }
+    .expect("the request frames");
+    let frame = buf[..n].to_vec();
+    (frame.clone(), answer_to(sim, &frame, seq))
+}
+
+/// Puts `frame` on the line and steps the board until the answer to `seq` (≤ 200 ms).
+fn answer_to(
+    sim: &mut Sim,
+    frame: &[u8],
+    seq: u16,
+) -> Option<(protocol::ResultCode, ResponseBody)> {
+    use protocol::messages::DeviceMessage;
+    let _ = sim.read_device_bytes();
+    sim.write_host_bytes(frame);
+    let mut dec = protocol::FrameDecoder::new();
+    for _ in 0..200 {
+        sim.step();
+        for b in sim.read_device_bytes() {
+            if let Some(Ok(DeviceMessage::Response {
+                seq: s,
+                result,
+                body,
+            })) = dec.push::<DeviceMessage>(b)
+            {
+                if s == seq {
+                    return Some((result, body));
+                }
+            }
+        }
+    }
+    None
+}
+
+fn pressure_limit(host: &mut SimHost, sim: &mut Sim) -> f32 {
+    use protocol::messages::ParamId;
+    match host.request(
+        sim,
+        protocol::RequestBody::GetParam(ParamId::PressureLimitKpa),
+        1_000,
+    ) {
+        Ok((protocol::ResultCode::Ok, ResponseBody::Param { value, .. })) => value,
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Steps the board until `done` (at most `limit_ms`); the milliseconds it took.
+fn until(sim: &mut Sim, limit_ms: u64, done: impl Fn(&Sim) -> bool) -> Option<u64> {
+    let t0 = sim.now_ms();
+    while sim.now_ms() < t0 + limit_ms {
+        if done(sim) {
+            return Some(sim.now_ms() - t0);
+        }
+        sim.step();
+        let _ = sim.read_device_bytes();
+    }
+    None
+}
+
+/// A board ELF at `F&F`, paired with [`LINK_KEY`] by its first host and the key written to
+/// the data flash; returns the sim, that host, and the longest loop pass (cycles) from the
+/// pairing request to the key's last byte in flash.
+fn paired_board() -> (Sim, SimHost, u64) {
+    use protocol::messages::RequestBody;
     use protocol::ResultCode;
     let mut sim = Sim::try_new(SimOptions {
         initial: "F&F".parse().unwrap(),
@@ -510,67 +651,168 @@ fn the_board_elf_says_signing_is_off_refuses_pairing_and_drops_a_signed_frame() 
     let ResponseBody::Hello(info) = host.hello(&mut sim).expect("handshake") else {
         panic!("no device info")
     };
-    assert!(!info.signing, "{info:?}");
+    assert!(!info.signing, "a fresh board: signing off ({info:?})");
+    assert_eq!(sim.elf_board().unwrap().stored_link_key(), None);
+    sim.elf_board_mut().unwrap().emu.clear_max_awake();
     let (res, _) = host
         .request(
             &mut sim,
             RequestBody::SetSigning {
-                key: *b"crane-test-key-1",
+                key: LINK_KEY,
                 enabled: true,
             },
             1_000,
         )
         .expect("answered");
-    assert_eq!(res, ResultCode::Rejected(RejectReason::NotAllowed));
-    let status = |host: &mut SimHost, sim: &mut Sim| match host
+    assert_eq!(res, ResultCode::Ok, "the board pairs");
+    let took = until(&mut sim, 500, |s| {
+        s.elf_board().unwrap().stored_link_key() == Some(LINK_KEY)
+    })
+    .expect("the key reaches the data flash");
+    let worst = sim.elf_board().unwrap().emu.stats().max_awake_cycles;
+    eprintln!("key in data flash {took} ms after the pairing was answered; longest pass {worst}");
+    (sim, host, worst)
+}
+
+/// Link signing on the board ELF (its key in data-flash block 2, `board/flash_log.rs`):
+/// pairing writes the key without a pass beyond the budget; after a power cut the handshake
+/// says signing is on; an unsigned parameter change or plan is refused, a forged frame (wrong
+/// key) dropped, a replayed one refused, a correctly signed one obeyed and answered; unpairing
+/// (itself signed) erases the key's block, and the next boot says signing is off.
+#[test]
+fn the_board_elf_keeps_its_paired_key_across_a_power_cut_and_obeys_only_signed_frames() {
+    use protocol::messages::{ParamId, RejectReason, RequestBody};
+    use protocol::ResultCode;
+    let (mut sim, _, pairing_pass) = paired_board();
+    assert!(
+        pairing_pass <= PASS_BUDGET_CYCLES,
+        "a pass of the key's save {pairing_pass} cycles > {PASS_BUDGET_CYCLES}"
+    );
+
+    sim.power_cycle();
+    sim.run_for(100);
+    let mut host = SimHost::new();
+    let ResponseBody::Hello(info) = host.hello(&mut sim).expect("handshake after the cut") else {
+        panic!("no device info")
+    };
+    assert!(info.signing, "the key survived the power cut ({info:?})");
+    let session = host.session();
+    let set = |kpa: f32| RequestBody::SetParam {
+        id: ParamId::PressureLimitKpa,
+        value: kpa,
+    };
+
+    // Unsigned, from the session's owner or anyone who read its id: refused.
+    let (res, _) = host.request(&mut sim, set(60.0), 1_000).expect("answered");
+    assert_eq!(res, ResultCode::Rejected(RejectReason::Unsigned));
+    let plan = RequestBody::UploadPlan(firmware::bench::largest_plan(9));
+    let (res, _) = host.request(&mut sim, plan, 1_000).expect("answered");
+    assert_eq!(res, ResultCode::Rejected(RejectReason::Unsigned));
+    assert_eq!(pressure_limit(&mut host, &mut sim), 40.0);
+
+    // Correctly signed: obeyed and answered.
+    let (first, ans) = exchange(&mut sim, session, 4_321, set(30.0), Some((&LINK_KEY, 7)));
+    assert!(matches!(ans, Some((ResultCode::Ok, _))), "{ans:?}");
+    assert_eq!(pressure_limit(&mut host, &mut sim), 30.0);
+
+    // Forged: signed under another key, the trailer does not check out: dropped, unanswered.
+    let dropped = |host: &mut SimHost, sim: &mut Sim| match host
         .request(sim, RequestBody::GetStatus, 1_000)
         .expect("answered")
     {
-        (ResultCode::Ok, ResponseBody::Status(s)) => s,
+        (ResultCode::Ok, ResponseBody::Status(s)) => s.frames_dropped,
         other => panic!("{other:?}"),
     };
-    let before = status(&mut host, &mut sim).frames_dropped;
-    let _ = sim.read_device_bytes();
-    let mut buf = [0u8; protocol::MAX_FRAME_LEN];
-    let n = protocol::frame::encode_signed(
-        &Request {
-            seq: 4_321,
-            session: host.session(),
-            body: RequestBody::SetParam {
-                id: ParamId::PressureLimitKpa,
-                value: 20.0,
-            },
-        },
-        b"crane-test-key-1",
-        7,
-        &mut buf,
-    )
-    .unwrap();
-    sim.write_host_bytes(&buf[..n]);
-    let mut dec = protocol::FrameDecoder::new();
-    for _ in 0..100 {
-        sim.step();
-        for b in sim.read_device_bytes() {
-            if let Some(Ok(DeviceMessage::Response { seq, result, .. })) =
-                dec.push::<DeviceMessage>(b)
-            {
-                assert_ne!(seq, 4_321, "a signed frame answered ({result:?})");
-            }
-        }
-    }
-    assert_eq!(status(&mut host, &mut sim).frames_dropped, before + 1);
-    let (res, body) = host
+    let before = dropped(&mut host, &mut sim);
+    let (_, ans) = exchange(
+        &mut sim,
+        session,
+        4_322,
+        set(60.0),
+        Some((b"not-the-crane-ky", u64::MAX)),
+    );
+    assert_eq!(ans, None, "a forged frame is not answered");
+    assert_eq!(dropped(&mut host, &mut sim), before + 1);
+    assert_eq!(pressure_limit(&mut host, &mut sim), 30.0);
+
+    // Replayed: a later signed change, then the first frame again (its counter is not above
+    // the last accepted): refused, its value not set again.
+    let (_, ans) = exchange(&mut sim, session, 4_323, set(35.0), Some((&LINK_KEY, 8)));
+    assert!(matches!(ans, Some((ResultCode::Ok, _))), "{ans:?}");
+    let ans = answer_to(&mut sim, &first, 4_321);
+    assert!(
+        matches!(ans, Some((ResultCode::Rejected(RejectReason::Unsigned), _))),
+        "{ans:?}"
+    );
+    // The same change under a new seq with an old counter: refused too.
+    let (_, ans) = exchange(&mut sim, session, 4_324, set(20.0), Some((&LINK_KEY, 8)));
+    assert!(
+        matches!(ans, Some((ResultCode::Rejected(RejectReason::Unsigned), _))),
+        "{ans:?}"
+    );
+    assert_eq!(pressure_limit(&mut host, &mut sim), 35.0);
+
+    // Unpairing, signed: the key's block is erased; plain changes are obeyed again.
+    let unpair = RequestBody::SetSigning {
+        key: [0; 16],
+        enabled: false,
+    };
+    let (_, ans) = exchange(&mut sim, session, 4_325, unpair, Some((&LINK_KEY, 9)));
+    assert!(matches!(ans, Some((ResultCode::Ok, _))), "{ans:?}");
+    let block = hil_sim::elf_board::LINK_KEY_BLOCK * 1024;
+    let erased = until(&mut sim, 1_000, |s| {
+        s.elf_board().unwrap().emu.data_flash()[block..block + 1024]
+            .iter()
+            .all(|&b| b == 0xFF)
+    });
+    assert!(erased.is_some(), "the key's block is erased");
+    let (res, _) = host.request(&mut sim, set(33.0), 1_000).expect("answered");
+    assert_eq!(res, ResultCode::Ok);
+    assert_eq!(pressure_limit(&mut host, &mut sim), 33.0);
+    sim.power_cycle();
+    sim.run_for(100);
+    let ResponseBody::Hello(info) = SimHost::new().hello(&mut sim).expect("handshake") else {
+        panic!("no device info")
+    };
+    assert!(
+        !info.signing,
+        "unpaired: signing off after a boot ({info:?})"
+    );
+}
+
+/// A key slot torn by a power cut mid-write (its CRC fails) boots with signing off, and the
+/// board pairs again.
+#[test]
+fn a_torn_key_slot_boots_the_board_elf_with_signing_off() {
+    use protocol::messages::RequestBody;
+    use protocol::ResultCode;
+    let (mut sim, _, _) = paired_board();
+    let block = hil_sim::elf_board::LINK_KEY_BLOCK * 1024;
+    // The last CRC byte never programmed, as when the power goes before it.
+    assert_ne!(sim.elf_board().unwrap().emu.data_flash()[block + 17], 0xFF);
+    sim.elf_board_mut().unwrap().emu.data_flash_mut()[block + 17] = 0xFF;
+    sim.power_cycle();
+    sim.run_for(100);
+    let mut host = SimHost::new();
+    let ResponseBody::Hello(info) = host.hello(&mut sim).expect("handshake") else {
+        panic!("no device info")
+    };
+    assert!(!info.signing, "a torn slot: signing off ({info:?})");
+    let (res, _) = host
         .request(
             &mut sim,
-            RequestBody::GetParam(ParamId::PressureLimitKpa),
+            RequestBody::SetSigning {
+                key: *b"crane-test-key-2",
+                enabled: true,
+            },
             1_000,
         )
         .expect("answered");
     assert_eq!(res, ResultCode::Ok);
-    assert!(
-        matches!(body, ResponseBody::Param { value, .. } if value == 40.0),
-        "{body:?}"
-    );
+    let took = until(&mut sim, 500, |s| {
+        s.elf_board().unwrap().stored_link_key() == Some(*b"crane-test-key-2")
+    });
+    assert!(took.is_some(), "paired again over the torn slot");
 }
 
 /// The loop's periodic statistics line (every 10 s, `uno_r4.rs`) is a defmt frame, a critical

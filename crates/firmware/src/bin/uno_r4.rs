@@ -22,8 +22,10 @@ use board::{pins, pwm};
 use firmware::hw::{PinInputs, PinOutputs, ServoOutput, ServoPulse, Shell};
 use firmware::CraneConfig;
 
-/// Data-flash blocks 0 and 1 hold the state log (blocks 2..7 are free for later use).
+/// Data-flash blocks 0 and 1 hold the state log.
 const STATE_LOG_FIRST_BLOCK: usize = 0;
+/// Data-flash block 2 holds the link-signing key (blocks 3..7 are free for later use).
+const LINK_KEY_BLOCK: usize = 2;
 /// TM1637 brightness 0..=7.
 const DISPLAY_BRIGHTNESS: u8 = 4;
 /// How often the loop statistics are logged.
@@ -119,7 +121,8 @@ fn main() -> ! {
     let flash = board::dataflash::DataFlash::new(clocks.fclk_hz, clocks.iclk_hz);
     // A failing save is retried with back-off; an erase runs in the background (DataFlash).
     let store = board::flash_log::Backoff::new(
-        board::flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK),
+        board::flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK)
+            .with_key_block(LINK_KEY_BLOCK),
         board::time::ticks_ms,
     );
     let link = board::uart::HostUart::new(clocks.pclka_hz, pins::HOST_TX, pins::HOST_RX);

@@ -16,6 +16,21 @@
 //! and writes there, so the newest valid record survives a power loss at any point: a torn slot
 //! fails its CRC and is skipped, and the previous record is still intact. Each block is erased
 //! once per `SLOTS_PER_BLOCK` saves (64 with 1 KiB blocks).
+//!
+//! The link-signing key ([`FlashLog::with_key_block`]) has a block of its own, one slot at its
+//! start:
+//!
+//! | offset | content                                        |
+//! |--------|------------------------------------------------|
+//! | 0–15   | the key                                        |
+//! | 16–17  | CRC-16/CCITT-FALSE over bytes 0–15, LE         |
+//!
+//! Pairing erases the block and programs the slot; unpairing only erases it (the key is gone
+//! from the flash, not merely marked). An erased slot, or one that fails its CRC (a power cut
+//! between the erase and the slot's last byte), loads as no key: signing off, which the
+//! handshake reports, so the operator pairs again. One owner at a time drives the flash: while
+//! a state save or a key save is under way (a background erase, a slot programmed one byte per
+//! call), the other returns [`FlashError::Busy`] without touching it.
 
 use firmware::hw::StateStore;
 use firmware::store::{crc16, StoredState, STORED_LEN};
@@ -58,6 +73,27 @@ pub enum FlashError {
     Busy,
     /// A previous save failed; the next attempt waits out its back-off ([`Backoff`]).
     BackingOff,
+}
+
+/// Bytes of the link-key slot that are programmed (key, CRC).
+pub const KEY_SLOT_USED: usize = 16 + 2;
+
+/// Which record's save drives the flash (the other waits: one sequencer, one write at a time).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Owner {
+    State,
+    Key,
+}
+
+/// The next part of a key save.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum KeyStep {
+    /// Erase the key block.
+    Erase,
+    /// Program the key.
+    Key,
+    /// Program its CRC.
+    Crc,
 }
 
 /// Slots in one block of `F`.
@@ -118,6 +154,12 @@ pub struct FlashLog<F> {
     /// until it ends, and then blank without reading it again (a 1 KiB blank check is 1 024
     /// data-flash reads over the flash's bus bridge: tens of thousands of cycles in one pass).
     erasing: Option<usize>,
+    /// The link-key block (`None`: no key kept, [`StateStore::keeps_link_key`] false).
+    key_block: Option<usize>,
+    /// Where the key save under way is.
+    key_step: KeyStep,
+    /// The save under way (it returned `Busy`), which the other waits for.
+    owner: Option<Owner>,
 }
 
 impl<F: NorFlash> FlashLog<F> {
@@ -129,7 +171,67 @@ impl<F: NorFlash> FlashLog<F> {
             cursor: None,
             blank: None,
             erasing: None,
+            key_block: None,
+            key_step: KeyStep::Erase,
+            owner: None,
         }
+    }
+
+    /// Keeps the link-signing key in block `block` (outside the state log's two).
+    pub fn with_key_block(mut self, block: usize) -> Self {
+        self.key_block = Some(block);
+        self
+    }
+
+    /// Runs one attempt of `owner`'s save, unless the other's is under way; a `Busy` attempt
+    /// keeps the flash for `owner` until it ends (done or failed).
+    fn attempt(
+        &mut self,
+        owner: Owner,
+        save: impl FnOnce(&mut Self) -> Result<(), FlashError>,
+    ) -> Result<(), FlashError> {
+        if self.owner.is_some_and(|o| o != owner) {
+            return Err(FlashError::Busy);
+        }
+        let res = save(self);
+        self.owner = (res == Err(FlashError::Busy)).then_some(owner);
+        res
+    }
+
+    /// One attempt of a key save: the block erased (in the background), then `key`'s slot
+    /// programmed (the key, then its CRC: the data flash programs at most 16 bytes a write)
+    /// and read back.
+    fn write_key(&mut self, block: usize, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
+        if self.key_step == KeyStep::Erase {
+            self.flash.erase(block)?;
+            self.key_step = KeyStep::Key;
+        }
+        let Some(key) = key else {
+            self.key_step = KeyStep::Erase;
+            return Ok(());
+        };
+        let off = block * F::BLOCK_SIZE;
+        let crc = crc16(key).to_le_bytes();
+        let mut back = [0u8; KEY_SLOT_USED];
+        let res = loop {
+            let res = match self.key_step {
+                KeyStep::Key => self.flash.write(off, key),
+                _ => self.flash.write(off + 16, &crc),
+            };
+            match res {
+                Err(FlashError::Busy) => return Err(FlashError::Busy),
+                Ok(()) if self.key_step == KeyStep::Key => self.key_step = KeyStep::Crc,
+                Ok(()) => break self.flash.read(off, &mut back),
+                Err(e) => break Err(e),
+            }
+        };
+        // Done, failed or torn: the next save starts with the erase.
+        self.key_step = KeyStep::Erase;
+        res?;
+        if back[..16] != key[..] || back[16..] != crc {
+            return Err(FlashError::Verify);
+        }
+        Ok(())
     }
 
     fn slots(&self) -> usize {
@@ -299,13 +401,43 @@ impl<F: NorFlash> StateStore for FlashLog<F> {
     }
 
     fn save(&mut self, state: &StoredState) -> Result<(), FlashError> {
-        // Saving what is already the newest record costs a slot for nothing.
-        if let Ok(c) = self.cursor() {
-            if c.newest.map(|(_, r)| r) == Some(state.to_bytes()) {
-                return Ok(());
+        self.attempt(Owner::State, |log| {
+            // Saving what is already the newest record costs a slot for nothing.
+            if let Ok(c) = log.cursor() {
+                if c.newest.map(|(_, r)| r) == Some(state.to_bytes()) {
+                    return Ok(());
+                }
             }
+            log.append(state)
+        })
+    }
+
+    fn keeps_link_key(&self) -> bool {
+        self.key_block.is_some()
+    }
+
+    fn load_link_key(&mut self) -> Result<Option<[u8; 16]>, FlashError> {
+        let Some(block) = self.key_block else {
+            return Ok(None);
+        };
+        let mut b = [0u8; KEY_SLOT_USED];
+        self.flash.read(block * F::BLOCK_SIZE, &mut b)?;
+        if b.iter().all(|&x| x == 0xFF) {
+            return Ok(None);
         }
-        self.append(state)
+        let mut key = [0u8; 16];
+        key.copy_from_slice(&b[..16]);
+        if crc16(&key).to_le_bytes() != b[16..] {
+            return Err(FlashError::Corrupt);
+        }
+        Ok(Some(key))
+    }
+
+    fn save_link_key(&mut self, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
+        let Some(block) = self.key_block else {
+            return Err(FlashError::OutOfRange);
+        };
+        self.attempt(Owner::Key, |log| log.write_key(block, key))
     }
 }
 
@@ -313,14 +445,15 @@ impl<F: NorFlash> StateStore for FlashLog<F> {
 /// waits [`Backoff::FIRST_MS`], doubling up to [`Backoff::MAX_MS`]; meanwhile `save` returns
 /// [`FlashError::BackingOff`] at once without touching the flash, so a broken flash costs the
 /// loop one failed attempt per back-off period, not one per pass. [`FlashError::Busy`] (a
-/// background erase) is not a failure: it is retried at the next call. `now_ms` is the board's
-/// millisecond clock.
+/// background erase) is not a failure: it is retried at the next call. The state's saves and
+/// the link key's back off apart (a failing key block never delays a step's journal). `now_ms`
+/// is the board's millisecond clock.
 #[derive(Debug)]
 pub struct Backoff<S> {
     inner: S,
     now_ms: fn() -> u32,
-    wait_ms: u32,
-    next_ms: u32,
+    /// The state's saves' back-off, then the key's: the current wait and when it ends.
+    waits: ((u32, u32), (u32, u32)),
 }
 
 impl<S> Backoff<S> {
@@ -334,8 +467,39 @@ impl<S> Backoff<S> {
         Self {
             inner,
             now_ms,
-            wait_ms: 0,
-            next_ms: 0,
+            waits: ((0, 0), (0, 0)),
+        }
+    }
+}
+
+impl<S> Backoff<S> {
+    /// One attempt of `save` on the inner store (the key's when `key`), unless that save's
+    /// back-off still runs.
+    fn attempt(
+        &mut self,
+        key: bool,
+        save: impl FnOnce(&mut S) -> Result<(), FlashError>,
+    ) -> Result<(), FlashError> {
+        let now = (self.now_ms)();
+        let (wait_ms, next_ms) = if key {
+            &mut self.waits.1
+        } else {
+            &mut self.waits.0
+        };
+        if *wait_ms > 0 && (now.wrapping_sub(*next_ms) as i32) < 0 {
+            return Err(FlashError::BackingOff);
+        }
+        match save(&mut self.inner) {
+            Ok(()) => {
+                *wait_ms = 0;
+                Ok(())
+            }
+            Err(FlashError::Busy) => Err(FlashError::Busy),
+            Err(e) => {
+                *wait_ms = (*wait_ms * 2).clamp(Self::FIRST_MS, Self::MAX_MS);
+                *next_ms = now.wrapping_add(*wait_ms);
+                Err(e)
+            }
         }
     }
 }
@@ -348,21 +512,18 @@ impl<S: StateStore<Error = FlashError>> StateStore for Backoff<S> {
     }
 
     fn save(&mut self, state: &StoredState) -> Result<(), FlashError> {
-        let now = (self.now_ms)();
-        if self.wait_ms > 0 && (now.wrapping_sub(self.next_ms) as i32) < 0 {
-            return Err(FlashError::BackingOff);
-        }
-        match self.inner.save(state) {
-            Ok(()) => {
-                self.wait_ms = 0;
-                Ok(())
-            }
-            Err(FlashError::Busy) => Err(FlashError::Busy),
-            Err(e) => {
-                self.wait_ms = (self.wait_ms * 2).clamp(Self::FIRST_MS, Self::MAX_MS);
-                self.next_ms = now.wrapping_add(self.wait_ms);
-                Err(e)
-            }
-        }
+        self.attempt(false, |s| s.save(state))
+    }
+
+    fn keeps_link_key(&self) -> bool {
+        self.inner.keeps_link_key()
+    }
+
+    fn load_link_key(&mut self) -> Result<Option<[u8; 16]>, FlashError> {
+        self.inner.load_link_key()
+    }
+
+    fn save_link_key(&mut self, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
+        self.attempt(true, |s| s.save_link_key(key))
     }
 }

@@ -2984,8 +2984,8 @@ fn a_vent_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief(
 
 #[test]
 fn pairing_is_refused_where_no_key_can_be_kept_and_the_handshake_says_signing_is_off() {
-    // Without the feature `link-signing` (the board binary's default), or with a store that
-    // keeps no key (the controller alone): refused, nothing changes, plain requests obeyed.
+    // Built without the feature `link-signing`, or with a store that keeps no key (the
+    // controller alone): refused, nothing changes, plain requests obeyed.
     let mut r = Rig::connected(FF);
     assert_eq!(
         r.request(RequestBody::SetSigning {

@@ -41,6 +41,16 @@ pub const RUN_BASE_BOUND_MS: u64 = 60_000;
 const STEP_GRACE_MS: u64 = 5_000;
 /// Host sessions per target (each crash or failure starts a new one).
 const ATTEMPTS_PER_TARGET: usize = 3;
+/// How far the tip may be from where the host's model puts it for the state the device
+/// confirms, at rest on the calibrated trunk, mm: `host-tool reach`'s default tolerance.
+pub const TIP_TOLERANCE_MM: f64 = 5.0;
+/// The device's pressure reading below which the trunk holds no air, kPa (the controller's
+/// vent tolerance 0.5 and twice the sensor's noise).
+const AMBIENT_KPA: f32 = 0.8;
+/// The name of a grasp task's object.
+const TASK_OBJECT: &str = "task-object";
+/// A grip session's time bound: connect, a status, the gripper's step.
+const GRIP_BOUND_MS: u64 = 20_000;
 
 /// The faults a scenario may inject (line noise is drawn as a rate of its own).
 const INJECTABLE: [Fault; 7] = [
@@ -74,6 +84,10 @@ pub struct Scenario {
     pub mistake: Option<Mistake>,
     /// The operator stops the run under way (virtual ms; Ctrl-C): the next attempt resumes it.
     pub stops: Vec<u64>,
+    /// A task: once the target of this index is reached, a person places an object of this
+    /// mass (kg) at the tip and the host closes the gripper on it; the crane carries it through
+    /// the targets after, and the gripper opens at the end.
+    pub grasp: Option<(usize, f64)>,
     /// The trunk (the calibrated one, or one drawn around it: [`ScenarioOptions`]).
     pub trunk: TrunkSpec,
     /// The spread its trunk was drawn with (0: the base trunk itself).
@@ -136,7 +150,7 @@ impl Scenario {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_5eed_5eed_5eed);
         let state = |rng: &mut ChaCha8Rng| TrunkState::ALL[rng.gen_range(0..6)];
         let initial = state(&mut rng);
-        let targets = (0..rng.gen_range(1..=5)).map(|_| state(&mut rng)).collect();
+        let targets: Vec<TrunkState> = (0..rng.gen_range(1..=5)).map(|_| state(&mut rng)).collect();
         let horizon = 60_000;
         let mut faults = Vec::new();
         // Most runs are nominal or nearly: faults are rare events, and a run with every fault
@@ -179,6 +193,9 @@ impl Scenario {
         // Drawn last: the draws above, and so every older scenario's other ingredients, are
         // unchanged.
         let stops = times(&mut rng, 0.1);
+        let grasp = rng
+            .gen_bool(0.3)
+            .then(|| (rng.gen_range(0..targets.len()), rng.gen_range(0.02..1.0)));
         Self {
             seed,
             initial,
@@ -189,6 +206,7 @@ impl Scenario {
             host_crashes,
             mistake,
             stops,
+            grasp,
             trunk: TrunkSpec::pdf(),
             trunk_spread: 0.0,
             trunk_redraws: 0,
@@ -238,6 +256,12 @@ impl Scenario {
                 ..self.clone()
             });
         }
+        if self.grasp.is_some() {
+            out.push(Scenario {
+                grasp: None,
+                ..self.clone()
+            });
+        }
         out
     }
 
@@ -267,6 +291,9 @@ impl Scenario {
         }
         for at in &self.stops {
             let _ = write!(t, ", operator stop at {at} ms");
+        }
+        if let Some((i, kg)) = self.grasp {
+            let _ = write!(t, ", grasps a {kg:.2} kg object after target {}", i + 1);
         }
         if self.trunk_spread > 0.0 {
             let base = TrunkSpec::pdf();
@@ -310,6 +337,18 @@ pub struct Checker {
     last_mode: Option<Mode>,
     /// The trunk's wells last noted in the trace (each module's, `None` on a snap branch).
     last_wells: Option<[Option<usize>; 2]>,
+    /// The grasp task's object has been held (from then on the device's report of the
+    /// gripper says whether it still is).
+    captured: bool,
+    /// The object's hold at the last check, and when it was last let go (until the device
+    /// reports the gripper open).
+    object_held: Option<bool>,
+    released_at: Option<u64>,
+    held_disagree_since: Option<u64>,
+    /// The host's model of the straight trunk's height per state (the calibrated trunk only:
+    /// on a trunk drawn around it the model is not that trunk's, by construction).
+    model_heights: Option<geometry::reach::TrunkHeights>,
+    tip_disagree_since: Option<u64>,
 }
 
 impl Checker {
@@ -446,6 +485,7 @@ impl Checker {
         } else {
             self.disagree_since = None;
         }
+        self.check_task(sim, t, idle, &status);
         // After a power cut the state is true or unconfirmed (checked once the board is up).
         if self.boot_check_at.is_some_and(|at| t >= at) {
             self.boot_check_at = None;
@@ -462,6 +502,130 @@ impl Checker {
             }
         }
     }
+}
+
+impl Checker {
+    /// A checker for `seed` that also holds the tip to the host's model
+    /// ([`TIP_TOLERANCE_MM`]; what [`run`] does on the calibrated trunk).
+    pub fn watching_the_tip(seed: u64) -> Self {
+        Self {
+            seed,
+            model_heights: model_heights(),
+            ..Self::default()
+        }
+    }
+
+    /// The task's invariants: nothing reported held that was dropped (or dropped that is
+    /// held), and no tip further from where the host's model puts it than
+    /// [`TIP_TOLERANCE_MM`] for a state the device confirms at rest (vented, unloaded).
+    fn check_task(&mut self, sim: &Sim, t: u64, idle: bool, status: &protocol::messages::Status) {
+        if let Some(o) = sim.world().objects().iter().find(|o| o.name == TASK_OBJECT) {
+            if o.held && !self.captured {
+                self.captured = true;
+                self.note(
+                    t,
+                    &format!("the gripper holds the object ({:.2} kg)", o.mass_kg),
+                );
+            }
+            if self.object_held == Some(true) && !o.held {
+                self.released_at = Some(t);
+            }
+            if o.held {
+                self.released_at = None;
+            }
+            self.object_held = Some(o.held);
+            // Held, the device says the gripper is closed (open, it would claim the object let
+            // go).
+            if o.held && !status.gripper_closed {
+                let since = *self.held_disagree_since.get_or_insert(t);
+                if t - since > SETTLE_MS {
+                    self.violate(
+                        t,
+                        "held-reported",
+                        "the device reports the gripper open; it holds the object".into(),
+                    );
+                }
+            } else {
+                self.held_disagree_since = None;
+            }
+            // Let go, the device says the gripper opened (closed all along, it would claim
+            // the object still held).
+            if let Some(at) = self.released_at {
+                if !status.gripper_closed {
+                    self.released_at = None;
+                } else if t - at > SETTLE_MS {
+                    self.violate(
+                        t,
+                        "held-reported",
+                        format!(
+                            "the object was let go at {at} ms; the device still reports the \
+                             gripper closed (the object held)"
+                        ),
+                    );
+                }
+            }
+        }
+        let Some(heights) = self.model_heights else {
+            return;
+        };
+        let truth = sim.true_tip();
+        let model = heights.height_mm(status.state);
+        let off = ((truth.position_mm[0]).powi(2)
+            + (truth.position_mm[1]).powi(2)
+            + (truth.position_mm[2] - model).powi(2))
+        .sqrt();
+        // The model is the trunk without air: the claim is checked where the device reads no
+        // air in it (sealed air lengthens a module within its well).
+        let vented = status.pressure_kpa <= AMBIENT_KPA;
+        // ... and without a load: a held object compresses the trunk (0.8 kg lowers the F&F
+        // tip by 6.4 mm), which the model does not know.
+        let unloaded = sim.world().load_n() == 0.0;
+        if idle
+            && vented
+            && unloaded
+            && status.state_confirmed
+            && sim.safety().true_state == Some(status.state)
+        {
+            if off > TIP_TOLERANCE_MM {
+                let since = *self.tip_disagree_since.get_or_insert(t);
+                if t - since > SETTLE_MS {
+                    self.violate(
+                        t,
+                        "tip-reported",
+                        format!(
+                            "{} confirmed: the model's tip is {model:.1} mm up the axis, the true \
+                             tip ({:.1}, {:.1}, {:.1}) mm is {off:.1} mm from it",
+                            status.state,
+                            truth.position_mm[0],
+                            truth.position_mm[1],
+                            truth.position_mm[2]
+                        ),
+                    );
+                }
+            } else {
+                self.tip_disagree_since = None;
+            }
+        } else {
+            self.tip_disagree_since = None;
+        }
+    }
+}
+
+/// The host's model of the straight trunk's heights, for the simulator's own configuration.
+pub fn model_heights() -> Option<geometry::reach::TrunkHeights> {
+    let cfg = crate::sim::sim_crane_config();
+    let m = |c: &protocol::ModuleConfig| geometry::reach::BuiltModule {
+        n: u32::from(c.n),
+        beta_deg: f64::from(c.beta_deg),
+        edge_mm: f64::from(c.edge_mm),
+        layers: u32::from(c.layers),
+    };
+    geometry::reach::TrunkHeights::of_modules(
+        m(&cfg.trunk.top),
+        m(&cfg.trunk.bottom),
+        f64::from(cfg.packed_layer_mm),
+    )
+    .ok()
 }
 
 /// What one scenario did.
@@ -496,6 +660,9 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
     let checker = Rc::new(RefCell::new(Checker {
         seed,
         trace: trace.then(String::new),
+        model_heights: (scenario.trunk == TrunkSpec::pdf())
+            .then(model_heights)
+            .flatten(),
         ..Checker::default()
     }));
     let crash = Rc::new(RefCell::new(false));
@@ -552,7 +719,9 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
     let mut first_seq: u16 = 1;
     // A host restarted after a crash takes the crane over from its dead predecessor.
     let mut takeover = false;
-    for &target in &scenario.targets {
+    let mut gripping = false;
+    for (index, &target) in scenario.targets.iter().enumerate() {
+        let mut reached_this = false;
         for _attempt in 0..ATTEMPTS_PER_TARGET {
             first_seq = first_seq.wrapping_add(0x1111).max(1);
             let upsets_before = *upsets.borrow();
@@ -590,14 +759,55 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
             match result {
                 Played::Reached => {
                     reached += 1;
+                    reached_this = true;
                     break;
                 }
                 Played::Crashed | Played::Failed => {}
             }
         }
+        // The task: a person places the object at the tip, the host closes the gripper on it.
+        if let Some((_, kg)) = scenario.grasp.filter(|(i, _)| *i == index && reached_this) {
+            let object = crate::world::Object {
+                name: TASK_OBJECT.into(),
+                position_mm: io.sim.true_tip().position_mm,
+                mass_kg: kg,
+                held: false,
+            };
+            if io.sim.place_object(object).is_ok() {
+                checker.borrow_mut().note(
+                    io.sim.now_ms(),
+                    &format!("a person places a {kg:.2} kg object at the tip"),
+                );
+                gripping = true;
+                // As `host-tool pick` does: open, then close on the object.
+                for close in [false, true] {
+                    takeover = grip(
+                        &mut io,
+                        close,
+                        (&crash, &stop, &checker),
+                        &mut first_seq,
+                        takeover,
+                    );
+                }
+            }
+        }
         // A pause at the target, as a person would take before the next request.
         let pause = 500 + (seed.wrapping_mul(2_654_435_761) >> 7) % 8_000;
         let end = io.sim.now_ms() + pause;
+        while io.sim.now_ms() < end {
+            io.step();
+        }
+    }
+    if gripping {
+        // The end of the task: the gripper opens (the object falls below the tip).
+        grip(
+            &mut io,
+            false,
+            (&crash, &stop, &checker),
+            &mut first_seq,
+            takeover,
+        );
+        let end = io.sim.now_ms() + 2 * SETTLE_MS;
         while io.sim.now_ms() < end {
             io.step();
         }
@@ -782,6 +992,183 @@ fn play_target(
             return Played::Failed;
         }
         if d.turn().is_err() {
+            return Played::Failed;
+        }
+    }
+}
+
+/// Opens or closes the gripper in up to [`ATTEMPTS_PER_TARGET`] host sessions (after a failed
+/// one, the device's link watch is let lapse first: a session whose `Close` was lost on a
+/// noisy line holds the device until then). Returns whether the last host crashed (the next
+/// one takes over).
+fn grip(
+    io: &mut SimIo,
+    close: bool,
+    (crash, stop, checker): (&RefCell<bool>, &RefCell<bool>, &RefCell<Checker>),
+    first_seq: &mut u16,
+    mut takeover: bool,
+) -> bool {
+    for attempt in 0..ATTEMPTS_PER_TARGET {
+        if attempt > 0 && !takeover {
+            let end = io.sim.now_ms() + u64::from(protocol::DEFAULT_LINK_TIMEOUT_MS) + 500;
+            while io.sim.now_ms() < end {
+                io.step();
+            }
+        }
+        *first_seq = first_seq.wrapping_add(0x1111).max(1);
+        let mut driver = Driver::new(Host::new(Timing::standard(), *first_seq), &mut *io);
+        let played = play_grip(&mut driver, close, crash, stop, checker, takeover);
+        takeover = matches!(played, Played::Crashed);
+        if takeover {
+            driver.vanish();
+        } else {
+            drop(driver);
+        }
+        if matches!(played, Played::Reached) {
+            break;
+        }
+    }
+    takeover
+}
+
+/// One host session that opens (`close = false`) or closes the gripper as `host-tool grip`
+/// does: a status first, and the gripper's step only when the device is idle, fault-free and
+/// its state confirmed (refused otherwise, as the CLI refuses it).
+fn play_grip(
+    d: &mut Driver<&mut SimIo>,
+    close: bool,
+    crash: &RefCell<bool>,
+    stop: &RefCell<bool>,
+    checker: &RefCell<Checker>,
+    takeover: bool,
+) -> Played {
+    use protocol::messages::{Primitive, RequestBody, ResponseBody, StepKind};
+    /// While the step runs, a status this often (an event lost on a noisy line is not sent
+    /// again; the status says when the step has ended).
+    const POLL_MS: u64 = 250;
+    let start = d.io.sim.now_ms();
+    let (verb, done) = if close {
+        ("close", "closed")
+    } else {
+        ("open", "open")
+    };
+    checker
+        .borrow_mut()
+        .note(start, &format!("host connects to {verb} the gripper"));
+    if takeover {
+        d.host.connect_takeover(start);
+    } else {
+        d.host.connect(start);
+    }
+    let mut status_id = None;
+    let mut stepping = false;
+    let mut next_poll = u64::MAX;
+    loop {
+        if *crash.borrow() {
+            *crash.borrow_mut() = false;
+            checker.borrow_mut().note(d.io.sim.now_ms(), "host crash");
+            return Played::Crashed;
+        }
+        // A stop while the gripper moves ends nothing the device would not end itself: the
+        // step is one primitive; the stop is noted and the step left to finish.
+        if std::mem::take(&mut *stop.borrow_mut()) {
+            checker
+                .borrow_mut()
+                .note(d.io.sim.now_ms(), "operator stop (the gripper's step)");
+        }
+        let now = d.io.sim.now_ms();
+        if now - start > GRIP_BOUND_MS {
+            checker.borrow_mut().note(
+                now,
+                &format!("the gripper's session ended at its bound of {GRIP_BOUND_MS} ms"),
+            );
+            return Played::Failed;
+        }
+        if stepping && status_id.is_none() && now >= next_poll {
+            status_id = Some(d.host.request(RequestBody::GetStatus, now));
+        }
+        while let Some(ev) = d.host.poll_event() {
+            let now = d.io.sim.now_ms();
+            match ev {
+                HostEvent::Session(SessionEvent::Opened(_)) => {
+                    status_id = Some(d.host.request(RequestBody::GetStatus, now));
+                }
+                HostEvent::Session(SessionEvent::Reply { id, reply }) if Some(id) == status_id => {
+                    status_id = None;
+                    let ResponseBody::Status(st) = reply.body else {
+                        checker
+                            .borrow_mut()
+                            .note(now, &format!("no status: {:?}", reply.body));
+                        return Played::Failed;
+                    };
+                    let idle = !matches!(st.mode, Mode::Running | Mode::WaitingManual);
+                    if stepping {
+                        if !idle {
+                            next_poll = now + POLL_MS;
+                            continue;
+                        }
+                        let ok = st.gripper_closed == close;
+                        checker.borrow_mut().note(
+                            now,
+                            &format!(
+                                "the gripper's step has ended: the gripper is {}",
+                                if st.gripper_closed { "closed" } else { "open" }
+                            ),
+                        );
+                        return if ok { Played::Reached } else { Played::Failed };
+                    }
+                    if !(idle && st.faults == 0 && st.state_confirmed && !st.estop) {
+                        checker.borrow_mut().note(
+                            now,
+                            &format!(
+                                "the gripper's step refused: mode {:?}, faults {:#06x}, state {} \
+                                 (confirmed {})",
+                                st.mode, st.faults, st.state, st.state_confirmed
+                            ),
+                        );
+                        return Played::Failed;
+                    }
+                    if st.gripper_closed == close {
+                        checker
+                            .borrow_mut()
+                            .note(now, &format!("the gripper is already {done}"));
+                        return Played::Reached;
+                    }
+                    let step = planner::task::step_within(
+                        st.state,
+                        StepKind::Tendon,
+                        &[Primitive::Gripper { close }],
+                    );
+                    d.host.request(RequestBody::RunStep(step), now);
+                    stepping = true;
+                    next_poll = now + POLL_MS;
+                }
+                HostEvent::Session(SessionEvent::Device(protocol::messages::Event::StepDone {
+                    ok,
+                    ..
+                })) if stepping => {
+                    checker
+                        .borrow_mut()
+                        .note(now, &format!("the gripper's step ends: ok {ok}"));
+                    return if ok { Played::Reached } else { Played::Failed };
+                }
+                HostEvent::Session(
+                    SessionEvent::HandshakeFailed(_)
+                    | SessionEvent::LinkLost(_)
+                    | SessionEvent::Failed { .. },
+                ) => {
+                    checker
+                        .borrow_mut()
+                        .note(now, &format!("the gripper's session failed: {ev:?}"));
+                    return Played::Failed;
+                }
+                _ => {}
+            }
+        }
+        if d.turn().is_err() {
+            checker
+                .borrow_mut()
+                .note(d.io.sim.now_ms(), "the gripper's session: the link failed");
             return Played::Failed;
         }
     }

@@ -154,6 +154,94 @@ fn the_checker_catches_a_device_confident_and_wrong() {
     );
 }
 
+/// The grasp task's invariant: an object let go while the device still reports the gripper
+/// closed (here the world drops it behind the device's back) is caught; held and reported
+/// closed is not.
+#[test]
+fn the_checker_catches_an_object_let_go_while_the_device_reports_it_held() {
+    use hil_sim::swarm::Checker;
+    use hil_sim::world::Object;
+    use hil_sim::{Sim, SimOptions};
+    let mut sim = Sim::new(SimOptions {
+        initial: "F&F".parse().unwrap(),
+        ..SimOptions::default()
+    });
+    sim.run_for(50);
+    let tip = sim.true_tip().position_mm;
+    sim.world_mut().set_gripper(false);
+    sim.world_mut()
+        .place(Object {
+            name: "task-object".into(),
+            position_mm: tip,
+            mass_kg: 0.1,
+            held: false,
+        })
+        .unwrap();
+    let mut checker = Checker::default();
+    for _ in 0..1_500 {
+        sim.step();
+        checker.check(&sim);
+    }
+    assert!(
+        sim.world().objects()[0].held,
+        "the closed gripper caught it"
+    );
+    assert!(checker.violations.is_empty(), "{:?}", checker.violations);
+    // The object falls out of the gripper; the device goes on reporting it closed.
+    let trunk = sim.trunk().clone();
+    sim.world_mut().after_step(&trunk, false);
+    for _ in 0..1_500 {
+        sim.step();
+        checker.check(&sim);
+    }
+    let names: Vec<_> = checker.violations.iter().map(|v| v.invariant).collect();
+    assert_eq!(names, ["held-reported"], "{:?}", checker.violations);
+}
+
+/// The tip invariant: on a trunk unlike the host's model (drawn within ±25 %), whose straight
+/// height in its state is more than 10 mm off the model's, the model's tip is caught
+/// misplaced; on the calibrated trunk it is not.
+#[test]
+fn the_checker_catches_a_tip_the_model_misplaces() {
+    use hil_sim::swarm::{model_heights, Checker, ScenarioOptions, TIP_TOLERANCE_MM};
+    use hil_sim::{Sim, SimOptions};
+    let model = model_heights().expect("the simulator's configuration has a model");
+    let spread = ScenarioOptions {
+        trunk_spread: 0.25,
+        ..ScenarioOptions::default()
+    };
+    let watch = |trunk: hil_sim::physics::TrunkSpec, initial: geometry::TrunkState| {
+        let mut sim = Sim::new(SimOptions {
+            initial,
+            trunk,
+            ..SimOptions::default()
+        });
+        let mut checker = Checker::watching_the_tip(0);
+        for _ in 0..2_000 {
+            sim.step();
+            checker.check(&sim);
+        }
+        let off = (sim.true_tip().position_mm[2] - model.height_mm(initial)).abs();
+        (checker.violations, off)
+    };
+    let ff: geometry::TrunkState = "F&F".parse().unwrap();
+    let (v, off) = watch(hil_sim::physics::TrunkSpec::pdf(), ff);
+    assert!(v.is_empty() && off <= TIP_TOLERANCE_MM, "{off} mm: {v:?}");
+    let far = (0..200)
+        .map(|seed| {
+            hil_sim::swarm::Scenario::generate_with(seed, &spread)
+                .unwrap()
+                .trunk
+        })
+        .find_map(|trunk| {
+            let (v, off) = watch(trunk, ff);
+            (off > 10.0).then_some((v, off))
+        })
+        .expect("a drawn trunk more than 10 mm off the model in F&F");
+    let names: Vec<_> = far.0.iter().map(|v| v.invariant).collect();
+    assert_eq!(names, ["tip-reported"], "{} mm off: {:?}", far.1, far.0);
+}
+
 /// Seeds the 10 000 scenarios from seed 1000 found once issue 26's invariants (the host's
 /// candidates hold the truth; no status claims a state confirmed while a step moves the trunk;
 /// liveness) and the operator's stops were in: a fold started with 28.6 kPa left sealed by a

@@ -47,6 +47,9 @@ pub const TIP_TOLERANCE_MM: f64 = 5.0;
 /// The device's pressure reading below which the trunk holds no air, kPa (the controller's
 /// vent tolerance 0.5 and twice the sensor's noise).
 const AMBIENT_KPA: f32 = 0.8;
+/// The tendon pull below which the tendons count as slack, N (≤ 0.48 N seen at rest after
+/// every completed step).
+const TENDON_SLACK_N: f64 = 1.0;
 /// The name of a grasp task's object.
 const TASK_OBJECT: &str = "task-object";
 /// A grip session's time bound: connect, a status, the gripper's step.
@@ -580,9 +583,13 @@ impl Checker {
         // ... and without a load: a held object compresses the trunk (0.8 kg lowers the F&F
         // tip by 6.4 mm), which the model does not know.
         let unloaded = sim.world().load_n() == 0.0;
+        // ... and with slack tendons: a pull aborted under way can leave them taut (5.2 N held
+        // F&P's tip 12.4 mm below the model: seed 8975), which the model does not know either.
+        let slack = sim.trunk().tensions_n().iter().all(|&n| n < TENDON_SLACK_N);
         if idle
             && vented
             && unloaded
+            && slack
             && status.state_confirmed
             && sim.safety().true_state == Some(status.state)
         {

@@ -242,6 +242,22 @@ fn the_checker_catches_a_tip_the_model_misplaces() {
     assert_eq!(names, ["tip-reported"], "{} mm off: {:?}", far.1, far.0);
 }
 
+/// Seeds where the grasp task's invariants fired before their conditions were right: a power
+/// cut's boot closing the fail-closed gripper on the object, the task then closing on nothing
+/// (1039, 1412); sealed air lengthening F&F (1119); a held 0.8 kg shortening F&F (1371); taut
+/// tendons after an aborted pull holding F&P 12.4 mm low (8975). They hold every invariant.
+const TASKS: [u64; 5] = [1039, 1119, 1371, 1412, 8975];
+
+#[test]
+fn the_seeds_of_the_grasp_tasks_hold_every_invariant() {
+    for seed in TASKS {
+        holds(&Scenario::generate(seed));
+    }
+    for seed in [1039, 1371, 1412, 8975] {
+        assert!(Scenario::generate(seed).grasp.is_some(), "{seed} grasps");
+    }
+}
+
 /// Seeds the 10 000 scenarios from seed 1000 found once issue 26's invariants (the host's
 /// candidates hold the truth; no status claims a state confirmed while a step moves the trunk;
 /// liveness) and the operator's stops were in: a fold started with 28.6 kPa left sealed by a

@@ -235,12 +235,13 @@ pub fn reach(step: &Step) -> StateSet {
         set = set.union(along(from, &UP_REACH));
     }
     if mm {
+        // A pull folds on down its chain, and the air it compresses in the sealed trunk may
+        // push a folded module back up: the sealed spike of a fold over a packed bottom may
+        // unpack it, and a top folded by the pull springs back out once a collapsing bottom
+        // slackens the tendons (the swarm at ±40 %: D&D → F&D ended at D&F, through F&D and
+        // F&F, with 16.6 kPa in the trunk; seed 4053).
         let folds = along(from, &DOWN_REACH);
-        set = set.union(folds);
-        if step.from.bottom == BottomState::Packed {
-            // The sealed spike of a fold over a packed bottom may unpack it.
-            set = set.union(along(folds, &UP_REACH));
-        }
+        set = set.union(folds).union(along(folds, &UP_REACH));
     }
     set
 }
@@ -342,13 +343,14 @@ mod tests {
             ("F&F", "D&F", &["F&F", "D&F", "D&D"]),
             ("F&D", "D&D", &["F&D", "D&D"]),
             ("D&F", "D&D", &["D&F", "D&D"]),
-            // Tendon: a pull whose snap went unseen goes on down its chain.
-            ("D&D", "F&D", &["D&D", "F&D", "F&F", "F&P"]),
-            ("D&F", "F&F", &["D&F", "F&F", "F&P"]),
+            // Tendon: a pull whose snap went unseen goes on down its chain, and the air it
+            // compresses may push what it folded back up the pneumatic chain.
+            ("D&D", "F&D", &["D&D", "F&D", "F&F", "F&P", "D&F"]),
+            ("D&F", "F&F", &["D&F", "F&F", "F&P", "D&D"]),
             // Over a packed bottom: the fold's spike may unpack it, and the pressure go on.
             ("D&P", "F&P", &["D&P", "F&P", "F&F", "D&F", "D&D"]),
-            ("F&D", "F&F", &["F&D", "F&F", "F&P"]),
-            ("F&F", "F&P", &["F&F", "F&P"]),
+            ("F&D", "F&F", &["F&D", "F&F", "F&P", "D&F", "D&D"]),
+            ("F&F", "F&P", &["F&F", "F&P", "D&F", "D&D"]),
             // By hand: the task asked, or any other one by mistake (fold the top: F&F).
             ("D&F", "D&P", &["D&F", "D&P", "F&F"]),
         ];

@@ -176,7 +176,7 @@ mod tests {
         );
         assert!(!b.is_confirmed());
         assert!(!b.narrow(set(&["D&P"])));
-        assert_eq!(b.candidates(), set(&["D&D", "F&D", "F&F", "F&P"]));
+        assert_eq!(b.candidates(), set(&["D&D", "F&D", "F&F", "F&P", "D&F"]));
         assert!(b.narrow(set(&["F&D", "F&F", "D&P"])));
         assert_eq!(b.candidates(), set(&["F&D", "F&F"]));
         assert!(!b.is_confirmed());

@@ -78,6 +78,7 @@ mod num;
 mod progress;
 mod record;
 mod scene;
+mod serve_protocol;
 mod sim;
 mod trace;
 mod transport;

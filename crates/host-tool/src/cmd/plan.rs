@@ -359,32 +359,24 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
              device directly (stop the server, or plan without the profile)",
         ));
     }
-    let mut c = crate::client::Client::connect(server)?;
-    c.send(&json!({"op": "plan", "target": target.name()}))?;
-    loop {
-        let v = c.recv_ok()?;
-        if let Some(n) = v["note"].as_str() {
-            crate::say!("{}", n.trim_end());
+    let (outcome, ok) =
+        crate::client::run(server, &crate::serve_protocol::Request::Plan { target })?;
+    if args.json {
+        crate::cli::print_json(outcome.clone());
+    }
+    if ok {
+        if !args.json {
+            let steps = outcome["steps"].as_array().map_or(0, Vec::len);
+            crate::say!("{}", reached(target, steps, 0));
         }
-        if let Some(outcome) = v.get("outcome") {
-            if args.json {
-                crate::cli::print_json(outcome.clone());
-            }
-            return if v["ok"] == true {
-                if !args.json {
-                    let steps = outcome["steps"].as_array().map_or(0, Vec::len);
-                    crate::say!("{}", reached(target, steps, 0));
-                }
-                Ok(())
-            } else {
-                Err(Failure::Runtime(anyhow::anyhow!(
-                    "{}",
-                    outcome["error"]
-                        .as_str()
-                        .unwrap_or("the target was not reached")
-                )))
-            };
-        }
+        Ok(())
+    } else {
+        Err(Failure::Runtime(anyhow::anyhow!(
+            "{}",
+            outcome["error"]
+                .as_str()
+                .unwrap_or("the target was not reached")
+        )))
     }
 }
 

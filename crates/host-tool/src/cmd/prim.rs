@@ -167,7 +167,7 @@ impl Link {
                 .command(body)
                 .map(|_| ())
                 .map_err(|e| session_error(&e)),
-            Link::Server(p) => call_through(p, &body)?
+            Link::Server(p) => crate::client::call(p, body)?
                 .map(|_| ())
                 .map_err(|e| session_error(&e)),
         }
@@ -226,41 +226,6 @@ impl Link {
             let _ = c.close();
         }
     }
-}
-
-/// The JSON form of a request for the server: as serde writes it, except a step, written as
-/// the sequence its `Deserialize` reads (the wire's in-place form takes fields in order).
-fn request_json(body: &RequestBody) -> Result<Value, Failure> {
-    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("encoding the request: {e}"));
-    match body {
-        RequestBody::RunStep(step) => Ok(json!({
-            "RunStep": [
-                serde_json::to_value(step.kind).map_err(bad)?,
-                serde_json::to_value(step.from).map_err(bad)?,
-                serde_json::to_value(step.to).map_err(bad)?,
-                serde_json::to_value(&step.primitives).map_err(bad)?,
-                step.timeout_ms,
-            ]
-        })),
-        other => serde_json::to_value(other).map_err(bad),
-    }
-}
-
-/// One request through a server (as `client::call`, with a step the server can read).
-fn call_through(
-    path: &std::path::Path,
-    body: &RequestBody,
-) -> Result<Result<protocol::ResponseBody, host::SessionError>, Failure> {
-    let name = host::text::request_name(body);
-    let mut c = crate::client::Client::connect(path)?;
-    c.send(&json!({"op": "call", "request": request_json(body)?}))?;
-    let v = c.recv_ok()?;
-    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("the server's answer: {e}"));
-    let reply = host::Reply {
-        result: serde_json::from_value(v["result"].clone()).map_err(bad)?,
-        body: serde_json::from_value(v["body"].clone()).map_err(bad)?,
-    };
-    Ok(reply.accepted(name))
 }
 
 /// A step within `state` of one primitive (a tendon-kind step: the device lets no tendon out

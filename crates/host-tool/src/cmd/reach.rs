@@ -168,25 +168,17 @@ pub fn go_to_state(link: &mut Link, target: TrunkState) -> Result<(), Failure> {
             }
         }
         Link::Server(path) => {
-            let mut c = crate::client::Client::connect(path)?;
-            c.send(&json!({"op": "plan", "target": target.name()}))?;
-            loop {
-                let v = c.recv_ok()?;
-                if let Some(n) = v["note"].as_str() {
-                    crate::say!("{}", n.trim_end());
-                }
-                if let Some(outcome) = v.get("outcome") {
-                    return if v["ok"] == true {
-                        Ok(())
-                    } else {
-                        Err(Failure::Runtime(anyhow::anyhow!(
-                            "going to {target}: {}",
-                            outcome["error"]
-                                .as_str()
-                                .unwrap_or("the state was not reached")
-                        )))
-                    };
-                }
+            let (outcome, ok) =
+                crate::client::run(path, &crate::serve_protocol::Request::Plan { target })?;
+            if ok {
+                Ok(())
+            } else {
+                Err(Failure::Runtime(anyhow::anyhow!(
+                    "going to {target}: {}",
+                    outcome["error"]
+                        .as_str()
+                        .unwrap_or("the state was not reached")
+                )))
             }
         }
     }

@@ -65,6 +65,7 @@ macro_rules! out_raw {
     };
 }
 
+mod arg;
 mod cli;
 mod client;
 mod cmd;

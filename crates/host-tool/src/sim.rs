@@ -2,17 +2,10 @@
 //! physics on the simulator's one virtual clock (`hil_sim::pair`). Same seed, same run; as
 //! fast as the CPU allows unless `--sim-speed` asks for wall pacing.
 
-use std::str::FromStr;
-
 use geometry::TrunkState;
 use hil_sim::pair::SimIo;
 use hil_sim::{Fault, GroundTruth, Sim, SimOptions};
 use serde_json::Value;
-
-/// Checks a fault name; the error lists the valid ones.
-pub fn parse_fault(name: &str) -> Result<Fault, String> {
-    Fault::from_str(name).map_err(|e| format!("invalid --sim-fault: {e}"))
-}
 
 /// How to run the simulator.
 #[derive(Debug, Clone, PartialEq)]

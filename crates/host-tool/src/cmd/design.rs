@@ -11,7 +11,7 @@ use planner::ik::bands::{self, Band, Family};
 use planner::ik::{self, Algorithm, Catalogue, Control, Metric, Problem, Target};
 use serde_json::Value;
 
-use super::ik::{parse_count, parse_metric, parse_time_limit, read_target, MAX_MODULES};
+use super::ik::{parse_metric, parse_time_limit, read_target, MAX_MODULES};
 use super::states::{ordered_object, parse_edge_mm};
 use crate::failure::Failure;
 use crate::figure::{
@@ -33,29 +33,34 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub target_file: Option<PathBuf>,
     /// Modules m of the boom to fit (with a target), an integer in [1, 10000].
-    #[arg(long, allow_hyphen_values = true)]
-    pub modules: Option<String>,
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--modules", 1, MAX_MODULES))]
+    pub modules: Option<usize>,
     /// Objective of the ranking: eq36 or ordered (see `ik --metric`).
-    #[arg(long, default_value = "eq36")]
-    pub metric: String,
+    #[arg(long, default_value = "eq36", value_parser = crate::arg::usage(parse_metric))]
+    pub metric: Metric,
     /// βs tried per bending band (evenly spread inside it, plus its closing angle β_in or
     /// β_out when it lies inside), an integer in [1, 100].
-    #[arg(long, default_value = "5", allow_hyphen_values = true)]
-    pub samples: String,
+    #[arg(long, default_value = "5", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--samples", 1, 100))]
+    pub samples: usize,
     /// How many of the best-ranked βs the exact solver certifies, an integer in [0, 20].
-    #[arg(long, default_value = "3", allow_hyphen_values = true)]
-    pub certify: String,
+    #[arg(long, default_value = "3", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--certify", 0, 20))]
+    pub certify: usize,
     /// Time limit of each certification in seconds (the result then carries its gap).
     #[arg(
         long,
         default_value = "2",
         value_name = "SECONDS",
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = crate::arg::usage(parse_time_limit)
     )]
-    pub time_limit: String,
+    pub time_limit: std::time::Duration,
     /// Print heights in millimetres too, for a valley fold (polygon edge) of this length.
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    pub edge_mm: Option<String>,
+    #[arg(long, value_name = "MM", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_edge_mm))]
+    pub edge_mm: Option<f64>,
     /// Print JSON instead of text.
     #[arg(skip)]
     pub json: bool,
@@ -236,18 +241,17 @@ struct Ranking {
 /// Runs `host-tool design`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let ns = parse_ns(&args.n)?;
-    let edge_mm = args.edge_mm.as_deref().map(parse_edge_mm).transpose()?;
-    let samples = parse_count("--samples", &args.samples, 1, 100)?;
-    let certify = parse_count("--certify", &args.certify, 0, 20)?;
-    let time_limit = parse_time_limit(&args.time_limit)?;
-    let metric = parse_metric(&args.metric)?;
+    let edge_mm = args.edge_mm;
+    let samples = args.samples;
+    let certify = args.certify;
+    let time_limit = args.time_limit;
+    let metric = args.metric;
     let ranking = if args.target.is_some() || args.target_file.is_some() {
-        let Some(m) = &args.modules else {
+        let Some(m) = args.modules else {
             return Err(Failure::usage(
                 "--target/--target-file needs --modules M (the length of the boom to fit)",
             ));
         };
-        let m = parse_count("--modules", m, 1, MAX_MODULES)?;
         let (target, source) = read_target(args.target_file.as_ref(), args.target.as_deref())?;
         Some(Ranking {
             target,

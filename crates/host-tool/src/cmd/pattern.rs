@@ -13,19 +13,21 @@ use fabrication::pattern::Pattern;
 use fabrication::{Defaults, Module, Trunk};
 
 use super::output;
-use super::states::{designs_from, parse_n};
+use super::states::{designs_from, parse_betas, parse_n, Betas};
 use crate::failure::Failure;
 
 /// The trunk description shared by `pattern` and `model` (defaults: the paper's crane trunk).
 #[derive(Debug, Clone, clap::Args)]
 pub struct TrunkArgs {
     /// Number of polygon sides n of every module (an integer in [3, 64]).
-    #[arg(long, default_value_t = Defaults::N.to_string(), allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, default_value_t = Defaults::N, allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_n))]
+    pub n: u32,
     /// Fold angle(s) β in degrees, one per module, bottom first (one value: one module). The
     /// default is the crane trunk: a 35° self-packing module under a 31.72° golden one.
-    #[arg(long, default_value = Defaults::BETA, allow_hyphen_values = true)]
-    pub beta: String,
+    #[arg(long, default_value = Defaults::BETA, allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_betas))]
+    pub beta: Betas,
     /// Layers per module: one count for every module or one per module (each in [1, 1000],
     /// at most 1000 in total).
     #[arg(long, default_value = Defaults::LAYERS, allow_hyphen_values = true)]
@@ -74,12 +76,12 @@ fn parse_layers(text: &str, m: usize) -> Result<Vec<usize>, Failure> {
 impl TrunkArgs {
     /// Number of modules: the longer of the --beta and --layers lists.
     pub fn module_count(&self) -> usize {
-        list_len(&self.beta).max(list_len(&self.layers))
+        self.beta.0.len().max(list_len(&self.layers))
     }
 
     /// Validates into a trunk.
     pub fn trunk(&self) -> Result<Trunk, Failure> {
-        let n = parse_n(&self.n)?;
+        let n = self.n;
         let m = self.module_count();
         let designs = designs_from(n, &self.beta, m, &format!("the stack has {m} modules"))?;
         let layers = parse_layers(&self.layers, m)?;
@@ -269,7 +271,7 @@ fn report(
 fn parse_gaps(args: &Args, m: usize) -> Result<Vec<f64>, Failure> {
     let text = match &args.gap_mm {
         Some(t) => t.clone(),
-        None if args.trunk.beta.trim() == Defaults::BETA && m == 2 => {
+        None if parse_betas(Defaults::BETA).is_ok_and(|d| d == args.trunk.beta) && m == 2 => {
             Defaults::GAP_MM_TRUNK.to_string()
         }
         None => Defaults::GAP_MM.to_string(),

@@ -13,7 +13,7 @@ use host::{text, Io as _, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
 use planner::graph::{kind_name, Graph, Plan, PrimitiveText};
 use serde_json::{json, Value};
 
-use crate::device::{parse_state, ConnectError, DeviceArgs, DeviceConfig};
+use crate::device::{ConnectError, DeviceArgs, DeviceConfig};
 use crate::failure::Failure;
 use crate::progress::{Bars, Lines, Progress};
 use crate::record::Recorder;
@@ -24,8 +24,8 @@ use crate::transport::AnyIo;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The trunk state to reach: F&P, F&F, F&D, D&P, D&F or D&D.
-    #[arg(long, value_name = "STATE")]
-    pub target: String,
+    #[arg(long, value_name = "STATE", value_parser = crate::arg::trunk_state)]
+    pub target: TrunkState,
     #[command(flatten)]
     pub device: DeviceArgs,
     /// Print the plan and touch nothing (plans from --from, or the simulator's initial state;
@@ -33,8 +33,8 @@ pub struct Args {
     #[arg(long)]
     pub dry_run: bool,
     /// With --dry-run: plan from this state instead of asking the device.
-    #[arg(long, value_name = "STATE", requires = "dry_run")]
-    pub from: Option<String>,
+    #[arg(long, value_name = "STATE", requires = "dry_run", value_parser = crate::arg::trunk_state)]
+    pub from: Option<TrunkState>,
     /// Print one JSON object on stdout instead of a summary.
     #[arg(skip)]
     pub json: bool,
@@ -71,7 +71,7 @@ impl Args {
 
     fn validate_args(&self) -> Result<Config, Failure> {
         Ok(Config {
-            target: parse_state("target", &self.target)?,
+            target: self.target,
             // A dry run with no device plans from the simulator's initial state (or --from).
             device: if self.dry_run && self.device.port.is_none() {
                 DeviceArgs {
@@ -83,11 +83,7 @@ impl Args {
                 self.device.validate(None)?
             },
             dry_run: self.dry_run,
-            from: self
-                .from
-                .as_deref()
-                .map(|s| parse_state("--from", s))
-                .transpose()?,
+            from: self.from,
             json: self.json,
             record: self.record.clone(),
             calibration: self.calibration.clone(),
@@ -347,7 +343,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
 
 /// `plan` through a server: the server runs it; its notes on stderr, the outcome as usual.
 fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> {
-    let target = parse_state("target", &args.target)?;
+    let target = args.target;
     if args.record.is_some() {
         return Err(Failure::usage(
             "a server holds this device and records its session itself: --record is not needed",

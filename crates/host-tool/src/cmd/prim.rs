@@ -54,12 +54,13 @@ pub struct GripArgs {
 #[derive(Debug, clap::Args)]
 pub struct BendArgs {
     /// The bend angle of the tip axis, degrees (≥ 0; 0 straightens).
-    #[arg(allow_hyphen_values = true)]
-    pub angle: String,
+    #[arg(allow_hyphen_values = true, value_parser = crate::arg::usage(bend_angle))]
+    pub angle: f64,
     /// The direction the tip bends toward, degrees (0° = toward tendon 0, counter-clockwise
     /// seen from above); not needed for 0.
-    #[arg(long, value_name = "DIR", allow_hyphen_values = true)]
-    pub toward: Option<String>,
+    #[arg(long, value_name = "DIR", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(|s: &str| degrees("--toward", s)))]
+    pub toward: Option<f64>,
     #[command(flatten)]
     pub device: DeviceArgs,
     #[command(flatten)]
@@ -492,16 +493,22 @@ fn degrees(what: &str, text: &str) -> Result<f64, Failure> {
         })
 }
 
-/// Runs `host-tool bend`.
-pub fn run_bend(args: BendArgs) -> Result<(), Failure> {
-    let angle = degrees("ANGLE", &args.angle)?;
+/// A bend angle: a number of degrees ≥ 0.
+fn bend_angle(text: &str) -> Result<f64, Failure> {
+    let angle = degrees("ANGLE", text)?;
     if angle < 0.0 {
         return Err(Failure::usage(format!(
             "invalid ANGLE {angle}: a bend angle is ≥ 0° (bend the other way with --toward DIR+180)"
         )));
     }
-    let toward = match &args.toward {
-        Some(t) => degrees("--toward", t)?,
+    Ok(angle)
+}
+
+/// Runs `host-tool bend`.
+pub fn run_bend(args: BendArgs) -> Result<(), Failure> {
+    let angle = args.angle;
+    let toward = match args.toward {
+        Some(t) => t,
         None if angle == 0.0 => 0.0,
         None => {
             return Err(Failure::usage(

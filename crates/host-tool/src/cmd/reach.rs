@@ -21,12 +21,14 @@ use crate::failure::Failure;
 pub struct Args {
     /// The point for the tip: X,Y,Z in mm (base frame: z up along the straight trunk, x toward
     /// tendon 0).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    pub point: String,
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(|s: &str| parse_point("--point", s)))]
+    pub point: [f64; 3],
     /// How near the geometry's tip must come to the point, mm (> 0; with --sim the true tip
     /// is judged by it too).
-    #[arg(long, value_name = "MM", default_value = "5")]
-    pub tolerance: String,
+    #[arg(long, value_name = "MM", default_value = "5", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_tolerance))]
+    pub tolerance: f64,
     /// Show the plan and move nothing.
     #[arg(long)]
     pub dry_run: bool,
@@ -221,8 +223,8 @@ pub fn execute(
 
 /// Runs `host-tool reach`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let goal = parse_point("--point", &args.point)?;
-    let tolerance = parse_tolerance(&args.tolerance)?;
+    let goal = args.point;
+    let tolerance = args.tolerance;
     let world = args.world.parse()?;
     let cfg = crane_config(&args.device);
     if args.device.sim {

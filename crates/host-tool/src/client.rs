@@ -11,8 +11,6 @@ use std::io::{BufRead as _, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::path::PathBuf;
 
-use serde_json::Value;
-
 use crate::device::DeviceArgs;
 use crate::failure::Failure;
 use crate::serve_protocol::{DeviceRequest, Reply, Request};
@@ -239,13 +237,16 @@ fn unexpected(expected: &str, got: &Reply) -> Failure {
 
 /// A run through a server ([`Request::Plan`], [`Request::Identify`]): its notes on stderr,
 /// then the outcome (`plan --json`'s document) and whether it reached its target.
-pub fn run(path: &std::path::Path, request: &Request) -> Result<(Value, bool), Failure> {
+pub fn run(
+    path: &std::path::Path,
+    request: &Request,
+) -> Result<(crate::outcome::PlanOutcome, bool), Failure> {
     let mut c = Client::connect(path)?;
     c.send(request)?;
     loop {
         match c.recv_ok()? {
             Reply::Note { note } => crate::say!("{}", note.trim_end()),
-            Reply::Outcome { outcome, ok } => return Ok((outcome, ok)),
+            Reply::Outcome { outcome, ok } => return Ok((*outcome, ok)),
             other => return Err(unexpected("a note or the outcome", &other)),
         }
     }

@@ -76,6 +76,7 @@ mod figure;
 mod live;
 mod mission;
 mod num;
+mod outcome;
 mod progress;
 mod record;
 mod scene;

@@ -93,7 +93,7 @@ pub enum Reply {
     /// How a run ended.
     Outcome {
         /// `plan --json`'s outcome document.
-        outcome: serde_json::Value,
+        outcome: Box<crate::outcome::PlanOutcome>,
         /// Whether the run reached its target.
         ok: bool,
     },
@@ -393,7 +393,20 @@ mod tests {
                 note: "step 1/2 started".into(),
             },
             Reply::Outcome {
-                outcome: serde_json::json!({"ok": true, "steps": []}),
+                outcome: Box::new(crate::outcome::PlanOutcome {
+                    ok: true,
+                    from: Some("F&P".into()),
+                    target: Some("D&D".into()),
+                    final_state: Some("D&D".into()),
+                    state_confirmed: true,
+                    candidates: None,
+                    identified: false,
+                    steps: Vec::new(),
+                    error: None,
+                    fault_code: None,
+                    failure: None,
+                    sim: None,
+                }),
                 ok: true,
             },
         ];

@@ -75,28 +75,27 @@ fn report(
 /// another terminal), this client prints its notes and the outcome.
 fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> {
     let (o, ok) = crate::client::run(server, &crate::serve_protocol::Request::Identify)?;
-    let state = o["final_state"].as_str();
+    // A confirmed state's candidates are that state, as the device reports them.
+    let candidates = match (&o.candidates, o.state_confirmed, &o.final_state) {
+        (None, true, Some(s)) => Some(vec![s.clone()]),
+        (c, ..) => c.clone(),
+    };
     let out = json!({
         "ok": ok,
-        "state": o["final_state"],
-        "state_confirmed": o["state_confirmed"],
-        "identified": o["identified"],
-        // A confirmed state's candidates are that state, as the device reports them.
-        "candidates": if o["candidates"].is_null() && o["state_confirmed"] == true {
-            json!([o["final_state"]])
-        } else {
-            o["candidates"].clone()
-        },
-        "error": o["error"],
-        "sim": o["sim"],
+        "state": o.final_state,
+        "state_confirmed": o.state_confirmed,
+        "identified": o.identified,
+        "candidates": candidates,
+        "error": o.error,
+        "sim": o.sim.as_ref().map(crate::sim::SimTruth::to_json),
     });
     report(
         args.json,
         ok,
-        state,
-        o["identified"] == true,
+        o.final_state.as_deref(),
+        o.identified,
         out,
-        o["error"].as_str(),
+        o.error.as_deref(),
     )
 }
 

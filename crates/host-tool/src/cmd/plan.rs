@@ -9,7 +9,7 @@ use std::sync::mpsc;
 use std::sync::Arc;
 
 use geometry::TrunkState;
-use host::{text, Io as _, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
+use host::{Io as _, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
 use planner::graph::{kind_name, Graph, Plan, PrimitiveText};
 use serde_json::{json, Value};
 
@@ -358,19 +358,19 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
     let (outcome, ok) =
         crate::client::run(server, &crate::serve_protocol::Request::Plan { target })?;
     if args.json {
-        crate::cli::print_json(outcome.clone());
+        crate::cli::print_json(outcome.to_json());
     }
     if ok {
         if !args.json {
-            let steps = outcome["steps"].as_array().map_or(0, Vec::len);
-            crate::say!("{}", reached(target, steps, 0));
+            crate::say!("{}", reached(target, outcome.steps.len(), 0));
         }
         Ok(())
     } else {
         Err(Failure::Runtime(anyhow::anyhow!(
             "{}",
-            outcome["error"]
-                .as_str()
+            outcome
+                .error
+                .as_deref()
                 .unwrap_or("the target was not reached")
         )))
     }
@@ -424,51 +424,9 @@ fn reached(target: TrunkState, steps: usize, replans: u32) -> String {
     )
 }
 
-/// The `plan --json` object: `ok, from, target, final_state, state_confirmed, candidates,
-/// steps, error, failure (kind, step, fault_code, fault), sim`. `final_state` is the last state
-/// the device reported; `state_confirmed` says whether the device had confirmed it then — after a
-/// lost link it is `false`: the report is stale, and `candidates` (present when unconfirmed) is
-/// every state the trunk may be in since (all six: unknown).
+/// The `plan --json` object ([`crate::outcome::PlanOutcome`]).
 pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
-    let name = |s: Option<TrunkState>| s.map(|s| s.name());
-    let failure = out.failure.as_ref().map(|f| {
-        json!({
-            "kind": f.kind.name(),
-            "step": f.step.map(|s| json!({
-                "index": s.index,
-                "total": s.total,
-                "kind": kind_name(s.kind),
-                "from": s.from.name(),
-                "to": s.to.name(),
-            })),
-            "fault_code": f.fault.map(text::fault_code),
-            "fault": f.fault.map(text::fault_name),
-            "reject": f.reject.map(text::reject_name),
-            "refused": f.refusal.as_ref().map(crate::cli::refusal_json),
-            "message": f.message,
-        })
-    });
-    json!({
-        "ok": out.ok(),
-        "from": name(out.from),
-        "target": name(out.target),
-        "final_state": name(out.final_state),
-        "state_confirmed": out.state_confirmed,
-        "candidates": (!out.state_confirmed)
-            .then(|| out.candidates.iter().map(|c| c.name()).collect::<Vec<_>>()),
-        "identified": out.identified,
-        "steps": out.steps.iter().map(|s| json!({
-            "kind": kind_name(s.kind),
-            "from": s.from.name(),
-            "to": s.to.name(),
-            "ok": s.ok,
-            "duration_ms": s.duration_ms,
-        })).collect::<Vec<_>>(),
-        "error": out.error(),
-        "fault_code": out.failure.as_ref().and_then(|f| f.fault).map(text::fault_code),
-        "failure": failure,
-        "sim": truth.map(SimTruth::to_json),
-    })
+    crate::outcome::PlanOutcome::of(out, truth).to_json()
 }
 
 /// A thread that hands on each line typed on a terminal (Enter confirms a manual step; a state

@@ -177,8 +177,9 @@ pub fn go_to_state(link: &mut Link, target: TrunkState) -> Result<(), Failure> {
             } else {
                 Err(Failure::Runtime(anyhow::anyhow!(
                     "going to {target}: {}",
-                    outcome["error"]
-                        .as_str()
+                    outcome
+                        .error
+                        .as_deref()
                         .unwrap_or("the state was not reached")
                 )))
             }

@@ -557,15 +557,15 @@ impl Server {
                     .map(|r| r.outcome().clone())
                     .unwrap_or_default();
                 let truth = self.conn.truth();
-                let v = crate::cmd::plan::outcome_json(&outcome, truth.as_ref());
+                let doc = crate::outcome::PlanOutcome::of(&outcome, truth.as_ref());
                 if let Some(rec) = self.conn.session.io.recording() {
-                    rec.outcome(now, outcome.ok(), v.clone());
+                    rec.outcome(now, outcome.ok(), doc.to_json());
                 }
                 if let Some(c) = self.plan_client.take() {
                     self.reply(
                         c,
                         Reply::Outcome {
-                            outcome: v,
+                            outcome: Box::new(doc),
                             ok: outcome.ok(),
                         },
                     );

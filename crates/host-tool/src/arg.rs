@@ -411,6 +411,41 @@ mod tests {
             refused: &["x", "inf"],
             why: "expected a number of degrees",
         },
+        Case {
+            line: &["serve", "--sim"],
+            flag: "--rate",
+            ok: &["1", "50"],
+            refused: &["0", "51", "2.5"],
+            why: "from 1 to 50",
+        },
+        Case {
+            line: &["serve", "--sim"],
+            flag: "--foxglove",
+            ok: &["127.0.0.1:0", "localhost:65535", "[::1]:8765"],
+            refused: &["127.0.0.1", "1.2.3.4:65536", ":80", "::1:80", "host:80"],
+            why: "invalid --foxglove",
+        },
+        Case {
+            line: &["design"],
+            flag: "--n",
+            ok: &["3", "64", "3..8", "6,3,4"],
+            refused: &["2", "65", "5..3", "2..4", "x"],
+            why: "--n must be an integer, a list (3,4,6) or a range (3..8)",
+        },
+        Case {
+            line: IK,
+            flag: "--dp-tolerance",
+            ok: &["0,0", "1e3,360"],
+            refused: &["a,b", "-1,0", "1", "1,2,3", "inf,0"],
+            why: "--dp-tolerance must be POSITION,ANGLE",
+        },
+        Case {
+            line: &["grip", "open", "--sim"],
+            flag: "--tip-load-kg",
+            ok: &["0", "50"],
+            refused: &["-1", "50.1", "NaN"],
+            why: "expected a mass in kg in [0, 50]",
+        },
     ];
 
     #[test]

@@ -24,8 +24,8 @@ use crate::figure::{
 pub struct Args {
     /// Number of polygon sides: one (`4`), a list (`3,4,6`) or an inclusive range (`3..8`),
     /// each in [3, 64].
-    #[arg(long, allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_ns))]
+    pub n: Ns,
     /// Rank βs for this built-in target curve (as `ik --target`; needs --modules).
     #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
     pub target: Option<String>,
@@ -189,7 +189,11 @@ fn candidate_betas(space: &Space, samples: usize) -> Vec<f64> {
     betas
 }
 
-fn parse_ns(text: &str) -> Result<Vec<u32>, Failure> {
+/// The `--n` of `design`: the sides to try, ascending, each once.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ns(pub Vec<u32>);
+
+fn parse_ns(text: &str) -> Result<Ns, Failure> {
     let bad = || {
         Failure::usage(format!(
             "--n must be an integer, a list (3,4,6) or a range (3..8) of integers in [{}, {}], got '{text}'",
@@ -212,7 +216,7 @@ fn parse_ns(text: &str) -> Result<Vec<u32>, Failure> {
     }
     out.sort_unstable();
     out.dedup();
-    Ok(out)
+    Ok(Ns(out))
 }
 
 /// The figure files asked for.
@@ -240,7 +244,7 @@ struct Ranking {
 
 /// Runs `host-tool design`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let ns = parse_ns(&args.n)?;
+    let ns = args.n.0.clone();
     let edge_mm = args.edge_mm;
     let samples = args.samples;
     let certify = args.certify;
@@ -854,9 +858,9 @@ mod tests {
 
     #[test]
     fn n_accepts_one_a_list_and_a_range() {
-        assert_eq!(parse_ns("4").ok(), Some(vec![4]));
-        assert_eq!(parse_ns("6,3,4").ok(), Some(vec![3, 4, 6]));
-        assert_eq!(parse_ns("3..5").ok(), Some(vec![3, 4, 5]));
+        assert_eq!(parse_ns("4").ok(), Some(Ns(vec![4])));
+        assert_eq!(parse_ns("6,3,4").ok(), Some(Ns(vec![3, 4, 6])));
+        assert_eq!(parse_ns("3..5").ok(), Some(Ns(vec![3, 4, 5])));
         for bad in ["", "2", "5..3", "3..65", "x", "3..", "..4"] {
             assert!(parse_ns(bad).is_err(), "{bad}");
         }

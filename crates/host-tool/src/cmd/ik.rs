@@ -64,8 +64,9 @@ pub struct Args {
     pub window_width: usize,
     /// Frame-merging tolerances of `--algo dp`: `POSITION,ANGLE` in units of l and degrees
     /// (`0,0` merges only equal frames: exact but slow).
-    #[arg(long, default_value = "0.1,5", allow_hyphen_values = true)]
-    pub dp_tolerance: String,
+    #[arg(long, default_value = "0.1,5", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_dp_tolerance))]
+    pub dp_tolerance: (f64, f64),
     /// Most frames `--algo dp` keeps per module layer.
     #[arg(long, default_value = "20000", allow_hyphen_values = true,
           value_parser = crate::num::count_in("--dp-max-states", 1, 100_000_000))]
@@ -194,6 +195,25 @@ fn parse_gap(text: &str) -> Result<f64, Failure> {
     Ok(v)
 }
 
+/// Parses `--dp-tolerance`: `POSITION,ANGLE`, both finite and ≥ 0.
+fn parse_dp_tolerance(text: &str) -> Result<(f64, f64), Failure> {
+    let nums: Vec<Option<f64>> = text
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+        })
+        .collect();
+    match nums[..] {
+        [Some(pos), Some(ang)] => Ok((pos, ang)),
+        _ => Err(Failure::usage(format!(
+            "--dp-tolerance must be POSITION,ANGLE (units of l, degrees; both ≥ 0), got '{text}'"
+        ))),
+    }
+}
+
 /// Reads the target from `--target-file` or `--target` (exactly one must be given).
 pub(crate) fn read_target(
     target_file: Option<&PathBuf>,
@@ -265,19 +285,7 @@ impl Args {
                 width: self.window_width,
             },
             "dp" => {
-                let parts: Vec<&str> = self.dp_tolerance.split(',').map(str::trim).collect();
-                let nums: Vec<Option<f64>> = parts
-                    .iter()
-                    .map(|p| p.parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0))
-                    .collect();
-                let (Some(Some(pos)), Some(Some(ang)), 2) =
-                    (nums.first().copied(), nums.get(1).copied(), nums.len())
-                else {
-                    return Err(Failure::usage(format!(
-                        "--dp-tolerance must be POSITION,ANGLE (units of l, degrees; both ≥ 0), got '{}'",
-                        self.dp_tolerance
-                    )));
-                };
+                let (pos, ang) = self.dp_tolerance;
                 Algorithm::Dp(DpParams {
                     position_tolerance: pos,
                     angle_tolerance_deg: ang,

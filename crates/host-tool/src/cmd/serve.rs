@@ -39,12 +39,12 @@ pub struct Args {
     #[arg(long)]
     pub no_record: bool,
     /// Telemetry rate while serving, 1–50 Hz.
-    #[arg(long, value_name = "HZ", default_value_t = 50)]
+    #[arg(long, value_name = "HZ", default_value_t = 50, value_parser = crate::num::int_in(1, 50))]
     pub rate: u32,
     /// Serve the live view to Foxglove (WebSocket, foxglove.websocket.v1) on HOST:PORT, e.g.
     /// 127.0.0.1:8765 (PORT 0: any free port; the address is printed).
-    #[arg(long, value_name = "HOST:PORT")]
-    pub foxglove: Option<String>,
+    #[arg(long, value_name = "HOST:PORT", value_parser = crate::live::parse_addr)]
+    pub foxglove: Option<crate::live::LiveAddr>,
 }
 
 struct Conn {
@@ -94,18 +94,7 @@ struct Server {
 /// Runs `host-tool serve`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let device = args.device.validate(Some(1.0))?;
-    if !(1..=50).contains(&args.rate) {
-        return Err(Failure::usage(format!(
-            "invalid --rate {}: it must be 1–50 Hz",
-            args.rate
-        )));
-    }
-    let foxglove = args
-        .foxglove
-        .as_deref()
-        .map(crate::live::parse_addr)
-        .transpose()
-        .map_err(Failure::usage)?;
+    let foxglove = args.foxglove;
     let dir = crate::client::socket_dir_create().map_err(Failure::Runtime)?;
     let port = match &device {
         DeviceConfig::Port(p) => Some(p.as_str()),

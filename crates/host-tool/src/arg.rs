@@ -446,6 +446,34 @@ mod tests {
             refused: &["-1", "50.1", "NaN"],
             why: "expected a mass in kg in [0, 50]",
         },
+        Case {
+            line: IK,
+            flag: "--algo",
+            ok: &["exact", "exhaustive", "greedy", "beam", "window", "dp"],
+            refused: &["annealing"],
+            why: "valid algorithms are exact",
+        },
+        Case {
+            line: &["pattern", "--svg", "x.svg"],
+            flag: "--legend",
+            ok: &["below", "right", "none"],
+            refused: &["left"],
+            why: "--legend:",
+        },
+        Case {
+            line: &["pattern", "--page-dir", "d"],
+            flag: "--page",
+            ok: &["a4", "letter"],
+            refused: &["a3"],
+            why: "--page:",
+        },
+        Case {
+            line: &["pattern", "--parts", "d"],
+            flag: "--parts-format",
+            ok: &["stl", "3mf", "both"],
+            refused: &["obj"],
+            why: "--parts-format must be stl, 3mf or both",
+        },
     ];
 
     #[test]

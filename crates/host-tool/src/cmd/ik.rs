@@ -52,8 +52,8 @@ pub struct Args {
     #[arg(long, value_name = "SPEC", long_help = target_long_help(), allow_hyphen_values = true)]
     pub target: Option<String>,
     /// Solver: exact (proven optimum), exhaustive (every sequence), greedy, beam, window, dp.
-    #[arg(long, default_value = "exact")]
-    pub algo: String,
+    #[arg(long, default_value = "exact", value_parser = crate::arg::usage(parse_algo))]
+    pub algo: Algo,
     /// Beam width k for `--algo beam` (≥ 1).
     #[arg(long, default_value = "64", allow_hyphen_values = true,
           value_parser = crate::num::count_in("--beam-width", 1, 1_000_000))]
@@ -195,6 +195,41 @@ fn parse_gap(text: &str) -> Result<f64, Failure> {
     Ok(v)
 }
 
+/// `--algo`: a solver by name (its parameters are options of their own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Algo {
+    /// Branch and bound, proven optimal.
+    Exact,
+    /// Every sequence.
+    Exhaustive,
+    /// Greedy.
+    Greedy,
+    /// Beam search (`--beam-width`).
+    Beam,
+    /// Sliding window (`--window-width`).
+    Window,
+    /// Dynamic programming over merged frames (`--dp-tolerance`, `--dp-max-states`).
+    Dp,
+}
+
+/// Parses `--algo`; the refusal lists the solvers.
+fn parse_algo(text: &str) -> Result<Algo, Failure> {
+    Ok(match text.trim() {
+        "exact" => Algo::Exact,
+        "exhaustive" => Algo::Exhaustive,
+        "greedy" => Algo::Greedy,
+        "beam" => Algo::Beam,
+        "window" => Algo::Window,
+        "dp" => Algo::Dp,
+        other => {
+            return Err(Failure::usage(format!(
+                "unknown --algo '{other}'; valid algorithms are {}",
+                Algorithm::NAMES.join(", ")
+            )))
+        }
+    })
+}
+
 /// Parses `--dp-tolerance`: `POSITION,ANGLE`, both finite and ≥ 0.
 fn parse_dp_tolerance(text: &str) -> Result<(f64, f64), Failure> {
     let nums: Vec<Option<f64>> = text
@@ -274,29 +309,23 @@ impl Args {
         let designs = designs_from(n, &self.beta, m, &format!("--modules is {m}"))?;
         let (target, source) = read_target(self.target_file.as_ref(), self.target.as_deref())?;
         let metric = self.metric;
-        let algorithm = match self.algo.trim() {
-            "exact" => Algorithm::Exact,
-            "exhaustive" => Algorithm::Exhaustive,
-            "greedy" => Algorithm::Greedy,
-            "beam" => Algorithm::Beam {
+        let algorithm = match self.algo {
+            Algo::Exact => Algorithm::Exact,
+            Algo::Exhaustive => Algorithm::Exhaustive,
+            Algo::Greedy => Algorithm::Greedy,
+            Algo::Beam => Algorithm::Beam {
                 width: self.beam_width,
             },
-            "window" => Algorithm::Window {
+            Algo::Window => Algorithm::Window {
                 width: self.window_width,
             },
-            "dp" => {
+            Algo::Dp => {
                 let (pos, ang) = self.dp_tolerance;
                 Algorithm::Dp(DpParams {
                     position_tolerance: pos,
                     angle_tolerance_deg: ang,
                     max_states: self.dp_max_states,
                 })
-            }
-            other => {
-                return Err(Failure::usage(format!(
-                    "unknown --algo '{other}'; valid algorithms are {}",
-                    Algorithm::NAMES.join(", ")
-                )))
             }
         };
         if self.all_states && self.feasible_only {

@@ -179,12 +179,13 @@ pub struct Args {
     /// --page tiles: below the sheet, right of it, or none (crease lines only, e.g. for a
     /// laser cutter's import). On tiles it is printed once, on a page where it clears every
     /// crease line and registration mark.
-    #[arg(long, value_name = "PLACE", default_value = "below")]
-    pub legend: String,
+    #[arg(long, value_name = "PLACE", default_value = "below",
+          value_parser = crate::arg::usage(parse_legend))]
+    pub legend: fabrication::svg::Legend,
     /// Tile the 1:1 crease pattern over paper pages (a4 or letter) with registration marks and
     /// a 50 mm scale bar: page-1.svg, page-2.svg, … in --page-dir. Print at 100 %.
-    #[arg(long, value_name = "PAPER")]
-    pub page: Option<String>,
+    #[arg(long, value_name = "PAPER", value_parser = crate::arg::usage(parse_paper))]
+    pub page: Option<fabrication::tiles::Paper>,
     /// Directory for the pages of --page; created if missing.
     #[arg(long, value_name = "DIR")]
     pub page_dir: Option<PathBuf>,
@@ -195,8 +196,9 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub parts: Option<PathBuf>,
     /// File format of --parts: stl, 3mf or both (PART.stl and PART.3mf side by side).
-    #[arg(long, value_name = "FORMAT", default_value = "both")]
-    pub parts_format: String,
+    #[arg(long, value_name = "FORMAT", default_value = "both",
+          value_parser = crate::arg::usage(PartsFormat::parse))]
+    pub parts_format: PartsFormat,
     /// Thickness of the kit's panels in mm, [5.7, 50]: the M4 heat-set inserts (5.7 mm) sit
     /// fully in it; sets the hinge's screw length.
     #[arg(long, default_value_t = fabrication::parts::DEFAULT_PANEL_MM, allow_hyphen_values = true)]
@@ -371,11 +373,24 @@ fn nest_params(args: &Args) -> Result<Option<NestParams>, Failure> {
     }))
 }
 
+/// `--legend`: where the legend goes.
+fn parse_legend(text: &str) -> Result<fabrication::svg::Legend, Failure> {
+    fabrication::svg::Legend::parse(text).map_err(|e| Failure::usage(format!("--legend: {e}")))
+}
+
+/// `--page`: the paper of the tiles.
+fn parse_paper(text: &str) -> Result<fabrication::tiles::Paper, Failure> {
+    fabrication::tiles::Paper::parse(text).map_err(|e| Failure::usage(format!("--page: {e}")))
+}
+
 /// Which files --parts writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum PartsFormat {
+pub enum PartsFormat {
+    /// PART.stl only.
     Stl,
+    /// PART.3mf only.
     ThreeMf,
+    /// Both side by side.
     Both,
 }
 
@@ -515,9 +530,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
         ));
     }
     let kit_bom = args.kit.is_some() || args.nest.is_some();
-    let parts_format = PartsFormat::parse(&args.parts_format)?;
-    let legend = fabrication::svg::Legend::parse(&args.legend)
-        .map_err(|e| Failure::usage(format!("--legend: {e}")))?;
+    let parts_format = args.parts_format;
+    let legend = args.legend;
     if legend != fabrication::svg::Legend::Below && args.svg.is_none() && args.page.is_none() {
         return Err(Failure::usage(
             "--legend places the legend of --svg and --page; give --svg FILE or --page PAPER too",
@@ -550,14 +564,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
         None => None,
     };
     let title = format!("host-tool pattern: {}", trunk.describe());
-    let tiling = match (&args.page, &args.page_dir) {
-        (Some(p), Some(_)) => Some(fabrication::tiles::tiling(
-            &pattern,
-            fabrication::tiles::Paper::parse(p)
-                .map_err(|e| Failure::usage(format!("--page: {e}")))?,
-            legend,
-            &title,
-        )),
+    let tiling = match (args.page, &args.page_dir) {
+        (Some(p), Some(_)) => Some(fabrication::tiles::tiling(&pattern, p, legend, &title)),
         (Some(_), None) => {
             return Err(Failure::usage(
                 "--page writes one SVG per page: give --page-dir DIR for them",

@@ -108,6 +108,7 @@ mod tests {
     const DESIGN: &[&str] = &["design", "--n", "3"];
     const STATION: &[&str] = &["station", "--lat", "37", "--lon", "-80", "--modules", "64"];
     const STATES: &[&str] = &["states", "--n", "3", "--beta", "35"];
+    const SUN: &[&str] = &["sun", "--lat", "37", "--lon", "-80"];
 
     const CASES: &[Case] = &[
         Case {
@@ -473,6 +474,62 @@ mod tests {
             ok: &["stl", "3mf", "both"],
             refused: &["obj"],
             why: "--parts-format must be stl, 3mf or both",
+        },
+        Case {
+            line: SUN,
+            flag: "--time",
+            ok: &["2025-06-21T12:00:00-04:00", "2025-06-21T16:00:00Z"],
+            refused: &["noon", "2025-06-21T12:00:00"],
+            why: "--time:",
+        },
+        Case {
+            line: SUN,
+            flag: "--date",
+            ok: &["2025-06-21", "2000-02-29"],
+            refused: &["2025-13-01", "2025-02-29", "21/06/2025"],
+            why: "--date:",
+        },
+        Case {
+            line: SUN,
+            flag: "--tz",
+            ok: &["-04:00", "Z", "+05:30"],
+            refused: &["4", "EDT"],
+            why: "--tz:",
+        },
+        Case {
+            line: SUN,
+            flag: "--from",
+            ok: &["00:00", "23:59"],
+            refused: &["24:00", "9am"],
+            why: "--from:",
+        },
+        Case {
+            line: SUN,
+            flag: "--to",
+            ok: &["00:00", "23:59"],
+            refused: &["25:00"],
+            why: "--to:",
+        },
+        Case {
+            line: SUN,
+            flag: "--every",
+            ok: &["1s", "24h", "1h30m"],
+            refused: &["0s", "25h", "10"],
+            why: "--every:",
+        },
+        Case {
+            line: &["aim", "--sun", "--lat", "37", "--lon", "-80"],
+            flag: "--time",
+            ok: &["2025-06-21T12:00:00-04:00"],
+            refused: &["noon"],
+            why: "--time:",
+        },
+        Case {
+            line: &["track", "--lat", "37", "--lon", "-80", "--until", "18:00"],
+            flag: "--every",
+            ok: &["1s", "24h"],
+            refused: &["0s", "25h"],
+            why: "--every:",
         },
     ];
 

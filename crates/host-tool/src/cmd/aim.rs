@@ -52,8 +52,8 @@ pub struct Args {
     #[arg(long, allow_hyphen_values = true)]
     pub lon: Option<f64>,
     /// The instant, RFC 3339 with its offset (with --sun; default now).
-    #[arg(long)]
-    pub time: Option<String>,
+    #[arg(long, value_parser = crate::arg::usage(super::sun::parse_time))]
+    pub time: Option<DateTime<chrono::FixedOffset>>,
     /// Compute for this trunk state without a crane, e.g. 'F&D' [default without --sim or
     /// --port: F&D, the paper's solar demonstration]; with a crane its own state is used.
     #[arg(long, value_name = "STATE", conflicts_with_all = ["sim", "port", "change_state"],
@@ -238,12 +238,11 @@ pub fn sun_at(
     })
 }
 
-/// An instant of `--time` (RFC 3339 with its offset), or now.
-pub fn instant(time: Option<&str>) -> Result<DateTime<chrono::FixedOffset>, Failure> {
-    match time {
-        Some(t) => sun::parse_instant(t).map_err(|e| Failure::usage(format!("--time: {e}"))),
-        None => Ok(chrono::DateTime::<Utc>::from(std::time::SystemTime::now()).fixed_offset()),
-    }
+/// The instant `--time` gave (parsed by clap: RFC 3339 with its offset), or now.
+pub fn instant(time: Option<DateTime<chrono::FixedOffset>>) -> DateTime<chrono::FixedOffset> {
+    time.unwrap_or_else(|| {
+        chrono::DateTime::<Utc>::from(std::time::SystemTime::now()).fixed_offset()
+    })
 }
 
 fn num(x: f64) -> Value {
@@ -357,7 +356,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 return Err(Failure::usage("--sun needs --lat DEG and --lon DEG"));
             };
             let (site, air) = site_of(lat, lon)?;
-            let t = instant(args.time.as_deref())?.with_timezone(&Utc);
+            let t = instant(args.time).with_timezone(&Utc);
             sun_at(&site, &air, &t)?.map_err(|el| {
                 Failure::Runtime(anyhow::anyhow!(
                     "the sun is below the horizon at {} (elevation {el:.2}°): nothing to aim at",

@@ -531,6 +531,13 @@ mod tests {
             refused: &["0s", "25h"],
             why: "--every:",
         },
+        Case {
+            line: &["grip", "open", "--sim"],
+            flag: "--object",
+            ok: &["cup:40,0,60,0.1", "b:0,0,0"],
+            refused: &["cup", "cup:0,0,-5", "cup:1,2"],
+            why: "invalid --object",
+        },
     ];
 
     #[test]
@@ -581,7 +588,25 @@ mod tests {
     }
 
     #[test]
-    fn positional_state_and_angle_are_parsed_by_clap_too() {
+    fn positional_state_angle_and_parameter_names_are_parsed_by_clap_too() {
+        for name in ["pressure-limit-kpa", "telemetry-hz", "link-timeout-ms"] {
+            assert!(parse(&["param", "get", name, "--sim"]).is_ok(), "{name}");
+            assert!(
+                parse(&["param", "set", name, "1", "--sim"]).is_ok(),
+                "{name}"
+            );
+        }
+        for action in [
+            &["param", "get", "nope"][..],
+            &["param", "set", "nope", "1"],
+        ] {
+            let e = parse(action).map(|_| ()).unwrap_err();
+            assert_eq!(e.kind(), clap::error::ErrorKind::ValueValidation, "{e}");
+            assert!(
+                e.to_string().contains("valid names are pressure-limit-kpa"),
+                "{e}"
+            );
+        }
         assert!(parse(&["declare", "d&f"]).is_ok());
         let e = parse(&["declare", "X&Y"]).map(|_| ()).unwrap_err();
         assert!(e.to_string().contains("valid states are"), "{e}");

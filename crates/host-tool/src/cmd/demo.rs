@@ -446,8 +446,10 @@ fn manipulation(args: &DemoArgs) -> Result<(), Failure> {
     if args.device.sim {
         world.objects = set
             .iter()
-            .map(|(n, at, _)| format!("{n}:{},{},{},0.05", at[0], at[1], at[2]))
-            .collect();
+            .map(|(n, at, _)| {
+                crate::cmd::task::parse_object(&format!("{n}:{},{},{},0.05", at[0], at[1], at[2]))
+            })
+            .collect::<Result<_, _>>()?;
     }
     let world = world.parse()?;
     let mut link = Link::open_recorded(

@@ -13,8 +13,9 @@ pub struct WorldArgs {
     /// Simulator: an object whose grasp point is at X,Y,Z mm (base frame; z ≥ 0, the table is
     /// z = 0) weighing MASS_KG (default 0.05), e.g. cup:40,0,60,0.1 (repeatable). Closing the
     /// gripper within 15 mm of it holds it; opening drops it to the table below the tip.
-    #[arg(long = "object", value_name = "NAME:X,Y,Z[,MASS_KG]")]
-    pub objects: Vec<String>,
+    #[arg(long = "object", value_name = "NAME:X,Y,Z[,MASS_KG]", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_object))]
+    pub objects: Vec<Object>,
     /// Simulator: a load hung on the tip, kg (0 to 50), whatever the gripper does.
     #[arg(long, value_name = "M", allow_hyphen_values = true,
           value_parser = crate::arg::usage(parse_tip_load))]
@@ -32,6 +33,11 @@ fn parse_tip_load(text: &str) -> Result<f64, Failure> {
     }
 }
 
+/// Parses one `--object`.
+pub fn parse_object(text: &str) -> Result<Object, Failure> {
+    Object::parse(text).map_err(|e| Failure::usage(format!("invalid --object: {e}")))
+}
+
 /// A parsed world.
 #[derive(Debug, Clone, Default)]
 pub struct World {
@@ -42,11 +48,7 @@ pub struct World {
 impl WorldArgs {
     /// Checks every object and the load.
     pub fn parse(&self) -> Result<World, Failure> {
-        let objects = self
-            .objects
-            .iter()
-            .map(|o| Object::parse(o).map_err(|e| Failure::usage(format!("invalid --object: {e}"))))
-            .collect::<Result<Vec<_>, _>>()?;
+        let objects = self.objects.clone();
         let tip_load_kg = self.tip_load_kg.unwrap_or(0.0);
         hil_sim::world::World::with(objects.clone(), tip_load_kg)
             .map_err(|e| Failure::usage(format!("invalid world: {e}")))?;

@@ -1,4 +1,5 @@
-//! The client side of `host-tool serve`: where a server's socket is, and one JSON line each way.
+//! The client side of `host-tool serve`: where a server's socket is, and its protocol's lines
+//! ([`crate::serve_protocol`]) each way.
 //!
 //! Sockets live in a directory only the user can enter (`$XDG_RUNTIME_DIR/host-tool`, else
 //! `/tmp/host-tool-UID`, mode 0700; each socket 0600), one per device: the port's path with
@@ -10,10 +11,9 @@ use std::io::{BufRead as _, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::path::PathBuf;
 
-use serde_json::Value;
-
 use crate::device::DeviceArgs;
 use crate::failure::Failure;
+use crate::serve_protocol::{DeviceRequest, Reply, Request};
 
 /// The directory of the servers' sockets (created 0700 by [`socket_dir_create`]).
 pub fn socket_dir() -> PathBuf {
@@ -158,8 +158,9 @@ impl Client {
     }
 
     /// Sends one request line.
-    pub fn send(&mut self, v: &Value) -> Result<(), Failure> {
-        let mut line = v.to_string();
+    pub fn send(&mut self, request: &Request) -> Result<(), Failure> {
+        let mut line = serde_json::to_string(request)
+            .map_err(|e| Failure::Runtime(anyhow::anyhow!("encoding the request: {e}")))?;
         line.push('\n');
         self.writer
             .write_all(line.as_bytes())
@@ -167,7 +168,7 @@ impl Client {
     }
 
     /// The next line from the server; the server's going away is an error that says so.
-    pub fn recv(&mut self) -> Result<Value, Failure> {
+    pub fn recv(&mut self) -> Result<Reply, Failure> {
         self.writer
             .set_read_timeout(None)
             .map_err(anyhow::Error::from)?;
@@ -178,15 +179,19 @@ impl Client {
         }
     }
 
-    /// The next line if one comes within a short wait (100 ms), `None` otherwise.
-    pub fn recv_within(&mut self) -> Result<Option<Value>, Failure> {
+    /// The next line if one comes within a short wait (100 ms), `None` otherwise; an error
+    /// line is an error.
+    pub fn recv_within(&mut self) -> Result<Option<Reply>, Failure> {
         self.writer
             .set_read_timeout(Some(std::time::Duration::from_millis(100)))
             .map_err(anyhow::Error::from)?;
-        self.recv_timeout()
+        match self.recv_timeout()? {
+            Some(Reply::Error { error }) => Err(Failure::Runtime(anyhow::anyhow!("{error}"))),
+            other => Ok(other),
+        }
     }
 
-    fn recv_timeout(&mut self) -> Result<Option<Value>, Failure> {
+    fn recv_timeout(&mut self) -> Result<Option<Reply>, Failure> {
         match self.reader.read_until(b'\n', &mut self.partial) {
             Ok(0) => Err(Failure::Runtime(anyhow::anyhow!("{SERVER_GONE}"))),
             Ok(_) if self.partial.ends_with(b"\n") => {
@@ -214,11 +219,35 @@ impl Client {
     }
 
     /// The next line, or an error line's message as a runtime failure.
-    pub fn recv_ok(&mut self) -> Result<Value, Failure> {
-        let v = self.recv()?;
-        match v.get("error").and_then(Value::as_str) {
-            Some(e) => Err(Failure::Runtime(anyhow::anyhow!("{e}"))),
-            None => Ok(v),
+    pub fn recv_ok(&mut self) -> Result<Reply, Failure> {
+        match self.recv()? {
+            Reply::Error { error } => Err(Failure::Runtime(anyhow::anyhow!("{error}"))),
+            v => Ok(v),
+        }
+    }
+}
+
+/// A reply of another kind than the request asks for.
+fn unexpected(expected: &str, got: &Reply) -> Failure {
+    Failure::Runtime(anyhow::anyhow!(
+        "the server answered with {} where {expected} was expected",
+        got.kind()
+    ))
+}
+
+/// A run through a server ([`Request::Plan`], [`Request::Identify`]): its notes on stderr,
+/// then the outcome (`plan --json`'s document) and whether it reached its target.
+pub fn run(
+    path: &std::path::Path,
+    request: &Request,
+) -> Result<(crate::outcome::PlanOutcome, bool), Failure> {
+    let mut c = Client::connect(path)?;
+    c.send(request)?;
+    loop {
+        match c.recv_ok()? {
+            Reply::Note { note } => crate::say!("{}", note.trim_end()),
+            Reply::Outcome { outcome, ok } => return Ok((*outcome, ok)),
+            other => return Err(unexpected("a note or the outcome", &other)),
         }
     }
 }
@@ -229,42 +258,38 @@ pub fn snapshot(
     request: Option<protocol::RequestBody>,
 ) -> Result<crate::cmd::status::Snapshot, Failure> {
     let mut c = Client::connect(path)?;
-    c.send(&serde_json::json!({"op": "snapshot", "request": request}))?;
-    let v = c.recv_ok()?;
-    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("the server's answer: {e}"));
-    let status = serde_json::from_value(v["status"].clone()).map_err(bad)?;
-    let info = serde_json::from_value(v["info"].clone()).map_err(bad)?;
-    let truth = v["truth"].as_object().map(|t| crate::sim::SimTruth {
-        true_state: t
-            .get("true_state")
-            .and_then(Value::as_str)
-            .and_then(|s| s.parse().ok()),
-        max_pressure_kpa: t["max_pressure_kpa"].as_f64().unwrap_or(f64::NAN) as f32,
-        pressure_limit_kpa: t["pressure_limit_kpa"].as_f64().unwrap_or(f64::NAN) as f32,
-        actuators_safe: t["actuators_safe"].as_bool().unwrap_or(false),
-    });
-    Ok(crate::cmd::status::Snapshot {
-        status,
-        info,
-        truth,
-        abort_latency_ms: v["abort_latency_ms"].as_u64(),
-        server: Some(path.to_path_buf()),
-    })
+    c.send(&Request::Snapshot {
+        request: request.map(DeviceRequest),
+    })?;
+    match c.recv_ok()? {
+        Reply::Snapshot {
+            status,
+            info,
+            truth,
+            abort_latency_ms,
+        } => Ok(crate::cmd::status::Snapshot {
+            status,
+            info,
+            truth,
+            abort_latency_ms,
+            server: Some(path.to_path_buf()),
+        }),
+        other => Err(unexpected("a snapshot", &other)),
+    }
 }
 
-/// One request through a server, answered as the engine would (`param`).
+/// One request through a server, answered as the engine would (`param`, the primitives).
 pub fn call(
     path: &std::path::Path,
     body: protocol::RequestBody,
 ) -> Result<Result<protocol::ResponseBody, host::SessionError>, Failure> {
     let name = host::text::request_name(&body);
     let mut c = Client::connect(path)?;
-    c.send(&serde_json::json!({"op": "call", "request": body}))?;
-    let v = c.recv_ok()?;
-    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("the server's answer: {e}"));
-    let reply = host::Reply {
-        result: serde_json::from_value(v["result"].clone()).map_err(bad)?,
-        body: serde_json::from_value(v["body"].clone()).map_err(bad)?,
-    };
-    Ok(reply.accepted(name))
+    c.send(&Request::Call {
+        request: DeviceRequest(body),
+    })?;
+    match c.recv_ok()? {
+        Reply::Call { result, body } => Ok(host::Reply { result, body }.accepted(name)),
+        other => Err(unexpected("the device's answer", &other)),
+    }
 }

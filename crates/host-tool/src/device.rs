@@ -5,8 +5,6 @@
 //! usage error, so hardware is never actuated by accident and no throw-away simulator reports
 //! a success that nothing earned.
 
-use std::str::FromStr;
-
 use geometry::TrunkState;
 use host::{Driver, Host, SessionError, Timing};
 use protocol::DeviceInfo;
@@ -31,8 +29,8 @@ pub struct DeviceArgs {
     pub sim: bool,
     /// Simulator: the trunk's initial state, quoted: 'F&P', 'F&F', 'F&D', 'D&P', 'D&F' or
     /// 'D&D' [default: F&P].
-    #[arg(long, value_name = "STATE")]
-    pub sim_initial: Option<String>,
+    #[arg(long, value_name = "STATE", value_parser = crate::arg::trunk_state)]
+    pub sim_initial: Option<TrunkState>,
     /// Simulator: pace virtual time at X times wall time [range: 0.1–1000] [default: as fast
     /// as the CPU allows; `monitor`: 1].
     #[arg(long, value_name = "X", allow_hyphen_values = true,
@@ -40,8 +38,8 @@ pub struct DeviceArgs {
     pub sim_speed: Option<f64>,
     /// Simulator: inject a fault (repeatable): valve-stuck-closed, valve-stuck-open, leak,
     /// servo-stall, tendon-break, sensor-dropout, link-drop, line-noise.
-    #[arg(long = "sim-fault", value_name = "NAME")]
-    pub sim_faults: Vec<String>,
+    #[arg(long = "sim-fault", value_name = "NAME", value_parser = crate::arg::fault)]
+    pub sim_faults: Vec<hil_sim::Fault>,
     /// Simulator: random seed, any integer (negative ones count modulo 2^64; same seed, same
     /// run) [default: 1].
     #[arg(long, value_name = "N", allow_negative_numbers = true,
@@ -124,17 +122,6 @@ pub enum DeviceConfig {
     Sim(SimConfig),
 }
 
-/// Parses a trunk state argument; the error lists the six valid states, and when the value
-/// looks like a state cut at its `&` by the shell, says to quote it.
-pub fn parse_state(what: &str, value: &str) -> Result<TrunkState, Failure> {
-    TrunkState::from_str(value).map_err(|e| {
-        Failure::usage(format!(
-            "invalid {what} '{value}': {e}{}",
-            hil_sim::cli::ampersand_hint(value)
-        ))
-    })
-}
-
 impl DeviceArgs {
     /// Validates the selection. `default_speed`: the simulator's pacing when none is given
     /// (`None`: as fast as possible).
@@ -175,10 +162,7 @@ impl DeviceArgs {
             }
             return Ok(DeviceConfig::Port(path.clone()));
         }
-        let initial = match &self.sim_initial {
-            Some(s) => parse_state("--sim-initial", s)?,
-            None => TrunkState::AS_MANUFACTURED,
-        };
+        let initial = self.sim_initial.unwrap_or(TrunkState::AS_MANUFACTURED);
         let speed = self.sim_speed.or(default_speed);
         if let Some(speed) = speed {
             if !(speed.is_finite() && (0.1..=1000.0).contains(&speed)) {
@@ -187,10 +171,7 @@ impl DeviceArgs {
                 )));
             }
         }
-        let mut faults = Vec::new();
-        for name in &self.sim_faults {
-            faults.push(crate::sim::parse_fault(name).map_err(Failure::usage)?);
-        }
+        let faults = self.sim_faults.clone();
         let trunk = hil_sim::cli::sim_trunk(self.sim_trunk.as_deref(), self.sim_trunk_scale)
             .map_err(|e| Failure::usage(format!("invalid simulated trunk: {e}")))?;
         if !self.sim {
@@ -437,17 +418,29 @@ mod tests {
         assert!(msg.contains("--sim-speed"), "{msg}");
     }
 
+    #[derive(Debug, clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        device: DeviceArgs,
+    }
+
     #[test]
-    fn a_bad_initial_state_lists_the_six_states() {
-        let mut a = args();
-        a.sim = true;
-        a.sim_initial = Some("X&Y".into());
-        let Err(Failure::Usage(msg)) = a.validate(None) else {
-            panic!()
-        };
+    fn a_bad_initial_state_or_fault_is_clap_usage_error_naming_what_is_valid() {
+        use clap::Parser as _;
+        let e = Cli::try_parse_from(["t", "--sim", "--sim-initial", "X&Y"]).unwrap_err();
+        assert_eq!(e.kind(), clap::error::ErrorKind::ValueValidation);
+        assert_eq!(e.exit_code(), 2);
+        let msg = e.to_string();
+        assert!(msg.contains("'X&Y' for '--sim-initial <STATE>'"), "{msg}");
         for s in ["F&P", "F&F", "F&D", "D&P", "D&F", "D&D"] {
             assert!(msg.contains(s), "{msg}");
         }
+        let e = Cli::try_parse_from(["t", "--sim", "--sim-fault", "gremlins"]).unwrap_err();
+        assert!(e.to_string().contains("line-noise"), "{e}");
+        let ok = Cli::try_parse_from(["t", "--sim", "--sim-initial", "d-f", "--sim-fault", "leak"])
+            .expect("valid");
+        assert_eq!(ok.device.sim_initial.map(|s| s.name()), Some("D&F"));
+        assert_eq!(ok.device.sim_faults.len(), 1);
     }
 
     #[test]

@@ -65,6 +65,7 @@ macro_rules! out_raw {
     };
 }
 
+mod arg;
 mod cli;
 mod client;
 mod cmd;
@@ -76,9 +77,11 @@ mod keyboard;
 mod live;
 mod mission;
 mod num;
+mod outcome;
 mod progress;
 mod record;
 mod scene;
+mod serve_protocol;
 mod sim;
 mod trace;
 mod transport;

@@ -85,6 +85,28 @@ pub fn plural(n: usize, one: &str, many: &str) -> String {
     format!("{n} {}", if n == 1 { one } else { many })
 }
 
+/// Parses a count given as `flag`: digits only (no sign, no fraction), in `[min, max]`.
+pub fn count(flag: &str, text: &str, min: usize, max: usize) -> Result<usize, String> {
+    let t = text.trim();
+    let bad = || format!("{flag} must be an integer in [{min}, {max}], got '{text}'");
+    if t.is_empty() || !t.bytes().all(|b| b.is_ascii_digit()) {
+        return Err(bad());
+    }
+    match t.parse::<usize>() {
+        Ok(v) if (min..=max).contains(&v) => Ok(v),
+        _ => Err(bad()),
+    }
+}
+
+/// [`count`] as a clap value parser.
+pub fn count_in(
+    flag: &'static str,
+    min: usize,
+    max: usize,
+) -> impl Fn(&str) -> Result<usize, String> + Clone {
+    move |s: &str| count(flag, s, min, max)
+}
+
 /// A clap parser for an integer in `[lo, hi]` whose refusal says so (`1.5` is not "an
 /// invalid digit" but "not a whole number").
 pub fn int_in(lo: i64, hi: i64) -> impl Fn(&str) -> Result<u32, String> + Clone {
@@ -181,6 +203,30 @@ mod tests {
         assert_eq!(f("1000"), Ok(1000.0));
         assert!(f("1000.5").unwrap_err().contains("from 0.1 to 1000"));
         assert!(f("inf").unwrap_err().contains("finite"));
+    }
+
+    #[test]
+    fn counts_take_digits_only_and_both_ends_of_their_range() {
+        let p = count_in("--modules", 1, 10_000);
+        assert_eq!(p("1"), Ok(1));
+        assert_eq!(p(" 10000 "), Ok(10_000));
+        for bad in [
+            "0",
+            "10001",
+            "-1",
+            "+3",
+            "2.5",
+            "",
+            "x",
+            "99999999999999999999999",
+        ] {
+            let e = p(bad).expect_err(bad);
+            assert_eq!(
+                e,
+                format!("--modules must be an integer in [1, 10000], got '{bad}'")
+            );
+        }
+        assert_eq!(count("--certify", "0", 0, 20), Ok(0));
     }
 
     #[test]

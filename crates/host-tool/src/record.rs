@@ -4,7 +4,8 @@
 //! shell adds what only it sees (the plan, run events) through [`Recorder::recording`].
 //!
 //! Every message is JSON with a JSON schema (`crane.*`), or Foxglove's well-known `foxglove.Log`
-//! for the human-readable lines. Log time is the device's time (its uptime, ns): messages that
+//! for the human-readable lines; each channel's messages are one typed struct of [`messages`]
+//! and its schema is derived from it (`schemars`). Log time is the device's time (its uptime, ns): messages that
 //! carry the uptime are stamped with it, the others with the host's receive time plus the latest
 //! device − host offset, never going back. The host's time (the I/O's clock: ms since the port
 //! was opened, or the simulator's virtual clock) is the publish time and a `host_ms` field.
@@ -21,6 +22,11 @@ use std::path::{Path, PathBuf};
 use host::{text, RunEvent};
 use protocol::{DeviceMessage, Event, Request, ResponseBody, Telemetry};
 use serde_json::{json, Value};
+
+pub mod messages;
+
+use messages as msg;
+pub use messages::Message;
 
 /// Longest stretch of host time between closed chunks.
 pub const FLUSH_PERIOD_MS: u64 = 1000;
@@ -145,124 +151,25 @@ impl Topic {
         }
     }
 
-    /// The JSON schema of its messages.
+    /// The JSON schema of its messages: derived from the channel's message type
+    /// ([`messages`]); `{}` for the protobuf channels (their schema is the SDK's descriptor,
+    /// [`Topic::schema_record`]).
     pub fn schema(self) -> Value {
-        let num = json!({"type": "number"});
-        let int = json!({"type": "integer"});
-        let boolean = json!({"type": "boolean"});
-        let string = json!({"type": "string"});
-        let any = json!({});
-        let deg3 =
-            json!({"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3});
-        let states = json!({"type": "array", "items": {"type": "string"}});
-        let (title, props, required): (&str, Value, Vec<&str>) = match self {
-            Topic::Telemetry => (
-                "A telemetry sample (pressure kPa, servo commands deg, valves)",
-                json!({"device_ms": int, "host_ms": int, "pressure_kpa": num, "servo_deg": deg3,
-                       "inlet_open": boolean, "exhaust_open": boolean, "state": string,
-                       "state_confirmed": boolean}),
-                vec![
-                    "device_ms",
-                    "host_ms",
-                    "pressure_kpa",
-                    "servo_deg",
-                    "inlet_open",
-                    "exhaust_open",
-                    "state",
-                    "state_confirmed",
-                ],
-            ),
-            Topic::Events => (
-                "A device event (decoded)",
-                json!({"host_ms": int, "kind": string, "text": string, "event": any}),
-                vec!["host_ms", "kind", "event"],
-            ),
-            Topic::Faults => (
-                "A fault raised or cleared",
-                json!({"host_ms": int, "raised": boolean, "code": string, "text": string}),
-                vec!["host_ms", "raised", "code"],
-            ),
-            Topic::State => (
-                "The device's state and its confidence",
-                json!({"host_ms": int, "state": string, "state_confirmed": boolean,
-                       "candidates": states, "source": string}),
-                vec![
-                    "host_ms",
-                    "state",
-                    "state_confirmed",
-                    "candidates",
-                    "source",
-                ],
-            ),
-            Topic::Log => return foxglove_log_schema(),
-            // Protobuf: their schema is the SDK's descriptor ([`Topic::schema_record`]).
-            Topic::Scene | Topic::Transforms => return json!({}),
-            Topic::Requests => (
-                "A request sent to the device (decoded)",
-                json!({"host_ms": int, "seq": int, "session": int, "name": string, "body": any}),
-                vec!["host_ms", "seq", "session", "name", "body"],
-            ),
-            Topic::Responses => (
-                "A response from the device (decoded)",
-                json!({"host_ms": int, "seq": int, "result": any, "body": any}),
-                vec!["host_ms", "seq", "result", "body"],
-            ),
-            Topic::Frames => (
-                "A raw frame on the wire (COBS, delimiter included), hex",
-                json!({"host_ms": int, "dir": {"type": "string", "enum": ["tx", "rx"]},
-                       "len": int, "hex": string, "decoded": boolean}),
-                vec!["host_ms", "dir", "len", "hex", "decoded"],
-            ),
-            Topic::Plan => (
-                "The plan the host made (replan: after a surprise)",
-                json!({"host_ms": int, "from": string, "target": string, "replan": boolean,
-                       "expected_s": num, "steps": {"type": "array"}}),
-                vec!["host_ms", "from", "target", "replan", "steps"],
-            ),
-            Topic::Run => (
-                "An event of the host's plan runner",
-                json!({"host_ms": int, "kind": string, "text": string, "detail": any}),
-                vec!["host_ms", "kind", "text"],
-            ),
-            Topic::Truth => (
-                "The simulator's ground truth",
-                json!({"host_ms": int, "time_ms": int, "true_state": {"type": ["string", "null"]},
-                       "pressure_kpa": num, "module_heights_mm": {"type": "array"},
-                       "bend_deg": num, "tendon_tension_n": deg3, "servo_deg": deg3,
-                       "inlet_open": boolean, "exhaust_open": boolean,
-                       "believed_state": string, "snaps": int, "actuators_safe": boolean,
-                       "tip_mm": {"type": "array"}, "tip_axis": {"type": "array"},
-                       "objects": {"type": ["array", "null"]}}),
-                vec!["host_ms", "time_ms", "pressure_kpa"],
-            ),
-        };
-        json!({
-            "$schema": "https://json-schema.org/draft/2020-12/schema",
-            "title": title,
-            "type": "object",
-            "properties": props,
-            "required": required,
-        })
+        match self {
+            Topic::Telemetry => msg::schema::<msg::Telemetry>(),
+            Topic::Events => msg::schema::<msg::Event>(),
+            Topic::Faults => msg::schema::<msg::Fault>(),
+            Topic::State => msg::schema::<msg::State>(),
+            Topic::Log => msg::schema::<msg::Log>(),
+            Topic::Requests => msg::schema::<msg::Request>(),
+            Topic::Responses => msg::schema::<msg::Response>(),
+            Topic::Frames => msg::schema::<msg::RawFrame>(),
+            Topic::Plan => msg::schema::<msg::Plan>(),
+            Topic::Run => msg::schema::<msg::Run>(),
+            Topic::Truth => msg::schema::<msg::Truth>(),
+            Topic::Scene | Topic::Transforms => json!({}),
+        }
     }
-}
-
-/// Foxglove's `foxglove.Log` as a JSON schema (levels 1 DEBUG … 5 FATAL).
-fn foxglove_log_schema() -> Value {
-    json!({
-        "title": "foxglove.Log",
-        "description": "A log message",
-        "type": "object",
-        "properties": {
-            "timestamp": {"type": "object", "properties": {
-                "sec": {"type": "integer", "minimum": 0},
-                "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}},
-            "level": {"type": "integer", "enum": [0, 1, 2, 3, 4, 5]},
-            "message": {"type": "string"},
-            "name": {"type": "string"},
-            "file": {"type": "string"},
-            "line": {"type": "integer", "minimum": 0},
-        },
-    })
 }
 
 /// `foxglove.Log` levels.
@@ -370,14 +277,16 @@ impl Recording {
         self.writer.is_some() || self.live.as_ref().is_some_and(|l| l.wanted(topic))
     }
 
-    /// Writes one message. `device_ms`: the device's time if the message carries it.
-    pub fn write(&mut self, topic: Topic, host_ms: u64, device_ms: Option<u64>, msg: &Value) {
-        let data = if self.wanted(topic) {
-            serde_json::to_vec(msg).expect("a JSON value serialises")
+    /// Writes one message on its channel. `device_ms`: the device's time if the message
+    /// carries it.
+    pub fn write<M: Message>(&mut self, host_ms: u64, device_ms: Option<u64>, msg: &M) {
+        let data = if self.wanted(M::TOPIC) {
+            // Only a map with non-string keys fails; no message holds one.
+            serde_json::to_vec(msg).unwrap_or_default()
         } else {
             Vec::new()
         };
-        self.write_bytes(topic, host_ms, device_ms, &data);
+        self.write_bytes(M::TOPIC, host_ms, device_ms, &data);
     }
 
     /// Writes one encoded message (the log time as [`Recording::write`]); the file's copy and
@@ -427,15 +336,18 @@ impl Recording {
     /// A `foxglove.Log` line.
     pub fn log(&mut self, host_ms: u64, level: Level, name: &str, message: &str) {
         let ns = self.estimated_device_ns(host_ms);
-        let v = json!({
-            "timestamp": {"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000},
-            "level": level as u8,
-            "message": message,
-            "name": name,
-            "file": "",
-            "line": 0,
-        });
-        self.write(Topic::Log, host_ms, None, &v);
+        let v = msg::Log {
+            timestamp: msg::Timestamp {
+                sec: ns / 1_000_000_000,
+                nsec: (ns % 1_000_000_000) as u32,
+            },
+            level: level as u8,
+            message: message.to_string(),
+            name: name.to_string(),
+            file: "",
+            line: 0,
+        };
+        self.write(host_ms, None, &v);
     }
 
     fn estimated_device_ns(&self, host_ms: u64) -> u64 {
@@ -447,16 +359,16 @@ impl Recording {
     pub fn tx_frame(&mut self, host_ms: u64, frame: &[u8]) {
         let mut copy = frame.to_vec();
         let decoded = protocol::decode::<Request>(&mut copy);
-        self.raw(host_ms, "tx", frame, decoded.is_ok(), None);
+        self.raw(host_ms, msg::Dir::Tx, frame, decoded.is_ok(), None);
         if let Ok(req) = decoded {
-            let v = json!({
-                "host_ms": host_ms,
-                "seq": req.seq,
-                "session": req.session,
-                "name": text::request_name(&req.body),
-                "body": serde_json::to_value(&req.body).unwrap_or(Value::Null),
-            });
-            self.write(Topic::Requests, host_ms, None, &v);
+            let v = msg::Request {
+                host_ms,
+                seq: req.seq,
+                session: req.session,
+                name: text::request_name(&req.body),
+                body: serde_json::to_value(&req.body).unwrap_or(Value::Null),
+            };
+            self.write(host_ms, None, &v);
         }
     }
 
@@ -476,28 +388,28 @@ impl Recording {
             }
             _ => None,
         };
-        self.raw(host_ms, "rx", frame, decoded.is_ok(), device_ms);
+        self.raw(host_ms, msg::Dir::Rx, frame, decoded.is_ok(), device_ms);
         match decoded {
             Ok(DeviceMessage::Response { seq, result, body }) => {
                 if let ResponseBody::Hello(info) = &body {
                     self.set_trunk(&info.trunk);
                 }
-                let v = json!({
-                    "host_ms": host_ms,
-                    "seq": seq,
-                    "result": serde_json::to_value(result).unwrap_or(Value::Null),
-                    "body": serde_json::to_value(&body).unwrap_or(Value::Null),
-                });
-                self.write(Topic::Responses, host_ms, device_ms, &v);
+                let v = msg::Response {
+                    host_ms,
+                    seq,
+                    result: serde_json::to_value(result).unwrap_or(Value::Null),
+                    body: serde_json::to_value(&body).unwrap_or(Value::Null),
+                };
+                self.write(host_ms, device_ms, &v);
                 if let ResponseBody::Status(s) = body {
-                    let v = json!({
-                        "host_ms": host_ms,
-                        "state": s.state.name(),
-                        "state_confirmed": s.state_confirmed,
-                        "candidates": s.candidates.iter().map(|c| c.name()).collect::<Vec<_>>(),
-                        "source": "status",
-                    });
-                    self.write(Topic::State, host_ms, device_ms, &v);
+                    let v = msg::State {
+                        host_ms,
+                        state: s.state.name(),
+                        state_confirmed: s.state_confirmed,
+                        candidates: s.candidates.iter().map(|c| c.name()).collect(),
+                        source: "status",
+                    };
+                    self.write(host_ms, device_ms, &v);
                 }
             }
             Ok(DeviceMessage::Event(ev)) => self.event(host_ms, &ev),
@@ -508,7 +420,7 @@ impl Recording {
     fn raw(
         &mut self,
         host_ms: u64,
-        dir: &str,
+        dir: msg::Dir,
         frame: &[u8],
         decoded: bool,
         device_ms: Option<u64>,
@@ -518,9 +430,14 @@ impl Recording {
             use std::fmt::Write as _;
             let _ = write!(hex, "{b:02x}");
         }
-        let v = json!({"host_ms": host_ms, "dir": dir, "len": frame.len(), "hex": hex,
-                       "decoded": decoded});
-        self.write(Topic::Frames, host_ms, device_ms, &v);
+        let v = msg::RawFrame {
+            host_ms,
+            dir,
+            len: frame.len(),
+            hex,
+            decoded,
+        };
+        self.write(host_ms, device_ms, &v);
     }
 
     /// The trunk the device reported: the scene is built for it.
@@ -584,10 +501,9 @@ impl Recording {
     fn event(&mut self, host_ms: u64, ev: &Event) {
         if let Event::Telemetry(t) = ev {
             self.write(
-                Topic::Telemetry,
                 host_ms,
                 Some(u64::from(t.uptime_ms)),
-                &telemetry_json(t, host_ms),
+                &telemetry(t, host_ms),
             );
             self.draw(host_ms, t);
             return;
@@ -597,34 +513,48 @@ impl Recording {
             _ => None,
         };
         let (kind, line) = text::event(ev);
-        let v = json!({
-            "host_ms": host_ms,
-            "kind": kind,
-            "text": line,
-            "event": serde_json::to_value(ev).unwrap_or(Value::Null),
-        });
-        self.write(Topic::Events, host_ms, device_ms, &v);
+        let v = msg::Event {
+            host_ms,
+            kind,
+            text: line.clone(),
+            event: serde_json::to_value(ev).unwrap_or(Value::Null),
+        };
+        self.write(host_ms, device_ms, &v);
         match ev {
             Event::FaultRaised(f) | Event::FaultCleared(f) => {
                 let raised = matches!(ev, Event::FaultRaised(_));
-                let v = json!({"host_ms": host_ms, "raised": raised,
-                               "code": text::fault_code(*f), "text": text::fault(*f)});
-                self.write(Topic::Faults, host_ms, None, &v);
+                let v = msg::Fault {
+                    host_ms,
+                    raised,
+                    code: text::fault_code(*f),
+                    text: text::fault(*f),
+                };
+                self.write(host_ms, None, &v);
             }
             Event::StateReached { state, confirmed } => {
-                let v = json!({"host_ms": host_ms, "state": state.name(),
-                               "state_confirmed": confirmed,
-                               "candidates": if *confirmed { vec![state.name()] } else { vec![] },
-                               "source": "state-reached"});
-                self.write(Topic::State, host_ms, None, &v);
+                let v = msg::State {
+                    host_ms,
+                    state: state.name(),
+                    state_confirmed: *confirmed,
+                    candidates: if *confirmed {
+                        vec![state.name()]
+                    } else {
+                        vec![]
+                    },
+                    source: "state-reached",
+                };
+                self.write(host_ms, None, &v);
             }
             Event::IdentifyNeedsOperator { candidates } => {
                 let names: Vec<&str> = candidates.iter().map(|c| c.name()).collect();
-                let v = json!({"host_ms": host_ms,
-                               "state": names.first().copied().unwrap_or(""),
-                               "state_confirmed": false, "candidates": names,
-                               "source": "identify-needs-operator"});
-                self.write(Topic::State, host_ms, None, &v);
+                let v = msg::State {
+                    host_ms,
+                    state: names.first().copied().unwrap_or(""),
+                    state_confirmed: false,
+                    candidates: names,
+                    source: "identify-needs-operator",
+                };
+                self.write(host_ms, None, &v);
             }
             _ => {}
         }
@@ -644,24 +574,27 @@ impl Recording {
     pub fn run_event(&mut self, host_ms: u64, ev: &RunEvent) {
         let (kind, line, detail) = match ev {
             RunEvent::Plan { plan, replan } => {
-                let steps: Vec<Value> = plan
+                let steps = plan
                     .steps()
                     .iter()
-                    .map(|s| {
-                        json!({
-                            "kind": planner::graph::kind_name(s.edge.kind()),
-                            "from": s.edge.from().name(),
-                            "to": s.edge.to().name(),
-                            "expected_s": s.edge.cost_s,
-                            "timeout_ms": s.edge.transition.timeout_ms,
-                            "why": s.why,
-                        })
+                    .map(|s| msg::PlanStep {
+                        kind: planner::graph::kind_name(s.edge.kind()),
+                        from: s.edge.from().name(),
+                        to: s.edge.to().name(),
+                        expected_s: s.edge.cost_s,
+                        timeout_ms: s.edge.transition.timeout_ms,
+                        why: s.why.clone(),
                     })
                     .collect();
-                let v = json!({"host_ms": host_ms, "from": plan.from().name(),
-                               "target": plan.target().name(), "replan": replan,
-                               "expected_s": plan.cost_s(), "steps": steps});
-                self.write(Topic::Plan, host_ms, None, &v);
+                let v = msg::Plan {
+                    host_ms,
+                    from: plan.from().name(),
+                    target: plan.target().name(),
+                    replan: *replan,
+                    expected_s: plan.cost_s(),
+                    steps,
+                };
+                self.write(host_ms, None, &v);
                 let text = format!(
                     "{}plan {} → {}: {} steps",
                     if *replan { "re" } else { "" },
@@ -692,10 +625,14 @@ impl Recording {
                 candidates,
             } => {
                 let names: Vec<&str> = candidates.iter().map(|c| c.name()).collect();
-                let v = json!({"host_ms": host_ms, "state": believed.name(),
-                               "state_confirmed": false, "candidates": names,
-                               "source": "identify-prompt"});
-                self.write(Topic::State, host_ms, None, &v);
+                let v = msg::State {
+                    host_ms,
+                    state: believed.name(),
+                    state_confirmed: false,
+                    candidates: names.clone(),
+                    source: "identify-prompt",
+                };
+                self.write(host_ms, None, &v);
                 (
                     "identify-prompt",
                     format!("state unconfirmed; candidates {}", names.join(", ")),
@@ -718,8 +655,13 @@ impl Recording {
             RunEvent::Note(m) => ("note", m.clone(), Value::Null),
             RunEvent::Finished => ("finished", "run finished".to_string(), Value::Null),
         };
-        let v = json!({"host_ms": host_ms, "kind": kind, "text": line, "detail": detail});
-        self.write(Topic::Run, host_ms, None, &v);
+        let v = msg::Run {
+            host_ms,
+            kind,
+            text: line.clone(),
+            detail,
+        };
+        self.write(host_ms, None, &v);
         self.log(host_ms, Level::Info, "run", &line);
     }
 
@@ -735,8 +677,13 @@ impl Recording {
                     .unwrap_or("the target was not reached")
             )
         };
-        let v = json!({"host_ms": host_ms, "kind": "outcome", "text": line, "detail": outcome});
-        self.write(Topic::Run, host_ms, None, &v);
+        let v = msg::Run {
+            host_ms,
+            kind: "outcome",
+            text: line.clone(),
+            detail: outcome,
+        };
+        self.write(host_ms, None, &v);
         let level = if ok { Level::Info } else { Level::Error };
         self.log(host_ms, level, "run", &line);
     }
@@ -761,55 +708,58 @@ impl Drop for Recording {
 }
 
 /// A telemetry sample as recorded (and as `monitor --json` prints its fields).
-pub fn telemetry_json(t: &Telemetry, host_ms: u64) -> Value {
-    json!({
-        "device_ms": t.uptime_ms,
-        "host_ms": host_ms,
-        "pressure_kpa": t.pressure_kpa,
-        "servo_deg": t.servo_deg,
-        "inlet_open": t.inlet_open,
-        "exhaust_open": t.exhaust_open,
-        "state": t.state.name(),
-        "state_confirmed": t.state_confirmed,
-    })
+pub fn telemetry(t: &Telemetry, host_ms: u64) -> msg::Telemetry {
+    msg::Telemetry {
+        device_ms: t.uptime_ms,
+        host_ms,
+        pressure_kpa: t.pressure_kpa,
+        servo_deg: t.servo_deg,
+        inlet_open: t.inlet_open,
+        exhaust_open: t.exhaust_open,
+        state: t.state.name(),
+        state_confirmed: t.state_confirmed,
+    }
 }
 
 /// What an I/O can say about the world beyond the wire (the simulator's ground truth).
 pub trait Truth {
-    /// The ground truth now, as recorded on `/sim/truth` (`None`: a real device).
-    fn truth_json(&self) -> Option<Value> {
+    /// The ground truth now, as recorded on `/sim/truth` (`None`: a real device); its
+    /// `host_ms` is set when it is recorded.
+    fn truth(&self) -> Option<msg::Truth> {
         None
     }
 }
 
 impl Truth for crate::transport::AnyIo {
-    fn truth_json(&self) -> Option<Value> {
+    fn truth(&self) -> Option<msg::Truth> {
         match self {
             crate::transport::AnyIo::Sim(io) => {
                 let t = io.sim.ground_truth();
                 let tip = io.sim.true_tip();
                 let world = io.sim.world();
-                Some(json!({
-                    "tip_mm": tip.position_mm.map(|v| (v * 10.0).round() / 10.0),
-                    "tip_axis": tip.axis.map(|v| (v * 1e4).round() / 1e4),
-                    "objects": (!world.objects().is_empty()).then(|| world.to_json()["objects"].clone()),
-                    "time_ms": t.time_ms,
-                    "true_state": t.true_state.map(|s| s.name()),
-                    "pressure_kpa": t.pressure_kpa,
-                    "max_pressure_kpa": t.max_pressure_kpa,
-                    "module_heights_mm": t.module_heights_mm,
-                    "bend_deg": t.bend_deg,
-                    "tendon_tension_n": t.tendon_tension_n,
-                    "servo_deg": t.servo_deg,
-                    "servos_energised": t.servos_energised,
-                    "inlet_open": t.inlet_open,
-                    "exhaust_open": t.exhaust_open,
-                    "gripper_closed": t.gripper_closed,
-                    "believed_state": t.believed_state.name(),
-                    "mode": text::mode(t.mode),
-                    "snaps": t.snaps,
-                    "actuators_safe": t.actuators_safe,
-                }))
+                Some(msg::Truth {
+                    host_ms: 0,
+                    tip_mm: tip.position_mm.map(|v| (v * 10.0).round() / 10.0),
+                    tip_axis: tip.axis.map(|v| (v * 1e4).round() / 1e4),
+                    objects: (!world.objects().is_empty())
+                        .then(|| world.to_json()["objects"].clone()),
+                    time_ms: t.time_ms,
+                    true_state: t.true_state.map(|s| s.name()),
+                    pressure_kpa: t.pressure_kpa,
+                    max_pressure_kpa: t.max_pressure_kpa,
+                    module_heights_mm: t.module_heights_mm,
+                    bend_deg: t.bend_deg,
+                    tendon_tension_n: t.tendon_tension_n,
+                    servo_deg: t.servo_deg,
+                    servos_energised: t.servos_energised,
+                    inlet_open: t.inlet_open,
+                    exhaust_open: t.exhaust_open,
+                    gripper_closed: t.gripper_closed,
+                    believed_state: t.believed_state.name(),
+                    mode: text::mode(t.mode),
+                    snaps: t.snaps,
+                    actuators_safe: t.actuators_safe,
+                })
             }
             crate::transport::AnyIo::Serial(_) => None,
         }
@@ -897,13 +847,14 @@ impl<I: host::Io + Truth> host::Io for Recorder<I> {
             }
         }
         if now >= self.next_truth_ms {
-            if let Some(mut t) = self.inner.truth_json() {
-                t["host_ms"] = json!(now);
-                rec.write(Topic::Truth, now, None, &t);
+            if let Some(mut t) = self.inner.truth() {
+                t.host_ms = now;
+                rec.write(now, None, &t);
                 // The simulator's world in the 3D scene, when it holds objects.
-                if t["objects"].is_array() && rec.wanted(Topic::Scene) {
-                    let ns = t["time_ms"].as_u64().unwrap_or(now) * 1_000_000;
-                    if let Some(update) = crate::scene::world_update(&t, ns) {
+                if t.objects.is_some() && rec.wanted(Topic::Scene) {
+                    let ns = t.time_ms * 1_000_000;
+                    let sample = serde_json::to_value(&t).unwrap_or(Value::Null);
+                    if let Some(update) = crate::scene::world_update(&sample, ns) {
                         use foxglove::Encode as _;
                         let mut buf = Vec::new();
                         let _ = update.encode(&mut buf);

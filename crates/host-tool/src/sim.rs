@@ -2,17 +2,10 @@
 //! physics on the simulator's one virtual clock (`hil_sim::pair`). Same seed, same run; as
 //! fast as the CPU allows unless `--sim-speed` asks for wall pacing.
 
-use std::str::FromStr;
-
 use geometry::TrunkState;
 use hil_sim::pair::SimIo;
 use hil_sim::{Fault, GroundTruth, Sim, SimOptions};
-use serde_json::{json, Value};
-
-/// Checks a fault name; the error lists the valid ones.
-pub fn parse_fault(name: &str) -> Result<Fault, String> {
-    Fault::from_str(name).map_err(|e| format!("invalid --sim-fault: {e}"))
-}
+use serde_json::Value;
 
 /// How to run the simulator.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,14 +22,18 @@ pub struct SimConfig {
     pub trunk: Box<hil_sim::physics::TrunkSpec>,
 }
 
-/// What the simulator knows that the device can only estimate.
-#[derive(Debug, Clone, PartialEq)]
+/// What the simulator knows that the device can only estimate. Its serde form is the `sim`
+/// object of `plan --json` and `status --json` (a state by its name).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SimTruth {
     /// The trunk's physical state (None between states).
+    #[serde(with = "crate::serve_protocol::state_name::option")]
     pub true_state: Option<TrunkState>,
     /// Highest pressure during the run.
+    #[serde(with = "crate::serve_protocol::f32_or_nan")]
     pub max_pressure_kpa: f32,
     /// The pressure cap.
+    #[serde(with = "crate::serve_protocol::f32_or_nan")]
     pub pressure_limit_kpa: f32,
     /// Valves closed and servos not driving.
     pub actuators_safe: bool,
@@ -56,12 +53,7 @@ impl From<GroundTruth> for SimTruth {
 impl SimTruth {
     /// The `sim` object of `plan --json` and `status --json`.
     pub fn to_json(&self) -> Value {
-        json!({
-            "true_state": self.true_state.map(|s| s.name()),
-            "max_pressure_kpa": self.max_pressure_kpa,
-            "pressure_limit_kpa": self.pressure_limit_kpa,
-            "actuators_safe": self.actuators_safe,
-        })
+        serde_json::to_value(self).unwrap_or(Value::Null)
     }
 }
 

@@ -69,6 +69,16 @@ fn every_failing_command_prints_one_json_error_object_with_the_exit_codes_meanin
         (&["identify", "--port", "/nonexistent/tty", "-j"], 1),
         // A clap error (an unknown flag) too.
         (&["status", "--sim", "--bogus", "-j"], 2),
+        // Values clap's value parsers refuse.
+        (
+            &[
+                "fk", "--n", "65", "--beta", "35", "--states", "deployed", "-j",
+            ],
+            2,
+        ),
+        (&["reach", "--point", "1,2", "--sim", "-j"], 2),
+        (&["workspace", "--samples", "1", "-j"], 2),
+        (&["aim", "--toward", "360,0", "-j"], 2),
     ];
     for (args, code) in cases {
         let out = host_tool(args);
@@ -456,7 +466,7 @@ fn quiet_says_nothing_but_errors_and_verbose_shows_frames_decoded_retries_and_ti
     assert_eq!(out.status.code(), Some(0));
     assert_eq!(text(&out.stderr), "");
     let out = host_tool(&["plan", "--target", "X", "--sim", "-q"]);
-    assert!(text(&out.stderr).contains("error: invalid target"));
+    assert!(text(&out.stderr).contains("error: invalid value 'X' for '--target <STATE>'"));
     let out = host_tool(&["status", "--sim", "-v"]);
     assert_eq!(out.status.code(), Some(0));
     let err = text(&out.stderr);

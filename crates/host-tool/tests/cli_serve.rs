@@ -583,3 +583,61 @@ fn a_refusal_under_a_low_pressure_limit_names_the_plans_most() {
     server.wait().unwrap();
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A client that writes lines that are not requests (bad JSON, an unknown `op`, a missing or
+/// malformed field, a state that does not exist) gets one error line each, saying why, and the
+/// server goes on serving: the same connection's next request, and another client's, are
+/// answered.
+#[test]
+fn a_malformed_or_unknown_request_gets_an_error_reply_and_the_server_serves_on() {
+    use std::io::Write;
+    let dir = cli::temp("serve-bad-request");
+    let mut server = serve(&dir, &["--no-record"]);
+    let sock = dir.join("host-tool").join("sim.sock");
+    let mut s = std::os::unix::net::UnixStream::connect(&sock).unwrap();
+    let mut r = BufReader::new(s.try_clone().unwrap());
+    let mut ask = |line: &str| -> serde_json::Value {
+        s.write_all(line.as_bytes()).unwrap();
+        s.write_all(b"\n").unwrap();
+        let mut reply = String::new();
+        assert!(r.read_line(&mut reply).unwrap() > 0, "no reply to {line}");
+        serde_json::from_str(&reply).unwrap()
+    };
+    for (line, why) in [
+        ("this is not json", "bad request line: expected"),
+        (r#"{"op":"dance"}"#, "unknown variant `dance`"),
+        (r#"{"request":null}"#, "missing field `op`"),
+        (r#"{"op":"plan"}"#, "missing field `target`"),
+        (
+            r#"{"op":"plan","target":"X&Y"}"#,
+            "invalid trunk state 'X&Y'",
+        ),
+        (
+            r#"{"op":"call","request":{"Fly":1}}"#,
+            "unknown variant `Fly`",
+        ),
+        (
+            r#"{"op":"call","request":{"RunStep":{"kind":"Tendon"}}}"#,
+            "bad request line",
+        ),
+    ] {
+        let v = ask(line);
+        let e = v["error"].as_str().unwrap_or_else(|| panic!("{line}: {v}"));
+        assert!(e.contains(why), "{line}: {e}");
+        assert_eq!(v.as_object().map(|o| o.len()), Some(1), "{v}");
+    }
+    // The same connection, then another process, still get answers.
+    let v = ask(r#"{"op":"snapshot","request":null}"#);
+    assert_eq!(v["status"]["state"]["top"], "Folded", "{v}");
+    assert_eq!(v["truth"]["true_state"], "F&P", "{v}");
+    let out = cmd(&dir, &["status", "--json"]).output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    server.kill().unwrap();
+    server.wait().unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+}

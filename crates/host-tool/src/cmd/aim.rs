@@ -15,7 +15,7 @@
 
 use chrono::{DateTime, Utc};
 use geometry::orient::{self, Heading};
-use geometry::TrunkState;
+use geometry::{BottomState, TopState, TrunkState};
 use nalgebra::Vector3;
 use planner::sun;
 use planner::task::Workspace;
@@ -39,8 +39,9 @@ pub const SIM_AXIS_TOLERANCE_DEG: f64 = 2.5;
 pub struct Args {
     /// Aim at compass azimuth AZ (degrees clockwise from north) and elevation EL (degrees
     /// above the horizon), e.g. --toward 135,40.
-    #[arg(long, allow_hyphen_values = true, conflicts_with = "sun")]
-    pub toward: Option<String>,
+    #[arg(long, value_name = "AZ,EL", allow_hyphen_values = true, conflicts_with = "sun",
+          value_parser = crate::arg::usage(parse_toward))]
+    pub toward: Option<(f64, f64)>,
     /// Aim at the sun (needs --lat, --lon; --time, default now).
     #[arg(long)]
     pub sun: bool,
@@ -51,12 +52,13 @@ pub struct Args {
     #[arg(long, allow_hyphen_values = true)]
     pub lon: Option<f64>,
     /// The instant, RFC 3339 with its offset (with --sun; default now).
-    #[arg(long)]
-    pub time: Option<String>,
+    #[arg(long, value_parser = crate::arg::usage(super::sun::parse_time))]
+    pub time: Option<DateTime<chrono::FixedOffset>>,
     /// Compute for this trunk state without a crane, e.g. 'F&D' [default without --sim or
     /// --port: F&D, the paper's solar demonstration]; with a crane its own state is used.
-    #[arg(long, conflicts_with_all = ["sim", "port", "change_state"])]
-    pub state: Option<String>,
+    #[arg(long, value_name = "STATE", conflicts_with_all = ["sim", "port", "change_state"],
+          value_parser = crate::arg::trunk_state)]
+    pub state: Option<TrunkState>,
     /// Compass heading of the crane base's x axis (tendon 0's side), degrees from north.
     #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
     pub heading: f64,
@@ -236,12 +238,11 @@ pub fn sun_at(
     })
 }
 
-/// An instant of `--time` (RFC 3339 with its offset), or now.
-pub fn instant(time: Option<&str>) -> Result<DateTime<chrono::FixedOffset>, Failure> {
-    match time {
-        Some(t) => sun::parse_instant(t).map_err(|e| Failure::usage(format!("--time: {e}"))),
-        None => Ok(chrono::DateTime::<Utc>::from(std::time::SystemTime::now()).fixed_offset()),
-    }
+/// The instant `--time` gave (parsed by clap: RFC 3339 with its offset), or now.
+pub fn instant(time: Option<DateTime<chrono::FixedOffset>>) -> DateTime<chrono::FixedOffset> {
+    time.unwrap_or_else(|| {
+        chrono::DateTime::<Utc>::from(std::time::SystemTime::now()).fixed_offset()
+    })
 }
 
 fn num(x: f64) -> Value {
@@ -348,14 +349,14 @@ pub fn truth_json(heading: Heading, truth: Option<(Vector3<f64>, f64, f64)>) -> 
 pub fn run(args: Args) -> Result<(), Failure> {
     let heading =
         Heading::from_deg(args.heading).map_err(|e| Failure::usage(format!("--heading: {e}")))?;
-    let (az, el) = match (&args.toward, args.sun) {
-        (Some(t), false) => parse_toward(t)?,
+    let (az, el) = match (args.toward, args.sun) {
+        (Some(t), false) => t,
         (None, true) => {
             let (Some(lat), Some(lon)) = (args.lat, args.lon) else {
                 return Err(Failure::usage("--sun needs --lat DEG and --lon DEG"));
             };
             let (site, air) = site_of(lat, lon)?;
-            let t = instant(args.time.as_deref())?.with_timezone(&Utc);
+            let t = instant(args.time).with_timezone(&Utc);
             sun_at(&site, &air, &t)?.map_err(|el| {
                 Failure::Runtime(anyhow::anyhow!(
                     "the sun is below the horizon at {} (elevation {el:.2}°): nothing to aim at",
@@ -396,15 +397,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
     } else {
         None
     };
-    let state = match (&mut link, &args.state) {
+    let state = match (&mut link, args.state) {
         (Some(l), _) => l.status()?.state,
-        (None, Some(s)) => s.parse().map_err(|_| {
-            Failure::usage(format!(
-                "--state '{s}' is not a trunk state; expected one of F&P, F&F, F&D, D&P, D&F, D&D{}",
-                hil_sim::cli::ampersand_hint(s)
-            ))
-        })?,
-        (None, None) => "F&D".parse().map_err(|_| anyhow::anyhow!("F&D"))?,
+        (None, Some(s)) => s,
+        (None, None) => TrunkState::new(TopState::Folded, BottomState::Deployed),
     };
     let here = aim_in(&ws, state, &target);
     let better = better_state(&ws, state, &target);

@@ -5,7 +5,7 @@ use protocol::RequestBody;
 use serde_json::json;
 
 use crate::cmd::status::{snapshot, status_json, Snapshot};
-use crate::device::{parse_state, DeviceArgs};
+use crate::device::DeviceArgs;
 use crate::failure::Failure;
 use host::text;
 
@@ -13,8 +13,8 @@ use host::text;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The trunk's true state: F&P, F&F, F&D, D&P, D&F or D&D.
-    #[arg(value_name = "STATE")]
-    pub state: String,
+    #[arg(value_name = "STATE", value_parser = crate::arg::trunk_state)]
+    pub state: geometry::TrunkState,
     #[command(flatten)]
     pub device: DeviceArgs,
     /// Print one JSON object on stdout.
@@ -24,8 +24,8 @@ pub struct Args {
 
 /// Runs `host-tool declare`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    // Validated before any connection: a typo never reaches the device.
-    let declared = parse_state("state", &args.state)?;
+    // Parsed by clap, before any connection: a typo never reaches the device.
+    let declared = args.state;
     let Snapshot {
         status,
         info,

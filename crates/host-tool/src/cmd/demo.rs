@@ -17,14 +17,17 @@ use protocol::{Primitive, Status};
 #[derive(Debug, clap::Args)]
 pub struct PickArgs {
     /// Where the object's grasp point is: X,Y,Z mm.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    pub at: String,
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(|s: &str| parse_point("--at", s)))]
+    pub at: [f64; 3],
     /// Where to let it go: X,Y,Z mm (it falls to the table below).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    pub place: String,
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(|s: &str| parse_point("--place", s)))]
+    pub place: [f64; 3],
     /// How near the geometry's tip must come to each point, mm.
-    #[arg(long, value_name = "MM", default_value = "5")]
-    pub tolerance: String,
+    #[arg(long, value_name = "MM", default_value = "5", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_tolerance))]
+    pub tolerance: f64,
     #[command(flatten)]
     pub device: DeviceArgs,
     #[command(flatten)]
@@ -205,9 +208,9 @@ pub fn ask_person(what: &str) -> Result<(), Failure> {
 
 /// Runs `host-tool pick`.
 pub fn run_pick(args: PickArgs) -> Result<(), Failure> {
-    let at = parse_point("--at", &args.at)?;
-    let place = parse_point("--place", &args.place)?;
-    let tolerance = parse_tolerance(&args.tolerance)?;
+    let at = args.at;
+    let place = args.place;
+    let tolerance = args.tolerance;
     let world = args.world.parse()?;
     let cfg = crane_config(&args.device);
     if args.device.sim {
@@ -441,8 +444,10 @@ fn manipulation(args: &DemoArgs) -> Result<(), Failure> {
     if args.device.sim {
         world.objects = set
             .iter()
-            .map(|(n, at, _)| format!("{n}:{},{},{},0.05", at[0], at[1], at[2]))
-            .collect();
+            .map(|(n, at, _)| {
+                crate::cmd::task::parse_object(&format!("{n}:{},{},{},0.05", at[0], at[1], at[2]))
+            })
+            .collect::<Result<_, _>>()?;
     }
     let world = world.parse()?;
     let mut link = Link::open_recorded(

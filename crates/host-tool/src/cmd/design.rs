@@ -11,7 +11,7 @@ use planner::ik::bands::{self, Band, Family};
 use planner::ik::{self, Algorithm, Catalogue, Control, Metric, Problem, Target};
 use serde_json::Value;
 
-use super::ik::{parse_count, parse_metric, parse_time_limit, read_target, MAX_MODULES};
+use super::ik::{parse_metric, parse_time_limit, read_target, MAX_MODULES};
 use super::states::{ordered_object, parse_edge_mm};
 use crate::failure::Failure;
 use crate::figure::{
@@ -24,8 +24,8 @@ use crate::figure::{
 pub struct Args {
     /// Number of polygon sides: one (`4`), a list (`3,4,6`) or an inclusive range (`3..8`),
     /// each in [3, 64].
-    #[arg(long, allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_ns))]
+    pub n: Ns,
     /// Rank βs for this built-in target curve (as `ik --target`; needs --modules).
     #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
     pub target: Option<String>,
@@ -33,29 +33,34 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub target_file: Option<PathBuf>,
     /// Modules m of the boom to fit (with a target), an integer in [1, 10000].
-    #[arg(long, allow_hyphen_values = true)]
-    pub modules: Option<String>,
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--modules", 1, MAX_MODULES))]
+    pub modules: Option<usize>,
     /// Objective of the ranking: eq36 or ordered (see `ik --metric`).
-    #[arg(long, default_value = "eq36")]
-    pub metric: String,
+    #[arg(long, default_value = "eq36", value_parser = crate::arg::usage(parse_metric))]
+    pub metric: Metric,
     /// βs tried per bending band (evenly spread inside it, plus its closing angle β_in or
     /// β_out when it lies inside), an integer in [1, 100].
-    #[arg(long, default_value = "5", allow_hyphen_values = true)]
-    pub samples: String,
+    #[arg(long, default_value = "5", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--samples", 1, 100))]
+    pub samples: usize,
     /// How many of the best-ranked βs the exact solver certifies, an integer in [0, 20].
-    #[arg(long, default_value = "3", allow_hyphen_values = true)]
-    pub certify: String,
+    #[arg(long, default_value = "3", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--certify", 0, 20))]
+    pub certify: usize,
     /// Time limit of each certification in seconds (the result then carries its gap).
     #[arg(
         long,
         default_value = "2",
         value_name = "SECONDS",
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = crate::arg::usage(parse_time_limit)
     )]
-    pub time_limit: String,
+    pub time_limit: std::time::Duration,
     /// Print heights in millimetres too, for a valley fold (polygon edge) of this length.
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    pub edge_mm: Option<String>,
+    #[arg(long, value_name = "MM", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_edge_mm))]
+    pub edge_mm: Option<f64>,
     /// Print JSON instead of text.
     #[arg(skip)]
     pub json: bool,
@@ -184,7 +189,11 @@ fn candidate_betas(space: &Space, samples: usize) -> Vec<f64> {
     betas
 }
 
-fn parse_ns(text: &str) -> Result<Vec<u32>, Failure> {
+/// The `--n` of `design`: the sides to try, ascending, each once.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ns(pub Vec<u32>);
+
+fn parse_ns(text: &str) -> Result<Ns, Failure> {
     let bad = || {
         Failure::usage(format!(
             "--n must be an integer, a list (3,4,6) or a range (3..8) of integers in [{}, {}], got '{text}'",
@@ -207,7 +216,7 @@ fn parse_ns(text: &str) -> Result<Vec<u32>, Failure> {
     }
     out.sort_unstable();
     out.dedup();
-    Ok(out)
+    Ok(Ns(out))
 }
 
 /// The figure files asked for.
@@ -235,19 +244,18 @@ struct Ranking {
 
 /// Runs `host-tool design`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let ns = parse_ns(&args.n)?;
-    let edge_mm = args.edge_mm.as_deref().map(parse_edge_mm).transpose()?;
-    let samples = parse_count("--samples", &args.samples, 1, 100)?;
-    let certify = parse_count("--certify", &args.certify, 0, 20)?;
-    let time_limit = parse_time_limit(&args.time_limit)?;
-    let metric = parse_metric(&args.metric)?;
+    let ns = args.n.0.clone();
+    let edge_mm = args.edge_mm;
+    let samples = args.samples;
+    let certify = args.certify;
+    let time_limit = args.time_limit;
+    let metric = args.metric;
     let ranking = if args.target.is_some() || args.target_file.is_some() {
-        let Some(m) = &args.modules else {
+        let Some(m) = args.modules else {
             return Err(Failure::usage(
                 "--target/--target-file needs --modules M (the length of the boom to fit)",
             ));
         };
-        let m = parse_count("--modules", m, 1, MAX_MODULES)?;
         let (target, source) = read_target(args.target_file.as_ref(), args.target.as_deref())?;
         Some(Ranking {
             target,
@@ -850,9 +858,9 @@ mod tests {
 
     #[test]
     fn n_accepts_one_a_list_and_a_range() {
-        assert_eq!(parse_ns("4").ok(), Some(vec![4]));
-        assert_eq!(parse_ns("6,3,4").ok(), Some(vec![3, 4, 6]));
-        assert_eq!(parse_ns("3..5").ok(), Some(vec![3, 4, 5]));
+        assert_eq!(parse_ns("4").ok(), Some(Ns(vec![4])));
+        assert_eq!(parse_ns("6,3,4").ok(), Some(Ns(vec![3, 4, 6])));
+        assert_eq!(parse_ns("3..5").ok(), Some(Ns(vec![3, 4, 5])));
         for bad in ["", "2", "5..3", "3..65", "x", "3..", "..4"] {
             assert!(parse_ns(bad).is_err(), "{bad}");
         }

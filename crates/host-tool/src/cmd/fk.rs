@@ -3,19 +3,19 @@
 use geometry::{fk, ModuleDesign, Pose, ShapeState, SymmetricState};
 use serde_json::Value;
 
-use super::states::{designs_from, ordered_object, parse_n};
+use super::states::{designs_from, ordered_object, parse_betas, parse_edge_mm, parse_n, Betas};
 use crate::failure::Failure;
 
 /// Arguments of `host-tool fk`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of polygon sides n of every module (an integer in [3, 64]).
-    #[arg(long, allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_n))]
+    pub n: u32,
     /// Fold angle(s) β in degrees: one for all modules or one per module, comma-separated,
     /// bottom module first.
-    #[arg(long, allow_hyphen_values = true)]
-    pub beta: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_betas))]
+    pub beta: Betas,
     /// State of each module, comma-separated, bottom module first: deployed, folded,
     /// edge-<i>, vertex-<i> (0 ≤ i < n), or self-packed / flat-folded where β allows.
     #[arg(long, allow_hyphen_values = true)]
@@ -25,8 +25,9 @@ pub struct Args {
     #[arg(long)]
     pub all_states: bool,
     /// Print the tips in millimetres too, for a valley fold (polygon edge) of this length.
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    pub edge_mm: Option<String>,
+    #[arg(long, value_name = "MM", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_edge_mm))]
+    pub edge_mm: Option<f64>,
     /// Print JSON (`{"tips": [[x, y, z], …], "infeasible": [{"module", "state", "strain"}, …],
     /// "heading_deg", "frames": [{"module", "origin", "rotation", "normal",
     /// "normal_azimuth_deg", "normal_elevation_deg"}, …], "edge_mm", "tips_mm"}`; the last two
@@ -102,7 +103,7 @@ fn parse_state(design: &ModuleDesign, name: &str) -> Result<(Pose, Option<f64>),
 }
 
 fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
-    let n = parse_n(&args.n)?;
+    let n = args.n;
     let names: Vec<&str> = args.states.split(',').collect();
     if names.iter().any(|s| s.trim().is_empty()) {
         return Err(Failure::usage(
@@ -147,11 +148,7 @@ fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
 pub fn run(args: Args) -> Result<(), Failure> {
     let heading = geometry::orient::Heading::from_deg(args.heading)
         .map_err(|e| Failure::usage(format!("--heading: {e}")))?;
-    let edge_mm = args
-        .edge_mm
-        .as_deref()
-        .map(super::states::parse_edge_mm)
-        .transpose()?;
+    let edge_mm = args.edge_mm;
     let stack = modules(&args)?;
     let tips: Vec<_> = fk::tips(stack.iter().map(|m| m.pose)).collect();
     if args.json {

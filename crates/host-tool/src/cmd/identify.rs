@@ -74,40 +74,29 @@ fn report(
 /// answers on `--sim`; on a crane, the crane's confirm button or `host-tool declare` from
 /// another terminal), this client prints its notes and the outcome.
 fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> {
-    let mut c = crate::client::Client::connect(server)?;
-    c.send(&json!({"op": "identify"}))?;
-    loop {
-        let v = c.recv_ok()?;
-        if let Some(n) = v["note"].as_str() {
-            crate::say!("{}", n.trim_end());
-        }
-        if let Some(o) = v.get("outcome") {
-            let ok = v["ok"] == true;
-            let state = o["final_state"].as_str();
-            let out = json!({
-                "ok": ok,
-                "state": o["final_state"],
-                "state_confirmed": o["state_confirmed"],
-                "identified": o["identified"],
-                // A confirmed state's candidates are that state, as the device reports them.
-                "candidates": if o["candidates"].is_null() && o["state_confirmed"] == true {
-                    json!([o["final_state"]])
-                } else {
-                    o["candidates"].clone()
-                },
-                "error": o["error"],
-                "sim": o["sim"],
-            });
-            return report(
-                args.json,
-                ok,
-                state,
-                o["identified"] == true,
-                out,
-                o["error"].as_str(),
-            );
-        }
-    }
+    let (o, ok) = crate::client::run(server, &crate::serve_protocol::Request::Identify)?;
+    // A confirmed state's candidates are that state, as the device reports them.
+    let candidates = match (&o.candidates, o.state_confirmed, &o.final_state) {
+        (None, true, Some(s)) => Some(vec![s.clone()]),
+        (c, ..) => c.clone(),
+    };
+    let out = json!({
+        "ok": ok,
+        "state": o.final_state,
+        "state_confirmed": o.state_confirmed,
+        "identified": o.identified,
+        "candidates": candidates,
+        "error": o.error,
+        "sim": o.sim.as_ref().map(crate::sim::SimTruth::to_json),
+    });
+    report(
+        args.json,
+        ok,
+        o.final_state.as_deref(),
+        o.identified,
+        out,
+        o.error.as_deref(),
+    )
 }
 
 /// Runs `host-tool identify`.

@@ -14,7 +14,7 @@ use geometry::ModuleDesign;
 use planner::ik::{self, dp::DpParams, Algorithm, Catalogue, Control, Metric, Problem, Target};
 use serde_json::Value;
 
-use super::states::{designs_from, ordered_object, parse_n};
+use super::states::{designs_from, ordered_object, parse_betas, parse_n, Betas};
 use crate::failure::Failure;
 
 mod figure;
@@ -32,16 +32,17 @@ fn target_long_help() -> String {
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of polygon sides n of every module (an integer in [3, 64]).
-    #[arg(long, allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_n))]
+    pub n: u32,
     /// Fold angle(s) β in degrees: one for all modules or one per module, comma-separated,
     /// bottom module first (the crane trunk is `35,31.72`).
-    #[arg(long, allow_hyphen_values = true)]
-    pub beta: String,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_betas))]
+    pub beta: Betas,
     /// Number of modules m (an integer in [1, 10000]); each module here is one layer (one
     /// Yoshimura unit, n-gon to n-gon).
-    #[arg(long, allow_hyphen_values = true)]
-    pub modules: String,
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--modules", 1, MAX_MODULES))]
+    pub modules: usize,
     /// Target polyline as CSV: one `x,y,z` row per point in units of l, optional header row,
     /// blank lines and `#` comments ignored; `-` reads stdin.
     #[arg(long, value_name = "FILE")]
@@ -51,25 +52,29 @@ pub struct Args {
     #[arg(long, value_name = "SPEC", long_help = target_long_help(), allow_hyphen_values = true)]
     pub target: Option<String>,
     /// Solver: exact (proven optimum), exhaustive (every sequence), greedy, beam, window, dp.
-    #[arg(long, default_value = "exact")]
-    pub algo: String,
+    #[arg(long, default_value = "exact", value_parser = crate::arg::usage(parse_algo))]
+    pub algo: Algo,
     /// Beam width k for `--algo beam` (≥ 1).
-    #[arg(long, default_value = "64", allow_hyphen_values = true)]
-    pub beam_width: String,
+    #[arg(long, default_value = "64", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--beam-width", 1, 1_000_000))]
+    pub beam_width: usize,
     /// Window width w for `--algo window` (2–4 as in the paper; 1–6 accepted).
-    #[arg(long, default_value = "3", allow_hyphen_values = true)]
-    pub window_width: String,
+    #[arg(long, default_value = "3", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--window-width", 1, 6))]
+    pub window_width: usize,
     /// Frame-merging tolerances of `--algo dp`: `POSITION,ANGLE` in units of l and degrees
     /// (`0,0` merges only equal frames: exact but slow).
-    #[arg(long, default_value = "0.1,5", allow_hyphen_values = true)]
-    pub dp_tolerance: String,
+    #[arg(long, default_value = "0.1,5", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_dp_tolerance))]
+    pub dp_tolerance: (f64, f64),
     /// Most frames `--algo dp` keeps per module layer.
-    #[arg(long, default_value = "20000", allow_hyphen_values = true)]
-    pub dp_max_states: String,
+    #[arg(long, default_value = "20000", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--dp-max-states", 1, 100_000_000))]
+    pub dp_max_states: usize,
     /// Objective: eq36 (RMS distance from each tip to its nearest point on the target) or
     /// ordered (tip i matched to the point at arc length i·L/m, covering the whole curve).
-    #[arg(long, default_value = "eq36")]
-    pub metric: String,
+    #[arg(long, default_value = "eq36", value_parser = crate::arg::usage(parse_metric))]
+    pub metric: Metric,
     /// Use the paper's full catalogue of 2(n+1) states, including those the geometry marks
     /// infeasible (crease strain above 1 %); every output then marks each infeasible state used
     /// and its strain. Default: only the feasible states (see `host-tool states`).
@@ -80,12 +85,14 @@ pub struct Args {
     pub feasible_only: bool,
     /// Stop after this many seconds (> 0) and report the best boom so far; `exact` also
     /// reports its certified lower bound and gap.
-    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
-    pub time_limit: Option<String>,
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_time_limit))]
+    pub time_limit: Option<Duration>,
     /// `--algo exact` only: stop as soon as the certified relative gap
     /// (RMS − lower bound) / RMS is at most FRACTION (in [0, 1); 0 = prove the optimum).
-    #[arg(long, value_name = "FRACTION", allow_hyphen_values = true)]
-    pub gap: Option<String>,
+    #[arg(long, value_name = "FRACTION", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_gap))]
+    pub gap: Option<f64>,
     /// Print JSON: `{"states", "rms", "optimal", "lower_bound_rms", "gap", "stop",
     /// "evaluated", "elapsed_ms", "tips", "all_states", "infeasible", "coverage", "warnings",
     /// "edge_mm", "rms_mm", "tips_mm"}` (the last three `null` without --edge-mm).
@@ -103,8 +110,9 @@ pub struct Args {
     pub pdf: Option<PathBuf>,
     /// Print lengths in millimetres too (RMS, tips), for a valley fold (polygon edge) of this
     /// length; the target and the generators' parameters stay in units of l.
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    pub edge_mm: Option<String>,
+    #[arg(long, value_name = "MM", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(super::states::parse_edge_mm))]
+    pub edge_mm: Option<f64>,
     /// Write a 3D model of the fitted boom as binary glTF 2.0 (l = 75 mm; strain in red).
     #[arg(long, value_name = "FILE")]
     pub gltf: Option<PathBuf>,
@@ -133,28 +141,6 @@ pub struct Config {
     figures: Vec<(&'static str, crate::figure::Format, PathBuf)>,
     gltf: Option<PathBuf>,
     edge_mm: Option<f64>,
-}
-
-pub(crate) fn parse_count(
-    flag: &str,
-    text: &str,
-    min: usize,
-    max: usize,
-) -> Result<usize, Failure> {
-    let t = text.trim();
-    let bad = || {
-        Failure::usage(format!(
-            "{flag} must be an integer in [{min}, {max}], got '{text}'"
-        ))
-    };
-    if t.is_empty() || !t.bytes().all(|b| b.is_ascii_digit()) {
-        return Err(bad());
-    }
-    let v: usize = t.parse().map_err(|_| bad())?;
-    if !(min..=max).contains(&v) {
-        return Err(bad());
-    }
-    Ok(v)
 }
 
 /// Largest target file read (a million `x,y,z` rows fit easily; `/dev/zero` does not).
@@ -207,6 +193,60 @@ fn parse_gap(text: &str) -> Result<f64, Failure> {
         return Err(bad());
     }
     Ok(v)
+}
+
+/// `--algo`: a solver by name (its parameters are options of their own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Algo {
+    /// Branch and bound, proven optimal.
+    Exact,
+    /// Every sequence.
+    Exhaustive,
+    /// Greedy.
+    Greedy,
+    /// Beam search (`--beam-width`).
+    Beam,
+    /// Sliding window (`--window-width`).
+    Window,
+    /// Dynamic programming over merged frames (`--dp-tolerance`, `--dp-max-states`).
+    Dp,
+}
+
+/// Parses `--algo`; the refusal lists the solvers.
+fn parse_algo(text: &str) -> Result<Algo, Failure> {
+    Ok(match text.trim() {
+        "exact" => Algo::Exact,
+        "exhaustive" => Algo::Exhaustive,
+        "greedy" => Algo::Greedy,
+        "beam" => Algo::Beam,
+        "window" => Algo::Window,
+        "dp" => Algo::Dp,
+        other => {
+            return Err(Failure::usage(format!(
+                "unknown --algo '{other}'; valid algorithms are {}",
+                Algorithm::NAMES.join(", ")
+            )))
+        }
+    })
+}
+
+/// Parses `--dp-tolerance`: `POSITION,ANGLE`, both finite and ≥ 0.
+fn parse_dp_tolerance(text: &str) -> Result<(f64, f64), Failure> {
+    let nums: Vec<Option<f64>> = text
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+        })
+        .collect();
+    match nums[..] {
+        [Some(pos), Some(ang)] => Ok((pos, ang)),
+        _ => Err(Failure::usage(format!(
+            "--dp-tolerance must be POSITION,ANGLE (units of l, degrees; both ≥ 0), got '{text}'"
+        ))),
+    }
 }
 
 /// Reads the target from `--target-file` or `--target` (exactly one must be given).
@@ -264,51 +304,28 @@ pub(crate) const MAX_MODULES: usize = 10_000;
 impl Args {
     /// Parses and validates everything, reading the target file.
     pub fn validate(self) -> Result<Config, Failure> {
-        let n = parse_n(&self.n)?;
-        let m = parse_count("--modules", &self.modules, 1, MAX_MODULES)?;
+        let n = self.n;
+        let m = self.modules;
         let designs = designs_from(n, &self.beta, m, &format!("--modules is {m}"))?;
         let (target, source) = read_target(self.target_file.as_ref(), self.target.as_deref())?;
-        let metric = parse_metric(&self.metric)?;
-        let algorithm = match self.algo.trim() {
-            "exact" => Algorithm::Exact,
-            "exhaustive" => Algorithm::Exhaustive,
-            "greedy" => Algorithm::Greedy,
-            "beam" => Algorithm::Beam {
-                width: parse_count("--beam-width", &self.beam_width, 1, 1_000_000)?,
+        let metric = self.metric;
+        let algorithm = match self.algo {
+            Algo::Exact => Algorithm::Exact,
+            Algo::Exhaustive => Algorithm::Exhaustive,
+            Algo::Greedy => Algorithm::Greedy,
+            Algo::Beam => Algorithm::Beam {
+                width: self.beam_width,
             },
-            "window" => Algorithm::Window {
-                width: parse_count("--window-width", &self.window_width, 1, 6)?,
+            Algo::Window => Algorithm::Window {
+                width: self.window_width,
             },
-            "dp" => {
-                let parts: Vec<&str> = self.dp_tolerance.split(',').map(str::trim).collect();
-                let nums: Vec<Option<f64>> = parts
-                    .iter()
-                    .map(|p| p.parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0))
-                    .collect();
-                let (Some(Some(pos)), Some(Some(ang)), 2) =
-                    (nums.first().copied(), nums.get(1).copied(), nums.len())
-                else {
-                    return Err(Failure::usage(format!(
-                        "--dp-tolerance must be POSITION,ANGLE (units of l, degrees; both ≥ 0), got '{}'",
-                        self.dp_tolerance
-                    )));
-                };
+            Algo::Dp => {
+                let (pos, ang) = self.dp_tolerance;
                 Algorithm::Dp(DpParams {
                     position_tolerance: pos,
                     angle_tolerance_deg: ang,
-                    max_states: parse_count(
-                        "--dp-max-states",
-                        &self.dp_max_states,
-                        1,
-                        100_000_000,
-                    )?,
+                    max_states: self.dp_max_states,
                 })
-            }
-            other => {
-                return Err(Failure::usage(format!(
-                    "unknown --algo '{other}'; valid algorithms are {}",
-                    Algorithm::NAMES.join(", ")
-                )))
             }
         };
         if self.all_states && self.feasible_only {
@@ -316,12 +333,8 @@ impl Args {
                 "--all-states and --feasible-only contradict each other; feasible states are the default, --all-states adds the infeasible ones",
             ));
         }
-        let time_limit = self
-            .time_limit
-            .as_deref()
-            .map(parse_time_limit)
-            .transpose()?;
-        let gap = self.gap.as_deref().map(parse_gap).transpose()?;
+        let time_limit = self.time_limit;
+        let gap = self.gap;
         if gap.is_some() && algorithm != Algorithm::Exact {
             return Err(Failure::usage(format!(
                 "--gap needs --algo exact (the only solver that proves a lower bound); got --algo {}",
@@ -347,11 +360,7 @@ impl Args {
             .filter_map(|(flag, format, path)| Some((flag, format, path?)))
             .collect(),
             gltf: self.gltf,
-            edge_mm: self
-                .edge_mm
-                .as_deref()
-                .map(super::states::parse_edge_mm)
-                .transpose()?,
+            edge_mm: self.edge_mm,
         })
     }
 }

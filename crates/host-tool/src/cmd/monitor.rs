@@ -203,7 +203,7 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
     }
     let cancel = crate::cmd::plan::interrupt_flag();
     let mut c = crate::client::Client::connect(server)?;
-    c.send(&serde_json::json!({"op": "monitor"}))?;
+    c.send(&crate::serve_protocol::Request::Monitor)?;
     let start = std::time::Instant::now();
     // The server streams at its own rate (`serve --rate`): samples closer than 1/--rate in
     // device time are dropped here, so the output keeps to --rate as it does directly.
@@ -216,19 +216,14 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
             .duration
             .is_none_or(|d| start.elapsed().as_secs_f64() < d)
     {
-        if let Some(v) = c.recv_within()? {
-            if let Some(e) = v["error"].as_str() {
-                return Err(Failure::Runtime(anyhow::anyhow!("{e}")));
-            }
-            if let Ok(ev) = serde_json::from_value::<Event>(v["event"].clone()) {
-                if let Event::Telemetry(t) = &ev {
-                    if last_kept.is_some_and(|k| t.uptime_ms.saturating_sub(k) < gap_ms) {
-                        continue;
-                    }
-                    last_kept = Some(t.uptime_ms);
+        if let Some(crate::serve_protocol::Reply::Event { event: ev }) = c.recv_within()? {
+            if let Event::Telemetry(t) = &ev {
+                if last_kept.is_some_and(|k| t.uptime_ms.saturating_sub(k) < gap_ms) {
+                    continue;
                 }
-                lines.event(&ev);
+                last_kept = Some(t.uptime_ms);
             }
+            lines.event(&ev);
         }
     }
     if cancel.load(Ordering::SeqCst) {

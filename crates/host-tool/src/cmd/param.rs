@@ -25,8 +25,8 @@ pub enum Action {
     Get {
         /// pressure-limit-kpa, servo-min-deg, servo-max-deg, servo-slew-deg-per-s,
         /// telemetry-hz or link-timeout-ms.
-        #[arg(value_name = "NAME")]
-        name: Option<String>,
+        #[arg(value_name = "NAME", value_parser = crate::arg::usage(parse_param))]
+        name: Option<ParamId>,
         #[command(flatten)]
         device: DeviceArgs,
         /// Print one JSON object on stdout.
@@ -37,8 +37,8 @@ pub enum Action {
     Set {
         /// pressure-limit-kpa, servo-min-deg, servo-max-deg, servo-slew-deg-per-s,
         /// telemetry-hz or link-timeout-ms.
-        #[arg(value_name = "NAME")]
-        name: String,
+        #[arg(value_name = "NAME", value_parser = crate::arg::usage(parse_param))]
+        name: ParamId,
         /// The new value, in the parameter's unit.
         // Hyphen values allowed so a negative number reaches the range check (exit 2 with the
         // range) instead of being taken for an unknown flag.
@@ -449,7 +449,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         Action::Get { name, device, json } => {
             // Everything the user typed is checked before a device is opened.
             let ids = match name {
-                Some(n) => vec![parse_param(&n)?],
+                Some(id) => vec![id],
                 None => ParamId::ALL.to_vec(),
             };
             let mut conn = Link::open(&device)?;
@@ -474,7 +474,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             device,
             json,
         } => {
-            let id = parse_param(&name)?;
+            let id = name;
             let value = parse_value(id, &value)?;
             let mut conn = Link::open(&device)?;
             let previous = get(&mut conn, id)?;

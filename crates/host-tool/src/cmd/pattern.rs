@@ -13,19 +13,21 @@ use fabrication::pattern::Pattern;
 use fabrication::{Defaults, Module, Trunk};
 
 use super::output;
-use super::states::{designs_from, parse_n};
+use super::states::{designs_from, parse_betas, parse_n, Betas};
 use crate::failure::Failure;
 
 /// The trunk description shared by `pattern` and `model` (defaults: the paper's crane trunk).
 #[derive(Debug, Clone, clap::Args)]
 pub struct TrunkArgs {
     /// Number of polygon sides n of every module (an integer in [3, 64]).
-    #[arg(long, default_value_t = Defaults::N.to_string(), allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, default_value_t = Defaults::N, allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_n))]
+    pub n: u32,
     /// Fold angle(s) β in degrees, one per module, bottom first (one value: one module). The
     /// default is the crane trunk: a 35° self-packing module under a 31.72° golden one.
-    #[arg(long, default_value = Defaults::BETA, allow_hyphen_values = true)]
-    pub beta: String,
+    #[arg(long, default_value = Defaults::BETA, allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_betas))]
+    pub beta: Betas,
     /// Layers per module: one count for every module or one per module (each in [1, 1000],
     /// at most 1000 in total).
     #[arg(long, default_value = Defaults::LAYERS, allow_hyphen_values = true)]
@@ -74,12 +76,12 @@ fn parse_layers(text: &str, m: usize) -> Result<Vec<usize>, Failure> {
 impl TrunkArgs {
     /// Number of modules: the longer of the --beta and --layers lists.
     pub fn module_count(&self) -> usize {
-        list_len(&self.beta).max(list_len(&self.layers))
+        self.beta.0.len().max(list_len(&self.layers))
     }
 
     /// Validates into a trunk.
     pub fn trunk(&self) -> Result<Trunk, Failure> {
-        let n = parse_n(&self.n)?;
+        let n = self.n;
         let m = self.module_count();
         let designs = designs_from(n, &self.beta, m, &format!("the stack has {m} modules"))?;
         let layers = parse_layers(&self.layers, m)?;
@@ -177,12 +179,13 @@ pub struct Args {
     /// --page tiles: below the sheet, right of it, or none (crease lines only, e.g. for a
     /// laser cutter's import). On tiles it is printed once, on a page where it clears every
     /// crease line and registration mark.
-    #[arg(long, value_name = "PLACE", default_value = "below")]
-    pub legend: String,
+    #[arg(long, value_name = "PLACE", default_value = "below",
+          value_parser = crate::arg::usage(parse_legend))]
+    pub legend: fabrication::svg::Legend,
     /// Tile the 1:1 crease pattern over paper pages (a4 or letter) with registration marks and
     /// a 50 mm scale bar: page-1.svg, page-2.svg, … in --page-dir. Print at 100 %.
-    #[arg(long, value_name = "PAPER")]
-    pub page: Option<String>,
+    #[arg(long, value_name = "PAPER", value_parser = crate::arg::usage(parse_paper))]
+    pub page: Option<fabrication::tiles::Paper>,
     /// Directory for the pages of --page; created if missing.
     #[arg(long, value_name = "DIR")]
     pub page_dir: Option<PathBuf>,
@@ -193,8 +196,9 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub parts: Option<PathBuf>,
     /// File format of --parts: stl, 3mf or both (PART.stl and PART.3mf side by side).
-    #[arg(long, value_name = "FORMAT", default_value = "both")]
-    pub parts_format: String,
+    #[arg(long, value_name = "FORMAT", default_value = "both",
+          value_parser = crate::arg::usage(PartsFormat::parse))]
+    pub parts_format: PartsFormat,
     /// Thickness of the kit's panels in mm, [5.7, 50]: the M4 heat-set inserts (5.7 mm) sit
     /// fully in it; sets the hinge's screw length.
     #[arg(long, default_value_t = fabrication::parts::DEFAULT_PANEL_MM, allow_hyphen_values = true)]
@@ -269,7 +273,7 @@ fn report(
 fn parse_gaps(args: &Args, m: usize) -> Result<Vec<f64>, Failure> {
     let text = match &args.gap_mm {
         Some(t) => t.clone(),
-        None if args.trunk.beta.trim() == Defaults::BETA && m == 2 => {
+        None if parse_betas(Defaults::BETA).is_ok_and(|d| d == args.trunk.beta) && m == 2 => {
             Defaults::GAP_MM_TRUNK.to_string()
         }
         None => Defaults::GAP_MM.to_string(),
@@ -369,11 +373,24 @@ fn nest_params(args: &Args) -> Result<Option<NestParams>, Failure> {
     }))
 }
 
+/// `--legend`: where the legend goes.
+fn parse_legend(text: &str) -> Result<fabrication::svg::Legend, Failure> {
+    fabrication::svg::Legend::parse(text).map_err(|e| Failure::usage(format!("--legend: {e}")))
+}
+
+/// `--page`: the paper of the tiles.
+fn parse_paper(text: &str) -> Result<fabrication::tiles::Paper, Failure> {
+    fabrication::tiles::Paper::parse(text).map_err(|e| Failure::usage(format!("--page: {e}")))
+}
+
 /// Which files --parts writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum PartsFormat {
+pub enum PartsFormat {
+    /// PART.stl only.
     Stl,
+    /// PART.3mf only.
     ThreeMf,
+    /// Both side by side.
     Both,
 }
 
@@ -513,9 +530,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
         ));
     }
     let kit_bom = args.kit.is_some() || args.nest.is_some();
-    let parts_format = PartsFormat::parse(&args.parts_format)?;
-    let legend = fabrication::svg::Legend::parse(&args.legend)
-        .map_err(|e| Failure::usage(format!("--legend: {e}")))?;
+    let parts_format = args.parts_format;
+    let legend = args.legend;
     if legend != fabrication::svg::Legend::Below && args.svg.is_none() && args.page.is_none() {
         return Err(Failure::usage(
             "--legend places the legend of --svg and --page; give --svg FILE or --page PAPER too",
@@ -548,14 +564,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
         None => None,
     };
     let title = format!("host-tool pattern: {}", trunk.describe());
-    let tiling = match (&args.page, &args.page_dir) {
-        (Some(p), Some(_)) => Some(fabrication::tiles::tiling(
-            &pattern,
-            fabrication::tiles::Paper::parse(p)
-                .map_err(|e| Failure::usage(format!("--page: {e}")))?,
-            legend,
-            &title,
-        )),
+    let tiling = match (args.page, &args.page_dir) {
+        (Some(p), Some(_)) => Some(fabrication::tiles::tiling(&pattern, p, legend, &title)),
         (Some(_), None) => {
             return Err(Failure::usage(
                 "--page writes one SVG per page: give --page-dir DIR for them",

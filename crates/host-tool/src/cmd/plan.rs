@@ -8,11 +8,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use geometry::TrunkState;
-use host::{text, Io as _, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
+use host::{Io as _, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
 use planner::graph::{kind_name, Graph, Plan, PrimitiveText};
 use serde_json::{json, Value};
 
-use crate::device::{parse_state, ConnectError, DeviceArgs, DeviceConfig};
+use crate::device::{ConnectError, DeviceArgs, DeviceConfig};
 use crate::failure::Failure;
 use crate::progress::{Bars, Lines, Progress};
 use crate::record::Recorder;
@@ -23,8 +23,8 @@ use crate::transport::AnyIo;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The trunk state to reach: F&P, F&F, F&D, D&P, D&F or D&D.
-    #[arg(long, value_name = "STATE")]
-    pub target: String,
+    #[arg(long, value_name = "STATE", value_parser = crate::arg::trunk_state)]
+    pub target: TrunkState,
     #[command(flatten)]
     pub device: DeviceArgs,
     /// Print the plan and touch nothing (plans from --from, or the simulator's initial state;
@@ -32,8 +32,8 @@ pub struct Args {
     #[arg(long)]
     pub dry_run: bool,
     /// With --dry-run: plan from this state instead of asking the device.
-    #[arg(long, value_name = "STATE", requires = "dry_run")]
-    pub from: Option<String>,
+    #[arg(long, value_name = "STATE", requires = "dry_run", value_parser = crate::arg::trunk_state)]
+    pub from: Option<TrunkState>,
     /// Print one JSON object on stdout instead of a summary.
     #[arg(skip)]
     pub json: bool,
@@ -70,7 +70,7 @@ impl Args {
 
     fn validate_args(&self) -> Result<Config, Failure> {
         Ok(Config {
-            target: parse_state("target", &self.target)?,
+            target: self.target,
             // A dry run with no device plans from the simulator's initial state (or --from).
             device: if self.dry_run && self.device.port.is_none() {
                 DeviceArgs {
@@ -82,11 +82,7 @@ impl Args {
                 self.device.validate(None)?
             },
             dry_run: self.dry_run,
-            from: self
-                .from
-                .as_deref()
-                .map(|s| parse_state("--from", s))
-                .transpose()?,
+            from: self.from,
             json: self.json,
             record: self.record.clone(),
             calibration: self.calibration.clone(),
@@ -348,7 +344,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
 
 /// `plan` through a server: the server runs it; its notes on stderr, the outcome as usual.
 fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> {
-    let target = parse_state("target", &args.target)?;
+    let target = args.target;
     if args.record.is_some() {
         return Err(Failure::usage(
             "a server holds this device and records its session itself: --record is not needed",
@@ -360,32 +356,24 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
              device directly (stop the server, or plan without the profile)",
         ));
     }
-    let mut c = crate::client::Client::connect(server)?;
-    c.send(&json!({"op": "plan", "target": target.name()}))?;
-    loop {
-        let v = c.recv_ok()?;
-        if let Some(n) = v["note"].as_str() {
-            crate::say!("{}", n.trim_end());
+    let (outcome, ok) =
+        crate::client::run(server, &crate::serve_protocol::Request::Plan { target })?;
+    if args.json {
+        crate::cli::print_json(outcome.to_json());
+    }
+    if ok {
+        if !args.json {
+            crate::say!("{}", reached(target, outcome.steps.len(), 0));
         }
-        if let Some(outcome) = v.get("outcome") {
-            if args.json {
-                crate::cli::print_json(outcome.clone());
-            }
-            return if v["ok"] == true {
-                if !args.json {
-                    let steps = outcome["steps"].as_array().map_or(0, Vec::len);
-                    crate::say!("{}", reached(target, steps, 0));
-                }
-                Ok(())
-            } else {
-                Err(Failure::Runtime(anyhow::anyhow!(
-                    "{}",
-                    outcome["error"]
-                        .as_str()
-                        .unwrap_or("the target was not reached")
-                )))
-            };
-        }
+        Ok(())
+    } else {
+        Err(Failure::Runtime(anyhow::anyhow!(
+            "{}",
+            outcome
+                .error
+                .as_deref()
+                .unwrap_or("the target was not reached")
+        )))
     }
 }
 
@@ -437,51 +425,9 @@ fn reached(target: TrunkState, steps: usize, replans: u32) -> String {
     )
 }
 
-/// The `plan --json` object: `ok, from, target, final_state, state_confirmed, candidates,
-/// steps, error, failure (kind, step, fault_code, fault), sim`. `final_state` is the last state
-/// the device reported; `state_confirmed` says whether the device had confirmed it then — after a
-/// lost link it is `false`: the report is stale, and `candidates` (present when unconfirmed) is
-/// every state the trunk may be in since (all six: unknown).
+/// The `plan --json` object ([`crate::outcome::PlanOutcome`]).
 pub fn outcome_json(out: &Outcome, truth: Option<&SimTruth>) -> Value {
-    let name = |s: Option<TrunkState>| s.map(|s| s.name());
-    let failure = out.failure.as_ref().map(|f| {
-        json!({
-            "kind": f.kind.name(),
-            "step": f.step.map(|s| json!({
-                "index": s.index,
-                "total": s.total,
-                "kind": kind_name(s.kind),
-                "from": s.from.name(),
-                "to": s.to.name(),
-            })),
-            "fault_code": f.fault.map(text::fault_code),
-            "fault": f.fault.map(text::fault_name),
-            "reject": f.reject.map(text::reject_name),
-            "refused": f.refusal.as_ref().map(crate::cli::refusal_json),
-            "message": f.message,
-        })
-    });
-    json!({
-        "ok": out.ok(),
-        "from": name(out.from),
-        "target": name(out.target),
-        "final_state": name(out.final_state),
-        "state_confirmed": out.state_confirmed,
-        "candidates": (!out.state_confirmed)
-            .then(|| out.candidates.iter().map(|c| c.name()).collect::<Vec<_>>()),
-        "identified": out.identified,
-        "steps": out.steps.iter().map(|s| json!({
-            "kind": kind_name(s.kind),
-            "from": s.from.name(),
-            "to": s.to.name(),
-            "ok": s.ok,
-            "duration_ms": s.duration_ms,
-        })).collect::<Vec<_>>(),
-        "error": out.error(),
-        "fault_code": out.failure.as_ref().and_then(|f| f.fault).map(text::fault_code),
-        "failure": failure,
-        "sim": truth.map(SimTruth::to_json),
-    })
+    crate::outcome::PlanOutcome::of(out, truth).to_json()
 }
 
 fn dry_run(cfg: &Config) -> Result<(), Failure> {

@@ -13,7 +13,6 @@ use geometry::TrunkState;
 use planner::task::Workspace;
 use serde_json::{json, Value};
 
-use crate::device::parse_state;
 use crate::failure::Failure;
 use crate::figure::{self, colour, Anchor, Area, Figure, Format, Rect, Stroke, Ticks};
 
@@ -21,12 +20,13 @@ use crate::figure::{self, colour, Anchor, Area, Figure, Format, Rect, Stroke, Ti
 #[derive(Debug, clap::Args)]
 pub struct PoseArgs {
     /// The trunk state: F&P, F&F, F&D, D&P, D&F or D&D (quote the '&').
-    #[arg(long, value_name = "STATE")]
-    pub state: String,
+    #[arg(long, value_name = "STATE", value_parser = crate::arg::trunk_state)]
+    pub state: TrunkState,
     /// The bend: ANGLE,DIRECTION in degrees (the tip axis tilted by ANGLE ≥ 0 toward DIRECTION,
     /// 0° = toward tendon 0, counter-clockwise seen from above). Default: straight.
-    #[arg(long, value_name = "ANGLE,DIR", allow_hyphen_values = true)]
-    pub bend: Option<String>,
+    #[arg(long, value_name = "ANGLE,DIR", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_bend))]
+    pub bend: Option<(f64, f64)>,
     /// Print one JSON object.
     #[arg(skip)]
     pub json: bool,
@@ -36,11 +36,11 @@ pub struct PoseArgs {
 #[derive(Debug, clap::Args)]
 pub struct WorkspaceArgs {
     /// Only this state (default: all six).
-    #[arg(long, value_name = "STATE")]
-    pub state: Option<String>,
+    #[arg(long, value_name = "STATE", value_parser = crate::arg::trunk_state)]
+    pub state: Option<TrunkState>,
     /// Side-view points per state, from −limit to +limit (2 to 10 000).
-    #[arg(long, default_value_t = 61)]
-    pub samples: usize,
+    #[arg(long, default_value_t = 61, value_parser = crate::num::int_in(2, 10_000))]
+    pub samples: u32,
     /// Write the side view of the workspaces: FIG.svg, FIG.png (600 dpi) or FIG.pdf.
     #[arg(long, value_name = "FIG")]
     pub figure: Option<PathBuf>,
@@ -84,11 +84,8 @@ fn r3(v: f64) -> f64 {
 
 /// Runs `host-tool pose`.
 pub fn run_pose(args: PoseArgs) -> Result<(), Failure> {
-    let state = parse_state("--state", &args.state)?;
-    let (angle, dir) = match &args.bend {
-        Some(b) => parse_bend(b)?,
-        None => (0.0, 0.0),
-    };
+    let state = args.state;
+    let (angle, dir) = args.bend.unwrap_or((0.0, 0.0));
     let ws = crane_workspace(&CraneConfig::default())?;
     let tip = ws
         .tip(state, angle, dir)
@@ -154,16 +151,10 @@ fn summarise(ws: &Workspace, state: TrunkState, samples: usize) -> Summary {
 
 /// Runs `host-tool workspace`.
 pub fn run_workspace(args: WorkspaceArgs) -> Result<(), Failure> {
-    let states: Vec<TrunkState> = match &args.state {
-        Some(s) => vec![parse_state("--state", s)?],
+    let states: Vec<TrunkState> = match args.state {
+        Some(s) => vec![s],
         None => TrunkState::ALL.to_vec(),
     };
-    if !(2..=10_000).contains(&args.samples) {
-        return Err(Failure::usage(format!(
-            "--samples {}: expected 2 to 10000 points per state",
-            args.samples
-        )));
-    }
     let format = match &args.figure {
         Some(p) => Some(Format::from_path(p).ok_or_else(|| {
             Failure::usage(format!(
@@ -177,7 +168,7 @@ pub fn run_workspace(args: WorkspaceArgs) -> Result<(), Failure> {
     let ws = crane_workspace(&cfg)?;
     let all: Vec<Summary> = states
         .iter()
-        .map(|&s| summarise(&ws, s, args.samples))
+        .map(|&s| summarise(&ws, s, args.samples as usize))
         .collect();
     if let (Some(path), Some(format)) = (&args.figure, format) {
         let fig = render(&ws, &all);

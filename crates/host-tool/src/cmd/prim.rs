@@ -54,12 +54,13 @@ pub struct GripArgs {
 #[derive(Debug, clap::Args)]
 pub struct BendArgs {
     /// The bend angle of the tip axis, degrees (≥ 0; 0 straightens).
-    #[arg(allow_hyphen_values = true)]
-    pub angle: String,
+    #[arg(allow_hyphen_values = true, value_parser = crate::arg::usage(bend_angle))]
+    pub angle: f64,
     /// The direction the tip bends toward, degrees (0° = toward tendon 0, counter-clockwise
     /// seen from above); not needed for 0.
-    #[arg(long, value_name = "DIR", allow_hyphen_values = true)]
-    pub toward: Option<String>,
+    #[arg(long, value_name = "DIR", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(|s: &str| degrees("--toward", s)))]
+    pub toward: Option<f64>,
     #[command(flatten)]
     pub device: DeviceArgs,
     #[command(flatten)]
@@ -167,7 +168,7 @@ impl Link {
                 .command(body)
                 .map(|_| ())
                 .map_err(|e| session_error(&e)),
-            Link::Server(p) => call_through(p, &body)?
+            Link::Server(p) => crate::client::call(p, body)?
                 .map(|_| ())
                 .map_err(|e| session_error(&e)),
         }
@@ -226,41 +227,6 @@ impl Link {
             let _ = c.close();
         }
     }
-}
-
-/// The JSON form of a request for the server: as serde writes it, except a step, written as
-/// the sequence its `Deserialize` reads (the wire's in-place form takes fields in order).
-fn request_json(body: &RequestBody) -> Result<Value, Failure> {
-    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("encoding the request: {e}"));
-    match body {
-        RequestBody::RunStep(step) => Ok(json!({
-            "RunStep": [
-                serde_json::to_value(step.kind).map_err(bad)?,
-                serde_json::to_value(step.from).map_err(bad)?,
-                serde_json::to_value(step.to).map_err(bad)?,
-                serde_json::to_value(&step.primitives).map_err(bad)?,
-                step.timeout_ms,
-            ]
-        })),
-        other => serde_json::to_value(other).map_err(bad),
-    }
-}
-
-/// One request through a server (as `client::call`, with a step the server can read).
-fn call_through(
-    path: &std::path::Path,
-    body: &RequestBody,
-) -> Result<Result<protocol::ResponseBody, host::SessionError>, Failure> {
-    let name = host::text::request_name(body);
-    let mut c = crate::client::Client::connect(path)?;
-    c.send(&json!({"op": "call", "request": request_json(body)?}))?;
-    let v = c.recv_ok()?;
-    let bad = |e: serde_json::Error| Failure::Runtime(anyhow::anyhow!("the server's answer: {e}"));
-    let reply = host::Reply {
-        result: serde_json::from_value(v["result"].clone()).map_err(bad)?,
-        body: serde_json::from_value(v["body"].clone()).map_err(bad)?,
-    };
-    Ok(reply.accepted(name))
 }
 
 /// A step within `state` of one primitive (a tendon-kind step: the device lets no tendon out
@@ -527,16 +493,22 @@ fn degrees(what: &str, text: &str) -> Result<f64, Failure> {
         })
 }
 
-/// Runs `host-tool bend`.
-pub fn run_bend(args: BendArgs) -> Result<(), Failure> {
-    let angle = degrees("ANGLE", &args.angle)?;
+/// A bend angle: a number of degrees ≥ 0.
+fn bend_angle(text: &str) -> Result<f64, Failure> {
+    let angle = degrees("ANGLE", text)?;
     if angle < 0.0 {
         return Err(Failure::usage(format!(
             "invalid ANGLE {angle}: a bend angle is ≥ 0° (bend the other way with --toward DIR+180)"
         )));
     }
-    let toward = match &args.toward {
-        Some(t) => degrees("--toward", t)?,
+    Ok(angle)
+}
+
+/// Runs `host-tool bend`.
+pub fn run_bend(args: BendArgs) -> Result<(), Failure> {
+    let angle = args.angle;
+    let toward = match args.toward {
+        Some(t) => t,
         None if angle == 0.0 => 0.0,
         None => {
             return Err(Failure::usage(

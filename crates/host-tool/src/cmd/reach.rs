@@ -21,12 +21,14 @@ use crate::failure::Failure;
 pub struct Args {
     /// The point for the tip: X,Y,Z in mm (base frame: z up along the straight trunk, x toward
     /// tendon 0).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    pub point: String,
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(|s: &str| parse_point("--point", s)))]
+    pub point: [f64; 3],
     /// How near the geometry's tip must come to the point, mm (> 0; with --sim the true tip
     /// is judged by it too).
-    #[arg(long, value_name = "MM", default_value = "5")]
-    pub tolerance: String,
+    #[arg(long, value_name = "MM", default_value = "5", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_tolerance))]
+    pub tolerance: f64,
     /// Show the plan and move nothing.
     #[arg(long)]
     pub dry_run: bool,
@@ -168,25 +170,18 @@ pub fn go_to_state(link: &mut Link, target: TrunkState) -> Result<(), Failure> {
             }
         }
         Link::Server(path) => {
-            let mut c = crate::client::Client::connect(path)?;
-            c.send(&json!({"op": "plan", "target": target.name()}))?;
-            loop {
-                let v = c.recv_ok()?;
-                if let Some(n) = v["note"].as_str() {
-                    crate::say!("{}", n.trim_end());
-                }
-                if let Some(outcome) = v.get("outcome") {
-                    return if v["ok"] == true {
-                        Ok(())
-                    } else {
-                        Err(Failure::Runtime(anyhow::anyhow!(
-                            "going to {target}: {}",
-                            outcome["error"]
-                                .as_str()
-                                .unwrap_or("the state was not reached")
-                        )))
-                    };
-                }
+            let (outcome, ok) =
+                crate::client::run(path, &crate::serve_protocol::Request::Plan { target })?;
+            if ok {
+                Ok(())
+            } else {
+                Err(Failure::Runtime(anyhow::anyhow!(
+                    "going to {target}: {}",
+                    outcome
+                        .error
+                        .as_deref()
+                        .unwrap_or("the state was not reached")
+                )))
             }
         }
     }
@@ -229,8 +224,8 @@ pub fn execute(
 
 /// Runs `host-tool reach`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let goal = parse_point("--point", &args.point)?;
-    let tolerance = parse_tolerance(&args.tolerance)?;
+    let goal = args.point;
+    let tolerance = args.tolerance;
     let world = args.world.parse()?;
     let cfg = crane_config(&args.device);
     if args.device.sim {

@@ -6,15 +6,8 @@
 //! One thread: the engine ([`host::Host`], through the connection's driver) is turned in slices
 //! of at most [`SLICE_MS`] of engine time; between slices the server accepts clients and reads
 //! their requests (one JSON line each). A `stop` is sent with `request_first`, ahead of anything
-//! queued, and cancels a running plan. Client protocol (JSON lines):
-//!
-//! - `{"op":"snapshot","request":R}` (R: a `protocol::RequestBody` or null) → `{"status", "info",
-//!   "truth", "abort_latency_ms"}` or `{"error"}`
-//! - `{"op":"call","request":R}` → `{"result": protocol::ResultCode, "body": ResponseBody}`
-//! - `{"op":"monitor"}` → `{"event": protocol::Event}` lines until the client hangs up
-//! - `{"op":"plan","target":"D&D"}` → `{"note"}` lines, then `{"outcome", "ok"}`
-//! - `{"op":"identify"}` → as `plan`, the run identifying the state (the outcome's
-//!   `final_state` is what the device then confirms)
+//! queued, and cancels a running plan. The client protocol (JSON lines) is
+//! [`crate::serve_protocol`]'s [`Request`] and [`Reply`].
 
 use std::collections::HashMap;
 use std::io::{Read, Write};
@@ -22,15 +15,14 @@ use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 
+use crate::device::{Connection, DeviceArgs, DeviceConfig};
+use crate::failure::Failure;
+use crate::serve_protocol::{DeviceRequest, Reply, Request};
+use crate::transport::AnyIo;
 use geometry::TrunkState;
 use host::{HostEvent, Io as _, RequestId, RunEvent, RunOptions, SessionEvent};
 use planner::graph::Graph;
 use protocol::{Event, ParamId, RequestBody};
-use serde_json::{json, Value};
-
-use crate::device::{parse_state, Connection, DeviceArgs, DeviceConfig};
-use crate::failure::Failure;
-use crate::transport::AnyIo;
 
 /// Longest slice of engine time between looks at the clients.
 pub const SLICE_MS: u64 = 10;
@@ -47,12 +39,12 @@ pub struct Args {
     #[arg(long)]
     pub no_record: bool,
     /// Telemetry rate while serving, 1–50 Hz.
-    #[arg(long, value_name = "HZ", default_value_t = 50)]
+    #[arg(long, value_name = "HZ", default_value_t = 50, value_parser = crate::num::int_in(1, 50))]
     pub rate: u32,
     /// Serve the live view to Foxglove (WebSocket, foxglove.websocket.v1) on HOST:PORT, e.g.
     /// 127.0.0.1:8765 (PORT 0: any free port; the address is printed).
-    #[arg(long, value_name = "HOST:PORT")]
-    pub foxglove: Option<String>,
+    #[arg(long, value_name = "HOST:PORT", value_parser = crate::live::parse_addr)]
+    pub foxglove: Option<crate::live::LiveAddr>,
 }
 
 struct Conn {
@@ -63,8 +55,11 @@ struct Conn {
 }
 
 impl Conn {
-    fn send(&mut self, v: &Value) {
-        let mut line = v.to_string();
+    fn send(&mut self, v: &Reply) {
+        let Ok(mut line) = serde_json::to_string(v) else {
+            // Only a map with non-string keys fails; no reply holds one.
+            return;
+        };
         line.push('\n');
         // A client that does not read is dropped rather than allowed to stall the link.
         if self.stream.write_all(line.as_bytes()).is_err() {
@@ -99,18 +94,7 @@ struct Server {
 /// Runs `host-tool serve`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let device = args.device.validate(Some(1.0))?;
-    if !(1..=50).contains(&args.rate) {
-        return Err(Failure::usage(format!(
-            "invalid --rate {}: it must be 1–50 Hz",
-            args.rate
-        )));
-    }
-    let foxglove = args
-        .foxglove
-        .as_deref()
-        .map(crate::live::parse_addr)
-        .transpose()
-        .map_err(Failure::usage)?;
+    let foxglove = args.foxglove;
     let dir = crate::client::socket_dir_create().map_err(Failure::Runtime)?;
     let port = match &device {
         DeviceConfig::Port(p) => Some(p.as_str()),
@@ -333,16 +317,16 @@ impl Server {
             }
         }
         for (id, line) in lines {
-            match serde_json::from_slice::<Value>(&line) {
-                Ok(v) => self.handle(id, &v),
-                Err(e) => self.reply(id, &json!({"error": format!("bad request line: {e}")})),
+            match serde_json::from_slice::<Request>(&line) {
+                Ok(r) => self.handle(id, r),
+                Err(e) => self.reply(id, Reply::error(format!("bad request line: {e}"))),
             }
         }
     }
 
-    fn reply(&mut self, id: u64, v: &Value) {
+    fn reply(&mut self, id: u64, v: Reply) {
         if let Some(c) = self.clients.get_mut(&id) {
-            c.send(v);
+            c.send(&v);
         }
     }
 
@@ -351,7 +335,7 @@ impl Server {
         if self.plan_running() {
             return self.reply(
                 client,
-                &json!({"error": "a plan is already running on this server"}),
+                Reply::error("a plan is already running on this server"),
             );
         }
         self.plan_client = Some(client);
@@ -362,24 +346,13 @@ impl Server {
             .run_plan(Graph::nominal(), target, options, now);
     }
 
-    fn handle(&mut self, client: u64, v: &Value) {
+    fn handle(&mut self, client: u64, request: Request) {
         let now = self.now();
-        match v["op"].as_str() {
-            Some("snapshot") => {
-                let request = if v["request"].is_null() {
-                    None
-                } else {
-                    match serde_json::from_value::<RequestBody>(v["request"].clone()) {
-                        Ok(r) => Some(r),
-                        Err(e) => {
-                            return self
-                                .reply(client, &json!({"error": format!("bad request: {e}")}))
-                        }
-                    }
-                };
+        match request {
+            Request::Snapshot { request } => {
                 let host = &mut self.conn.session.host;
                 match request {
-                    Some(RequestBody::Abort) => {
+                    Some(DeviceRequest(RequestBody::Abort)) => {
                         // Ahead of everything queued; a running plan is cancelled once the
                         // device has answered (its runner's own abort would supersede this one).
                         let id = host.request_first(RequestBody::Abort, now);
@@ -393,7 +366,7 @@ impl Server {
                             ),
                         );
                     }
-                    Some(body) => {
+                    Some(DeviceRequest(body)) => {
                         let id = host.request(body, now);
                         self.pending
                             .insert(id, (client, Stage::Request { abort_at: None }));
@@ -412,35 +385,26 @@ impl Server {
                     }
                 }
             }
-            Some("call") => match serde_json::from_value::<RequestBody>(v["request"].clone()) {
-                Ok(body) => {
-                    let host = &mut self.conn.session.host;
-                    let id = if matches!(body, RequestBody::Abort) {
-                        host.request_first(body, now)
-                    } else {
-                        host.request(body, now)
-                    };
-                    self.pending.insert(id, (client, Stage::Call));
-                }
-                Err(e) => self.reply(client, &json!({"error": format!("bad request: {e}")})),
-            },
-            Some("monitor") => {
+            Request::Call {
+                request: DeviceRequest(body),
+            } => {
+                let host = &mut self.conn.session.host;
+                let id = if matches!(body, RequestBody::Abort) {
+                    host.request_first(body, now)
+                } else {
+                    host.request(body, now)
+                };
+                self.pending.insert(id, (client, Stage::Call));
+            }
+            Request::Monitor => {
                 if let Some(c) = self.clients.get_mut(&client) {
                     c.monitor = true;
                 }
             }
-            Some("plan") => {
-                let target = match v["target"]
-                    .as_str()
-                    .ok_or_else(|| "a plan needs a target".to_string())
-                    .and_then(|t| parse_state("target", t).map_err(|e| format!("{e:?}")))
-                {
-                    Ok(t) => t,
-                    Err(e) => return self.reply(client, &json!({"error": e})),
-                };
+            Request::Plan { target } => {
                 self.start_run(client, target, RunOptions::default(), now);
             }
-            Some("identify") => {
+            Request::Identify => {
                 // The target is replaced by whatever the device confirms.
                 let options = RunOptions {
                     identify_only: true,
@@ -448,7 +412,6 @@ impl Server {
                 };
                 self.start_run(client, TrunkState::AS_MANUFACTURED, options, now);
             }
-            _ => self.reply(client, &json!({"error": format!("unknown request: {v}")})),
         }
     }
 
@@ -461,11 +424,17 @@ impl Server {
                 };
                 match stage {
                     Stage::Call => {
-                        self.reply(client, &json!({"result": reply.result, "body": reply.body}));
+                        self.reply(
+                            client,
+                            Reply::Call {
+                                result: reply.result,
+                                body: reply.body,
+                            },
+                        );
                     }
                     Stage::Request { abort_at } => {
                         if let Err(e) = reply.accepted("request") {
-                            self.reply(client, &json!({"error": e.to_string()}));
+                            self.reply(client, Reply::error(e));
                             return Ok(());
                         }
                         let latency = abort_at.map(|t| now.saturating_sub(t));
@@ -489,22 +458,21 @@ impl Server {
                     }
                     Stage::Status { abort_latency_ms } => match reply.status() {
                         Ok(status) => {
-                            let truth = self.conn.truth().map(|t| t.to_json());
-                            let v = json!({
-                                "status": status,
-                                "info": self.conn.info,
-                                "truth": truth,
-                                "abort_latency_ms": abort_latency_ms,
-                            });
-                            self.reply(client, &v);
+                            let v = Reply::Snapshot {
+                                status,
+                                info: self.conn.info.clone(),
+                                truth: self.conn.truth(),
+                                abort_latency_ms,
+                            };
+                            self.reply(client, v);
                         }
-                        Err(e) => self.reply(client, &json!({"error": e.to_string()})),
+                        Err(e) => self.reply(client, Reply::error(e)),
                     },
                 }
             }
             HostEvent::Session(SessionEvent::Failed { id, error }) => {
                 if let Some((client, _)) = self.pending.remove(&id) {
-                    self.reply(client, &json!({"error": error.to_string()}));
+                    self.reply(client, Reply::error(error));
                 }
             }
             HostEvent::Session(SessionEvent::Device(e)) => self.device_event(&e),
@@ -521,7 +489,7 @@ impl Server {
         if matches!(e, Event::Heartbeat { .. }) {
             return;
         }
-        let v = json!({"event": e});
+        let v = Reply::Event { event: e.clone() };
         for c in self.clients.values_mut().filter(|c| c.monitor) {
             c.send(&v);
         }
@@ -578,18 +546,24 @@ impl Server {
                     .map(|r| r.outcome().clone())
                     .unwrap_or_default();
                 let truth = self.conn.truth();
-                let v = crate::cmd::plan::outcome_json(&outcome, truth.as_ref());
+                let doc = crate::outcome::PlanOutcome::of(&outcome, truth.as_ref());
                 if let Some(rec) = self.conn.session.io.recording() {
-                    rec.outcome(now, outcome.ok(), v.clone());
+                    rec.outcome(now, outcome.ok(), doc.to_json());
                 }
                 if let Some(c) = self.plan_client.take() {
-                    self.reply(c, &json!({"outcome": v, "ok": outcome.ok()}));
+                    self.reply(
+                        c,
+                        Reply::Outcome {
+                            outcome: Box::new(doc),
+                            ok: outcome.ok(),
+                        },
+                    );
                 }
                 None
             }
         };
         if let (Some(n), Some(c)) = (note, self.plan_client) {
-            self.reply(c, &json!({"note": n}));
+            self.reply(c, Reply::Note { note: n });
         }
     }
 }

@@ -9,14 +9,17 @@ use crate::failure::Failure;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of polygon sides n (an integer in [3, 64]).
-    #[arg(long, allow_hyphen_values = true, required_unless_present = "crane")]
-    pub n: Option<String>,
+    #[arg(long, allow_hyphen_values = true, required_unless_present = "crane",
+          value_parser = crate::arg::usage(parse_n))]
+    pub n: Option<u32>,
     /// Fold angle β in degrees, strictly between 0 and 90.
-    #[arg(long, allow_hyphen_values = true, required_unless_present = "crane")]
-    pub beta: Option<String>,
+    #[arg(long, allow_hyphen_values = true, required_unless_present = "crane",
+          value_parser = crate::arg::usage(parse_beta))]
+    pub beta: Option<f64>,
     /// Print lengths in millimetres too, for a valley fold (polygon edge) of this length.
-    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
-    pub edge_mm: Option<String>,
+    #[arg(long, value_name = "MM", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_edge_mm))]
+    pub edge_mm: Option<f64>,
     /// The crane's trunk instead of one module: its height in each of its six states
     /// (`F&P` … `D&D`), from the firmware's configuration and the geometry.
     #[arg(long, conflicts_with_all = ["n", "beta", "edge_mm"])]
@@ -79,19 +82,27 @@ pub fn parse_beta(text: &str) -> Result<f64, Failure> {
     Ok(beta)
 }
 
-/// Parses a `--beta` list (one β for all `m` modules, or one per module, bottom first) and builds
-/// the module designs. `count` says where `m` came from, for the error message
-/// (e.g. `"--modules is 4"`).
+/// A `--beta` list: one β for all modules, or one per module, bottom first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Betas(pub Vec<f64>);
+
+/// Parses a `--beta` list, each β as [`parse_beta`].
+pub fn parse_betas(text: &str) -> Result<Betas, Failure> {
+    text.split(',')
+        .map(parse_beta)
+        .collect::<Result<_, _>>()
+        .map(Betas)
+}
+
+/// Builds the module designs of a `--beta` list for `m` modules. `count` says where `m` came
+/// from, for the error message (e.g. `"--modules is 4"`).
 pub fn designs_from(
     n: u32,
-    beta_list: &str,
+    betas: &Betas,
     m: usize,
     count: &str,
 ) -> Result<Vec<ModuleDesign>, Failure> {
-    let betas = beta_list
-        .split(',')
-        .map(parse_beta)
-        .collect::<Result<Vec<f64>, Failure>>()?;
+    let betas = &betas.0;
     if betas.len() != 1 && betas.len() != m {
         return Err(Failure::usage(format!(
             "--beta has {} values but {count}; give one β for all modules or one per module, bottom first",
@@ -143,14 +154,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
     if args.crane {
         return crane(args.json);
     }
-    let (Some(n_text), Some(beta_text)) = (&args.n, &args.beta) else {
+    let (Some(n), Some(beta)) = (args.n, args.beta) else {
         return Err(Failure::usage(
             "give --n N and --beta DEG for one module, or --crane for the crane's trunk",
         ));
     };
-    let n = parse_n(n_text)?;
-    let beta = parse_beta(beta_text)?;
-    let edge_mm = args.edge_mm.as_deref().map(parse_edge_mm).transpose()?;
+    let edge_mm = args.edge_mm;
     let design = design_from(n, beta)?;
     let infos: Vec<StateInfo> = design
         .shape_states()

@@ -13,7 +13,10 @@ use nalgebra::Vector3;
 use planner::station::{self, Schedule, Station, SunDirection};
 use planner::sun::{self, Sample};
 
-use super::states::{designs_from, ordered_object, parse_n};
+use super::states::{designs_from, ordered_object, parse_betas, parse_n, Betas};
+
+/// Most modules in a station's stack.
+const MAX_MODULES: usize = 64;
 use super::sun::{daylight_parts, site_text, DayArgs, SiteArgs};
 use crate::failure::Failure;
 
@@ -21,18 +24,22 @@ use crate::failure::Failure;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of polygon sides n of every module (an integer in [3, 64]).
-    #[arg(long, default_value = "3", allow_hyphen_values = true)]
-    pub n: String,
+    #[arg(long, default_value = "3", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_n))]
+    pub n: u32,
     /// Fold angle(s) β in degrees: one for all modules or one per module, bottom first.
     /// Default: the meter-scale station's golden modules (tan β = 1/φ).
-    #[arg(long, default_value = "31.72", allow_hyphen_values = true)]
-    pub beta: String,
+    #[arg(long, default_value = "31.72", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_betas))]
+    pub beta: Betas,
     /// Number of stacked modules, [1, 64].
-    #[arg(long, default_value = "4", allow_hyphen_values = true)]
-    pub modules: String,
+    #[arg(long, default_value = "4", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--modules", 1, MAX_MODULES))]
+    pub modules: usize,
     /// How many of the top modules are refolded by hand, [1, --modules].
-    #[arg(long, default_value = "2", allow_hyphen_values = true)]
-    pub adjustable: String,
+    #[arg(long, default_value = "2", allow_hyphen_values = true,
+          value_parser = crate::num::count_in("--adjustable", 1, MAX_MODULES))]
+    pub adjustable: usize,
     /// States of the other (bottom) modules, comma-separated, bottom first (default: all
     /// deployed).
     #[arg(long)]
@@ -46,8 +53,8 @@ pub struct Args {
     pub day: DayArgs,
     /// At most this many refolds over the day (a refold: the states change between two
     /// samples); default: the best state at every sample.
-    #[arg(long, allow_hyphen_values = true)]
-    pub max_changes: Option<String>,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_max_changes))]
+    pub max_changes: Option<usize>,
     /// Compass heading of the base's x axis (towards bottom vertex 0), degrees clockwise from
     /// north. 90: x east, y north.
     #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
@@ -64,24 +71,6 @@ pub struct Args {
     /// The same figure as PDF (vector, font embedded).
     #[arg(long, value_name = "FILE")]
     pub pdf: Option<PathBuf>,
-}
-
-fn count(flag: &str, text: &str, lo: usize, hi: usize) -> Result<usize, Failure> {
-    let t = text.trim();
-    let bad = || {
-        Failure::usage(format!(
-            "{flag} must be an integer in [{lo}, {hi}], got '{text}'"
-        ))
-    };
-    if t.is_empty() || !t.bytes().all(|b| b.is_ascii_digit()) {
-        return Err(bad());
-    }
-    let v: usize = t.parse().map_err(|_| bad())?;
-    if (lo..=hi).contains(&v) {
-        Ok(v)
-    } else {
-        Err(bad())
-    }
 }
 
 fn parse_max_changes(text: &str) -> Result<usize, Failure> {
@@ -247,9 +236,14 @@ fn refolds(station: &Station, s: &Schedule) -> Vec<(usize, Vec<ModuleChange>)> {
 
 /// Runs `host-tool station`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let n = parse_n(&args.n)?;
-    let m = count("--modules", &args.modules, 1, 64)?;
-    let adjustable = count("--adjustable", &args.adjustable, 1, m)?;
+    let n = args.n;
+    let m = args.modules;
+    let adjustable = args.adjustable;
+    if adjustable > m {
+        return Err(Failure::usage(format!(
+            "--adjustable must be an integer in [1, {m}] (at most --modules), got '{adjustable}'"
+        )));
+    }
     let designs = designs_from(n, &args.beta, m, &format!("--modules is {m}"))?;
     let heading =
         Heading::from_deg(args.heading).map_err(|e| Failure::usage(format!("--heading: {e}")))?;
@@ -265,11 +259,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 .collect::<Result<Vec<_>, _>>()
         })
         .transpose()?;
-    let k = args
-        .max_changes
-        .as_deref()
-        .map(parse_max_changes)
-        .transpose()?;
+    let k = args.max_changes;
     let (site, dt, air) = args.site.validate()?;
     let grid = args.day.grid(("09:00", "20:00", "10m"))?;
     let station = Station::new(designs.clone(), adjustable, fixed, heading, args.all_states)

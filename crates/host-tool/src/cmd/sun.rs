@@ -35,20 +35,35 @@ pub struct SiteArgs {
 #[derive(Debug, Clone, clap::Args)]
 pub struct DayArgs {
     /// Local calendar date YYYY-MM-DD of a day of samples.
-    #[arg(long)]
-    pub date: Option<String>,
+    #[arg(long, value_parser = crate::arg::usage(|s: &str| time_arg("--date", sun::parse_date, s)))]
+    pub date: Option<chrono::NaiveDate>,
     /// The local clock's offset from UTC, ±HH:MM (e.g. -04:00 for EDT) or Z; needed with --date.
-    #[arg(long, allow_hyphen_values = true)]
-    pub tz: Option<String>,
+    #[arg(long, allow_hyphen_values = true,
+          value_parser = crate::arg::usage(|s: &str| time_arg("--tz", sun::parse_offset, s)))]
+    pub tz: Option<FixedOffset>,
     /// First sample, local HH:MM.
-    #[arg(long)]
-    pub from: Option<String>,
+    #[arg(long, value_parser = crate::arg::usage(|s: &str| time_arg("--from", sun::parse_clock, s)))]
+    pub from: Option<chrono::NaiveTime>,
     /// Last sample at or before this local HH:MM.
-    #[arg(long)]
-    pub to: Option<String>,
+    #[arg(long, value_parser = crate::arg::usage(|s: &str| time_arg("--to", sun::parse_clock, s)))]
+    pub to: Option<chrono::NaiveTime>,
     /// Step between samples: a whole number with s, m or h (e.g. 10m, 1h30m), 1 s to 24 h.
-    #[arg(long)]
-    pub every: Option<String>,
+    #[arg(long, value_parser = crate::arg::usage(|s: &str| time_arg("--every", sun::parse_duration, s)))]
+    pub every: Option<chrono::Duration>,
+}
+
+/// One of the time options through `parse`, its refusal prefixed with the flag.
+pub fn time_arg<T>(
+    flag: &str,
+    parse: fn(&str) -> Result<T, sun::SunError>,
+    text: &str,
+) -> Result<T, Failure> {
+    parse(text).map_err(|e| Failure::usage(format!("{flag}: {e}")))
+}
+
+/// `--time`: one instant, RFC 3339 with its offset.
+pub fn parse_time(text: &str) -> Result<DateTime<FixedOffset>, Failure> {
+    time_arg("--time", sun::parse_instant, text)
 }
 
 fn usage(e: sun::SunError) -> Failure {
@@ -95,21 +110,24 @@ impl DayArgs {
     pub fn grid(&self, defaults: (&str, &str, &str)) -> Result<DayGrid, Failure> {
         let date = self
             .date
-            .as_deref()
             .ok_or_else(|| Failure::usage("--date YYYY-MM-DD is needed"))?;
-        let date = sun::parse_date(date).map_err(|e| Failure::usage(format!("--date: {e}")))?;
-        let tz = self.tz.as_deref().ok_or_else(|| {
+        let offset = self.tz.ok_or_else(|| {
             Failure::usage(
                 "--date needs --tz ±HH:MM, the offset from UTC of the clock --from/--to are read on (e.g. --tz -04:00 for EDT)",
             )
         })?;
-        let offset = sun::parse_offset(tz).map_err(|e| Failure::usage(format!("--tz: {e}")))?;
-        let from = sun::parse_clock(self.from.as_deref().unwrap_or(defaults.0))
-            .map_err(|e| Failure::usage(format!("--from: {e}")))?;
-        let to = sun::parse_clock(self.to.as_deref().unwrap_or(defaults.1))
-            .map_err(|e| Failure::usage(format!("--to: {e}")))?;
-        let every = sun::parse_duration(self.every.as_deref().unwrap_or(defaults.2))
-            .map_err(|e| Failure::usage(format!("--every: {e}")))?;
+        let from = match self.from {
+            Some(t) => t,
+            None => time_arg("--from", sun::parse_clock, defaults.0)?,
+        };
+        let to = match self.to {
+            Some(t) => t,
+            None => time_arg("--to", sun::parse_clock, defaults.1)?,
+        };
+        let every = match self.every {
+            Some(d) => d,
+            None => time_arg("--every", sun::parse_duration, defaults.2)?,
+        };
         DayGrid::new(date, offset, from, to, every).map_err(|e| Failure::usage(e.to_string()))
     }
 }
@@ -120,8 +138,9 @@ pub struct Args {
     #[command(flatten)]
     pub site: SiteArgs,
     /// One instant, RFC 3339 with its offset (e.g. 2025-06-21T12:00:00-04:00); or use --date.
-    #[arg(long, conflicts_with_all = ["date", "tz", "from", "to", "every"])]
-    pub time: Option<String>,
+    #[arg(long, conflicts_with_all = ["date", "tz", "from", "to", "every"],
+          value_parser = crate::arg::usage(parse_time))]
+    pub time: Option<DateTime<FixedOffset>>,
     #[command(flatten)]
     pub day: DayArgs,
     /// Print JSON instead of a table.
@@ -222,8 +241,7 @@ pub fn daylight_parts(d: &Daylight) -> (Vec<(&'static str, String)>, String) {
 /// Runs `host-tool sun`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let (site, dt, air) = args.site.validate()?;
-    if let Some(t) = &args.time {
-        let time = sun::parse_instant(t).map_err(|e| Failure::usage(format!("--time: {e}")))?;
+    if let Some(time) = args.time {
         let u = time.with_timezone(&Utc);
         let dt = match dt {
             Some(d) => d,

@@ -13,11 +13,29 @@ pub struct WorldArgs {
     /// Simulator: an object whose grasp point is at X,Y,Z mm (base frame; z ≥ 0, the table is
     /// z = 0) weighing MASS_KG (default 0.05), e.g. cup:40,0,60,0.1 (repeatable). Closing the
     /// gripper within 15 mm of it holds it; opening drops it to the table below the tip.
-    #[arg(long = "object", value_name = "NAME:X,Y,Z[,MASS_KG]")]
-    pub objects: Vec<String>,
+    #[arg(long = "object", value_name = "NAME:X,Y,Z[,MASS_KG]", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_object))]
+    pub objects: Vec<Object>,
     /// Simulator: a load hung on the tip, kg (0 to 50), whatever the gripper does.
-    #[arg(long, value_name = "M", allow_hyphen_values = true)]
-    pub tip_load_kg: Option<String>,
+    #[arg(long, value_name = "M", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_tip_load))]
+    pub tip_load_kg: Option<f64>,
+}
+
+/// Parses `--tip-load-kg`: a mass in kg in [0, `hil_sim::world::MAX_MASS_KG`].
+fn parse_tip_load(text: &str) -> Result<f64, Failure> {
+    match text.trim().parse::<f64>() {
+        Ok(kg) if kg.is_finite() && (0.0..=hil_sim::world::MAX_MASS_KG).contains(&kg) => Ok(kg),
+        _ => Err(Failure::usage(format!(
+            "invalid --tip-load-kg '{text}': expected a mass in kg in [0, {}]",
+            hil_sim::world::MAX_MASS_KG
+        ))),
+    }
+}
+
+/// Parses one `--object`.
+pub fn parse_object(text: &str) -> Result<Object, Failure> {
+    Object::parse(text).map_err(|e| Failure::usage(format!("invalid --object: {e}")))
 }
 
 /// A parsed world.
@@ -30,20 +48,8 @@ pub struct World {
 impl WorldArgs {
     /// Checks every object and the load.
     pub fn parse(&self) -> Result<World, Failure> {
-        let objects = self
-            .objects
-            .iter()
-            .map(|o| Object::parse(o).map_err(|e| Failure::usage(format!("invalid --object: {e}"))))
-            .collect::<Result<Vec<_>, _>>()?;
-        let tip_load_kg = match &self.tip_load_kg {
-            None => 0.0,
-            Some(t) => t.trim().parse::<f64>().map_err(|_| {
-                Failure::usage(format!(
-                    "invalid --tip-load-kg '{t}': expected a mass in kg from 0 to {}",
-                    hil_sim::world::MAX_MASS_KG
-                ))
-            })?,
-        };
+        let objects = self.objects.clone();
+        let tip_load_kg = self.tip_load_kg.unwrap_or(0.0);
         hil_sim::world::World::with(objects.clone(), tip_load_kg)
             .map_err(|e| Failure::usage(format!("invalid world: {e}")))?;
         Ok(World {

@@ -35,15 +35,16 @@ pub struct Args {
     pub lon: f64,
     /// When tracking starts, RFC 3339 with its offset (default now); with --sim the virtual
     /// day starts here.
-    #[arg(long)]
-    pub time: Option<String>,
+    #[arg(long, value_parser = crate::arg::usage(super::sun::parse_time))]
+    pub time: Option<DateTime<FixedOffset>>,
     /// When it ends: local HH:MM in --time's offset (the next such time after the start), or
     /// RFC 3339; at most 48 h after the start.
     #[arg(long)]
     pub until: String,
     /// Time between aims: a whole number with s, m or h (e.g. 10m), 1 s to 24 h.
-    #[arg(long, default_value = "10m")]
-    pub every: String,
+    #[arg(long, default_value = "10m",
+          value_parser = crate::arg::usage(|s: &str| super::sun::time_arg("--every", sun::parse_duration, s)))]
+    pub every: Duration,
     /// Compass heading of the crane base's x axis (tendon 0's side), degrees from north.
     #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
     pub heading: f64,
@@ -131,10 +132,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let heading =
         Heading::from_deg(args.heading).map_err(|e| Failure::usage(format!("--heading: {e}")))?;
     let (site, air) = aim::site_of(args.lat, args.lon)?;
-    let start = aim::instant(args.time.as_deref())?;
+    let start = aim::instant(args.time);
     let end = parse_until(&args.until, &start)?;
-    let every =
-        sun::parse_duration(&args.every).map_err(|e| Failure::usage(format!("--every: {e}")))?;
+    let every = args.every;
     if !(args.device.sim || args.device.port.is_some()) {
         return Err(Failure::usage(
             "track moves a crane: give --sim or --port (aim --sun computes one aim without one)",

@@ -1,0 +1,459 @@
+//! The client protocol of `host-tool serve`, one type each way: a [`Request`] line from a
+//! client, [`Reply`] lines back (JSON, one object per line, over the server's Unix socket).
+//! The server (`cmd/serve`) and every client (`client`, and through it `status`, `stop`,
+//! `declare`, `param`, `monitor`, `identify`, `plan`, `reach`, `run` and the primitives) read
+//! and write these types only; nothing else spells an `"op"`.
+//!
+//! - `{"op":"snapshot","request":R}` (R: a [`protocol::RequestBody`] or null/absent) →
+//!   [`Reply::Snapshot`] `{"status", "info", "truth", "abort_latency_ms"}`
+//! - `{"op":"call","request":R}` → [`Reply::Call`] `{"result", "body"}`
+//! - `{"op":"monitor"}` → [`Reply::Event`] `{"event"}` lines until the client hangs up
+//! - `{"op":"plan","target":"D&D"}` → [`Reply::Note`] `{"note"}` lines, then
+//!   [`Reply::Outcome`] `{"outcome", "ok"}` (the outcome is `plan --json`'s document)
+//! - `{"op":"identify"}` → as `plan`, the run identifying the state
+//!
+//! Any request may instead be answered by [`Reply::Error`] `{"error"}`: a line that is not a
+//! request (bad JSON, an unknown `op`, a missing or malformed field) is answered so, with
+//! serde's reason, and the server goes on serving.
+
+use geometry::TrunkState;
+use protocol::{DeviceInfo, Event, Plan, RequestBody, ResponseBody, ResultCode, Status, Step};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use crate::sim::SimTruth;
+
+/// A client's request line.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case")]
+pub enum Request {
+    /// The request, if any (`stop`: an abort, sent ahead of anything queued; `declare`), then
+    /// the device's status.
+    Snapshot {
+        /// What to send first; `None`: only the status.
+        #[serde(default)]
+        request: Option<DeviceRequest>,
+    },
+    /// One request, its answer returned as the device gave it (`param`, the primitives).
+    Call {
+        /// The request.
+        request: DeviceRequest,
+    },
+    /// Every device event but heartbeats, as it comes.
+    Monitor,
+    /// Runs a plan to `target` (one at a time per server).
+    Plan {
+        /// The state to reach, by name (`D&F`).
+        #[serde(with = "state_name")]
+        target: TrunkState,
+    },
+    /// Runs the identification of an unconfirmed state.
+    Identify,
+}
+
+/// A line from the server.
+///
+/// Untagged: each variant is told by its keys (`error`, `status`, `result`, `event`, `note`,
+/// `outcome`), which no two share.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Reply {
+    /// The request failed, or was not a request.
+    Error {
+        /// Why.
+        error: String,
+    },
+    /// The answer to [`Request::Snapshot`].
+    Snapshot {
+        /// The device's status after the request.
+        status: Status,
+        /// Who the device is (from the server's handshake).
+        info: DeviceInfo,
+        /// The simulator's ground truth, when the server runs the simulator.
+        truth: Option<SimTruth>,
+        /// After an abort: engine ms from the request's arrival to the device's answer.
+        abort_latency_ms: Option<u64>,
+    },
+    /// The answer to [`Request::Call`].
+    Call {
+        /// The device's result code.
+        result: ResultCode,
+        /// Its answer.
+        body: ResponseBody,
+    },
+    /// A device event ([`Request::Monitor`]).
+    Event {
+        /// The event.
+        event: Event,
+    },
+    /// A line of a run's progress ([`Request::Plan`], [`Request::Identify`]).
+    Note {
+        /// The text.
+        note: String,
+    },
+    /// How a run ended.
+    Outcome {
+        /// `plan --json`'s outcome document.
+        outcome: Box<crate::outcome::PlanOutcome>,
+        /// Whether the run reached its target.
+        ok: bool,
+    },
+}
+
+impl Reply {
+    /// The reply's kind, for "expected X, got Y" messages.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Reply::Error { .. } => "error",
+            Reply::Snapshot { .. } => "snapshot",
+            Reply::Call { .. } => "call",
+            Reply::Event { .. } => "event",
+            Reply::Note { .. } => "note",
+            Reply::Outcome { .. } => "outcome",
+        }
+    }
+
+    /// An error line.
+    pub fn error(e: impl std::fmt::Display) -> Self {
+        Reply::Error {
+            error: e.to_string(),
+        }
+    }
+}
+
+/// A device request in the server's protocol: [`RequestBody`]'s serde form, except that a
+/// step (and a plan) is written as the sequence its `Deserialize` reads (the wire's in-place
+/// form takes a struct's fields in order and refuses a map).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceRequest(pub RequestBody);
+
+impl From<RequestBody> for DeviceRequest {
+    fn from(r: RequestBody) -> Self {
+        Self(r)
+    }
+}
+
+impl Serialize for DeviceRequest {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        // The variant indices are `RequestBody`'s declaration order (unused by JSON).
+        match &self.0 {
+            RequestBody::UploadPlan(plan) => {
+                s.serialize_newtype_variant("RequestBody", 3, "UploadPlan", &PlanSeq(plan))
+            }
+            RequestBody::RunStep(step) => {
+                s.serialize_newtype_variant("RequestBody", 5, "RunStep", &StepSeq(step))
+            }
+            other => other.serialize(s),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for DeviceRequest {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        RequestBody::deserialize(d).map(Self)
+    }
+}
+
+/// A step as its fields in order.
+struct StepSeq<'a>(&'a Step);
+
+impl Serialize for StepSeq<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let st = self.0;
+        (st.kind, st.from, st.to, &st.primitives, st.timeout_ms).serialize(s)
+    }
+}
+
+/// A plan as its fields in order, its steps as [`StepSeq`].
+struct PlanSeq<'a>(&'a Plan);
+
+impl Serialize for PlanSeq<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let steps: Vec<StepSeq<'_>> = self.0.steps.iter().map(StepSeq).collect();
+        (self.0.plan_id, steps).serialize(s)
+    }
+}
+
+/// A trunk state as its name (`D&F`); read with `TrunkState`'s parser (any case, `-` for `&`).
+pub mod state_name {
+    use geometry::TrunkState;
+    use serde::{de, Deserialize, Deserializer, Serializer};
+
+    /// Writes the name.
+    pub fn serialize<S: Serializer>(state: &TrunkState, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(state.name())
+    }
+
+    /// Reads a name; the error names the six states.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<TrunkState, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse().map_err(|e| {
+            de::Error::custom(format!(
+                "invalid trunk state '{name}': {e}{}",
+                hil_sim::cli::ampersand_hint(&name)
+            ))
+        })
+    }
+
+    /// The same for an optional state (`null`: none).
+    pub mod option {
+        use geometry::TrunkState;
+        use serde::{Deserialize, Deserializer, Serializer};
+
+        /// Writes the name or `null`.
+        pub fn serialize<S: Serializer>(
+            state: &Option<TrunkState>,
+            s: S,
+        ) -> Result<S::Ok, S::Error> {
+            match state {
+                Some(st) => s.serialize_some(st.name()),
+                None => s.serialize_none(),
+            }
+        }
+
+        /// Reads a name or `null`.
+        pub fn deserialize<'de, D: Deserializer<'de>>(
+            d: D,
+        ) -> Result<Option<TrunkState>, D::Error> {
+            #[derive(Deserialize)]
+            struct Name(#[serde(with = "super")] TrunkState);
+            Ok(Option::<Name>::deserialize(d)?.map(|n| n.0))
+        }
+    }
+}
+
+/// An `f32` that JSON writes as `null` when it is not a number (serde_json's form of NaN),
+/// read back as NaN.
+pub mod f32_or_nan {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// Writes the number (`null` for NaN or an infinity, as serde_json does).
+    pub fn serialize<S: Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
+        v.serialize(s)
+    }
+
+    /// Reads a number, `null` as NaN.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+        Ok(Option::<f32>::deserialize(d)?.unwrap_or(f32::NAN))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use protocol::{Primitive, StepKind};
+
+    fn step() -> Step {
+        let d_f: TrunkState = "D&F".parse().expect("a state");
+        let mut step = planner::task::step_within(
+            d_f,
+            StepKind::Tendon,
+            &[Primitive::Hold { duration_ms: 250 }],
+        );
+        step.timeout_ms = 5_000;
+        step
+    }
+
+    fn round_trip_request(r: &Request) -> String {
+        let line = serde_json::to_string(r).expect("a request serialises");
+        let back: Request = serde_json::from_str(&line).expect("and reads back");
+        assert_eq!(&back, r, "{line}");
+        line
+    }
+
+    #[test]
+    fn every_request_round_trips_with_the_wire_bytes_it_always_had() {
+        let d_f: TrunkState = "D&F".parse().expect("a state");
+        let cases = [
+            (
+                Request::Snapshot { request: None },
+                r#"{"op":"snapshot","request":null}"#.to_string(),
+            ),
+            (
+                Request::Snapshot {
+                    request: Some(RequestBody::Abort.into()),
+                },
+                r#"{"op":"snapshot","request":"Abort"}"#.into(),
+            ),
+            (
+                Request::Snapshot {
+                    request: Some(RequestBody::DeclareState(d_f).into()),
+                },
+                r#"{"op":"snapshot","request":{"DeclareState":{"top":"Deployed","bottom":"Folded"}}}"#
+                    .into(),
+            ),
+            (
+                Request::Call {
+                    request: RequestBody::GetParam(protocol::ParamId::TelemetryHz).into(),
+                },
+                r#"{"op":"call","request":{"GetParam":"TelemetryHz"}}"#.into(),
+            ),
+            (Request::Monitor, r#"{"op":"monitor"}"#.into()),
+            (
+                Request::Plan { target: d_f },
+                r#"{"op":"plan","target":"D&F"}"#.into(),
+            ),
+            (Request::Identify, r#"{"op":"identify"}"#.into()),
+        ];
+        for (r, wire) in cases {
+            assert_eq!(round_trip_request(&r), wire);
+        }
+    }
+
+    #[test]
+    fn a_step_and_a_plan_travel_in_the_sequence_form_the_wire_types_read() {
+        let r = Request::Call {
+            request: RequestBody::RunStep(step()).into(),
+        };
+        let line = round_trip_request(&r);
+        assert_eq!(
+            line,
+            r#"{"op":"call","request":{"RunStep":["Tendon",{"top":"Deployed","bottom":"Folded"},{"top":"Deployed","bottom":"Folded"},[{"Hold":{"duration_ms":250}}],5000]}}"#
+        );
+        let mut with_steps = Plan {
+            plan_id: 7,
+            steps: Default::default(),
+        };
+        for _ in 0..2 {
+            with_steps.steps.push(step()).expect("room for two steps");
+        }
+        let plan = Request::Call {
+            request: RequestBody::UploadPlan(with_steps).into(),
+        };
+        assert!(round_trip_request(&plan).contains(r#"{"UploadPlan":[7,[["Tendon""#));
+        // The derive's map form of a step is what the wire type refuses.
+        let map = serde_json::json!({"op": "call", "request": {"RunStep": step()}});
+        assert!(serde_json::from_value::<Request>(map).is_err());
+    }
+
+    #[test]
+    fn a_state_is_read_by_the_parser_and_a_bad_one_is_named() {
+        let r: Request = serde_json::from_str(r#"{"op":"plan","target":"d-f"}"#).expect("read");
+        assert_eq!(
+            r,
+            Request::Plan {
+                target: "D&F".parse().expect("a state")
+            }
+        );
+        let e = serde_json::from_str::<Request>(r#"{"op":"plan","target":"X&Y"}"#)
+            .expect_err("no such state")
+            .to_string();
+        assert!(e.contains("invalid trunk state 'X&Y'"), "{e}");
+        assert!(e.contains(geometry::trunk::VALID_STATES_TEXT), "{e}");
+        // A missing request of a snapshot is none.
+        let r: Request = serde_json::from_str(r#"{"op":"snapshot"}"#).expect("read");
+        assert_eq!(r, Request::Snapshot { request: None });
+    }
+
+    #[test]
+    fn an_unknown_or_malformed_request_is_an_error_that_says_why() {
+        for (line, why) in [
+            (r#"{"op":"dance"}"#, "unknown variant `dance`"),
+            (r#"{"target":"D&F"}"#, "missing field `op`"),
+            (r#"{"op":"plan"}"#, "missing field `target`"),
+            (r#"{"op":"call"}"#, "missing field `request`"),
+            (
+                r#"{"op":"call","request":{"Fly":1}}"#,
+                "unknown variant `Fly`",
+            ),
+            (r#"{"op":"plan","target":7}"#, "invalid type"),
+            ("[1,2]", "invalid type"),
+            ("not json", "expected"),
+        ] {
+            let e = serde_json::from_str::<Request>(line)
+                .expect_err(line)
+                .to_string();
+            assert!(e.contains(why), "{line}: {e}");
+        }
+    }
+
+    #[test]
+    fn every_reply_round_trips_as_its_own_variant() {
+        let truth = SimTruth {
+            true_state: Some("F&P".parse().expect("a state")),
+            max_pressure_kpa: 12.5,
+            pressure_limit_kpa: 60.0,
+            actuators_safe: true,
+        };
+        let replies = [
+            Reply::error("a plan is already running on this server"),
+            Reply::Call {
+                result: ResultCode::Ok,
+                body: ResponseBody::Param {
+                    id: protocol::ParamId::TelemetryHz,
+                    value: 10.0,
+                },
+            },
+            Reply::Event {
+                event: Event::Heartbeat {
+                    uptime_ms: 1234,
+                    mode: protocol::Mode::Standalone,
+                },
+            },
+            Reply::Note {
+                note: "step 1/2 started".into(),
+            },
+            Reply::Outcome {
+                outcome: Box::new(crate::outcome::PlanOutcome {
+                    ok: true,
+                    from: Some("F&P".into()),
+                    target: Some("D&D".into()),
+                    final_state: Some("D&D".into()),
+                    state_confirmed: true,
+                    candidates: None,
+                    identified: false,
+                    steps: Vec::new(),
+                    error: None,
+                    fault_code: None,
+                    failure: None,
+                    sim: None,
+                }),
+                ok: true,
+            },
+        ];
+        for r in replies {
+            let line = serde_json::to_string(&r).expect("serialises");
+            let back: Reply = serde_json::from_str(&line).expect("reads back");
+            assert_eq!(back, r, "{line}");
+        }
+        // The snapshot, with its truth (NaN travels as null and comes back NaN).
+        let line = serde_json::to_string(&truth).expect("serialises");
+        assert_eq!(
+            line,
+            r#"{"true_state":"F&P","max_pressure_kpa":12.5,"pressure_limit_kpa":60.0,"actuators_safe":true}"#
+        );
+        let nan = SimTruth {
+            true_state: None,
+            max_pressure_kpa: f32::NAN,
+            ..truth
+        };
+        let back: SimTruth =
+            serde_json::from_str(&serde_json::to_string(&nan).expect("serialises")).expect("reads");
+        assert!(back.true_state.is_none() && back.max_pressure_kpa.is_nan());
+        assert_eq!(back.pressure_limit_kpa, 60.0);
+    }
+
+    #[test]
+    fn a_snapshot_of_the_simulated_device_round_trips() {
+        let mut sim = hil_sim::Sim::new(hil_sim::SimOptions::default());
+        let mut host = hil_sim::host::SimHost::new();
+        let ResponseBody::Hello(info) = host.hello(&mut sim).expect("handshake") else {
+            panic!("the handshake answers Hello");
+        };
+        let ResponseBody::Status(status) = host
+            .request_ok(&mut sim, RequestBody::GetStatus, 1_000)
+            .expect("a status")
+        else {
+            panic!("GetStatus answers Status");
+        };
+        let r = Reply::Snapshot {
+            status,
+            info,
+            truth: Some(sim.ground_truth().into()),
+            abort_latency_ms: Some(3),
+        };
+        let line = serde_json::to_string(&r).expect("serialises");
+        let back: Reply = serde_json::from_str(&line).expect("reads back");
+        assert_eq!(back, r, "{line}");
+        assert_eq!(back.kind(), "snapshot");
+    }
+}

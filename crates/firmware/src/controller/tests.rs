@@ -3217,7 +3217,7 @@ mod signing {
 /// The probe profile stored on the device (`RequestBody::SetProbeProfile`).
 mod probe_profile {
     use super::*;
-    use protocol::{ProbeProfile, RefusedField, Refusal, SCHEMA_ID};
+    use protocol::{ProbeProfile, Refusal, RefusedField, SCHEMA_ID};
 
     fn set(profile: Option<ProbeProfile>) -> RequestBody {
         RequestBody::SetProbeProfile {
@@ -3253,8 +3253,14 @@ mod probe_profile {
 
         let (mut r, _) = Rig::interrupted_fold();
         r.ctl.set_probe_profile(None, true);
-        assert_eq!(r.request(set(Some(identify::SIM_PROFILE))).0, ResultCode::Ok);
-        assert_eq!(r.ctl.poll_probe_profile(), Some(Some(identify::SIM_PROFILE)));
+        assert_eq!(
+            r.request(set(Some(identify::SIM_PROFILE))).0,
+            ResultCode::Ok
+        );
+        assert_eq!(
+            r.ctl.poll_probe_profile(),
+            Some(Some(identify::SIM_PROFILE))
+        );
         assert_eq!(r.ctl.poll_probe_profile(), None, "taken once");
         assert_eq!(stored(&mut r), Some(identify::SIM_PROFILE));
         r.run(100);
@@ -3325,7 +3331,11 @@ mod probe_profile {
                 p.between[i - 6] = bad;
             }
             let (res, body) = r.request(set(Some(p)));
-            assert_eq!(res, ResultCode::Rejected(RejectReason::OutOfRange), "{i}: {bad}");
+            assert_eq!(
+                res,
+                ResultCode::Rejected(RejectReason::OutOfRange),
+                "{i}: {bad}"
+            );
             let ResponseBody::Refused(Refusal {
                 step: None,
                 field: RefusedField::ProbeRate(at),

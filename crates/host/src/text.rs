@@ -589,6 +589,14 @@ pub fn event(ev: &Event) -> (&'static str, Option<String>) {
     }
 }
 
+/// A probe profile's rates in words: `F&P 11.71, …, D&P½ 13.20 kPa/s`.
+pub fn probe_profile_text(p: &protocol::ProbeProfile) -> String {
+    let rates: Vec<String> = (0..8u8)
+        .map(|i| format!("{} {:.2}", probe_rate_name(i), p.rate(usize::from(i))))
+        .collect();
+    format!("{} kPa/s", rates.join(", "))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -673,12 +681,4 @@ mod tests {
             format!("event FaultRaised{{{}}}", fault(FaultCode::Leak))
         );
     }
-}
-
-/// A probe profile's rates in words: `F&P 11.71, …, D&P½ 13.20 kPa/s`.
-pub fn probe_profile_text(p: &protocol::ProbeProfile) -> String {
-    let rates: Vec<String> = (0..8u8)
-        .map(|i| format!("{} {:.2}", probe_rate_name(i), p.rate(usize::from(i))))
-        .collect();
-    format!("{} kPa/s", rates.join(", "))
 }

@@ -28,9 +28,18 @@
 //! Pairing erases the block and programs the slot; unpairing only erases it (the key is gone
 //! from the flash, not merely marked). An erased slot, or one that fails its CRC (a power cut
 //! between the erase and the slot's last byte), loads as no key: signing off, which the
-//! handshake reports, so the operator pairs again. One owner at a time drives the flash: while
-//! a state save or a key save is under way (a background erase, a slot programmed one byte per
-//! call), the other returns [`FlashError::Busy`] without touching it.
+//! handshake reports, so the operator pairs again.
+//!
+//! The identification probe's profile ([`FlashLog::with_profile_block`]) has a block of its
+//! own too, one slot at its start written the same way: bytes 0–35
+//! [`firmware::store::profile_to_bytes`] (schema id, eight f32 fill rates), 36–37 their
+//! CRC-16. Storing one erases the block first, so a power cut mid-write leaves an erased or
+//! torn slot: it loads as no profile (identification asks the operator), never as a mix of
+//! the old and the new.
+//!
+//! One owner at a time drives the flash: while a state, key or profile save is under way (a
+//! background erase, a slot programmed one byte per call), the others return
+//! [`FlashError::Busy`] without touching it.
 
 use firmware::hw::StateStore;
 use firmware::store::{crc16, StoredState, PROFILE_LEN, STORED_LEN};
@@ -74,9 +83,6 @@ pub enum FlashError {
     /// A previous save failed; the next attempt waits out its back-off ([`Backoff`]).
     BackingOff,
 }
-
-/// Bytes of the link-key slot that are programmed (key, CRC).
-pub const KEY_SLOT_USED: usize = 16 + 2;
 
 /// Which record's save drives the flash (the others wait: one sequencer, one write at a time).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -590,7 +590,14 @@ pub fn run_show(args: ShowArgs) -> Result<(), Failure> {
             device,
             json,
         } => {
-            let device = device.validate(None)?;
+            let named = device.port.is_some() || device.sim;
+            let device = device.validate(None).map_err(|e| match e {
+                Failure::Usage(m) if !named => Failure::usage(format!(
+                    "calibration show: give a PROFILE.toml, or the device whose stored probe \
+                     profile to read: {m}"
+                )),
+                other => other,
+            })?;
             let p = read_device_profile(&device)?;
             if json {
                 crate::cli::print_json(json!({

@@ -3,7 +3,7 @@
 #  1. builds `uno-r4` in the `firmware` profile for thumbv7em-none-eabihf (`cargo firmware`);
 #  2. checks that no loadable segment or allocated section lies below 0x4000 (the Arduino
 #     bootloader and the option-setting memory at 0x400..0x4FF: never written by us);
-#  3. reports flash and static RAM, and fails above the budget (44.5 KiB flash, 16 KiB RAM): the
+#  3. reports flash and static RAM, and fails above the budget (45.5 KiB flash, 16 KiB RAM): the
 #     budget follows the size reached (BENCHMARKS.md) with a small margin, so a regression is red.
 # Needs only cargo and python3 (the ELF is parsed here, no binutils required).
 set -euo pipefail
@@ -17,7 +17,7 @@ elf="$target_dir/thumbv7em-none-eabihf/firmware/uno-r4"
 python3 - "$elf" <<'PY'
 import struct, sys
 
-FLASH_BUDGET = 44 * 1024 + 512      # 43.8 KiB reached with link signing (BENCHMARKS.md, "Issue 26: link signing on the board")
+FLASH_BUDGET = 45 * 1024 + 512      # 45.2 KiB reached with the stored probe profile (BENCHMARKS.md, "Issue 25: the probe profile on the device")
 RAM_BUDGET = 16 * 1024
 APP_START = 0x4000                      # memory.x FLASH ORIGIN
 RAM = (0x2000_0000, 0x2000_8000)        # 32 KiB SRAM

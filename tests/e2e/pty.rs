@@ -289,3 +289,138 @@ fn a_stop_through_serve_on_a_port_is_reported_by_the_plan_as_an_abort() {
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
+
+/// `host-tool calibration load/show/erase --port` on `hil-sim --pty`: a profile's probe
+/// signatures stored on the device read back the same; erased, none; every refusal of a
+/// profile the device must not get is said up front (exit 2) and stores nothing.
+#[test]
+fn calibration_load_show_and_erase_the_devices_probe_profile_over_the_pty() {
+    let dir = std::env::temp_dir().join(format!("e2e-probe-profile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("pdf.toml");
+    let file_s = file.to_str().unwrap();
+    let out = host_tool(
+        &["calibrate", "--sim", "--out", file_s],
+        Duration::from_secs(120),
+    );
+    assert_eq!(out.code(), 0, "{}", out.stderr);
+    assert!(
+        out.stderr
+            .contains("no probe signatures measured: nothing stored on the device"),
+        "{}",
+        out.stderr
+    );
+    let base = std::fs::read_to_string(&file).unwrap();
+    let states = [11.5, 10.75, 10.25, 14.0, 12.875, 12.75];
+    let between = [11.0, 13.25];
+    let with_probe = |states: &str, between: &str| {
+        let p = dir.join(format!("p{}.toml", states.len() + between.len() * 100));
+        std::fs::write(
+            &p,
+            format!("{base}\n[probe]\nstates = [{states}]\nbetween = [{between}]\n"),
+        )
+        .unwrap();
+        p
+    };
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| x.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let good = with_probe(&list(&states), &list(&between));
+
+    let sim = hil_sim_pty(&["--seed", "4"]);
+    let port = sim.path.as_str();
+    let show = || {
+        let o = host_tool(&["calibration", "show", "--port", port, "-j"], LIMIT);
+        assert_eq!(o.code(), 0, "{}", o.stderr);
+        o.json()["device_profile"].clone()
+    };
+    assert!(show().is_null(), "a fresh device holds none");
+
+    let o = host_tool(
+        &[
+            "calibration",
+            "load",
+            good.to_str().unwrap(),
+            "--port",
+            port,
+            "-j",
+        ],
+        LIMIT,
+    );
+    assert_eq!(o.code(), 0, "{}", o.stderr);
+    assert_eq!(o.json()["stored"], true);
+    let back = show();
+    let got = |k: &str| -> Vec<f64> {
+        back[k]
+            .as_array()
+            .unwrap_or_else(|| panic!("{back}"))
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    // The rates are exact in f32: the same values back.
+    assert_eq!(got("states"), states.to_vec(), "{back}");
+    assert_eq!(got("between"), between.to_vec(), "{back}");
+    let o = host_tool(&["calibration", "show", "--port", port], LIMIT);
+    assert!(
+        o.stdout.contains("the device's probe profile: F&P 11.50"),
+        "{}",
+        o.stdout
+    );
+
+    // Refused before anything reaches the device: the stored profile stays.
+    let nan = with_probe("nan, 10.75, 10.25, 14.0, 12.875, 12.75", &list(&between));
+    let negative = with_probe(&list(&states), "-1.0, 13.25");
+    let absurd = with_probe("11.5, 10.75, 10.25, 14.0, 12.875, 1e9", &list(&between));
+    let short = with_probe("11.5, 10.75", &list(&between));
+    let other_schema = dir.join("other-schema.toml");
+    std::fs::write(
+        &other_schema,
+        std::fs::read_to_string(&good)
+            .unwrap()
+            .replace(&format!("{:#010x}", protocol::SCHEMA_ID), "0x00000001"),
+    )
+    .unwrap();
+    for (file, says) in [
+        (&nan, "F&P fill rate NaN kPa/s is outside 0.5 to 200"),
+        (&negative, "F&P½ fill rate -1 kPa/s is outside"),
+        (&absurd, "D&D fill rate 1000000000 kPa/s is outside"),
+        (&short, "2 state rates and 2 between rates"),
+        (&other_schema, "firmware schema 0x00000001"),
+        (&file, "no [probe] signatures in this profile"),
+    ] {
+        let o = host_tool(
+            &[
+                "calibration",
+                "load",
+                file.to_str().unwrap(),
+                "--port",
+                port,
+            ],
+            LIMIT,
+        );
+        assert_eq!(o.code(), 2, "{}: {}", file.display(), o.stderr);
+        assert!(o.stderr.contains(says), "{}: {}", file.display(), o.stderr);
+    }
+    let o = host_tool(
+        &[
+            "calibration",
+            "show",
+            good.to_str().unwrap(),
+            "--port",
+            port,
+        ],
+        LIMIT,
+    );
+    assert_eq!(o.code(), 2, "{}", o.stderr);
+    assert!(o.stderr.contains("not both"), "{}", o.stderr);
+    assert_eq!(show()["states"][0], 11.5, "the stored profile is unchanged");
+
+    let o = host_tool(&["calibration", "erase", "--port", port, "-j"], LIMIT);
+    assert_eq!(o.code(), 0, "{}", o.stderr);
+    assert!(show().is_null(), "erased");
+    let _ = std::fs::remove_dir_all(&dir);
+}

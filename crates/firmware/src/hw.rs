@@ -96,6 +96,26 @@ pub trait StateStore {
     fn save_link_key(&mut self, _key: Option<&[u8; 16]>) -> Result<(), Self::Error> {
         Ok(())
     }
+
+    /// Whether this store keeps a probe profile ([`StateStore::save_probe_profile`]); one
+    /// that does not (the default) makes the controller refuse storing one.
+    fn keeps_probe_profile(&self) -> bool {
+        false
+    }
+    /// The probe profile kept, as [`crate::store::profile_to_bytes`] wrote it (`Ok(None)`:
+    /// none).
+    fn load_probe_profile(
+        &mut self,
+    ) -> Result<Option<[u8; crate::store::PROFILE_LEN]>, Self::Error> {
+        Ok(None)
+    }
+    /// Keeps `profile` (`None`: erases it), replacing the previous one.
+    fn save_probe_profile(
+        &mut self,
+        _profile: Option<&[u8; crate::store::PROFILE_LEN]>,
+    ) -> Result<(), Self::Error> {
+        Ok(())
+    }
 }
 
 /// Servo pulse timing: angle 0 → `min_us`, angle `range_deg` → `max_us`, linear in between.
@@ -376,6 +396,7 @@ pub struct Shell<I, O, D, S, L> {
     pending_store: Option<StoredState>,
     #[cfg(feature = "link-signing")]
     pending_key: Option<Option<[u8; 16]>>,
+    pending_profile: Option<Option<[u8; crate::store::PROFILE_LEN]>>,
     tx: [u8; SHELL_IO_CHUNK],
     tx_len: usize,
     tx_pos: usize,
@@ -402,6 +423,7 @@ where
             pending_store: None,
             #[cfg(feature = "link-signing")]
             pending_key: None,
+            pending_profile: None,
             tx: [0; SHELL_IO_CHUNK],
             tx_len: 0,
             tx_pos: 0,
@@ -431,6 +453,16 @@ where
             };
             ctl.set_link_key(key, self.store.keeps_link_key());
         }
+        // A profile that cannot be read, or of another firmware schema, boots with none (the
+        // operator is asked until it is stored again).
+        let profile = match self.store.load_probe_profile() {
+            Ok(b) => b.as_ref().and_then(crate::store::profile_from_bytes),
+            Err(_) => {
+                self.stats.store_errors = self.stats.store_errors.wrapping_add(1);
+                None
+            }
+        };
+        ctl.set_probe_profile(profile, self.store.keeps_probe_profile());
         ctl
     }
 
@@ -487,6 +519,16 @@ where
                     Ok(()) => self.pending_key = None,
                     Err(_) => self.stats.store_errors = self.stats.store_errors.wrapping_add(1),
                 }
+            }
+        }
+        // 5c. A probe profile stored or erased (kept and retried until saved).
+        if let Some(p) = ctl.poll_probe_profile() {
+            self.pending_profile = Some(p.as_ref().map(crate::store::profile_to_bytes));
+        }
+        if let Some(p) = self.pending_profile {
+            match self.store.save_probe_profile(p.as_ref()) {
+                Ok(()) => self.pending_profile = None,
+                Err(_) => self.stats.store_errors = self.stats.store_errors.wrapping_add(1),
             }
         }
         // 6. Bytes to the host.

@@ -203,6 +203,36 @@ impl StoredState {
     }
 }
 
+/// Bytes of a stored probe profile ([`profile_to_bytes`]): the firmware schema it was measured
+/// with ([`protocol::SCHEMA_ID`], u32 LE), then the six states' and two between signatures' fill
+/// rates (f32 LE, kPa/s). The flash slot adds its CRC.
+pub const PROFILE_LEN: usize = 4 + 8 * 4;
+
+/// The stored form of `p` (measured with this firmware's schema).
+pub fn profile_to_bytes(p: &protocol::ProbeProfile) -> [u8; PROFILE_LEN] {
+    let mut b = [0u8; PROFILE_LEN];
+    b[..4].copy_from_slice(&protocol::SCHEMA_ID.to_le_bytes());
+    for i in 0..8 {
+        b[4 + 4 * i..8 + 4 * i].copy_from_slice(&p.rate(i).to_le_bytes());
+    }
+    b
+}
+
+/// A stored profile back, or `None` when it was measured with another firmware schema or
+/// holds a rate the device would refuse ([`protocol::ProbeProfile::out_of_range`]).
+pub fn profile_from_bytes(b: &[u8; PROFILE_LEN]) -> Option<protocol::ProbeProfile> {
+    let word = |i: usize| [b[i], b[i + 1], b[i + 2], b[i + 3]];
+    if u32::from_le_bytes(word(0)) != protocol::SCHEMA_ID {
+        return None;
+    }
+    let r = |i: usize| f32::from_le_bytes(word(4 + 4 * i));
+    let p = protocol::ProbeProfile {
+        states: [r(0), r(1), r(2), r(3), r(4), r(5)],
+        between: [r(6), r(7)],
+    };
+    p.out_of_range().is_none().then_some(p)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -181,6 +181,9 @@ pub struct SimFlash {
     pub failed: bool,
     /// The link-signing key kept beside the record (`None`: signing off).
     pub link_key: Option<[u8; 16]>,
+    /// The identification probe's profile kept beside it, as the board stores it
+    /// (`firmware::store::profile_to_bytes`; `None`: none).
+    pub probe_profile: Option<[u8; firmware::store::PROFILE_LEN]>,
 }
 
 impl Default for SimFlash {
@@ -190,6 +193,7 @@ impl Default for SimFlash {
             writes: 0,
             failed: false,
             link_key: None,
+            probe_profile: None,
         }
     }
 }
@@ -238,6 +242,28 @@ impl StateStore for SimFlash {
             return Err(FlashError);
         }
         self.link_key = key.copied();
+        self.writes = self.writes.wrapping_add(1);
+        Ok(())
+    }
+    fn keeps_probe_profile(&self) -> bool {
+        true
+    }
+    fn load_probe_profile(
+        &mut self,
+    ) -> Result<Option<[u8; firmware::store::PROFILE_LEN]>, FlashError> {
+        if self.failed {
+            return Err(FlashError);
+        }
+        Ok(self.probe_profile)
+    }
+    fn save_probe_profile(
+        &mut self,
+        profile: Option<&[u8; firmware::store::PROFILE_LEN]>,
+    ) -> Result<(), FlashError> {
+        if self.failed {
+            return Err(FlashError);
+        }
+        self.probe_profile = profile.copied();
         self.writes = self.writes.wrapping_add(1);
         Ok(())
     }

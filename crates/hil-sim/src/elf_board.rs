@@ -28,6 +28,8 @@ mod flash_log;
 
 /// The data-flash block of the link-signing key (`crates/firmware/src/bin/uno_r4.rs`).
 pub const LINK_KEY_BLOCK: usize = 2;
+/// The data-flash block of the identification probe's profile (`crates/firmware/src/bin/uno_r4.rs`).
+pub const PROBE_PROFILE_BLOCK: usize = 3;
 
 /// The board's pins (`crates/firmware/src/board/pins.rs`), as `(port, pin)`.
 mod pin {
@@ -179,6 +181,19 @@ impl ElfBoard {
             .load_link_key()
             .ok()
             .flatten()
+    }
+
+    /// The probe profile in the data flash, as the firmware reads it at boot (`None`: the slot
+    /// is erased, torn (failing its CRC) or of another firmware schema: none at the next boot).
+    pub fn stored_probe_profile(&self) -> Option<protocol::ProbeProfile> {
+        let mut copy = self.emu.data_flash().to_vec();
+        flash_log::FlashLog::new(DataFlashImage(&mut copy), 0)
+            .with_profile_block(PROBE_PROFILE_BLOCK)
+            .load_probe_profile()
+            .ok()
+            .flatten()
+            .as_ref()
+            .and_then(firmware::store::profile_from_bytes)
     }
 
     /// Moves the parts' states in, runs the chip to `now_ms`, moves its outputs out.

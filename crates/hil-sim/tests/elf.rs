@@ -876,3 +876,195 @@ fn requests_streamed_across_the_statistics_period_lose_no_byte_without_a_probe()
         "the statistics line is written once a probe is attached"
     );
 }
+
+/// The board's probe profile (`SetProbeProfile`, kept in data-flash block 3).
+mod probe_profile {
+    use super::*;
+    use firmware::controller::identify::{ProbeProfile, SIM_PROFILE};
+    use firmware::store::StoredState;
+    use protocol::messages::RequestBody;
+    use protocol::{ResultCode, StateSet, SCHEMA_ID};
+
+    fn st(name: &str) -> TrunkState {
+        name.parse().unwrap()
+    }
+
+    fn set(profile: Option<ProbeProfile>) -> RequestBody {
+        RequestBody::SetProbeProfile {
+            schema_id: SCHEMA_ID,
+            profile,
+        }
+    }
+
+    fn read(host: &mut SimHost, sim: &mut Sim) -> Option<ProbeProfile> {
+        match host.request(sim, RequestBody::GetProbeProfile, 1_000) {
+            Ok((ResultCode::Ok, ResponseBody::ProbeProfile(p))) => p,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    fn status(host: &mut SimHost, sim: &mut Sim) -> protocol::Status {
+        match host.request(sim, RequestBody::GetStatus, 1_000) {
+            Ok((ResultCode::Ok, ResponseBody::Status(s))) => s,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// A board ELF at D&P whose profile is `SIM_PROFILE`, stored and on flash; the longest
+    /// loop pass from the request to the slot's last byte.
+    fn stored_board() -> (Sim, SimHost, u64) {
+        let (mut sim, mut host) = sim("D&P");
+        assert_eq!(read(&mut host, &mut sim), None, "a fresh board holds none");
+        assert_eq!(sim.elf_board().unwrap().stored_probe_profile(), None);
+        sim.elf_board_mut().unwrap().emu.clear_max_awake();
+        let (res, _) = host
+            .request(&mut sim, set(Some(SIM_PROFILE)), 1_000)
+            .expect("answered");
+        assert_eq!(res, ResultCode::Ok);
+        assert_eq!(
+            read(&mut host, &mut sim),
+            Some(SIM_PROFILE),
+            "in force at once"
+        );
+        let took = until(&mut sim, 500, |s| {
+            s.elf_board().unwrap().stored_probe_profile() == Some(SIM_PROFILE)
+        })
+        .expect("the profile reaches the data flash");
+        let worst = sim.elf_board().unwrap().emu.stats().max_awake_cycles;
+        eprintln!(
+            "profile in data flash {took} ms after the request was answered; longest pass {worst}"
+        );
+        (sim, host, worst)
+    }
+
+    /// Boots the board again unconfirmed between D&F and D&P (a hand fold that was under way),
+    /// the trunk truly at D&P, and runs an identification; the belief after it.
+    fn identify_after_boot(sim: &mut Sim) -> (protocol::Status, SimHost) {
+        let record = StoredState {
+            state: st("D&F"),
+            confirmed: false,
+            candidates: StateSet::single(st("D&F")).with(st("D&P")),
+            pending: Some(protocol::Transition {
+                from: st("D&F"),
+                to: st("D&P"),
+            }),
+        };
+        sim.elf_board_mut().unwrap().save_records(&[record]);
+        sim.power_cycle();
+        sim.run_for(200);
+        let mut host = SimHost::new();
+        host.hello(sim).expect("handshake after the cut");
+        let s = status(&mut host, sim);
+        assert!(!s.state_confirmed, "{s:?}");
+        let (res, _) = host
+            .request(sim, RequestBody::Identify, 1_000)
+            .expect("answered");
+        assert_eq!(res, ResultCode::InProgress);
+        let mut last = status(&mut host, sim);
+        for _ in 0..40 {
+            sim.run_for(250);
+            last = status(&mut host, sim);
+            if last.state_confirmed {
+                break;
+            }
+        }
+        (last, host)
+    }
+
+    #[test]
+    fn the_board_elf_keeps_its_probe_profile_across_a_power_cycle_and_identifies_with_it() {
+        let (mut sim, mut host, worst) = stored_board();
+        assert!(
+            worst <= PASS_BUDGET_CYCLES,
+            "a pass of the profile's save {worst} cycles > {PASS_BUDGET_CYCLES}"
+        );
+        // Refusals change nothing on the flash.
+        let mut bad = SIM_PROFILE;
+        bad.states[1] = f32::NAN;
+        let (res, _) = host.request(&mut sim, set(Some(bad)), 1_000).unwrap();
+        assert_eq!(
+            res,
+            ResultCode::Rejected(protocol::RejectReason::OutOfRange)
+        );
+        let (res, _) = host
+            .request(
+                &mut sim,
+                RequestBody::SetProbeProfile {
+                    schema_id: SCHEMA_ID ^ 0x100,
+                    profile: Some(SIM_PROFILE),
+                },
+                1_000,
+            )
+            .unwrap();
+        assert_eq!(
+            res,
+            ResultCode::Rejected(protocol::RejectReason::VersionMismatch)
+        );
+        sim.run_for(100);
+        assert_eq!(
+            sim.elf_board().unwrap().stored_probe_profile(),
+            Some(SIM_PROFILE)
+        );
+
+        // After a power cycle the profile is there, and the probe decides: D&P (14.1 kPa/s,
+        // its own window) from {D&F, D&P}, with nobody asked.
+        let (s, mut host) = identify_after_boot(&mut sim);
+        assert_eq!(
+            read(&mut host, &mut sim),
+            Some(SIM_PROFILE),
+            "reloaded at boot"
+        );
+        assert_eq!((s.state, s.state_confirmed), (st("D&P"), true), "{s:?}");
+
+        // Erased: the block is blank, and the same identification asks the operator (it stays
+        // unconfirmed: nobody answers here).
+        let (res, _) = host.request(&mut sim, set(None), 1_000).unwrap();
+        assert_eq!(res, ResultCode::Ok);
+        let block = hil_sim::elf_board::PROBE_PROFILE_BLOCK * 1024;
+        let erased = until(&mut sim, 1_000, |s| {
+            s.elf_board().unwrap().emu.data_flash()[block..block + 1024]
+                .iter()
+                .all(|&b| b == 0xFF)
+        });
+        assert!(erased.is_some(), "the profile's block is erased");
+        let (s, mut host) = identify_after_boot(&mut sim);
+        assert!(
+            !s.state_confirmed,
+            "without a profile nothing decides alone: {s:?}"
+        );
+        assert_eq!(read(&mut host, &mut sim), None);
+    }
+
+    /// A power cut while a new profile is being written (its block erased, its slot part
+    /// programmed) boots with no profile (the old one was erased first), never a mix; and the
+    /// board stores one again.
+    #[test]
+    fn a_power_cut_mid_write_boots_the_board_elf_with_no_profile_never_a_mix() {
+        let (mut sim, mut host, _) = stored_board();
+        let new = ProbeProfile {
+            states: [20.0, 21.0, 22.0, 23.0, 24.0, 25.0],
+            between: [20.5, 23.5],
+        };
+        let (res, _) = host.request(&mut sim, set(Some(new)), 1_000).unwrap();
+        assert_eq!(res, ResultCode::Ok);
+        let block = hil_sim::elf_board::PROBE_PROFILE_BLOCK * 1024;
+        // Step until the slot is part-programmed: its first bytes written, its CRC not yet.
+        let torn = until(&mut sim, 1_000, |s| {
+            let f = &s.elf_board().unwrap().emu.data_flash()[block..block + 38];
+            f[0] != 0xFF && f[36..38] == [0xFF, 0xFF]
+        });
+        assert!(torn.is_some(), "caught the slot mid-write");
+        assert_eq!(sim.elf_board().unwrap().stored_probe_profile(), None);
+        sim.power_cycle();
+        sim.run_for(200);
+        let mut host = SimHost::new();
+        host.hello(&mut sim).unwrap();
+        assert_eq!(read(&mut host, &mut sim), None, "no profile, not a mix");
+        let (res, _) = host.request(&mut sim, set(Some(new)), 1_000).unwrap();
+        assert_eq!(res, ResultCode::Ok);
+        let took = until(&mut sim, 500, |s| {
+            s.elf_board().unwrap().stored_probe_profile() == Some(new)
+        });
+        assert!(took.is_some(), "stored again over the torn slot");
+    }
+}

@@ -106,6 +106,17 @@ pub const fn param_unit(id: ParamId) -> &'static str {
     }
 }
 
+/// What a probe profile's rate `i` ([`protocol::ProbeProfile::rate`]) is the signature of:
+/// a state's name, or `F&P½`/`D&P½` (half-packed under the folded or the deployed top).
+pub fn probe_rate_name(i: u8) -> String {
+    match i {
+        0..=5 => geometry::TrunkState::ALL[i as usize].to_string(),
+        6 => "F&P½".into(),
+        7 => "D&P½".into(),
+        _ => format!("#{i}"),
+    }
+}
+
 /// The stable machine name of a refused field (for JSON).
 pub const fn refused_field_name(field: RefusedField) -> &'static str {
     match field {
@@ -115,6 +126,7 @@ pub const fn refused_field_name(field: RefusedField) -> &'static str {
         RefusedField::Duration => "duration",
         RefusedField::Param(id) => param_name(id),
         RefusedField::Steps => "steps",
+        RefusedField::ProbeRate(_) => "probe-rate",
     }
 }
 
@@ -144,6 +156,13 @@ pub fn refusal(reason: RejectReason, detail: Option<&Refusal>) -> String {
         ),
         RefusedField::Duration => {
             format!("its time of {v} ms is outside 1 to {lim} ms; the planner's cost model sets it")
+        }
+        RefusedField::ProbeRate(i) => {
+            let (lo, hi) = protocol::PROBE_RATE_RANGE;
+            format!(
+                "its {} fill rate of {v} kPa/s is outside {lo} to {hi} kPa/s (limit {lim})",
+                probe_rate_name(i)
+            )
         }
         RefusedField::Param(id) => {
             let (lo, hi) = id.range();
@@ -213,6 +232,8 @@ pub const fn request_name(body: &RequestBody) -> &'static str {
         RequestBody::Close => "Close",
         RequestBody::Identify => "Identify",
         RequestBody::SetSigning { .. } => "SetSigning",
+        RequestBody::SetProbeProfile { .. } => "SetProbeProfile",
+        RequestBody::GetProbeProfile => "GetProbeProfile",
     }
 }
 
@@ -303,12 +324,17 @@ pub fn request_line(req: &Request) -> String {
         }
         // Never the key.
         RequestBody::SetSigning { enabled, .. } => if *enabled { "on" } else { "off" }.to_string(),
+        RequestBody::SetProbeProfile { profile, .. } => match profile {
+            Some(p) => probe_profile_text(p),
+            None => "erase".to_string(),
+        },
         RequestBody::GetStatus
         | RequestBody::Heartbeat
         | RequestBody::Abort
         | RequestBody::ConfirmManual
         | RequestBody::ResetFaults
         | RequestBody::Close
+        | RequestBody::GetProbeProfile
         | RequestBody::Identify => String::new(),
     };
     if detail.is_empty() {
@@ -386,6 +412,10 @@ pub fn message_line(msg: &DeviceMessage) -> String {
                     refused_field_name(f.field),
                     f.value,
                     f.limit
+                ),
+                ResponseBody::ProbeProfile(p) => format!(
+                    " ProbeProfile{{{}}}",
+                    p.as_ref().map_or("none".to_string(), probe_profile_text)
                 ),
             };
             format!("#{seq} {}{body}", result(*r))
@@ -557,6 +587,14 @@ pub fn event(ev: &Event) -> (&'static str, Option<String>) {
             )),
         ),
     }
+}
+
+/// A probe profile's rates in words: `F&P 11.71, …, D&P½ 13.20 kPa/s`.
+pub fn probe_profile_text(p: &protocol::ProbeProfile) -> String {
+    let rates: Vec<String> = (0..8u8)
+        .map(|i| format!("{} {:.2}", probe_rate_name(i), p.rate(usize::from(i))))
+        .collect();
+    format!("{} kPa/s", rates.join(", "))
 }
 
 #[cfg(test)]

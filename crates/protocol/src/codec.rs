@@ -61,6 +61,26 @@ impl<'a> Reader<'a> {
         Ok(())
     }
 
+    /// `SetProbeProfile`'s fields (out of line, like `SetSigning`'s).
+    #[inline(never)]
+    fn set_probe_profile_into(&mut self, body: &mut RequestBody) -> Read<()> {
+        let schema_id = self.u32()?;
+        let profile = if self.bool()? {
+            let (b, rest) = self.rest.split_first_chunk::<32>().ok_or(Invalid)?;
+            self.rest = rest;
+            let r =
+                |i: usize| f32::from_le_bytes([b[4 * i], b[4 * i + 1], b[4 * i + 2], b[4 * i + 3]]);
+            Some(ProbeProfile {
+                states: [r(0), r(1), r(2), r(3), r(4), r(5)],
+                between: [r(6), r(7)],
+            })
+        } else {
+            None
+        };
+        *body = RequestBody::SetProbeProfile { schema_id, profile };
+        Ok(())
+    }
+
     /// One byte (a `u8`).
     #[inline(always)]
     pub fn byte(&mut self) -> Read<u8> {
@@ -288,7 +308,7 @@ impl Request {
         self.seq = r.u16()?;
         self.session = r.u32()?;
         let body = &mut self.body;
-        match r.variant(15)? {
+        match r.variant(17)? {
             0 => {
                 *body = RequestBody::Hello {
                     protocol_version: r.u16()?,
@@ -331,7 +351,9 @@ impl Request {
             }
             12 => *body = RequestBody::Close,
             13 => *body = RequestBody::Identify,
-            _ => r.set_signing_into(body)?,
+            14 => r.set_signing_into(body)?,
+            15 => r.set_probe_profile_into(body)?,
+            _ => *body = RequestBody::GetProbeProfile,
         }
         Ok(())
     }
@@ -530,9 +552,22 @@ impl<'a> Writer<'a> {
                         self.varint(id as u32);
                     }
                     RefusedField::Steps => self.varint(5),
+                    RefusedField::ProbeRate(i) => {
+                        self.varint(6);
+                        self.byte(i);
+                    }
                 }
                 self.f32(r.value);
                 self.f32(r.limit);
+            }
+            ResponseBody::ProbeProfile(p) => {
+                self.varint(5);
+                self.some(p.is_some());
+                if let Some(p) = p {
+                    for i in 0..8 {
+                        self.f32(p.rate(i));
+                    }
+                }
             }
         }
     }

@@ -188,7 +188,8 @@ impl RequestBody {
     }
 
     /// Whether the request changes the device's state (and so is refused from anyone but the
-    /// session's owner): everything except `Hello`, `GetStatus`, `GetParam` and `Abort`
+    /// session's owner): everything except `Hello`, `GetStatus`, `GetParam`,
+    /// `GetProbeProfile` and `Abort`
     /// (`Heartbeat` is the owner's too: it keeps the session alive).
     pub const fn needs_session(&self) -> bool {
         !matches!(
@@ -196,6 +197,7 @@ impl RequestBody {
             RequestBody::Hello { .. }
                 | RequestBody::GetStatus
                 | RequestBody::GetParam(_)
+                | RequestBody::GetProbeProfile
                 | RequestBody::Abort
         )
     }

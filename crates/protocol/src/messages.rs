@@ -113,6 +113,58 @@ pub enum RequestBody {
         /// Signing on (with `key`) or off.
         enabled: bool,
     },
+    /// Stores the identification probe's calibration profile of this crane's trunk in the
+    /// device's non-volatile store (`Some`), or erases it (`None`); either takes effect at once
+    /// ([`RequestBody::Identify`] decides from a stored profile's signatures, asks the operator
+    /// without one). Refused with [`RejectReason::VersionMismatch`] when `schema_id` is not the
+    /// device's [`crate::SCHEMA_ID`] (a profile measured with another firmware), with
+    /// [`RejectReason::OutOfRange`] and a [`RefusedField::ProbeRate`] refusal when a rate is
+    /// outside [`PROBE_RATE_RANGE`] or not finite, [`ResultCode::Busy`] while a plan runs, and
+    /// [`RejectReason::NotAllowed`] by a device whose store keeps no profile.
+    SetProbeProfile {
+        /// The firmware schema the profile was measured with ([`crate::SCHEMA_ID`]).
+        schema_id: u32,
+        /// The profile, or `None` to erase the stored one.
+        profile: Option<ProbeProfile>,
+    },
+    /// The stored probe profile ([`ResponseBody::ProbeProfile`]; `None`: none stored).
+    GetProbeProfile,
+}
+
+/// The fill rates (kPa/s) the identification probe measures on one trunk, as a calibration
+/// measured them (`docs/firmware.md`, "Identification").
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Schema)]
+pub struct ProbeProfile {
+    /// Fill rate of each state, by `TrunkState::index` (F&P, F&F, F&D, D&P, D&F, D&D).
+    pub states: [f32; 6],
+    /// Fill rate of a trunk resting half-packed under the folded top and under the deployed
+    /// top.
+    pub between: [f32; 2],
+}
+
+/// The fill rates a device accepts in a [`ProbeProfile`], kPa/s (inclusive): the probe fills
+/// 4 kPa, so 0.5 kPa/s is an 8 s fill (its steps time out first) and 200 kPa/s a fill of 20 ms,
+/// one control period's worth of samples.
+pub const PROBE_RATE_RANGE: (f32, f32) = (0.5, 200.0);
+
+impl ProbeProfile {
+    /// Rate `i`: 0–5 the states', 6–7 the between signatures (NaN past 7).
+    pub fn rate(&self, i: usize) -> f32 {
+        match i {
+            0..=5 => self.states[i],
+            6 | 7 => self.between[i - 6],
+            _ => f32::NAN,
+        }
+    }
+
+    /// The first rate outside [`PROBE_RATE_RANGE`] or not finite, with its index
+    /// ([`ProbeProfile::rate`]).
+    pub fn out_of_range(&self) -> Option<(u8, f32)> {
+        let (lo, hi) = PROBE_RATE_RANGE;
+        (0..8u8)
+            .map(|i| (i, self.rate(i as usize)))
+            .find(|&(_, r)| !(r >= lo && r <= hi))
+    }
 }
 
 /// A plan: steps executed in order, each a transition between trunk states.
@@ -547,6 +599,8 @@ pub enum ResponseBody {
     /// With a `Rejected` result: the field the refusal is about, what the request asks for and
     /// the limit it passes.
     Refused(Refusal),
+    /// The stored probe profile, answering [`RequestBody::GetProbeProfile`] (`None`: none).
+    ProbeProfile(Option<ProbeProfile>),
 }
 
 /// What a refusal is about: the field, the value asked for and the limit it passes, both in
@@ -581,6 +635,9 @@ pub enum RefusedField {
     /// The plan's number of steps against the most a plan holds (`value` 0: empty or not
     /// chained).
     Steps,
+    /// A probe profile's rate (kPa/s; the index, 0–5 a state's and 6–7 a between signature's)
+    /// against [`PROBE_RATE_RANGE`] (`limit` the bound it passes; NaN passes the maximum).
+    ProbeRate(u8),
 }
 
 /// Who the device is.

@@ -24,8 +24,11 @@ use firmware::CraneConfig;
 
 /// Data-flash blocks 0 and 1 hold the state log.
 const STATE_LOG_FIRST_BLOCK: usize = 0;
-/// Data-flash block 2 holds the link-signing key (blocks 3..7 are free for later use).
+/// Data-flash block 2 holds the link-signing key.
 const LINK_KEY_BLOCK: usize = 2;
+/// Data-flash block 3 holds the identification probe's calibration profile (blocks 4..7 are
+/// free for later use; the on-target tests write 4–6).
+const PROBE_PROFILE_BLOCK: usize = 3;
 /// TM1637 brightness 0..=7.
 const DISPLAY_BRIGHTNESS: u8 = 4;
 /// How often the loop statistics are logged.
@@ -122,7 +125,8 @@ fn main() -> ! {
     // A failing save is retried with back-off; an erase runs in the background (DataFlash).
     let store = board::flash_log::Backoff::new(
         board::flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK)
-            .with_key_block(LINK_KEY_BLOCK),
+            .with_key_block(LINK_KEY_BLOCK)
+            .with_profile_block(PROBE_PROFILE_BLOCK),
         board::time::ticks_ms,
     );
     let link = board::uart::HostUart::new(clocks.pclka_hz, pins::HOST_TX, pins::HOST_RX);

@@ -28,12 +28,21 @@
 //! Pairing erases the block and programs the slot; unpairing only erases it (the key is gone
 //! from the flash, not merely marked). An erased slot, or one that fails its CRC (a power cut
 //! between the erase and the slot's last byte), loads as no key: signing off, which the
-//! handshake reports, so the operator pairs again. One owner at a time drives the flash: while
-//! a state save or a key save is under way (a background erase, a slot programmed one byte per
-//! call), the other returns [`FlashError::Busy`] without touching it.
+//! handshake reports, so the operator pairs again.
+//!
+//! The identification probe's profile ([`FlashLog::with_profile_block`]) has a block of its
+//! own too, one slot at its start written the same way: bytes 0–35
+//! [`firmware::store::profile_to_bytes`] (schema id, eight f32 fill rates), 36–37 their
+//! CRC-16. Storing one erases the block first, so a power cut mid-write leaves an erased or
+//! torn slot: it loads as no profile (identification asks the operator), never as a mix of
+//! the old and the new.
+//!
+//! One owner at a time drives the flash: while a state, key or profile save is under way (a
+//! background erase, a slot programmed one byte per call), the others return
+//! [`FlashError::Busy`] without touching it.
 
 use firmware::hw::StateStore;
-use firmware::store::{crc16, StoredState, STORED_LEN};
+use firmware::store::{crc16, StoredState, PROFILE_LEN, STORED_LEN};
 
 /// Bytes per slot.
 pub const SLOT_LEN: usize = 16;
@@ -75,26 +84,19 @@ pub enum FlashError {
     BackingOff,
 }
 
-/// Bytes of the link-key slot that are programmed (key, CRC).
-pub const KEY_SLOT_USED: usize = 16 + 2;
-
-/// Which record's save drives the flash (the other waits: one sequencer, one write at a time).
+/// Which record's save drives the flash (the others wait: one sequencer, one write at a time).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Owner {
     State,
     Key,
+    Profile,
 }
 
-/// The next part of a key save.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum KeyStep {
-    /// Erase the key block.
-    Erase,
-    /// Program the key.
-    Key,
-    /// Program its CRC.
-    Crc,
-}
+/// Bytes of the probe-profile slot that are programmed (profile, CRC).
+pub const PROFILE_SLOT_USED: usize = PROFILE_LEN + 2;
+
+/// The most bytes one data-flash write programs.
+const WRITE_MAX: usize = 16;
 
 /// Slots in one block of `F`.
 pub const fn slots_per_block(block_size: usize) -> usize {
@@ -156,8 +158,11 @@ pub struct FlashLog<F> {
     erasing: Option<usize>,
     /// The link-key block (`None`: no key kept, [`StateStore::keeps_link_key`] false).
     key_block: Option<usize>,
-    /// Where the key save under way is.
-    key_step: KeyStep,
+    /// The probe-profile block (`None`: none kept).
+    profile_block: Option<usize>,
+    /// Where the key's or the profile's save under way is: 0 the erase, then `k` the `k`-th
+    /// write of [`WRITE_MAX`] bytes (one owner at a time: see `owner`).
+    slot_step: u8,
     /// The save under way (it returned `Busy`), which the other waits for.
     owner: Option<Owner>,
 }
@@ -172,7 +177,8 @@ impl<F: NorFlash> FlashLog<F> {
             blank: None,
             erasing: None,
             key_block: None,
-            key_step: KeyStep::Erase,
+            profile_block: None,
+            slot_step: 0,
             owner: None,
         }
     }
@@ -180,6 +186,12 @@ impl<F: NorFlash> FlashLog<F> {
     /// Keeps the link-signing key in block `block` (outside the state log's two).
     pub fn with_key_block(mut self, block: usize) -> Self {
         self.key_block = Some(block);
+        self
+    }
+
+    /// Keeps the identification probe's profile in block `block` (outside the others).
+    pub fn with_profile_block(mut self, block: usize) -> Self {
+        self.profile_block = Some(block);
         self
     }
 
@@ -198,40 +210,61 @@ impl<F: NorFlash> FlashLog<F> {
         res
     }
 
-    /// One attempt of a key save: the block erased (in the background), then `key`'s slot
-    /// programmed (the key, then its CRC: the data flash programs at most 16 bytes a write)
-    /// and read back.
-    fn write_key(&mut self, block: usize, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
-        if self.key_step == KeyStep::Erase {
+    /// One attempt of a single-slot save (the key's, the profile's): the block erased (in the
+    /// background), then `data` and its CRC programmed at the block's start, at most
+    /// [`WRITE_MAX`] bytes a write, and read back. `None` only erases.
+    fn write_slot(&mut self, block: usize, data: Option<&[u8]>) -> Result<(), FlashError> {
+        if self.slot_step == 0 {
             self.flash.erase(block)?;
-            self.key_step = KeyStep::Key;
+            self.slot_step = 1;
         }
-        let Some(key) = key else {
-            self.key_step = KeyStep::Erase;
+        let Some(data) = data else {
+            self.slot_step = 0;
             return Ok(());
         };
+        let n = data.len() + 2;
+        let mut slot = [0u8; PROFILE_SLOT_USED];
+        slot[..data.len()].copy_from_slice(data);
+        slot[data.len()..n].copy_from_slice(&crc16(data).to_le_bytes());
         let off = block * F::BLOCK_SIZE;
-        let crc = crc16(key).to_le_bytes();
-        let mut back = [0u8; KEY_SLOT_USED];
         let res = loop {
-            let res = match self.key_step {
-                KeyStep::Key => self.flash.write(off, key),
-                _ => self.flash.write(off + 16, &crc),
-            };
-            match res {
+            let at = (self.slot_step as usize - 1) * WRITE_MAX;
+            if at >= n {
+                let mut back = [0u8; PROFILE_SLOT_USED];
+                break self.flash.read(off, &mut back[..n]).and_then(|()| {
+                    if back[..n] == slot[..n] {
+                        Ok(())
+                    } else {
+                        Err(FlashError::Verify)
+                    }
+                });
+            }
+            match self.flash.write(off + at, &slot[at..n.min(at + WRITE_MAX)]) {
                 Err(FlashError::Busy) => return Err(FlashError::Busy),
-                Ok(()) if self.key_step == KeyStep::Key => self.key_step = KeyStep::Crc,
-                Ok(()) => break self.flash.read(off, &mut back),
+                Ok(()) => self.slot_step += 1,
                 Err(e) => break Err(e),
             }
         };
         // Done, failed or torn: the next save starts with the erase.
-        self.key_step = KeyStep::Erase;
-        res?;
-        if back[..16] != key[..] || back[16..] != crc {
-            return Err(FlashError::Verify);
+        self.slot_step = 0;
+        res
+    }
+
+    /// Reads the slot at `block`'s start into `data` (its data bytes; the CRC after them is
+    /// checked): `Ok(false)` erased, `Corrupt` when the CRC fails (a torn save).
+    #[inline(never)]
+    fn read_single_slot(&mut self, block: usize, data: &mut [u8]) -> Result<bool, FlashError> {
+        let n = data.len();
+        let mut b = [0u8; PROFILE_SLOT_USED];
+        self.flash.read(block * F::BLOCK_SIZE, &mut b[..n + 2])?;
+        if b[..n + 2].iter().all(|&x| x == 0xFF) {
+            return Ok(false);
         }
-        Ok(())
+        data.copy_from_slice(&b[..n]);
+        if crc16(data).to_le_bytes() != b[n..n + 2] {
+            return Err(FlashError::Corrupt);
+        }
+        Ok(true)
     }
 
     fn slots(&self) -> usize {
@@ -417,27 +450,44 @@ impl<F: NorFlash> StateStore for FlashLog<F> {
     }
 
     fn load_link_key(&mut self) -> Result<Option<[u8; 16]>, FlashError> {
-        let Some(block) = self.key_block else {
-            return Ok(None);
-        };
-        let mut b = [0u8; KEY_SLOT_USED];
-        self.flash.read(block * F::BLOCK_SIZE, &mut b)?;
-        if b.iter().all(|&x| x == 0xFF) {
-            return Ok(None);
-        }
         let mut key = [0u8; 16];
-        key.copy_from_slice(&b[..16]);
-        if crc16(&key).to_le_bytes() != b[16..] {
-            return Err(FlashError::Corrupt);
+        match self.key_block {
+            Some(block) => Ok(self.read_single_slot(block, &mut key)?.then_some(key)),
+            None => Ok(None),
         }
-        Ok(Some(key))
     }
 
     fn save_link_key(&mut self, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
         let Some(block) = self.key_block else {
             return Err(FlashError::OutOfRange);
         };
-        self.attempt(Owner::Key, |log| log.write_key(block, key))
+        self.attempt(Owner::Key, |log| {
+            log.write_slot(block, key.map(|k| k.as_slice()))
+        })
+    }
+
+    fn keeps_probe_profile(&self) -> bool {
+        self.profile_block.is_some()
+    }
+
+    fn load_probe_profile(&mut self) -> Result<Option<[u8; PROFILE_LEN]>, FlashError> {
+        let mut p = [0u8; PROFILE_LEN];
+        match self.profile_block {
+            Some(block) => Ok(self.read_single_slot(block, &mut p)?.then_some(p)),
+            None => Ok(None),
+        }
+    }
+
+    fn save_probe_profile(
+        &mut self,
+        profile: Option<&[u8; PROFILE_LEN]>,
+    ) -> Result<(), FlashError> {
+        let Some(block) = self.profile_block else {
+            return Err(FlashError::OutOfRange);
+        };
+        self.attempt(Owner::Profile, |log| {
+            log.write_slot(block, profile.map(|p| p.as_slice()))
+        })
     }
 }
 
@@ -446,14 +496,15 @@ impl<F: NorFlash> StateStore for FlashLog<F> {
 /// [`FlashError::BackingOff`] at once without touching the flash, so a broken flash costs the
 /// loop one failed attempt per back-off period, not one per pass. [`FlashError::Busy`] (a
 /// background erase) is not a failure: it is retried at the next call. The state's saves and
-/// the link key's back off apart (a failing key block never delays a step's journal). `now_ms`
+/// the link key's and the profile's back off apart (a failing key block never delays a step's journal). `now_ms`
 /// is the board's millisecond clock.
 #[derive(Debug)]
 pub struct Backoff<S> {
     inner: S,
     now_ms: fn() -> u32,
-    /// The state's saves' back-off, then the key's: the current wait and when it ends.
-    waits: ((u32, u32), (u32, u32)),
+    /// The state's saves' back-off, the key's and the profile's: the current wait and when it
+    /// ends.
+    waits: [(u32, u32); 3],
 }
 
 impl<S> Backoff<S> {
@@ -467,25 +518,21 @@ impl<S> Backoff<S> {
         Self {
             inner,
             now_ms,
-            waits: ((0, 0), (0, 0)),
+            waits: [(0, 0); 3],
         }
     }
 }
 
 impl<S> Backoff<S> {
-    /// One attempt of `save` on the inner store (the key's when `key`), unless that save's
-    /// back-off still runs.
+    /// One attempt of `save` on the inner store (`which`: 0 the state's, 1 the key's, 2 the
+    /// profile's), unless that save's back-off still runs.
     fn attempt(
         &mut self,
-        key: bool,
+        which: usize,
         save: impl FnOnce(&mut S) -> Result<(), FlashError>,
     ) -> Result<(), FlashError> {
         let now = (self.now_ms)();
-        let (wait_ms, next_ms) = if key {
-            &mut self.waits.1
-        } else {
-            &mut self.waits.0
-        };
+        let (wait_ms, next_ms) = &mut self.waits[which];
         if *wait_ms > 0 && (now.wrapping_sub(*next_ms) as i32) < 0 {
             return Err(FlashError::BackingOff);
         }
@@ -512,7 +559,7 @@ impl<S: StateStore<Error = FlashError>> StateStore for Backoff<S> {
     }
 
     fn save(&mut self, state: &StoredState) -> Result<(), FlashError> {
-        self.attempt(false, |s| s.save(state))
+        self.attempt(0, |s| s.save(state))
     }
 
     fn keeps_link_key(&self) -> bool {
@@ -524,6 +571,21 @@ impl<S: StateStore<Error = FlashError>> StateStore for Backoff<S> {
     }
 
     fn save_link_key(&mut self, key: Option<&[u8; 16]>) -> Result<(), FlashError> {
-        self.attempt(true, |s| s.save_link_key(key))
+        self.attempt(1, |s| s.save_link_key(key))
+    }
+
+    fn keeps_probe_profile(&self) -> bool {
+        self.inner.keeps_probe_profile()
+    }
+
+    fn load_probe_profile(&mut self) -> Result<Option<[u8; PROFILE_LEN]>, FlashError> {
+        self.inner.load_probe_profile()
+    }
+
+    fn save_probe_profile(
+        &mut self,
+        profile: Option<&[u8; PROFILE_LEN]>,
+    ) -> Result<(), FlashError> {
+        self.attempt(2, |s| s.save_probe_profile(profile))
     }
 }

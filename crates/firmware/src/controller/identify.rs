@@ -42,15 +42,9 @@ pub const SETTLE_MS: u32 = 300;
 /// Fill-rate tolerance (fraction of the signature) within which a state is kept.
 pub const RATE_TOLERANCE: f32 = 0.05;
 
-/// What a calibration measured through this probe on one trunk.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ProbeProfile {
-    /// Fill rate (kPa/s) of each state, by [`TrunkState::index`] (F&P, F&F, F&D, D&P, D&F, D&D).
-    pub states: [f32; 6],
-    /// Fill rate of a trunk resting half-packed under the folded top and under the deployed
-    /// top (as [`BETWEEN_SIGNATURES`]).
-    pub between: [f32; 2],
-}
+/// What a calibration measured through this probe on one trunk (the wire type: stored on the
+/// device with [`protocol::RequestBody::SetProbeProfile`]).
+pub use protocol::ProbeProfile;
 
 /// Measured fill rate (kPa/s) of each state, by [`TrunkState::index`] (F&P, F&F, F&D, D&P, D&F,
 /// D&D): the mean over seeds 1–3 through this probe on the simulator's calibrated trunk.

@@ -317,6 +317,11 @@ pub struct Controller {
     periodic: Periodic,
     #[cfg(feature = "link-signing")]
     signing: Signing,
+    /// A probe profile change to persist ([`Controller::poll_probe_profile`]).
+    profile_to_store: Option<Option<identify::ProbeProfile>>,
+    /// Whether the store keeps a probe profile ([`Controller::set_probe_profile`]): storing
+    /// one is refused otherwise (it would be gone at the next reset).
+    store_keeps_profile: bool,
 }
 
 impl Controller {
@@ -428,6 +433,8 @@ impl Controller {
                 to_store: None,
                 store_keeps_key: false,
             },
+            profile_to_store: None,
+            store_keeps_profile: false,
             tx: TxQueue::new(),
             defer_events: false,
             deferred: Vec::new(),
@@ -601,6 +608,32 @@ impl Controller {
     #[cfg(feature = "link-signing")]
     pub fn poll_link_key(&mut self) -> Option<Option<protocol::sign::LinkKey>> {
         self.signing.to_store.take()
+    }
+
+    /// The probe profile at boot: the one the store holds (`None`: the configuration's
+    /// [`CraneConfig::probe_profile`] stays), and whether the store can keep one at all
+    /// (storing one is refused when it cannot). The shell calls it once after
+    /// [`Controller::new`] ([`crate::hw::Shell::boot`]).
+    pub fn set_probe_profile(
+        &mut self,
+        profile: Option<identify::ProbeProfile>,
+        store_keeps_profile: bool,
+    ) {
+        if profile.is_some() {
+            self.cfg.probe_profile = profile;
+        }
+        self.store_keeps_profile = store_keeps_profile;
+    }
+
+    /// A probe profile change to persist (`Some(None)`: erase it), taken once; the shell
+    /// writes it to its store ([`crate::hw::StateStore::save_probe_profile`]).
+    pub fn poll_probe_profile(&mut self) -> Option<Option<identify::ProbeProfile>> {
+        self.profile_to_store.take()
+    }
+
+    /// The probe profile identification decides with (`None`: it asks the operator).
+    pub fn probe_profile(&self) -> Option<identify::ProbeProfile> {
+        self.cfg.probe_profile
     }
 
     /// Whether link signing is on (every session-bound request must be signed).

@@ -184,6 +184,38 @@ impl Controller {
         reject(RejectReason::NotAllowed)
     }
 
+    /// Stores (or erases) the probe profile: in force at once, persisted by the shell.
+    #[inline(never)]
+    fn set_probe_profile_request(
+        &mut self,
+        schema_id: u32,
+        profile: &Option<protocol::ProbeProfile>,
+    ) -> Answer {
+        if self.exec.is_some() {
+            return (ResultCode::Busy, ResponseBody::None);
+        }
+        if !self.store_keeps_profile {
+            return reject(RejectReason::NotAllowed);
+        }
+        if schema_id != protocol::SCHEMA_ID {
+            return reject(RejectReason::VersionMismatch);
+        }
+        if let Some((i, rate)) = profile.as_ref().and_then(|p| p.out_of_range()) {
+            let (lo, hi) = protocol::PROBE_RATE_RANGE;
+            let limit = if rate < lo { lo } else { hi };
+            return refused(refuse(
+                RejectReason::OutOfRange,
+                None,
+                RefusedField::ProbeRate(i),
+                rate,
+                limit,
+            ));
+        }
+        self.cfg.probe_profile = *profile;
+        self.profile_to_store = Some(*profile);
+        ok()
+    }
+
     /// Whether the session's owner was heard within the link timeout.
     fn owner_live(&self) -> bool {
         self.link.session != 0
@@ -276,6 +308,14 @@ impl Controller {
             }
             RequestBody::Identify => self.identify(),
             RequestBody::SetSigning { ref key, enabled } => self.set_signing(key, enabled),
+            RequestBody::SetProbeProfile {
+                schema_id,
+                ref profile,
+            } => self.set_probe_profile_request(schema_id, profile),
+            RequestBody::GetProbeProfile => (
+                ResultCode::Ok,
+                ResponseBody::ProbeProfile(self.cfg.probe_profile),
+            ),
             RequestBody::GetStatus => (ResultCode::Ok, ResponseBody::Status(self.status())),
             RequestBody::Heartbeat => ok(),
             RequestBody::UploadPlan(ref mut plan) => self.upload(plan),

@@ -3213,3 +3213,163 @@ mod signing {
         assert!(hello.expect("handshake").signing);
     }
 }
+
+/// The probe profile stored on the device (`RequestBody::SetProbeProfile`).
+mod probe_profile {
+    use super::*;
+    use protocol::{ProbeProfile, Refusal, RefusedField, SCHEMA_ID};
+
+    fn set(profile: Option<ProbeProfile>) -> RequestBody {
+        RequestBody::SetProbeProfile {
+            schema_id: SCHEMA_ID,
+            profile,
+        }
+    }
+
+    fn stored(r: &mut Rig) -> Option<ProbeProfile> {
+        match r.request(RequestBody::GetProbeProfile) {
+            (ResultCode::Ok, ResponseBody::ProbeProfile(p)) => p,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    fn asked(r: &Rig) -> bool {
+        r.events()
+            .any(|e| matches!(e, Event::IdentifyNeedsOperator { .. }))
+    }
+
+    #[test]
+    fn storing_takes_effect_at_once_and_goes_to_the_store() {
+        let (mut r, _) = Rig::interrupted_fold();
+        r.ctl.set_probe_profile(None, true);
+        assert_eq!(stored(&mut r), None);
+        // Pressure samples first (no probing without a valid reading).
+        r.run(100);
+        // Without a profile identification asks the operator at once, no probe runs.
+        assert_eq!(r.request(RequestBody::Identify).0, ResultCode::InProgress);
+        assert!(asked(&r), "asked the operator");
+        assert_eq!(r.ctl.status().plan.map(|p| p.plan_id), None);
+        assert_eq!(r.ctl.poll_probe_profile(), None, "nothing to store");
+
+        let (mut r, _) = Rig::interrupted_fold();
+        r.ctl.set_probe_profile(None, true);
+        assert_eq!(
+            r.request(set(Some(identify::SIM_PROFILE))).0,
+            ResultCode::Ok
+        );
+        assert_eq!(
+            r.ctl.poll_probe_profile(),
+            Some(Some(identify::SIM_PROFILE))
+        );
+        assert_eq!(r.ctl.poll_probe_profile(), None, "taken once");
+        assert_eq!(stored(&mut r), Some(identify::SIM_PROFILE));
+        r.run(100);
+        // With it, identification runs the probe instead of asking.
+        assert_eq!(r.request(RequestBody::Identify).0, ResultCode::InProgress);
+        assert!(!asked(&r), "the probe decides, not the operator");
+        assert_eq!(
+            r.ctl.status().plan.map(|p| p.plan_id),
+            Some(identify::IDENTIFY_PLAN_ID)
+        );
+        // While it runs, the profile cannot change.
+        assert_eq!(r.request(set(None)).0, ResultCode::Busy);
+        assert_eq!(r.request(RequestBody::Abort).0, ResultCode::Ok);
+        // Erasing takes effect at once too: the operator is asked again.
+        assert_eq!(r.request(set(None)).0, ResultCode::Ok);
+        assert_eq!(r.ctl.poll_probe_profile(), Some(None));
+        assert_eq!(stored(&mut r), None);
+        assert_eq!(r.request(RequestBody::Identify).0, ResultCode::InProgress);
+        assert!(asked(&r));
+    }
+
+    #[test]
+    fn a_profile_loaded_at_boot_is_the_one_identification_uses() {
+        let (mut r, _) = Rig::interrupted_fold();
+        let mine = ProbeProfile {
+            states: [20.0, 21.0, 22.0, 23.0, 24.0, 25.0],
+            between: [20.5, 23.5],
+        };
+        r.ctl.set_probe_profile(Some(mine), true);
+        assert_eq!(r.ctl.probe_profile(), Some(mine));
+        assert_eq!(stored(&mut r), Some(mine));
+        r.run(100);
+        assert_eq!(r.request(RequestBody::Identify).0, ResultCode::InProgress);
+        assert!(!asked(&r));
+    }
+
+    #[test]
+    fn bad_profiles_are_refused_with_the_field_and_change_nothing() {
+        let (mut r, _) = Rig::interrupted_fold();
+        // A store that keeps no profile: refused (it would be gone at the next reset).
+        assert_eq!(
+            r.request(set(Some(identify::SIM_PROFILE))).0,
+            ResultCode::Rejected(RejectReason::NotAllowed)
+        );
+        r.ctl.set_probe_profile(None, true);
+        // Another firmware's schema.
+        assert_eq!(
+            r.request(RequestBody::SetProbeProfile {
+                schema_id: SCHEMA_ID ^ 1,
+                profile: Some(identify::SIM_PROFILE),
+            })
+            .0,
+            ResultCode::Rejected(RejectReason::VersionMismatch)
+        );
+        let (lo, hi) = protocol::PROBE_RATE_RANGE;
+        for (i, bad, limit) in [
+            (0usize, f32::NAN, hi),
+            (3, f32::INFINITY, hi),
+            (5, -1.0, lo),
+            (6, 0.0, lo),
+            (7, 1.0e6, hi),
+            (2, f32::NEG_INFINITY, lo),
+        ] {
+            let mut p = identify::SIM_PROFILE;
+            if i < 6 {
+                p.states[i] = bad;
+            } else {
+                p.between[i - 6] = bad;
+            }
+            let (res, body) = r.request(set(Some(p)));
+            assert_eq!(
+                res,
+                ResultCode::Rejected(RejectReason::OutOfRange),
+                "{i}: {bad}"
+            );
+            let ResponseBody::Refused(Refusal {
+                step: None,
+                field: RefusedField::ProbeRate(at),
+                value,
+                limit: l,
+            }) = body
+            else {
+                panic!("{i}: {body:?}");
+            };
+            assert_eq!(usize::from(at), i);
+            assert!(value == bad || (value.is_nan() && bad.is_nan()));
+            assert_eq!(l, limit, "{i}: {bad}");
+        }
+        assert_eq!(stored(&mut r), None, "nothing stored");
+        assert_eq!(r.ctl.poll_probe_profile(), None);
+        // The bounds themselves are accepted.
+        let edge = ProbeProfile {
+            states: [lo, hi, lo, hi, lo, hi],
+            between: [lo, hi],
+        };
+        assert_eq!(r.request(set(Some(edge))).0, ResultCode::Ok);
+    }
+
+    #[test]
+    fn the_stored_form_round_trips_and_refuses_other_schemas_and_bad_rates() {
+        use crate::store::{profile_from_bytes, profile_to_bytes};
+        let b = profile_to_bytes(&identify::SIM_PROFILE);
+        assert_eq!(b[..4], SCHEMA_ID.to_le_bytes());
+        assert_eq!(profile_from_bytes(&b), Some(identify::SIM_PROFILE));
+        let mut other = b;
+        other[0] ^= 1;
+        assert_eq!(profile_from_bytes(&other), None, "another schema");
+        let mut nan = b;
+        nan[4..8].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert_eq!(profile_from_bytes(&nan), None, "a rate the device refuses");
+    }
+}

@@ -177,9 +177,64 @@ pub struct Profile {
     pub sensor_zero_kpa: f64,
     /// The calibration's duration on the device's clock, s.
     pub duration_s: f64,
+    /// The identification probe's signatures of this trunk, which `calibrate` and
+    /// `calibration load` store on the device (absent: none measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe: Option<ProbeSignatures>,
     /// Each measured transition, in the walk's order.
     #[serde(rename = "transition")]
     pub transitions: Vec<Measured>,
+}
+
+/// The identification probe's fill rates of one trunk (kPa/s; docs/firmware.md,
+/// "Identification"): what the device decides a state from, once stored on it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSignatures {
+    /// Each state's fill rate: F&P, F&F, F&D, D&P, D&F, D&D.
+    pub states: Vec<f64>,
+    /// A trunk resting half-packed under the folded top (F&P½) and under the deployed top
+    /// (D&P½).
+    pub between: Vec<f64>,
+}
+
+impl ProbeSignatures {
+    /// The wire form, or why the device would refuse it (six and two rates, each within
+    /// `protocol::PROBE_RATE_RANGE`).
+    pub fn to_wire(&self) -> Result<protocol::ProbeProfile, String> {
+        let (Ok(states), Ok(between)) = (
+            <[f64; 6]>::try_from(self.states.as_slice()),
+            <[f64; 2]>::try_from(self.between.as_slice()),
+        ) else {
+            return Err(format!(
+                "probe: {} state rates and {} between rates; a profile has 6 (F&P, F&F, F&D, \
+                 D&P, D&F, D&D) and 2 (F&P½, D&P½)",
+                self.states.len(),
+                self.between.len()
+            ));
+        };
+        let p = protocol::ProbeProfile {
+            states: states.map(|r| r as f32),
+            between: between.map(|r| r as f32),
+        };
+        if let Some((i, r)) = p.out_of_range() {
+            let (lo, hi) = protocol::PROBE_RATE_RANGE;
+            return Err(format!(
+                "probe: the {} fill rate {r} kPa/s is outside {lo} to {hi} kPa/s",
+                host::text::probe_rate_name(i)
+            ));
+        }
+        Ok(p)
+    }
+
+    /// From the wire form.
+    pub fn from_wire(p: &protocol::ProbeProfile) -> Self {
+        let r = |x: f32| (f64::from(x) * 1000.0).round() / 1000.0;
+        Self {
+            states: p.states.iter().map(|&x| r(x)).collect(),
+            between: p.between.iter().map(|&x| r(x)).collect(),
+        }
+    }
 }
 
 fn schema_text() -> String {
@@ -258,6 +313,9 @@ impl Profile {
     /// Refuses a profile whose snaps are missing, out of order or outside the physical range,
     /// naming what it holds.
     pub fn check(&self) -> Result<(), String> {
+        if let Some(p) = &self.probe {
+            p.to_wire()?;
+        }
         if !(self.margin.is_finite() && (0.0..=1.0).contains(&self.margin)) {
             return Err(format!(
                 "margin {} is not a fraction from 0 to 1",
@@ -456,11 +514,35 @@ pub struct ShowArgs {
 /// `calibration` subcommands.
 #[derive(Debug, clap::Subcommand)]
 pub enum ShowCommand {
-    /// Print a calibration profile and the targets plans take from it.
+    /// Print a calibration profile and the targets plans take from it; without a file, the
+    /// probe profile stored on the device (--port P, or --sim).
     Show {
         /// The profile (TOML, from `host-tool calibrate`).
         #[arg(value_name = "PROFILE.toml")]
+        profile: Option<PathBuf>,
+        #[command(flatten)]
+        device: DeviceArgs,
+        /// One JSON object on stdout.
+        #[arg(skip)]
+        json: bool,
+    },
+    /// Store a profile's probe signatures on the device (its data flash): identification then
+    /// decides from them. The device refuses a profile of another firmware schema or with a
+    /// rate out of range.
+    Load {
+        /// The profile (TOML, from `host-tool calibrate`), with a `[probe]` table.
+        #[arg(value_name = "PROFILE.toml")]
         profile: PathBuf,
+        #[command(flatten)]
+        device: DeviceArgs,
+        /// One JSON object on stdout.
+        #[arg(skip)]
+        json: bool,
+    },
+    /// Erase the probe profile stored on the device: identification asks the operator again.
+    Erase {
+        #[command(flatten)]
+        device: DeviceArgs,
         /// One JSON object on stdout.
         #[arg(skip)]
         json: bool,
@@ -471,22 +553,116 @@ impl ShowArgs {
     /// Whether JSON was asked for.
     pub fn json(&self) -> bool {
         match &self.command {
-            ShowCommand::Show { json, .. } => *json,
+            ShowCommand::Show { json, .. }
+            | ShowCommand::Load { json, .. }
+            | ShowCommand::Erase { json, .. } => *json,
         }
     }
 
     /// Sets whether JSON was asked for (the global `-j/--json`).
     pub fn set_json(&mut self, on: bool) {
         match &mut self.command {
-            ShowCommand::Show { json, .. } => *json = on,
+            ShowCommand::Show { json, .. }
+            | ShowCommand::Load { json, .. }
+            | ShowCommand::Erase { json, .. } => *json = on,
         }
     }
 }
 
-/// Runs `host-tool calibration show`.
+/// Runs `host-tool calibration`.
 pub fn run_show(args: ShowArgs) -> Result<(), Failure> {
-    let ShowCommand::Show { profile, json } = args.command;
-    let p = Profile::load(&profile)?;
+    match args.command {
+        ShowCommand::Show {
+            profile: Some(profile),
+            device,
+            json,
+        } => {
+            if device.port.is_some() || device.sim {
+                return Err(Failure::usage(
+                    "calibration show: give a profile file or a device (--port P, --sim), not \
+                     both",
+                ));
+            }
+            show_file(&profile, json)
+        }
+        ShowCommand::Show {
+            profile: None,
+            device,
+            json,
+        } => {
+            let named = device.port.is_some() || device.sim;
+            let device = device.validate(None).map_err(|e| match e {
+                Failure::Usage(m) if !named => Failure::usage(format!(
+                    "calibration show: give a PROFILE.toml, or the device whose stored probe \
+                     profile to read: {m}"
+                )),
+                other => other,
+            })?;
+            let p = read_device_profile(&device)?;
+            if json {
+                crate::cli::print_json(json!({
+                    "device_profile": p.as_ref().map(ProbeSignatures::from_wire),
+                }));
+            } else {
+                match p {
+                    Some(p) => crate::out_raw!(
+                        "the device's probe profile: {}\n",
+                        host::text::probe_profile_text(&p)
+                    ),
+                    None => crate::out_raw!(
+                        "the device holds no probe profile: identification asks the operator\n"
+                    ),
+                }
+            }
+            Ok(())
+        }
+        ShowCommand::Load {
+            profile,
+            device,
+            json,
+        } => {
+            let p = Profile::load(&profile)?;
+            let Some(probe) = &p.probe else {
+                return Err(Failure::usage(format!(
+                    "{}: no [probe] signatures in this profile: nothing to store on the device",
+                    profile.display()
+                )));
+            };
+            let wire = probe
+                .to_wire()
+                .map_err(|e| Failure::usage(format!("{}: {e}", profile.display())))?;
+            let device = device.validate(None)?;
+            store_device_profile(&device, &p.schema_id, Some(wire))?;
+            if json {
+                crate::cli::print_json(json!({
+                    "stored": true,
+                    "device_profile": ProbeSignatures::from_wire(&wire),
+                }));
+            } else {
+                crate::say!(
+                    "stored the probe profile of trunk '{}' on the device: {}",
+                    p.name,
+                    host::text::probe_profile_text(&wire)
+                );
+            }
+            Ok(())
+        }
+        ShowCommand::Erase { device, json } => {
+            let device = device.validate(None)?;
+            store_device_profile(&device, &schema_text(), None)?;
+            if json {
+                crate::cli::print_json(json!({"erased": true}));
+            } else {
+                crate::say!("erased the device's probe profile: identification asks the operator");
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Prints a profile file.
+fn show_file(profile: &Path, json: bool) -> Result<(), Failure> {
+    let p = Profile::load(profile)?;
     let targets = p
         .targets(p.pressure_limit_kpa)
         .map_err(|e| Failure::usage(format!("{}: {e}", profile.display())))?;
@@ -498,6 +674,46 @@ pub fn run_show(args: ShowArgs) -> Result<(), Failure> {
         crate::out_raw!("{}", show_text(&p, &targets));
     }
     Ok(())
+}
+
+/// The probe profile the device holds.
+fn read_device_profile(device: &DeviceConfig) -> Result<Option<protocol::ProbeProfile>, Failure> {
+    let mut conn = device.connect()?;
+    let res = conn.session.command(RequestBody::GetProbeProfile);
+    conn.close();
+    match res {
+        Ok(ResponseBody::ProbeProfile(p)) => Ok(p),
+        Ok(other) => Err(anyhow::anyhow!("reading the device's probe profile: {other:?}").into()),
+        Err(e) => Err(anyhow::anyhow!("reading the device's probe profile: {e}").into()),
+    }
+}
+
+/// Stores `profile` on the device (`None`: erases it), measured with firmware schema
+/// `schema_id` (the profile file's, `0x` and eight hex digits); a refusal says the device's
+/// reason.
+fn store_device_profile(
+    device: &DeviceConfig,
+    schema_id: &str,
+    profile: Option<protocol::ProbeProfile>,
+) -> Result<(), Failure> {
+    let schema_id = u32::from_str_radix(schema_id.trim_start_matches("0x"), 16)
+        .map_err(|_| Failure::usage(format!("schema id '{schema_id}' is not 0x and hex digits")))?;
+    let mut conn = device.connect()?;
+    let res = conn
+        .session
+        .command(RequestBody::SetProbeProfile { schema_id, profile });
+    conn.close();
+    res.map(|_| ()).map_err(|e| {
+        anyhow::anyhow!(
+            "the device refused the probe profile ({}): {e}",
+            if profile.is_some() {
+                "storing"
+            } else {
+                "erasing"
+            }
+        )
+        .into()
+    })
 }
 
 fn targets_json(targets: &[((TrunkState, TrunkState), f32)]) -> serde_json::Value {
@@ -686,18 +902,40 @@ pub fn run(args: Args) -> Result<(), Failure> {
         Ok(profile) => {
             std::fs::write(&args.out, profile.to_toml())
                 .map_err(|e| anyhow::anyhow!("writing {}: {e}", args.out.display()))?;
+            let stored = match &profile.probe {
+                Some(probe) => {
+                    let wire = probe.to_wire().map_err(refuse)?;
+                    store_device_profile(&device, &profile.schema_id, Some(wire)).map_err(|e| {
+                        match e {
+                            Failure::Runtime(e) => Failure::Runtime(anyhow::anyhow!(
+                                "profile written to {}, not stored on the device: {e}",
+                                args.out.display()
+                            )),
+                            other => other,
+                        }
+                    })?;
+                    true
+                }
+                None => false,
+            };
             if args.json {
                 let mut v = profile.to_json();
                 if let Ok(t) = profile.targets(profile.pressure_limit_kpa) {
                     v["targets"] = targets_json(&t);
                 }
+                v["stored_on_device"] = json!(stored);
                 crate::cli::print_json(v);
             } else {
                 crate::say!(
-                    "calibrated trunk '{}' in {:.1} s: profile written to {}",
+                    "calibrated trunk '{}' in {:.1} s: profile written to {}{}",
                     profile.name,
                     profile.duration_s,
-                    args.out.display()
+                    args.out.display(),
+                    if stored {
+                        "; its probe signatures stored on the device"
+                    } else {
+                        "; no probe signatures measured: nothing stored on the device"
+                    }
                 );
             }
             Ok(())
@@ -891,6 +1129,7 @@ fn calibrate(device: &DeviceConfig, name: &str, manual: bool) -> Result<Profile,
             tendon_reach_mm: REACH_MM,
             sensor_zero_kpa: (zero * 1000.0).round() / 1000.0,
             duration_s: (s.io.now_ms() - start_ms) as f64 / 1000.0,
+            probe: None,
             transitions: measured,
         };
         profile.check().map_err(refuse)?;
@@ -1007,6 +1246,7 @@ mod tests {
             tendon_reach_mm: REACH_MM,
             sensor_zero_kpa: 0.0,
             duration_s: 60.0,
+            probe: None,
             transitions: vec![
                 m("F&P", "F&F", "pneumatic", vec![13.1], vec![]),
                 m("F&F", "D&F", "pneumatic", vec![19.6], vec![]),

@@ -18,7 +18,7 @@ use crate::samples::{largest_request, st, status_response};
 /// field, variant or type; not a comment): update this one constant deliberately, together with
 /// the golden bytes if the wire form changed (old builds will refuse the new ones at the
 /// handshake).
-const EXPECTED_SCHEMA_ID: u32 = 0xbc19_fbdd;
+const EXPECTED_SCHEMA_ID: u32 = 0x72d7_b597;
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
@@ -172,6 +172,8 @@ fn request_index(b: &RequestBody) -> usize {
         RequestBody::Close => 12,
         RequestBody::Identify => 13,
         RequestBody::SetSigning { .. } => 14,
+        RequestBody::SetProbeProfile { .. } => 15,
+        RequestBody::GetProbeProfile => 16,
     }
 }
 
@@ -224,12 +226,27 @@ fn requests() {
             }),
             "8202010e3031323334353637383961626364656601",
         ),
+        (
+            req(RequestBody::SetProbeProfile {
+                schema_id: 0xdead_beef,
+                profile: Some(probe_profile()),
+            }),
+            "8202010feffdb6f50d010000c03f00000040000020400000404000006040000080400000e03f00005040",
+        ),
+        (
+            req(RequestBody::SetProbeProfile {
+                schema_id: 0xdead_beef,
+                profile: None,
+            }),
+            "8202010feffdb6f50d00",
+        ),
+        (req(RequestBody::GetProbeProfile), "82020110"),
     ];
     check("Request", &cases);
     covers(
         "RequestBody",
         cases.iter().map(|c| request_index(&c.0.body)),
-        15,
+        17,
     );
     // The first byte after the seq and session varints is the variant index.
     for (r, _) in &cases {
@@ -515,6 +532,15 @@ fn response_index(b: &ResponseBody) -> usize {
         ResponseBody::Status(_) => 2,
         ResponseBody::Param { .. } => 3,
         ResponseBody::Refused(_) => 4,
+        ResponseBody::ProbeProfile(_) => 5,
+    }
+}
+
+/// A probe profile whose rates are exact in `f32` (1.5 = 0x3fc00000 and so on).
+fn probe_profile() -> ProbeProfile {
+    ProbeProfile {
+        states: [1.5, 2.0, 2.5, 3.0, 3.5, 4.0],
+        between: [1.75, 3.25],
     }
 }
 
@@ -579,6 +605,23 @@ fn responses() {
             ),
             "008202010704010104040000804100002041",
         ),
+        (
+            resp(
+                ResultCode::Rejected(RejectReason::OutOfRange),
+                ResponseBody::Refused(Refusal {
+                    step: None,
+                    field: RefusedField::ProbeRate(6),
+                    value: -1.0,
+                    limit: 0.5,
+                }),
+            ),
+            "008202010704000606000080bf0000003f",
+        ),
+        (
+            resp(ResultCode::Ok, ResponseBody::ProbeProfile(Some(probe_profile()))),
+            "0082020005010000c03f00000040000020400000404000006040000080400000e03f00005040",
+        ),
+        (resp(ResultCode::Ok, ResponseBody::ProbeProfile(None)), "008202000500"),
     ];
     check("DeviceMessage::Response", &cases);
     covers(
@@ -587,7 +630,7 @@ fn responses() {
             DeviceMessage::Response { body, .. } => response_index(body),
             DeviceMessage::Event(_) => unreachable!(),
         }),
-        5,
+        6,
     );
 }
 

@@ -23,7 +23,12 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use crate::sim::SimTruth;
 
 /// A client's request line.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+///
+/// Read through a JSON value, not by serde's derive for a tagged enum: the derive buffers the
+/// line in serde's own content type, which cannot hold serde_json's `arbitrary_precision`
+/// numbers (a feature `defmt-decoder` turns on wherever the workspace is built together: every
+/// number inside a request then fails to parse); a value keeps them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "op", rename_all = "snake_case")]
 pub enum Request {
     /// The request, if any (`stop`: an abort, sent ahead of anything queued; `declare`), then
@@ -53,8 +58,8 @@ pub enum Request {
 /// A line from the server.
 ///
 /// Untagged: each variant is told by its keys (`error`, `status`, `result`, `event`, `note`,
-/// `outcome`), which no two share.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// `outcome`), which no two share. Read through a JSON value, as [`Request`] is.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Reply {
     /// The request failed, or was not a request.
@@ -143,6 +148,133 @@ impl Serialize for DeviceRequest {
                 s.serialize_newtype_variant("RequestBody", 5, "RunStep", &StepSeq(step))
             }
             other => other.serialize(s),
+        }
+    }
+}
+
+/// [`Request`] as serde's derive reads it, variant by variant.
+mod wire {
+    use super::*;
+
+    #[derive(Deserialize)]
+    pub struct Snapshot {
+        #[serde(default)]
+        pub request: Option<DeviceRequest>,
+    }
+    #[derive(Deserialize)]
+    pub struct Call {
+        pub request: DeviceRequest,
+    }
+    #[derive(Deserialize)]
+    pub struct Plan {
+        #[serde(with = "state_name")]
+        pub target: TrunkState,
+    }
+    #[derive(Deserialize)]
+    pub struct Error {
+        pub error: String,
+    }
+    #[derive(Deserialize)]
+    pub struct Snap {
+        pub status: Status,
+        pub info: DeviceInfo,
+        #[serde(default)]
+        pub truth: Option<SimTruth>,
+        #[serde(default)]
+        pub abort_latency_ms: Option<u64>,
+    }
+    #[derive(Deserialize)]
+    pub struct CallReply {
+        pub result: ResultCode,
+        pub body: ResponseBody,
+    }
+    #[derive(Deserialize)]
+    pub struct EventReply {
+        pub event: Event,
+    }
+    #[derive(Deserialize)]
+    pub struct Note {
+        pub note: String,
+    }
+    #[derive(Deserialize)]
+    pub struct Outcome {
+        pub outcome: Box<crate::outcome::PlanOutcome>,
+        pub ok: bool,
+    }
+}
+
+/// `T` from a JSON value, the error in `D`'s terms.
+fn from_value<'de, D: Deserializer<'de>, T: serde::de::DeserializeOwned>(
+    v: serde_json::Value,
+) -> Result<T, D::Error> {
+    serde_json::from_value(v).map_err(serde::de::Error::custom)
+}
+
+impl<'de> Deserialize<'de> for Request {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        const OPS: &[&str] = &["snapshot", "call", "monitor", "plan", "identify"];
+        let v = serde_json::Value::deserialize(d)?;
+        let op = match v.get("op") {
+            Some(serde_json::Value::String(op)) => op.clone(),
+            Some(_) => return Err(D::Error::custom("`op` must be a string")),
+            None => return Err(D::Error::missing_field("op")),
+        };
+        Ok(match op.as_str() {
+            "snapshot" => Request::Snapshot {
+                request: from_value::<D, wire::Snapshot>(v)?.request,
+            },
+            "call" => Request::Call {
+                request: from_value::<D, wire::Call>(v)?.request,
+            },
+            "monitor" => Request::Monitor,
+            "plan" => Request::Plan {
+                target: from_value::<D, wire::Plan>(v)?.target,
+            },
+            "identify" => Request::Identify,
+            other => return Err(D::Error::unknown_variant(other, OPS)),
+        })
+    }
+}
+
+impl<'de> Deserialize<'de> for Reply {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let v = serde_json::Value::deserialize(d)?;
+        let has = |k: &str| v.get(k).is_some();
+        if has("error") {
+            let r: wire::Error = from_value::<D, _>(v)?;
+            Ok(Reply::Error { error: r.error })
+        } else if has("status") {
+            let r: wire::Snap = from_value::<D, _>(v)?;
+            Ok(Reply::Snapshot {
+                status: r.status,
+                info: r.info,
+                truth: r.truth,
+                abort_latency_ms: r.abort_latency_ms,
+            })
+        } else if has("result") {
+            let r: wire::CallReply = from_value::<D, _>(v)?;
+            Ok(Reply::Call {
+                result: r.result,
+                body: r.body,
+            })
+        } else if has("event") {
+            let r: wire::EventReply = from_value::<D, _>(v)?;
+            Ok(Reply::Event { event: r.event })
+        } else if has("note") {
+            let r: wire::Note = from_value::<D, _>(v)?;
+            Ok(Reply::Note { note: r.note })
+        } else if has("outcome") {
+            let r: wire::Outcome = from_value::<D, _>(v)?;
+            Ok(Reply::Outcome {
+                outcome: r.outcome,
+                ok: r.ok,
+            })
+        } else {
+            Err(D::Error::custom(
+                "data did not match any variant of untagged enum Reply",
+            ))
         }
     }
 }
@@ -239,6 +371,38 @@ pub mod f32_or_nan {
 
 #[cfg(test)]
 mod tests {
+
+    /// A line the CI's workspace-built host-tool failed to read (`arbitrary_precision`, turned
+    /// on by defmt-decoder, breaks serde's derive for untagged and tagged enums): a snapshot
+    /// after an abort, floats and all, and a call whose request carries numbers.
+    #[test]
+    fn lines_with_numbers_read_whatever_serde_json_features_are_on() {
+        let snap = r#"{"status":{"state":{"top":"Folded","bottom":"Packed"},"state_confirmed":true,"candidates":1,"interrupted":null,"mode":"Safe","pressure_kpa":0.19604324,"servo_deg":[0.0,0.0,0.0],"inlet_open":false,"exhaust_open":false,"gripper_closed":true,"estop":false,"plan":{"plan_id":1,"step":0,"steps":3,"phase":"Aborted"},"manual_task":null,"faults":0,"frames_rx":8,"frames_dropped":0,"uptime_ms":55},"info":{"protocol_version":2,"schema_id":1926739351,"firmware_version":[0,1,0],"board":"Simulator","trunk":{"bottom":{"n":3,"beta_deg":35.0,"edge_mm":75.0,"layers":2},"top":{"n":3,"beta_deg":31.72,"edge_mm":75.0,"layers":2},"pressure_limit_kpa":40.0},"session":1973720947,"reset_cause":"Unknown","signing":false},"truth":null,"abort_latency_ms":1}"#;
+        match serde_json::from_str::<Reply>(snap).expect("a snapshot") {
+            Reply::Snapshot {
+                status,
+                abort_latency_ms,
+                truth,
+                ..
+            } => {
+                assert!((status.pressure_kpa - 0.196_043_24).abs() < 1e-6);
+                assert_eq!((abort_latency_ms, truth), (Some(1), None));
+            }
+            other => panic!("{other:?}"),
+        }
+        let call = Request::Call {
+            request: DeviceRequest(RequestBody::SetParam {
+                id: protocol::messages::ParamId::PressureLimitKpa,
+                value: 32.5,
+            }),
+        };
+        let line = serde_json::to_string(&call).unwrap();
+        assert_eq!(
+            serde_json::from_str::<Request>(&line).unwrap(),
+            call,
+            "{line}"
+        );
+    }
     use super::*;
     use protocol::{Primitive, StepKind};
 

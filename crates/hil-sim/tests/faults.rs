@@ -129,10 +129,9 @@ fn the_swarm_with_faults_at_random_onsets_runs_as_before_the_layer() {
     // elsewhere): 13 739 358 ms, 730 reached, 0 violations. With the grasp task among the
     // ingredients (drawn last; up to 1 kg carried) and a pull's reach holding what the air it
     // compresses may push back up (the D&D → F&P fault runs' statuses carry the wider
-    // candidates): 14 197 195 ms, 729 reached, 0 violations; and with the probe profile's
-    // requests (a new schema id in every `Hello` answer: the line noise lands elsewhere):
-    // 14 173 375 ms, 729 reached, 0 violations. A change here is a change of behaviour
-    // somewhere in the system.
+    // candidates): 14 197 195 ms, 729 reached, 0 violations; and after the merge of the probe
+    // profile's store (which of its changes moved it was not bisected): 14 173 375 ms, 729
+    // reached, 0 violations. A change here is a change of behaviour somewhere in the system.
     let r = hil_sim::swarm::swarm(1000, 300, 1);
     assert_eq!(
         (r.runs, r.virtual_ms, r.reached, r.violations.len()),

@@ -215,6 +215,12 @@ impl<'de> Deserialize<'de> for Request {
         use serde::de::Error as _;
         const OPS: &[&str] = &["snapshot", "call", "monitor", "plan", "identify"];
         let v = serde_json::Value::deserialize(d)?;
+        if !v.is_object() {
+            return Err(D::Error::invalid_type(
+                serde::de::Unexpected::Other("a JSON value that is not an object"),
+                &"a request object with an `op`",
+            ));
+        }
         let op = match v.get("op") {
             Some(serde_json::Value::String(op)) => op.clone(),
             Some(_) => return Err(D::Error::custom("`op` must be a string")),

@@ -69,6 +69,7 @@ pub mod codec;
 pub mod frame;
 pub mod legacy;
 pub mod messages;
+pub mod probe;
 pub mod sign;
 pub mod transitions;
 

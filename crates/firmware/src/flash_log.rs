@@ -1,6 +1,6 @@
 //! Wear-aware record log for [`crate::hw::StateStore`] on a small NOR flash (the RA4M1 data
 //! flash): pure logic over the [`NorFlash`] trait, built for every target. The board's data
-//! flash driver ([`crate::board`]'s `dataflash`) implements the trait on the chip; the host
+//! flash driver (`board::dataflash`, feature `board-uno-r4`) implements the trait on the chip; the host
 //! tests the log against an emulated flash with power-loss injection
 //! (`crates/firmware/tests/board_flash_log.rs`), and the simulator writes and reads the
 //! emulated board's data flash through it (`hil-sim`'s `elf_board`).

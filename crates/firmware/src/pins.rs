@@ -1,5 +1,5 @@
 //! The UNO R4 board's pin map, in RA4M1 port/pin terms: plain data, no register access, built
-//! for every target. The board support ([`crate::board`], feature `board-uno-r4`), its on-target
+//! for every target. The board support (`firmware::board`, feature `board-uno-r4`), its on-target
 //! suites and the simulator's processor-in-the-loop wiring (`hil-sim`'s `elf_board`, on the
 //! host) all read this one map. The same binary runs on the UNO R4 Minima and WiFi: every pin
 //! below reaches a header on both boards (the header labels differ between the two;

@@ -17,7 +17,7 @@ use std::path::Path;
 
 use firmware::flash_log::{self, LINK_KEY_BLOCK, PROBE_PROFILE_BLOCK, STATE_LOG_FIRST_BLOCK};
 use firmware::hw::{StateStore, SERVO_PWM_HZ};
-use firmware::pins::{self as pin, GptOutput, PortPin};
+use firmware::pins::{self, GptOutput, PortPin};
 use firmware::StoredState;
 use protocol::messages::{DeviceMessage, Event, Mode, ResponseBody};
 use protocol::FrameDecoder;
@@ -184,20 +184,20 @@ impl ElfBoard {
         let emu = &mut self.emu;
         let i = &shell.inputs;
         emu.set_analog(
-            pin::PRESSURE.channel().into(),
+            pins::PRESSURE.channel().into(),
             if i.pressure.failed { 0 } else { i.pressure.raw },
         );
-        emu.set_analog(pin::JOY_X.channel().into(), i.joystick_x.raw);
-        emu.set_analog(pin::JOY_Y.channel().into(), i.joystick_y.raw);
+        emu.set_analog(pins::JOY_X.channel().into(), i.joystick_x.raw);
+        emu.set_analog(pins::JOY_Y.channel().into(), i.joystick_y.raw);
         // A switch to ground: closed → low, open → the pull-up decides.
         let switch = |high: bool| if high { None } else { Some(false) };
         for (p, level) in [
-            (pin::BTN_UP, i.up.high),
-            (pin::BTN_DOWN, i.down.high),
-            (pin::BTN_GRIPPER, i.gripper.high),
-            (pin::BTN_CONFIRM, i.confirm.high),
-            (pin::BTN_SHOW, i.show_pressure.high),
-            (pin::BTN_ESTOP, i.estop.high),
+            (pins::BTN_UP, i.up.high),
+            (pins::BTN_DOWN, i.down.high),
+            (pins::BTN_GRIPPER, i.gripper.high),
+            (pins::BTN_CONFIRM, i.confirm.high),
+            (pins::BTN_SHOW, i.show_pressure.high),
+            (pins::BTN_ESTOP, i.estop.high),
         ] {
             emu.drive_pin(p.port.into(), p.pin.into(), switch(level));
         }
@@ -208,11 +208,11 @@ impl ElfBoard {
         emu.run_until_ns(now_ms * 1_000_000)?;
         let drive = |emu: &Emulator, p: PortPin| emu.pin_drive(p.port.into(), p.pin.into());
         let high = |emu: &Emulator, p: PortPin| drive(emu, p) == PinDrive::High;
-        shell.outputs.inlet.high = high(emu, pin::INLET);
-        shell.outputs.exhaust.high = high(emu, pin::EXHAUST);
+        shell.outputs.inlet.high = high(emu, pins::INLET);
+        shell.outputs.exhaust.high = high(emu, pins::EXHAUST);
         // Fail-closed wiring (docs/hardware.md): a released gripper pin is pulled up, closed.
         shell.outputs.gripper.high = matches!(
-            drive(emu, pin::GRIPPER),
+            drive(emu, pins::GRIPPER),
             PinDrive::High | PinDrive::Released { .. }
         );
         let period_us = 1e6 / f64::from(SERVO_PWM_HZ);
@@ -225,7 +225,7 @@ impl ElfBoard {
                 Line::Level(_) | Line::Released => 0,
             }
         };
-        let d: Vec<u16> = pin::SERVO_LINES
+        let d: Vec<u16> = pins::SERVO_LINES
             .iter()
             .map(|l| {
                 let b = l.output == GptOutput::B;

@@ -455,6 +455,91 @@ fn the_manipulation_demo_places_every_object_on_the_elf() {
     }
 }
 
+/// One calibration on the board ELF through the binaries: `host-tool calibrate --manual` over
+/// the pty, with a person who makes and undoes the half-packed rests when asked and types the
+/// trunk's state where the device cannot tell it. The probe's signatures it measured are stored
+/// in the board's data flash: `calibration show` reads back the same rates, and again after a
+/// power cut (`hil-sim/tests/elf.rs` checks that identification decides from a stored
+/// profile).
+#[test]
+fn one_calibration_on_the_elf_stores_its_probe_profile_across_a_power_cycle() {
+    use hil_sim::physics::trunk::Module;
+    let sim = board("F&P", vec![]);
+    let path = sim.path().display().to_string();
+    let dir = std::env::temp_dir().join(format!("e2e-elf-calibrate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let profile = dir.join("crane.toml");
+    let folds = [
+        ("please fold the bottom module's lowest unit", 1),
+        ("please unfold that unit again", 2),
+        ("please unfold the bottom module's upper unit", 1),
+        ("please fold that unit back into self-packing", 0),
+    ];
+    let mut made = Vec::new();
+    let out = as_operator(
+        &[
+            "calibrate",
+            "--port",
+            &path,
+            "--manual",
+            "--out",
+            profile.to_str().unwrap(),
+            "-j",
+        ],
+        &sim,
+        |line, sim| {
+            if let Some(&(_, well)) = folds.iter().find(|(ask, _)| line.contains(ask)) {
+                sim.move_module_by_hand(Module::Bottom, well, Duration::from_secs(10));
+                made.push(well);
+                return Some(String::new());
+            }
+            typed_state(line, sim)
+        },
+    );
+    assert_eq!(out.code(), 0, "{}\n{}", out.stdout, out.stderr);
+    assert_eq!(made, [1, 2, 1, 0], "{}", out.stderr);
+    let v = out.json();
+    assert_eq!(v["stored_on_device"], true, "{v}");
+    let rates = |v: &serde_json::Value| -> Vec<f64> {
+        ["states", "between"]
+            .iter()
+            .flat_map(|k| v[k].as_array().cloned().unwrap_or_default())
+            .map(|r| r.as_f64().expect("a rate"))
+            .collect()
+    };
+    let measured = rates(&v["probe"]);
+    assert_eq!(measured.len(), 8, "{v}");
+    eprintln!(
+        "calibration on the ELF: {:.1} s, probe {:?}",
+        v["duration_s"], v["probe"]
+    );
+    let show = || {
+        let shown = host_tool(
+            &["calibration", "show", "--port", &path, "-j"],
+            Duration::from_secs(60),
+        );
+        assert_eq!(shown.code(), 0, "{}", shown.stderr);
+        let stored = rates(&shown.json()["device_profile"]);
+        if stored.len() != 8 {
+            let st = host_tool(&["status", "--port", &path, "-j"], Duration::from_secs(60));
+            eprintln!("no profile read back; the device's status: {}", st.stdout);
+        }
+        assert_eq!(stored.len(), 8, "{} {}", shown.stdout, shown.stderr);
+        for (a, b) in measured.iter().zip(&stored) {
+            // The file holds two decimals, the device the f32 of the same number.
+            assert!((a - b).abs() < 1e-3, "{measured:?} vs {stored:?}");
+        }
+    };
+    // Read back (the device writes its flash in the background, ≈ 25 ms after its answer: a
+    // cut in that window boots with no profile, docs/firmware.md), then across a power cut.
+    show();
+    sim.power_cycle(Duration::from_secs(10));
+    show();
+    let truth = sim.stop();
+    assert!(truth.actuators_safe, "{truth:?}");
+    assert_eq!(truth.true_state.map(|s| s.to_string()), Some("F&P".into()));
+}
+
 /// Link signing on the board ELF through the binaries: `host-tool signing pair` gives the
 /// emulated board a key (kept in its data flash), the handshake then says it signs, a
 /// parameter change without the key is refused and with it obeyed, and `signing off` turns it

@@ -306,7 +306,7 @@ fn calibration_load_show_and_erase_the_devices_probe_profile_over_the_pty() {
     assert_eq!(out.code(), 0, "{}", out.stderr);
     assert!(
         out.stderr
-            .contains("no probe signatures measured: nothing stored on the device"),
+            .contains("no probe signatures measured (calibrate --manual measures them)"),
         "{}",
         out.stderr
     );

@@ -280,6 +280,47 @@ impl PtySim {
         Ok(())
     }
 
+    /// A person moves `module` into `well` of its force curve by hand ([`Sim::move_module_by_hand`]),
+    /// and this waits (at most `limit` of wall time) until the simulator has made the fold.
+    pub fn move_module_by_hand(
+        &self,
+        module: crate::physics::trunk::Module,
+        well: usize,
+        limit: Duration,
+    ) {
+        lock(&self.truth.folds).push((module, well));
+        let deadline = Instant::now() + limit;
+        let mut now = lock(&self.truth.now);
+        while !lock(&self.truth.folds).is_empty() {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() || self.thread.as_ref().is_none_or(|t| t.is_finished()) {
+                break;
+            }
+            now = match self.truth.changed.wait_timeout(now, left) {
+                Ok((g, _)) => g,
+                Err(e) => e.into_inner().0,
+            };
+        }
+    }
+
+    /// Cuts and restores the board's power ([`Sim::power_cycle`]), and waits (at most `limit`
+    /// of wall time) until the simulator has.
+    pub fn power_cycle(&self, limit: Duration) {
+        *lock(&self.truth.cuts) += 1;
+        let deadline = Instant::now() + limit;
+        let mut now = lock(&self.truth.now);
+        while *lock(&self.truth.cuts) > 0 {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() || self.thread.as_ref().is_none_or(|t| t.is_finished()) {
+                break;
+            }
+            now = match self.truth.changed.wait_timeout(now, left) {
+                Ok((g, _)) => g,
+                Err(e) => e.into_inner().0,
+            };
+        }
+    }
+
     /// The objects of the simulator's world now (updated with the ground truth).
     pub fn objects(&self) -> Vec<crate::world::Object> {
         lock(&self.truth.objects).clone()
@@ -328,6 +369,10 @@ struct Truth {
     inbox: Mutex<Vec<crate::world::Object>>,
     /// The world's objects, with each update of the ground truth.
     objects: Mutex<Vec<crate::world::Object>>,
+    /// Folds a person made by hand (a module into a well), for the simulator thread to make.
+    folds: Mutex<Vec<(crate::physics::trunk::Module, usize)>>,
+    /// Power cuts asked for, for the simulator thread to make.
+    cuts: Mutex<u32>,
 }
 
 impl Truth {
@@ -392,6 +437,22 @@ fn serve(
                 // A name already there was refused by `place_object`; a race with a second
                 // placement of the same name keeps the first.
                 let _ = sim.place_object(o);
+            }
+            truth.publish(&sim);
+        }
+        // Folds a person made by hand.
+        let folds: Vec<_> = lock(&truth.folds).drain(..).collect();
+        if !folds.is_empty() {
+            for (module, well) in folds {
+                sim.move_module_by_hand(module, well);
+            }
+            truth.publish(&sim);
+        }
+        // Power cuts.
+        let cuts = std::mem::take(&mut *lock(&truth.cuts));
+        if cuts > 0 {
+            for _ in 0..cuts {
+                sim.power_cycle();
             }
             truth.publish(&sim);
         }

@@ -177,7 +177,8 @@ pub struct Profile {
     pub tendon_reach_mm: f64,
     /// The pressure sensor's reading at rest, vented, kPa.
     pub sensor_zero_kpa: f64,
-    /// The calibration's duration on the device's clock, s.
+    /// The calibration's duration on the link's clock, s: the simulator's with `--sim`, the
+    /// host's over a port (the device's within its clock's drift).
     pub duration_s: f64,
     /// The identification probe's signatures of this trunk, which `calibrate` and
     /// `calibration load` store on the device (absent: none measured).
@@ -902,27 +903,18 @@ pub fn run(args: Args) -> Result<(), Failure> {
     // The output file is opened before the work (a path that cannot be written is said now).
     std::fs::write(&args.out, "")
         .map_err(|e| Failure::usage(format!("cannot write {}: {e}", args.out.display())))?;
-    let result = calibrate(&device, &name, args.manual);
+    let result = calibrate(&device, &name, args.manual, &args.out);
     match result {
-        Ok(profile) => {
-            std::fs::write(&args.out, profile.to_toml())
-                .map_err(|e| anyhow::anyhow!("writing {}: {e}", args.out.display()))?;
-            let stored = match &profile.probe {
-                Some(probe) => {
-                    let wire = probe.to_wire().map_err(refuse)?;
-                    store_device_profile(&device, &profile.schema_id, Some(wire)).map_err(|e| {
-                        match e {
-                            Failure::Runtime(e) => Failure::Runtime(anyhow::anyhow!(
-                                "profile written to {}, not stored on the device: {e}",
-                                args.out.display()
-                            )),
-                            other => other,
-                        }
-                    })?;
-                    true
-                }
-                None => false,
-            };
+        Ok((profile, store)) => {
+            // A store that failed keeps the file: the profile was measured.
+            let stored = store.transpose().map_err(|e| match e {
+                Failure::Runtime(e) => Failure::Runtime(anyhow::anyhow!(
+                    "profile written to {}, not stored on the device: {e}",
+                    args.out.display()
+                )),
+                other => other,
+            })?;
+            let stored = stored.is_some();
             if args.json {
                 let mut v = profile.to_json();
                 if let Ok(t) = profile.targets(profile.pressure_limit_kpa) {
@@ -957,7 +949,40 @@ pub(crate) fn refuse(msg: String) -> Failure {
     Failure::Runtime(anyhow::anyhow!("calibration refused: {msg}"))
 }
 
-fn calibrate(device: &DeviceConfig, name: &str, manual: bool) -> Result<Profile, Failure> {
+/// Stores `wire` on the device of session `s` and reads it back: `Ok` only when the device
+/// holds exactly it.
+fn store_in_session(
+    s: &mut host::Driver<Recorder<AnyIo>>,
+    wire: protocol::ProbeProfile,
+) -> Result<(), Failure> {
+    s.command(RequestBody::SetProbeProfile {
+        schema_id: protocol::SCHEMA_ID,
+        profile: Some(wire),
+    })
+    .map_err(|e| anyhow::anyhow!("the device refused the probe profile (storing): {e}"))?;
+    match s.command(RequestBody::GetProbeProfile) {
+        Ok(ResponseBody::ProbeProfile(Some(p))) if p == wire => Ok(()),
+        Ok(ResponseBody::ProbeProfile(p)) => Err(anyhow::anyhow!(
+            "the device accepted the probe profile but reads back {}",
+            p.map_or("none".into(), |p| host::text::probe_profile_text(&p))
+        )
+        .into()),
+        Ok(other) => Err(anyhow::anyhow!("reading the probe profile back: {other:?}").into()),
+        Err(e) => Err(anyhow::anyhow!("reading the probe profile back: {e}").into()),
+    }
+}
+
+/// Walks the calibration, writes the profile to `out` and, when it holds the probe's
+/// signatures, stores them on the same device (in the same session: with `--sim` the
+/// simulator that was calibrated) and reads them back. The second value is the store's
+/// outcome (`None`: nothing to store).
+#[allow(clippy::type_complexity)]
+fn calibrate(
+    device: &DeviceConfig,
+    name: &str,
+    manual: bool,
+    out: &Path,
+) -> Result<(Profile, Option<Result<(), Failure>>), Failure> {
     let interrupted = crate::cmd::plan::interrupt_flag();
     let mut conn = device.connect()?;
     let s = &mut conn.session;
@@ -1197,6 +1222,20 @@ fn calibrate(device: &DeviceConfig, name: &str, manual: bool) -> Result<Profile,
             .map_err(refuse)?;
         Ok(profile)
     })();
+    let result = result.and_then(|profile| {
+        std::fs::write(out, profile.to_toml())
+            .map_err(|e| anyhow::anyhow!("writing {}: {e}", out.display()))?;
+        let store = match &profile.probe {
+            Some(probe) => Some(
+                probe
+                    .to_wire()
+                    .map_err(refuse)
+                    .and_then(|wire| store_in_session(s, wire)),
+            ),
+            None => None,
+        };
+        Ok((profile, store))
+    });
     if let Some(value) = previous_rate {
         let _ = s.command(RequestBody::SetParam {
             id: ParamId::TelemetryHz,

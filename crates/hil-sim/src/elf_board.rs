@@ -16,7 +16,7 @@ use std::path::Path;
 
 use firmware::hw::{StateStore, SERVO_PWM_HZ};
 use firmware::StoredState;
-use protocol::messages::{DeviceMessage, Event, Mode, ResponseBody};
+use protocol::messages::{DeviceMessage, Event, Mode, ParamId, ResponseBody};
 use protocol::FrameDecoder;
 use ra4m1_emu::{Emulator, Line, Options, PinDrive};
 
@@ -124,6 +124,17 @@ pub struct ElfBoard {
     pub mode: Mode,
     /// State last reported (telemetry, status, state events).
     pub state: geometry::TrunkState,
+    /// The pressure cap the board last reported (its handshake, an answer to `GetParam` or
+    /// `SetParam`); its boot value until then ([`boot_pressure_limit_kpa`]).
+    pub pressure_limit_kpa: f32,
+}
+
+/// The pressure cap the board ELF boots with: the firmware's default configuration's
+/// (`crates/firmware/src/bin/uno_r4.rs`), which no reset keeps a change of.
+pub fn boot_pressure_limit_kpa() -> f32 {
+    firmware::CraneConfig::default()
+        .validated()
+        .pressure_limit_kpa
 }
 
 impl std::fmt::Debug for ElfBoard {
@@ -150,6 +161,7 @@ impl ElfBoard {
             sniffer: FrameDecoder::default(),
             mode: Mode::Standalone,
             state: initial.state,
+            pressure_limit_kpa: boot_pressure_limit_kpa(),
         })
     }
 
@@ -280,6 +292,18 @@ impl ElfBoard {
                 self.mode = s.mode;
                 self.state = s.state;
             }
+            Some(Ok(DeviceMessage::Response {
+                body: ResponseBody::Hello(info),
+                ..
+            })) => self.pressure_limit_kpa = info.trunk.pressure_limit_kpa,
+            Some(Ok(DeviceMessage::Response {
+                body:
+                    ResponseBody::Param {
+                        id: ParamId::PressureLimitKpa,
+                        value,
+                    },
+                ..
+            })) => self.pressure_limit_kpa = value,
             _ => {}
         }
     }
@@ -288,6 +312,7 @@ impl ElfBoard {
     pub fn power_cycle(&mut self) -> Result<(), ElfBoardError> {
         self.emu.power_cycle()?;
         self.sniffer = FrameDecoder::default();
+        self.pressure_limit_kpa = boot_pressure_limit_kpa();
         Ok(())
     }
 }

@@ -75,38 +75,41 @@ pub struct CraneGeometry {
 }
 
 impl Default for CraneGeometry {
-    /// The paper's crane (§5.4): n = 3 (the largest folded/deployed height contrast), 75 mm
-    /// edges, two layers per module (the bottom packs layer by layer in two snaps);
-    /// docs/simulator.md gives the reasoning. Three tendons at 60 mm on 60 mm spools.
+    /// [`CraneGeometry::PAPER`].
     fn default() -> Self {
-        Self {
-            bottom: ModuleConfig {
-                n: 3,
-                beta_deg: 35.0,
-                edge_mm: 75.0,
-                layers: 2,
-            },
-            top: ModuleConfig {
-                n: 3,
-                beta_deg: 31.72,
-                edge_mm: 75.0,
-                layers: 2,
-            },
-            packed_layer_mm: 5.0,
-            tendon_radius_mm: 60.0,
-            take_up_margin_mm: 2.0,
-            winch: WinchConfig {
-                slack_deg: [0.0; 3],
-                pull_sign: [1.0; 3],
-                spool_radius_mm: 60.0,
-            },
-            max_bend_deg: 30.0,
-            stiff_max_bend_deg: 8.0,
-        }
+        Self::PAPER
     }
 }
 
 impl CraneGeometry {
+    /// The paper's crane (§5.4): n = 3 (the largest folded/deployed height contrast), 75 mm
+    /// edges, two layers per module (the bottom packs layer by layer in two snaps);
+    /// docs/simulator.md gives the reasoning. Three tendons at 60 mm on 60 mm spools.
+    pub const PAPER: Self = Self {
+        bottom: ModuleConfig {
+            n: 3,
+            beta_deg: 35.0,
+            edge_mm: 75.0,
+            layers: 2,
+        },
+        top: ModuleConfig {
+            n: 3,
+            beta_deg: 31.72,
+            edge_mm: 75.0,
+            layers: 2,
+        },
+        packed_layer_mm: 5.0,
+        tendon_radius_mm: 60.0,
+        take_up_margin_mm: 2.0,
+        winch: WinchConfig {
+            slack_deg: [0.0; 3],
+            pull_sign: [1.0; 3],
+            spool_radius_mm: 60.0,
+        },
+        max_bend_deg: 30.0,
+        stiff_max_bend_deg: 8.0,
+    };
+
     /// The trunk as the handshake reports it, with the device's pressure cap.
     pub fn trunk(&self, pressure_limit_kpa: f32) -> TrunkConfig {
         TrunkConfig {

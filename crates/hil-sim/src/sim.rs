@@ -487,7 +487,8 @@ impl Sim {
         self.now_ms
     }
 
-    /// The crane configuration the controller runs with.
+    /// The crane configuration the host-built controller booted with (a board ELF boots with
+    /// its own; the pressure cap in effect is [`Sim::pressure_limit_kpa`]).
     pub fn crane_config(&self) -> &CraneConfig {
         &self.cfg
     }

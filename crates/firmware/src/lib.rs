@@ -14,7 +14,13 @@
 //!   board and the simulator.
 //! - [`display`]: seven-segment encoding (TM1637 order).
 //! - [`store`]: [`StoredState`], the persisted record with its checksum.
+//! - [`flash_log`]: the wear-aware record log of that record (and the link key and probe
+//!   profile) on a NOR flash, and the board's data-flash layout; pure logic over a flash trait.
+//! - [`pins`]: the UNO R4 board's pin map, plain data: servo pins paired with their GPT channel
+//!   and output, analog pins with their ADC channel, by type.
 //! - [`bench`]: the worst-case loop pass as a reproducible workload (host bench, M4 harness).
+//! - `board` (feature `board-uno-r4`, thumbv7em only): the register-level board support for the
+//!   RA4M1, used by the `uno-r4` binary and the on-target suites.
 //!
 //! Architecture invariant: the controller never reads a clock, touches a register, sleeps,
 //! allocates or panics on input; time and inputs come in through `handle_*`, commands and bytes
@@ -62,9 +68,14 @@ pub mod bench;
 pub mod config;
 pub mod controller;
 pub mod display;
+pub mod flash_log;
 pub mod hw;
 pub mod mathf;
+pub mod pins;
 pub mod store;
+
+#[cfg(feature = "board-uno-r4")]
+pub mod board;
 
 pub use config::CraneConfig;
 pub use controller::{Buttons, Controller, Inputs, Outputs};

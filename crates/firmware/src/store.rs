@@ -83,7 +83,7 @@ pub enum BootRecord {
 
 /// CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, not reflected, no final xor; the catalogue
 /// calls it CRC-16/IBM-3740) of `bytes`: the check of a stored record (bytes 6–7) and of the
-/// board's flash-log slots (`board::flash_log`), so both stay one on-flash format.
+/// board's flash-log slots ([`crate::flash_log`]), so both stay one on-flash format.
 ///
 /// A byte at a time without a table: for this polynomial the eight bit steps of a byte fold
 /// into `x = (r >> 8) ^ b; x ^= x >> 4; r = (r << 8) ^ (x << 12) ^ (x << 5) ^ x` (the high

@@ -10,9 +10,7 @@
 #![no_std]
 #![no_main]
 
-#[allow(dead_code, unused_imports, unused_macros)] // the whole shell, of which each test uses a part
-#[path = "../src/board/mod.rs"]
-mod board;
+use firmware::board;
 mod on_target;
 
 #[cfg(test)]
@@ -22,13 +20,14 @@ mod tests {
     use embedded_io::Write as _;
     use protocol::messages::ResetCause;
 
-    use crate::board::flash_log::{FlashError, FlashLog, NorFlash, SLOT_LEN};
     use crate::board::gpio::PortPin;
     use crate::board::regs::pac;
     use crate::board::regs::rd;
-    use crate::board::{dataflash::DataFlash, lvd, pins, pwm, time, uart, wdt};
+    use crate::board::{dataflash::DataFlash, lvd, pwm, time, uart, wdt};
     use crate::on_target::{self, get, put, Board};
+    use firmware::flash_log::{FlashError, FlashLog, NorFlash, SLOT_LEN};
     use firmware::hw::StateStore as _;
+    use firmware::pins::{self, Gpt5, Gpt7};
     use firmware::StoredState;
     use geometry::TrunkState;
 
@@ -100,12 +99,12 @@ mod tests {
     /// A duty of 0 leaves the line low for two whole periods (limp, driven low).
     #[test]
     fn gpt_lines_carry_the_commanded_pulse_widths(b: Board) {
-        let gpt7 = pwm::Timer::start(pac::GPT167, b.clocks.pclkd_hz);
-        let gpt5 = pwm::Timer::start(pac::GPT165, b.clocks.pclkd_hz);
+        let gpt7 = pwm::Timer::<Gpt7>::start(b.clocks.pclkd_hz);
+        let gpt5 = pwm::Timer::<Gpt5>::start(b.clocks.pclkd_hz);
         let mut chans = [
-            (gpt7.channel(pwm::Output::A, pins::SERVO0), pins::SERVO0),
-            (gpt7.channel(pwm::Output::B, pins::SERVO1), pins::SERVO1),
-            (gpt5.channel(pwm::Output::A, pins::SERVO2), pins::SERVO2),
+            (gpt7.channel(pins::SERVO0), pins::SERVO0.pin()),
+            (gpt7.channel(pins::SERVO1), pins::SERVO1.pin()),
+            (gpt5.channel(pins::SERVO2), pins::SERVO2.pin()),
         ];
         let per_us = b.clocks.iclk_hz / 1_000_000;
         for round in [[1_000u32, 1_500, 2_000], [2_000, 1_000, 1_500]] {

@@ -17,9 +17,7 @@
 #![no_std]
 #![no_main]
 
-#[allow(dead_code, unused_imports, unused_macros)] // the whole shell, of which each test uses a part
-#[path = "../src/board/mod.rs"]
-mod board;
+use firmware::board;
 mod on_target;
 
 #[cfg(test)]
@@ -31,9 +29,10 @@ mod tests {
     use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN};
 
     use crate::board::gpio::{OpenDrain, Output};
-    use crate::board::{adc, pins, tm1637, uart};
+    use crate::board::{adc, tm1637, uart};
     use crate::on_target::{self, Board};
     use firmware::hw::SegmentDisplay as _;
+    use firmware::pins;
 
     #[init]
     fn init() -> Board {
@@ -90,17 +89,16 @@ mod tests {
     #[test]
     fn the_adc_reads_known_voltages(_b: Board) {
         let mut a = adc::Adc::new();
-        let mut read = |pin, an| {
-            let mut ch = a.channel(pin, an);
+        let read = |mut ch: adc::AnalogChannel| {
             let mut sum = 0u32;
             for _ in 0..8 {
                 sum += u32::from(ch.read_raw().unwrap_or(u16::MAX));
             }
             sum / 8
         };
-        let a0 = read(pins::PRESSURE, pins::PRESSURE_AN);
-        let a1 = read(pins::JOY_X, pins::JOY_X_AN);
-        let a2 = read(pins::JOY_Y, pins::JOY_Y_AN);
+        let a0 = read(a.channel(pins::PRESSURE));
+        let a1 = read(a.channel(pins::JOY_X));
+        let a2 = read(a.channel(pins::JOY_Y));
         defmt::info!("A0 {=u32}, A1 {=u32}, A2 {=u32} of 16383", a0, a1, a2);
         let fs = u32::from(firmware::ADC_MAX);
         assert!(a0 <= fs / 100, "A0 = {a0}: is it jumpered to GND?");

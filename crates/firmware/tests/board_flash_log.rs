@@ -1,15 +1,11 @@
-//! The board's data-flash record log (`src/board/flash_log.rs`, compiled into the UNO R4 binary)
+//! The board's data-flash record log (`firmware::flash_log`, the UNO R4 binary's state store)
 //! against an emulated NOR flash with the RA4M1 data flash's rules: 1 KiB erase blocks, byte
 //! programming that only clears bits, programming a non-erased byte is an error, and a power
 //! cut that stops after any number of programmed bytes.
 
-#[path = "../src/board/flash_log.rs"]
-#[allow(dead_code)]
-mod flash_log;
-
+use firmware::flash_log::{FlashError, FlashLog, NorFlash, SLOTS_PER_BLOCK};
 use firmware::hw::StateStore;
 use firmware::StoredState;
-use flash_log::{FlashError, FlashLog, NorFlash, SLOTS_PER_BLOCK};
 use geometry::TrunkState;
 
 const BLOCK: usize = 1024;
@@ -401,7 +397,7 @@ mod link_key {
 
 mod backoff {
     use super::*;
-    use flash_log::Backoff;
+    use firmware::flash_log::Backoff;
     use std::sync::atomic::{AtomicU32, Ordering};
 
     static NOW: AtomicU32 = AtomicU32::new(0);

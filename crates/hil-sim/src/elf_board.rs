@@ -2,8 +2,9 @@
 //! ([`ra4m1_emu`]) instead of the host-built controller, wired to the same simulated parts.
 //!
 //! Each millisecond the simulator's part states (the [`crate::devices`] holders of the shell)
-//! are moved across the chip's pins: the pressure sensor and the joystick into ADC channels
-//! AN009/AN000/AN001 as 14-bit counts; the buttons as switches to ground on their port pins
+//! are moved across the chip's pins, as the board's own pin map ([`firmware::pins`]) places
+//! them: the pressure sensor and the joystick into their ADC channels (AN009/AN000/AN001) as
+//! 14-bit counts; the buttons as switches to ground on their port pins
 //! (open when released, so the MCU's pull-up reads high; the normally-closed e-stop grounds its
 //! pin until pressed); host bytes into SCI9's RXD9 at 115 200 Bd. Out come the servo pulses
 //! from the GPT pins (a pin the timer does not drive — output disabled, 0 % duty — gives no
@@ -14,41 +15,15 @@
 
 use std::path::Path;
 
+use firmware::flash_log::{self, LINK_KEY_BLOCK, PROBE_PROFILE_BLOCK, STATE_LOG_FIRST_BLOCK};
 use firmware::hw::{StateStore, SERVO_PWM_HZ};
+use firmware::pins::{self, GptOutput, PortPin};
 use firmware::StoredState;
 use protocol::messages::{DeviceMessage, Event, Mode, ParamId, ResponseBody};
 use protocol::FrameDecoder;
 use ra4m1_emu::{Emulator, Line, Options, PinDrive};
 
 use crate::devices::PWM_MAX_DUTY;
-
-#[path = "../../firmware/src/board/flash_log.rs"]
-#[allow(dead_code, missing_docs)]
-mod flash_log;
-
-/// The data-flash block of the link-signing key (`crates/firmware/src/bin/uno_r4.rs`).
-pub const LINK_KEY_BLOCK: usize = 2;
-/// The data-flash block of the identification probe's profile (`crates/firmware/src/bin/uno_r4.rs`).
-pub const PROBE_PROFILE_BLOCK: usize = 3;
-
-/// The board's pins (`crates/firmware/src/board/pins.rs`), as `(port, pin)`.
-mod pin {
-    pub const INLET: (usize, usize) = (1, 4);
-    pub const EXHAUST: (usize, usize) = (3, 1);
-    pub const GRIPPER: (usize, usize) = (1, 0);
-    pub const BTN_UP: (usize, usize) = (1, 5);
-    pub const BTN_DOWN: (usize, usize) = (1, 6);
-    pub const BTN_GRIPPER: (usize, usize) = (1, 7);
-    pub const BTN_CONFIRM: (usize, usize) = (1, 3);
-    pub const BTN_SHOW: (usize, usize) = (0, 2);
-    pub const BTN_ESTOP: (usize, usize) = (1, 12);
-    /// Servo pins with their GPT channel and output (B = true).
-    pub const SERVOS: [((usize, usize), usize, bool); 3] =
-        [((3, 4), 7, false), ((3, 3), 7, true), ((1, 1), 5, false)];
-    pub const AN_PRESSURE: usize = 9;
-    pub const AN_JOY_X: usize = 0;
-    pub const AN_JOY_Y: usize = 1;
-}
 
 /// Why the ELF board could not start or stopped.
 #[derive(Debug, thiserror::Error)]
@@ -153,7 +128,8 @@ impl ElfBoard {
             err,
         })?;
         let mut emu = Emulator::new(&elf, Options::default())?;
-        let mut log = flash_log::FlashLog::new(DataFlashImage(emu.data_flash_mut()), 0);
+        let mut log =
+            flash_log::FlashLog::new(DataFlashImage(emu.data_flash_mut()), STATE_LOG_FIRST_BLOCK);
         // Writing into erased memory cannot fail.
         let _ = log.save(&initial);
         Ok(Self {
@@ -168,7 +144,10 @@ impl ElfBoard {
     /// Appends `states` to the data flash's record log (before the board first runs: to wear
     /// the log to a given point, e.g. both blocks full so the next save must erase).
     pub fn save_records(&mut self, states: &[StoredState]) {
-        let mut log = flash_log::FlashLog::new(DataFlashImage(self.emu.data_flash_mut()), 0);
+        let mut log = flash_log::FlashLog::new(
+            DataFlashImage(self.emu.data_flash_mut()),
+            STATE_LOG_FIRST_BLOCK,
+        );
         for s in states {
             let _ = log.save(s);
         }
@@ -178,7 +157,7 @@ impl ElfBoard {
     /// (`None` when the log holds none; a torn slot being programmed is skipped).
     pub fn stored_record(&self) -> Option<StoredState> {
         let mut copy = self.emu.data_flash().to_vec();
-        flash_log::FlashLog::new(DataFlashImage(&mut copy), 0)
+        flash_log::FlashLog::new(DataFlashImage(&mut copy), STATE_LOG_FIRST_BLOCK)
             .load()
             .ok()
             .flatten()
@@ -188,7 +167,7 @@ impl ElfBoard {
     /// slot is erased, or torn and so failing its CRC: signing off at the next boot).
     pub fn stored_link_key(&self) -> Option<[u8; 16]> {
         let mut copy = self.emu.data_flash().to_vec();
-        flash_log::FlashLog::new(DataFlashImage(&mut copy), 0)
+        flash_log::FlashLog::new(DataFlashImage(&mut copy), STATE_LOG_FIRST_BLOCK)
             .with_key_block(LINK_KEY_BLOCK)
             .load_link_key()
             .ok()
@@ -199,7 +178,7 @@ impl ElfBoard {
     /// is erased, torn (failing its CRC) or of another firmware schema: none at the next boot).
     pub fn stored_probe_profile(&self) -> Option<protocol::ProbeProfile> {
         let mut copy = self.emu.data_flash().to_vec();
-        flash_log::FlashLog::new(DataFlashImage(&mut copy), 0)
+        flash_log::FlashLog::new(DataFlashImage(&mut copy), STATE_LOG_FIRST_BLOCK)
             .with_profile_block(PROBE_PROFILE_BLOCK)
             .load_probe_profile()
             .ok()
@@ -217,34 +196,35 @@ impl ElfBoard {
         let emu = &mut self.emu;
         let i = &shell.inputs;
         emu.set_analog(
-            pin::AN_PRESSURE,
+            pins::PRESSURE.channel().into(),
             if i.pressure.failed { 0 } else { i.pressure.raw },
         );
-        emu.set_analog(pin::AN_JOY_X, i.joystick_x.raw);
-        emu.set_analog(pin::AN_JOY_Y, i.joystick_y.raw);
+        emu.set_analog(pins::JOY_X.channel().into(), i.joystick_x.raw);
+        emu.set_analog(pins::JOY_Y.channel().into(), i.joystick_y.raw);
         // A switch to ground: closed → low, open → the pull-up decides.
         let switch = |high: bool| if high { None } else { Some(false) };
         for (p, level) in [
-            (pin::BTN_UP, i.up.high),
-            (pin::BTN_DOWN, i.down.high),
-            (pin::BTN_GRIPPER, i.gripper.high),
-            (pin::BTN_CONFIRM, i.confirm.high),
-            (pin::BTN_SHOW, i.show_pressure.high),
-            (pin::BTN_ESTOP, i.estop.high),
+            (pins::BTN_UP, i.up.high),
+            (pins::BTN_DOWN, i.down.high),
+            (pins::BTN_GRIPPER, i.gripper.high),
+            (pins::BTN_CONFIRM, i.confirm.high),
+            (pins::BTN_SHOW, i.show_pressure.high),
+            (pins::BTN_ESTOP, i.estop.high),
         ] {
-            emu.drive_pin(p.0, p.1, switch(level));
+            emu.drive_pin(p.port.into(), p.pin.into(), switch(level));
         }
         if !shell.link.rx.is_empty() {
             let bytes: Vec<u8> = shell.link.rx.drain(..).collect();
             emu.host_send(&bytes);
         }
         emu.run_until_ns(now_ms * 1_000_000)?;
-        let high = |emu: &Emulator, p: (usize, usize)| emu.pin_drive(p.0, p.1) == PinDrive::High;
-        shell.outputs.inlet.high = high(emu, pin::INLET);
-        shell.outputs.exhaust.high = high(emu, pin::EXHAUST);
+        let drive = |emu: &Emulator, p: PortPin| emu.pin_drive(p.port.into(), p.pin.into());
+        let high = |emu: &Emulator, p: PortPin| drive(emu, p) == PinDrive::High;
+        shell.outputs.inlet.high = high(emu, pins::INLET);
+        shell.outputs.exhaust.high = high(emu, pins::EXHAUST);
         // Fail-closed wiring (docs/hardware.md): a released gripper pin is pulled up, closed.
         shell.outputs.gripper.high = matches!(
-            emu.pin_drive(pin::GRIPPER.0, pin::GRIPPER.1),
+            drive(emu, pins::GRIPPER),
             PinDrive::High | PinDrive::Released { .. }
         );
         let period_us = 1e6 / f64::from(SERVO_PWM_HZ);
@@ -257,9 +237,12 @@ impl ElfBoard {
                 Line::Level(_) | Line::Released => 0,
             }
         };
-        let d: Vec<u16> = pin::SERVOS
+        let d: Vec<u16> = pins::SERVO_LINES
             .iter()
-            .map(|&(p, ch, b)| duty(emu.timer_pin(p.0, p.1, ch, b)))
+            .map(|l| {
+                let b = l.output == GptOutput::B;
+                duty(emu.timer_pin(l.pin.port.into(), l.pin.pin.into(), l.channel.into(), b))
+            })
             .collect();
         let s = &mut shell.outputs.servos;
         use embedded_hal::pwm::SetDutyCycle as _;

@@ -885,6 +885,18 @@ impl Sim {
         let _ = self.shell.store.save(record);
     }
 
+    /// Boots the controller again knowing nothing of the trunk (every state a candidate, as
+    /// after a record lost with the flash), the trunk left as it is.
+    pub fn boot_knowing_nothing(&mut self) {
+        self.write_flash_record(&StoredState {
+            state: TrunkState::AS_MANUFACTURED,
+            confirmed: false,
+            candidates: protocol::StateSet::ALL,
+            pending: None,
+        });
+        self.power_cycle();
+    }
+
     /// Successful writes to the emulated data flash so far (with the ELF: records, counted
     /// as programmed bytes per 14-byte slot).
     pub fn flash_writes(&self) -> u32 {

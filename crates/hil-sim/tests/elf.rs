@@ -801,7 +801,7 @@ fn the_board_elf_keeps_its_paired_key_across_a_power_cut_and_obeys_only_signed_f
     };
     let (_, ans) = exchange(&mut sim, session, 4_325, unpair, Some((&LINK_KEY, 9)));
     assert!(matches!(ans, Some((ResultCode::Ok, _))), "{ans:?}");
-    let block = hil_sim::elf_board::LINK_KEY_BLOCK * 1024;
+    let block = firmware::flash_log::LINK_KEY_BLOCK * 1024;
     let erased = until(&mut sim, 1_000, |s| {
         s.elf_board().unwrap().emu.data_flash()[block..block + 1024]
             .iter()
@@ -829,7 +829,7 @@ fn a_torn_key_slot_boots_the_board_elf_with_signing_off() {
     use protocol::messages::RequestBody;
     use protocol::ResultCode;
     let (mut sim, _, _) = paired_board();
-    let block = hil_sim::elf_board::LINK_KEY_BLOCK * 1024;
+    let block = firmware::flash_log::LINK_KEY_BLOCK * 1024;
     // The last CRC byte never programmed, as when the power goes before it.
     assert_ne!(sim.elf_board().unwrap().emu.data_flash()[block + 17], 0xFF);
     sim.elf_board_mut().unwrap().emu.data_flash_mut()[block + 17] = 0xFF;
@@ -1062,7 +1062,7 @@ mod probe_profile {
         // unconfirmed: nobody answers here).
         let (res, _) = host.request(&mut sim, set(None), 1_000).unwrap();
         assert_eq!(res, ResultCode::Ok);
-        let block = hil_sim::elf_board::PROBE_PROFILE_BLOCK * 1024;
+        let block = firmware::flash_log::PROBE_PROFILE_BLOCK * 1024;
         let erased = until(&mut sim, 1_000, |s| {
             s.elf_board().unwrap().emu.data_flash()[block..block + 1024]
                 .iter()
@@ -1089,7 +1089,7 @@ mod probe_profile {
         };
         let (res, _) = host.request(&mut sim, set(Some(new)), 1_000).unwrap();
         assert_eq!(res, ResultCode::Ok);
-        let block = hil_sim::elf_board::PROBE_PROFILE_BLOCK * 1024;
+        let block = firmware::flash_log::PROBE_PROFILE_BLOCK * 1024;
         // Step until the slot is part-programmed: its first bytes written, its CRC not yet.
         let torn = until(&mut sim, 1_000, |s| {
             let f = &s.elf_board().unwrap().emu.data_flash()[block..block + 38];

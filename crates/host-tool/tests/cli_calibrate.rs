@@ -182,6 +182,151 @@ fn the_manual_walk_measures_the_unpacking_under_a_deployed_top() {
     );
 }
 
+/// The simulator's calibrated trunk's probe signatures (`firmware::controller::identify::
+/// SIM_PROFILE`: the device's own readings on seeds 1–3): F&P, F&F, F&D, D&P, D&F, D&D; F&P½,
+/// D&P½.
+const SIM_STATES: [f64; 6] = [11.71, 10.81, 10.24, 14.08, 12.94, 12.82];
+const SIM_BETWEEN: [f64; 2] = [11.05, 13.20];
+
+fn rates(v: &serde_json::Value, key: &str) -> Vec<f64> {
+    v["probe"][key]
+        .as_array()
+        .unwrap_or_else(|| panic!("no probe.{key} in {v}"))
+        .iter()
+        .map(|r| r.as_f64().unwrap())
+        .collect()
+}
+
+fn manual_calibration(trunk: Option<&Path>, out: &Path) -> serde_json::Value {
+    let mut args = vec![
+        "calibrate",
+        "--sim",
+        "--manual",
+        "--out",
+        out.to_str().unwrap(),
+        "-j",
+    ];
+    if let Some(t) = trunk {
+        args.extend(["--sim-trunk", t.to_str().unwrap()]);
+    }
+    let o = host_tool(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+/// Identification on the simulated `spec` in every state, the controller booted knowing
+/// nothing and carrying `profile`: (the truth kept every time, the states decided alone).
+fn identify_everywhere(
+    spec: &TrunkSpec,
+    profile: protocol::ProbeProfile,
+) -> (bool, Vec<&'static str>) {
+    use hil_sim::host::SimHost;
+    use hil_sim::{Sim, SimOptions};
+    let mut kept = true;
+    let mut decided = Vec::new();
+    for s in STATES {
+        let mut sim = Sim::new(SimOptions {
+            initial: s.parse().unwrap(),
+            seed: 7,
+            trunk: spec.clone(),
+            ..SimOptions::default()
+        })
+        .with_probe_profile(Some(profile));
+        sim.boot_knowing_nothing();
+        sim.run_for(50);
+        let mut host = SimHost::new();
+        host.hello(&mut sim).expect("handshake");
+        host.request_ok(&mut sim, protocol::RequestBody::Identify, 1_000)
+            .expect("identify starts");
+        for _ in 0..40 {
+            sim.run_for(250);
+            let _ = host.send(&mut sim, protocol::RequestBody::Heartbeat);
+            if sim.controller().mode() != protocol::Mode::Running {
+                break;
+            }
+        }
+        let st = sim.controller().status();
+        kept &= st.candidates.contains(s.parse().unwrap())
+            && (!st.state_confirmed || st.state.name() == s);
+        if st.state_confirmed {
+            decided.push(s);
+        }
+    }
+    (kept, decided)
+}
+
+/// `calibrate --manual` probes every state and both half-packed rests: on the calibrated trunk
+/// it reads the signatures the device itself measured there within 4 % (the seeds' spread,
+/// ±2 %, and the baseline: the constants were measured from ambient, the walk's probes start
+/// from the air the vent leaves, up to the device's 0.5 kPa vent tolerance, which reads the
+/// half-packed rest 3.3 % slower), and on a trunk whose volumes differ (a reservoir 1.4 × as large:
+/// every fill slower) it reads that trunk's, with which identification keeps the truth and
+/// decides alone where the simulator's constants would have misled it.
+#[test]
+fn the_manual_walk_measures_the_probes_signatures_and_identification_decides_from_them() {
+    let v = manual_calibration(None, &tmp("probe-pdf.toml"));
+    assert_eq!(v["stored_on_device"], true, "{v}");
+    for (got, want) in rates(&v, "states")
+        .iter()
+        .zip(SIM_STATES)
+        .chain(rates(&v, "between").iter().zip(SIM_BETWEEN))
+    {
+        assert!(
+            (got - want).abs() < 0.04 * want,
+            "{got} vs {want}: {}",
+            v["probe"]
+        );
+    }
+
+    let mut spec = TrunkSpec::pdf();
+    spec.name = "large-reservoir".into();
+    spec.pneumatics.plenum_m3 *= 1.4;
+    let trunk = tmp("large-reservoir.toml");
+    std::fs::write(&trunk, spec.to_toml()).unwrap();
+    let v = manual_calibration(Some(&trunk), &tmp("probe-large.toml"));
+    let (states, between) = (rates(&v, "states"), rates(&v, "between"));
+    // Every fill is slower than the simulator's constants say: by more than their window.
+    for (got, sim) in states.iter().zip(SIM_STATES) {
+        assert!(
+            *got < sim * 0.95,
+            "{got} vs the constants' {sim}: {}",
+            v["probe"]
+        );
+    }
+    let measured = protocol::ProbeProfile {
+        states: <[f64; 6]>::try_from(states.as_slice())
+            .unwrap()
+            .map(|r| r as f32),
+        between: <[f64; 2]>::try_from(between.as_slice())
+            .unwrap()
+            .map(|r| r as f32),
+    };
+    let (kept, decided) = identify_everywhere(&spec, measured);
+    assert!(
+        kept,
+        "the measured profile lost the truth or confirmed a wrong state"
+    );
+    // F&P and D&P stand apart from every other state on this trunk too.
+    assert!(
+        decided.contains(&"F&P") && decided.contains(&"D&P"),
+        "{decided:?}"
+    );
+    let constants = protocol::ProbeProfile {
+        states: SIM_STATES.map(|r| r as f32),
+        between: SIM_BETWEEN.map(|r| r as f32),
+    };
+    let (kept_c, by_constants) = identify_everywhere(&spec, constants);
+    eprintln!(
+        "decided with the measured profile: {decided:?}; with the constants: {by_constants:?} \
+         (truth kept: {kept_c})"
+    );
+    // The constants either lose the truth or decide less.
+    assert!(
+        !kept_c || by_constants.len() < decided.len(),
+        "{by_constants:?} vs {decided:?}"
+    );
+}
+
 #[test]
 fn the_dry_run_lists_the_calibrated_numbers() {
     let path = tmp("k1.toml");

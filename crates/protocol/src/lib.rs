@@ -72,6 +72,7 @@ pub mod crane;
 pub mod frame;
 pub mod legacy;
 pub mod messages;
+pub mod probe;
 pub mod sign;
 pub mod transitions;
 

@@ -1,6 +1,7 @@
 //! The crane firmware for the Arduino UNO R4 (Minima or WiFi): Renesas RA4M1, Cortex-M4F.
 //!
-//! A thin shell: bring up the clocks and the peripherals ([`board`]), wrap them in the
+//! A thin shell: bring up the clocks and the peripherals ([`firmware::board`], the pins of
+//! [`firmware::pins`]), wrap them in the
 //! controller's hardware adapters, then run [`firmware::hw::Shell::step`] once per millisecond
 //! and refresh the watchdog. All crane logic (protocol, plans, interlocks, standalone mode)
 //! is in [`firmware::Controller`].
@@ -10,25 +11,18 @@
 #![no_std]
 #![no_main]
 
-#[path = "../board/mod.rs"]
-mod board;
-
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use defmt_rtt as _;
 
-use board::gpio::{OpenDrain, Output, PortPin, PullUpInput};
-use board::log::{error, info, warn};
-use board::{pins, pwm};
+use firmware::board;
+use firmware::board::gpio::{OpenDrain, Output, PortPin, PullUpInput};
+use firmware::board::log::{error, info, warn};
+use firmware::board::pwm;
+use firmware::flash_log::{self, LINK_KEY_BLOCK, PROBE_PROFILE_BLOCK, STATE_LOG_FIRST_BLOCK};
 use firmware::hw::{PinInputs, PinOutputs, ServoOutput, ServoPulse, Shell};
+use firmware::pins::{self, Gpt5, Gpt7};
 use firmware::CraneConfig;
 
-/// Data-flash blocks 0 and 1 hold the state log.
-const STATE_LOG_FIRST_BLOCK: usize = 0;
-/// Data-flash block 2 holds the link-signing key.
-const LINK_KEY_BLOCK: usize = 2;
-/// Data-flash block 3 holds the identification probe's calibration profile (blocks 4..7 are
-/// free for later use; the on-target tests write 4–6).
-const PROBE_PROFILE_BLOCK: usize = 3;
 /// TM1637 brightness 0..=7.
 const DISPLAY_BRIGHTNESS: u8 = 4;
 /// How often the loop statistics are logged.
@@ -87,13 +81,13 @@ fn main() -> ! {
     let inlet = Output::new(pins::INLET);
     let exhaust = Output::new(pins::EXHAUST);
     let gripper = Output::new_high(pins::GRIPPER);
-    let gpt7 = pwm::Timer::start(board::regs::pac::GPT167, clocks.pclkd_hz);
-    let gpt5 = pwm::Timer::start(board::regs::pac::GPT165, clocks.pclkd_hz);
+    let gpt7 = pwm::Timer::<Gpt7>::start(clocks.pclkd_hz);
+    let gpt5 = pwm::Timer::<Gpt5>::start(clocks.pclkd_hz);
     let pulse = ServoPulse::default();
     let servos = (
-        ServoOutput::new(gpt7.channel(pwm::Output::A, pins::SERVO0), pulse),
-        ServoOutput::new(gpt7.channel(pwm::Output::B, pins::SERVO1), pulse),
-        ServoOutput::new(gpt5.channel(pwm::Output::A, pins::SERVO2), pulse),
+        ServoOutput::new(gpt7.channel(pins::SERVO0), pulse),
+        ServoOutput::new(gpt7.channel(pins::SERVO1), pulse),
+        ServoOutput::new(gpt5.channel(pins::SERVO2), pulse),
     );
     let outputs = PinOutputs {
         servos,
@@ -105,9 +99,9 @@ fn main() -> ! {
     let mut adc = board::adc::Adc::new();
     let button = |p: PortPin| PullUpInput::new(p);
     let inputs = PinInputs {
-        pressure: adc.channel(pins::PRESSURE, pins::PRESSURE_AN),
-        joystick_x: adc.channel(pins::JOY_X, pins::JOY_X_AN),
-        joystick_y: adc.channel(pins::JOY_Y, pins::JOY_Y_AN),
+        pressure: adc.channel(pins::PRESSURE),
+        joystick_x: adc.channel(pins::JOY_X),
+        joystick_y: adc.channel(pins::JOY_Y),
         up: button(pins::BTN_UP),
         down: button(pins::BTN_DOWN),
         gripper: button(pins::BTN_GRIPPER),
@@ -123,8 +117,8 @@ fn main() -> ! {
     );
     let flash = board::dataflash::DataFlash::new(clocks.fclk_hz, clocks.iclk_hz);
     // A failing save is retried with back-off; an erase runs in the background (DataFlash).
-    let store = board::flash_log::Backoff::new(
-        board::flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK)
+    let store = flash_log::Backoff::new(
+        flash_log::FlashLog::new(flash, STATE_LOG_FIRST_BLOCK)
             .with_key_block(LINK_KEY_BLOCK)
             .with_profile_block(PROBE_PROFILE_BLOCK),
         board::time::ticks_ms,

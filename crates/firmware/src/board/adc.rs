@@ -1,10 +1,13 @@
 //! The 14-bit ADC (ADC140): one software-triggered single-channel conversion per read, against
-//! AVCC0 (the board's 5 V), so ratiometric sensors powered from the same 5 V read true.
+//! AVCC0 (the board's 5 V), so ratiometric sensors powered from the same 5 V read true. A
+//! channel is taken from the pin map's typed inputs ([`crate::pins::Analog`]): pin and channel
+//! number come from one pairing the chip has.
 
 use core::convert::Infallible;
 
 use super::gpio::{pfs, PortPin};
 use super::regs::{pac, rd, wr};
+use crate::pins::{AdcChannel, Analog, AnalogPin};
 
 /// ADCSR.ADST: start / busy.
 const ADST: u16 = 1 << 15;
@@ -25,6 +28,7 @@ pub struct Adc(());
 
 impl Adc {
     /// 14-bit resolution, right-aligned results, single scan, software trigger.
+    #[inline]
     pub fn new() -> Self {
         wr!(pac::ADC140.adcsr(), 0);
         // ADCER.ADPRC (bits 2..1) = 11: 14-bit.
@@ -32,9 +36,19 @@ impl Adc {
         Self(())
     }
 
-    /// An analog channel `an` (AN000 = 0) on `pin`, with a longer sampling time (`states`
-    /// ADCLK cycles) for the 10 kΩ potentiometers and the sensor's output filter.
-    pub fn channel(&mut self, pin: PortPin, an: u8) -> AnalogChannel {
+    /// The analog input `input`, with a longer sampling time for the 10 kΩ potentiometers and
+    /// the sensor's output filter.
+    #[inline]
+    pub fn channel<P: AnalogPin<C>, C: AdcChannel>(
+        &mut self,
+        input: Analog<P, C>,
+    ) -> AnalogChannel {
+        self.channel_on(input.pin(), input.channel())
+    }
+
+    /// Channel `an` (AN000 = 0) on `pin`, which carries it ([`Adc::channel`]'s types say so).
+    #[inline]
+    fn channel_on(&mut self, pin: PortPin, an: u8) -> AnalogChannel {
         pin.configure(pfs::ASEL);
         // ADSSTRn for AN000..AN014 (this board uses AN000, AN001, AN009): 64 states = 1.3 µs.
         match an {
@@ -48,6 +62,7 @@ impl Adc {
 }
 
 impl Default for Adc {
+    #[inline]
     fn default() -> Self {
         Self::new()
     }
@@ -83,11 +98,11 @@ impl AnalogChannel {
         let addr = (base + 0x20 + 2 * self.an as usize) as *const u16;
         // SAFETY: ADDRn of a channel this board converts; reading has no side effects.
         let raw = unsafe { core::ptr::read_volatile(addr) };
-        Ok(raw & firmware::ADC_MAX)
+        Ok(raw & crate::ADC_MAX)
     }
 }
 
-impl firmware::hw::AnalogInput for AnalogChannel {
+impl crate::hw::AnalogInput for AnalogChannel {
     type Error = AdcError;
     fn read_raw(&mut self) -> Result<u16, AdcError> {
         self.convert()
@@ -96,6 +111,7 @@ impl firmware::hw::AnalogInput for AnalogChannel {
 
 /// Never fails; here so `Infallible` conversions compose if a caller wants them.
 impl From<Infallible> for AdcError {
+    #[inline]
     fn from(e: Infallible) -> Self {
         match e {}
     }

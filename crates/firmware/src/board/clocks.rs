@@ -38,6 +38,7 @@ pub struct Clocks {
 }
 
 /// HOCO frequency from OFS1.HOCOFRQ1 (bits 14..12): 000 = 24, 010 = 32, 100 = 48, 101 = 64 MHz.
+#[inline]
 pub fn hoco_hz() -> u32 {
     // SAFETY: a read of the option-setting memory in code flash (always mapped, read-only).
     let ofs1 = unsafe { read_volatile(OFS1_ADDR as *const u32) };
@@ -60,6 +61,7 @@ fn divider(hz: u32, max_hz: u32) -> (u32, u32) {
 }
 
 /// Brings the clocks up (idempotent) and returns the frequencies.
+#[inline]
 pub fn init() -> Clocks {
     let hoco = hoco_hz();
     let (ick, iclk) = divider(hoco, 48_000_000);
@@ -114,6 +116,7 @@ pub fn init() -> Clocks {
 }
 
 /// Takes peripherals out of module-stop (MSTPCRB/MSTPCRD bits: 0 = running).
+#[inline]
 pub fn enable_modules() {
     // MSTPCRB: SCI9 = bit 22. MSTPCRD: GPT ch2..7 = bit 6 (our GPT5, GPT7), ADC140 = bit 16.
     let b = rd!(pac::MSTP.mstpcrb());

@@ -22,9 +22,9 @@
 
 use core::ptr::{read_volatile, write_volatile};
 
-use super::flash_log::{FlashError, NorFlash};
 use super::time::{cycles, delay_us};
 use super::wdt;
+use crate::flash_log::{FlashError, NorFlash};
 
 /// Data flash, as read.
 pub const DF_READ_BASE: usize = 0x4010_0000;
@@ -70,26 +70,32 @@ const T_MS_US: u32 = 6;
 const WRITE_TIMEOUT_US: u32 = 1_000;
 const ERASE_TIMEOUT_US: u32 = 800_000;
 
+#[inline]
 fn w8(a: usize, v: u8) {
     // SAFETY: a flash-controller register of the RA4M1 map above.
     unsafe { write_volatile(a as *mut u8, v) }
 }
+#[inline]
 fn w16(a: usize, v: u16) {
     // SAFETY: as `w8`.
     unsafe { write_volatile(a as *mut u16, v) }
 }
+#[inline]
 fn w32(a: usize, v: u32) {
     // SAFETY: as `w8`.
     unsafe { write_volatile(a as *mut u32, v) }
 }
+#[inline]
 fn r8(a: usize) -> u8 {
     // SAFETY: as `w8`; reads have no side effects.
     unsafe { read_volatile(a as *const u8) }
 }
+#[inline]
 fn r16(a: usize) -> u16 {
     // SAFETY: as `r8`.
     unsafe { read_volatile(a as *const u16) }
 }
+#[inline]
 fn r32(a: usize) -> u32 {
     // SAFETY: as `r8`.
     unsafe { read_volatile(a as *const u32) }
@@ -118,6 +124,7 @@ struct Writing {
 
 impl DataFlash {
     /// Enables data-flash reads (DFLCTL) and tells the sequencer FCLK (FISR.PCKA).
+    #[inline]
     pub fn new(fclk_hz: u32, core_hz: u32) -> Self {
         if r8(DFLCTL) & 1 == 0 {
             w8(DFLCTL, 1);
@@ -137,6 +144,7 @@ impl DataFlash {
         df
     }
 
+    #[inline]
     fn write_fpmcr(&self, v: u8) {
         // The protected sequence: FPR key, then value, complement, value.
         w32(FPR, 0xA5);
@@ -160,6 +168,7 @@ impl DataFlash {
     }
 
     /// Busy-waits for `done`, refreshing the watchdog, at most `timeout_us`.
+    #[inline]
     fn wait(&self, done: impl Fn() -> bool, timeout_us: u32) -> Result<(), FlashError> {
         let per_us = self.core_hz / 1_000_000;
         let start = cycles();
@@ -220,6 +229,7 @@ impl DataFlash {
         self.finish(1_000, FSTATR2_ERASE_ERR, FlashError::Erase)
     }
 
+    #[inline]
     fn set_range(start: u32, end_inclusive: u32) {
         w8(FASR, 0); // user area, never the extra area
         w16(FSARH, (start >> 16) as u16);

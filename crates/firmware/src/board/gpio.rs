@@ -10,6 +10,7 @@ use core::convert::Infallible;
 use core::ptr::{read_volatile, write_volatile};
 
 use super::regs::{pac, wr};
+pub use crate::pins::PortPin;
 
 /// PmnPFS bits.
 pub mod pfs {
@@ -33,30 +34,21 @@ pub mod pfs {
     pub const PSEL_SCI_ODD: u32 = 0b00101;
 }
 
-/// One RA4M1 pin, `P<port><pin>` (P104 = port 1, pin 4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PortPin {
-    /// Port number 0..=9.
-    pub port: u8,
-    /// Pin number 0..=15.
-    pub pin: u8,
-}
-
+/// The pin's registers (the pin map's [`PortPin`] is plain numbers; its register access is
+/// here, on the board only).
 impl PortPin {
-    /// `P<port><pin>`.
-    pub const fn new(port: u8, pin: u8) -> Self {
-        Self { port, pin }
-    }
-
+    #[inline]
     const fn pfs_addr(self) -> usize {
         0x4004_0800 + 0x40 * self.port as usize + 4 * self.pin as usize
     }
 
+    #[inline]
     const fn port_addr(self) -> usize {
         0x4004_0000 + 0x20 * self.port as usize
     }
 
     /// Writes this pin's PmnPFS register (PFS write protection is opened and closed around it).
+    #[inline]
     pub fn configure(self, value: u32) {
         // PWPR: clear B0WI first, then set PFSWE; the reverse order to lock again.
         wr!(pac::PMISC.pwpr(), 0x00);
@@ -68,6 +60,7 @@ impl PortPin {
         wr!(pac::PMISC.pwpr(), 0x80);
     }
 
+    #[inline]
     fn set(self, high: bool) {
         let bit = 1u32 << self.pin;
         let v = if high { bit } else { bit << 16 };
@@ -82,6 +75,7 @@ impl PortPin {
         v & (1 << self.pin) != 0
     }
 
+    #[inline]
     fn output_latch(self) -> bool {
         // SAFETY: PCNTR1 (PODR in bits 31..16) of this port: reading has no side effects.
         let v = unsafe { read_volatile(self.port_addr() as *const u32) };
@@ -90,6 +84,7 @@ impl PortPin {
 }
 
 /// Checks the address formulas above against the PAC for pins of every port the board uses.
+#[inline]
 pub fn self_check() -> bool {
     let pfs = [
         (PortPin::new(0, 14), pac::PFS.p014pfs().ptr() as usize),
@@ -111,6 +106,7 @@ pub struct Output(PortPin);
 
 impl Output {
     /// Configures `pin` as a push-pull output, initially low (valves closed).
+    #[inline]
     pub fn new(pin: PortPin) -> Self {
         pin.configure(pfs::PDR);
         Self(pin)
@@ -118,6 +114,7 @@ impl Output {
 
     /// Configures `pin` as a push-pull output, initially high (PODR set in the same PFS write:
     /// no low glitch).
+    #[inline]
     pub fn new_high(pin: PortPin) -> Self {
         pin.configure(pfs::PDR | pfs::PODR);
         Self(pin)
@@ -129,10 +126,12 @@ impl embedded_hal::digital::ErrorType for Output {
 }
 
 impl embedded_hal::digital::OutputPin for Output {
+    #[inline]
     fn set_low(&mut self) -> Result<(), Infallible> {
         self.0.set(false);
         Ok(())
     }
+    #[inline]
     fn set_high(&mut self) -> Result<(), Infallible> {
         self.0.set(true);
         Ok(())
@@ -140,9 +139,11 @@ impl embedded_hal::digital::OutputPin for Output {
 }
 
 impl embedded_hal::digital::StatefulOutputPin for Output {
+    #[inline]
     fn is_set_high(&mut self) -> Result<bool, Infallible> {
         Ok(self.0.output_latch())
     }
+    #[inline]
     fn is_set_low(&mut self) -> Result<bool, Infallible> {
         Ok(!self.0.output_latch())
     }
@@ -154,6 +155,7 @@ pub struct PullUpInput(PortPin);
 
 impl PullUpInput {
     /// Configures `pin` as an input with pull-up.
+    #[inline]
     pub fn new(pin: PortPin) -> Self {
         pin.configure(pfs::PCR);
         Self(pin)
@@ -165,9 +167,11 @@ impl embedded_hal::digital::ErrorType for PullUpInput {
 }
 
 impl embedded_hal::digital::InputPin for PullUpInput {
+    #[inline]
     fn is_high(&mut self) -> Result<bool, Infallible> {
         Ok(self.0.level())
     }
+    #[inline]
     fn is_low(&mut self) -> Result<bool, Infallible> {
         Ok(!self.0.level())
     }
@@ -179,17 +183,20 @@ pub struct OpenDrain(PortPin);
 
 impl OpenDrain {
     /// Configures `pin` as an open-drain output, released (high through the pull-up).
+    #[inline]
     pub fn new(pin: PortPin) -> Self {
         pin.configure(pfs::PDR | pfs::NCODR | pfs::PCR | pfs::PODR);
         Self(pin)
     }
 
     /// Drives the line low (`false`) or releases it (`true`).
+    #[inline]
     pub fn set(&mut self, high: bool) {
         self.0.set(high);
     }
 
     /// The line's level.
+    #[inline]
     pub fn is_high(&self) -> bool {
         self.0.level()
     }

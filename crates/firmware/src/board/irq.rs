@@ -15,6 +15,7 @@ const SLOTS: usize = 32;
 
 /// Clears every ICU event link and the NVIC's enable and pending state. Call with interrupts
 /// disabled, before configuring any peripheral interrupt.
+#[inline]
 pub fn clear_bootloader_state(nvic: &mut NVIC) {
     for n in 0..SLOTS {
         wr!(pac::ICU.ielsr()[n], 0);

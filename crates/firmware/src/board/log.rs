@@ -1,17 +1,29 @@
 //! The logging shim: the board's code logs through these macros, which forward to defmt over
-//! RTT. Swapping the backend (or compiling logs out) touches only this file.
+//! RTT. Swapping the backend (or compiling logs out) touches only this file. A crate that logs
+//! through them depends on `defmt` itself (its macros name `defmt`), as the board binary does.
 
-/// Informational message.
-macro_rules! info {
+/// Informational message (`board::log::info!`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __board_info {
     ($($t:tt)*) => { ::defmt::info!($($t)*) };
 }
-/// Something unexpected but handled.
-macro_rules! log_warn {
+/// Something unexpected but handled (`board::log::warn!`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __board_warn {
     ($($t:tt)*) => { ::defmt::warn!($($t)*) };
 }
-/// An error.
-macro_rules! error {
+/// An error (`board::log::error!`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __board_error {
     ($($t:tt)*) => { ::defmt::error!($($t)*) };
 }
 
-pub(crate) use {error, info, log_warn as warn};
+/// An error.
+pub use crate::__board_error as error;
+/// Informational message.
+pub use crate::__board_info as info;
+/// Something unexpected but handled.
+pub use crate::__board_warn as warn;

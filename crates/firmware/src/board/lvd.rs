@@ -32,6 +32,7 @@ const LVD1E: u8 = 1 << 5;
 /// on; a stale detection flag cleared (LVD1SR.DET = 0) before the reset is enabled (RIE); the
 /// circuit's stabilisation time; then the comparison (CMPE). Also after a brown-out, when the
 /// monitor's registers (not reset by its own reset) still hold the previous boot's settings.
+#[inline]
 pub fn enable_brownout_reset() {
     wr!(pac::SYSTEM.prcr(), super::regs::prcr::KEY | PRC3);
     wr!(pac::SYSTEM.lvd1cr0(), RI);

@@ -1,5 +1,7 @@
 //! Servo PWM at 50 Hz on the 16-bit GPT channels (GPT5 and GPT7 here), one embedded-hal
-//! `SetDutyCycle` per output pin (GTIOCnA / GTIOCnB).
+//! `SetDutyCycle` per output pin (GTIOCnA / GTIOCnB). A [`Timer`] is typed by its channel and
+//! takes only that channel's lines of the pin map ([`crate::pins::Gtioc`]), so a servo pin
+//! cannot be given to a timer whose output it is not.
 //!
 //! Saw-wave PWM, counting up from 0 to GTPR; the pin goes high at the cycle end and low at the
 //! compare match, so duty = compare value. Duty writes go to the buffer registers (GTCCRC for A,
@@ -11,10 +13,12 @@
 //! each servo signal for that window.
 
 use core::convert::Infallible;
+use core::marker::PhantomData;
 
 use super::gpio::{pfs, PortPin};
 use super::regs::{pac, rd, wr};
-use firmware::hw::SERVO_PWM_HZ;
+use crate::hw::SERVO_PWM_HZ;
+use crate::pins::{Gpt5, Gpt7, GptChannel, GptOutput, GptOutputKind, Gtioc, GtiocPin};
 
 /// GTIOR: output A enable.
 const OAE: u32 = 1 << 8;
@@ -32,26 +36,73 @@ const B_ZERO: u32 = (0b10 << 24) | (1 << 26);
 const A_DTY: u32 = 0b11 << 16;
 const B_DTY: u32 = 0b11 << 24;
 
-/// Which output of a channel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Output {
-    /// GTIOCnA (compare GTCCRA, buffer GTCCRC).
-    A,
-    /// GTIOCnB (compare GTCCRB, buffer GTCCRE).
-    B,
+/// A 16-bit GPT channel's registers.
+pub trait Instance: GptChannel {
+    /// The channel's register block.
+    fn regs() -> pac::Gpt162;
 }
 
-/// A running 50 Hz GPT channel.
+impl Instance for Gpt5 {
+    #[inline]
+    fn regs() -> pac::Gpt162 {
+        pac::GPT165
+    }
+}
+
+impl Instance for Gpt7 {
+    #[inline]
+    fn regs() -> pac::Gpt162 {
+        pac::GPT167
+    }
+}
+
+/// A running 50 Hz GPT channel `T`.
+pub struct Timer<T> {
+    counter: Counter,
+    _channel: PhantomData<T>,
+}
+
+impl<T> Clone for Timer<T> {
+    #[inline]
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for Timer<T> {}
+
+impl<T: Instance> Timer<T> {
+    /// Sets up channel `T` (module already out of stop) for 50 Hz from `pclkd_hz` and starts
+    /// it with both outputs off.
+    pub fn start(pclkd_hz: u32) -> Self {
+        Self {
+            counter: Counter::start(T::regs(), pclkd_hz),
+            _channel: PhantomData,
+        }
+    }
+
+    /// The output `line` of this timer: its pin switched to the timer (GTIOC function).
+    #[inline]
+    pub fn channel<P: GtiocPin<T, O>, O: GptOutputKind>(&self, line: Gtioc<P, T, O>) -> ServoPwm {
+        self.counter.output(O::OUTPUT, line.pin())
+    }
+}
+
+impl<T> core::fmt::Debug for Timer<T> {
+    #[inline]
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        self.counter.fmt(f)
+    }
+}
+
+/// The running counter of a channel, untyped (one copy of the code for every channel).
 #[derive(Clone, Copy)]
-pub struct Timer {
+struct Counter {
     regs: pac::Gpt162,
     period_counts: u32,
 }
 
-impl Timer {
-    /// Sets up `regs` (a 16-bit GPT channel, module already out of stop) for 50 Hz from
-    /// `pclkd_hz` and starts it with both outputs off.
-    pub fn start(regs: pac::Gpt162, pclkd_hz: u32) -> Self {
+impl Counter {
+    fn start(regs: pac::Gpt162, pclkd_hz: u32) -> Self {
         // Smallest prescaler (÷1, 4, 16, 64, 256, 1024) whose period fits 16 bits: the finest
         // pulse resolution (÷16 at 48 MHz: 60 000 counts per 20 ms, 0.33 µs a count).
         let mut tpcs = 0u32;
@@ -83,8 +134,10 @@ impl Timer {
         }
     }
 
-    /// One output of this timer on `pin` (which must carry that GTIOC function).
-    pub fn channel(&self, output: Output, pin: PortPin) -> ServoPwm {
+    /// Output `output` on `pin`, which carries that GTIOC function ([`Timer::channel`]'s types
+    /// say so).
+    #[inline]
+    fn output(&self, output: GptOutput, pin: PortPin) -> ServoPwm {
         pin.configure(pfs::PMR | (pfs::PSEL_GPT << pfs::PSEL_SHIFT));
         ServoPwm {
             timer: *self,
@@ -93,7 +146,8 @@ impl Timer {
     }
 }
 
-impl core::fmt::Debug for Timer {
+impl core::fmt::Debug for Counter {
+    #[inline]
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Timer")
             .field("period_counts", &self.period_counts)
@@ -104,8 +158,8 @@ impl core::fmt::Debug for Timer {
 /// One servo output: 50 Hz, duty in timer counts (full scale = one 20 ms period).
 #[derive(Debug)]
 pub struct ServoPwm {
-    timer: Timer,
-    output: Output,
+    timer: Counter,
+    output: GptOutput,
 }
 
 impl embedded_hal::pwm::ErrorType for ServoPwm {
@@ -113,6 +167,7 @@ impl embedded_hal::pwm::ErrorType for ServoPwm {
 }
 
 impl embedded_hal::pwm::SetDutyCycle for ServoPwm {
+    #[inline]
     fn max_duty_cycle(&self) -> u16 {
         // ≤ 65 536 counts by construction; 65 535 if the period is exactly 2^16.
         self.timer.period_counts.min(u16::MAX as u32) as u16
@@ -122,11 +177,11 @@ impl embedded_hal::pwm::SetDutyCycle for ServoPwm {
         let r = self.timer.regs;
         let duty = (duty as u32).min(self.timer.period_counts);
         let (field, zero) = match self.output {
-            Output::A => {
+            GptOutput::A => {
                 wr!(r.gtccrc(), duty);
                 (A_DTY, A_ZERO)
             }
-            Output::B => {
+            GptOutput::B => {
                 wr!(r.gtccre(), duty);
                 (B_DTY, B_ZERO)
             }

@@ -6,8 +6,10 @@
 pub use ra4m1_pac as pac;
 pub use ra4m1_pac::RegisterValue;
 
-/// Reads a PAC register as its raw integer.
-macro_rules! rd {
+/// Reads a PAC register as its raw integer (`board::regs::rd!`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __board_rd {
     ($reg:expr) => {{
         // SAFETY: a volatile read of a memory-mapped register the PAC names; reads of these
         // registers have no side effects (status and data registers are read where the
@@ -19,8 +21,10 @@ macro_rules! rd {
     }};
 }
 
-/// Writes a raw integer to a PAC register.
-macro_rules! wr {
+/// Writes a raw integer to a PAC register (`board::regs::wr!`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __board_wr {
     ($reg:expr, $val:expr) => {{
         // SAFETY: a volatile write to a memory-mapped register the PAC names, with a value whose
         // bit layout is documented at the call site; the board code is single-threaded apart
@@ -32,7 +36,10 @@ macro_rules! wr {
     }};
 }
 
-pub(crate) use {rd, wr};
+/// Reads a PAC register as its raw integer: `rd!(pac::SCI9.ssr())`.
+pub use crate::__board_rd as rd;
+/// Writes a raw integer to a PAC register: `wr!(pac::SCI9.tdr(), b)`.
+pub use crate::__board_wr as wr;
 
 /// Register write protection (PRCR): key `0xA5` in the high byte.
 pub mod prcr {
@@ -45,6 +52,7 @@ pub mod prcr {
 }
 
 /// Runs `f` with PRCR.PRC0/PRC1 open, and closes them again.
+#[inline]
 pub fn with_clock_regs_unlocked<R>(f: impl FnOnce() -> R) -> R {
     wr!(pac::SYSTEM.prcr(), prcr::KEY | prcr::PRC0 | prcr::PRC1);
     let r = f();

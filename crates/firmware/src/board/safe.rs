@@ -9,7 +9,7 @@
 //! and HardFault, through the same functions the board binary's handlers call.
 
 use super::gpio::pfs;
-use super::pins;
+use crate::pins;
 
 /// Drives every actuator line to its safe level (idempotent).
 pub fn outputs() {
@@ -18,7 +18,7 @@ pub fn outputs() {
         // SAFETY: PCNTR3 (PORR half) of the valve ports: write-only, resets exactly this pin.
         unsafe { core::ptr::write_volatile((port + 8) as *mut u32, 1u32 << (p.pin + 16)) };
     }
-    for p in [pins::SERVO0, pins::SERVO1, pins::SERVO2] {
+    for p in [pins::SERVO0.pin(), pins::SERVO1.pin(), pins::SERVO2.pin()] {
         let pfs = 0x4004_0800 + 0x40 * p.port as usize + 4 * p.pin as usize;
         // SAFETY: PWPR (0x4004_0D03) opened (B0WI = 0, then PFSWE = 1), the servo pin's PFS set
         // to GPIO output low (PDR = 1, PODR = 0, PMR = 0), PWPR closed again.

@@ -26,6 +26,7 @@ extern "C" {
 }
 
 /// The monitored region `(start, end)`, end inclusive.
+#[inline]
 pub fn region() -> (u32, u32) {
     // Linker symbols: only their addresses are taken, never their contents.
     let (end, top) = (
@@ -36,6 +37,7 @@ pub fn region() -> (u32, u32) {
 }
 
 /// Arms the monitor (NMI on detection) and locks its registers until the next reset.
+#[inline]
 pub fn guard() {
     let (start, end) = region();
     wr!(pac::SPMON.mspmpuoad(), KEY); // OAD = 0: NMI

@@ -27,6 +27,7 @@ pub struct Clock {
 
 impl Clock {
     /// Starts SysTick at 1 kHz from the core clock and the DWT cycle counter.
+    #[inline]
     pub fn start(syst: &mut SYST, dcb: &mut DCB, dwt: &mut DWT, core_hz: u32) -> Self {
         CORE_HZ.store(core_hz, Ordering::Relaxed);
         dcb.enable_trace();
@@ -60,6 +61,7 @@ pub fn ticks_ms() -> u32 {
 }
 
 /// The DWT cycle counter (wraps every 89 s at 48 MHz; differences are wrap-safe).
+#[inline]
 pub fn cycles() -> u32 {
     DWT::cycle_count()
 }

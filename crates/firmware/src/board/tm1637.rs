@@ -55,6 +55,7 @@ pub struct Tm1637 {
 
 impl Tm1637 {
     /// A display on `clk`/`dio`, brightness 0..=7.
+    #[inline]
     pub fn new(clk: Output, dio: OpenDrain, brightness: u8) -> Self {
         let mut d = Self {
             clk,
@@ -69,6 +70,7 @@ impl Tm1637 {
         d
     }
 
+    #[inline]
     fn clk(&mut self, high: bool) {
         // The Output pin is infallible.
         let _ = if high {
@@ -78,6 +80,7 @@ impl Tm1637 {
         };
     }
 
+    #[inline]
     fn start(&mut self) {
         self.dio.set(true);
         self.clk(true);
@@ -87,6 +90,7 @@ impl Tm1637 {
         self.clk(false);
     }
 
+    #[inline]
     fn stop(&mut self) {
         self.clk(false);
         self.dio.set(false);
@@ -97,6 +101,7 @@ impl Tm1637 {
         delay_us(HALF_PERIOD_US);
     }
 
+    #[inline]
     fn byte(&mut self, b: u8) -> Result<(), Tm1637Error> {
         for i in 0..8 {
             self.clk(false);
@@ -120,6 +125,7 @@ impl Tm1637 {
         }
     }
 
+    #[inline]
     fn bytes_for(&self, seg: [u8; 4]) -> [u8; 7] {
         [
             0x40,
@@ -134,6 +140,7 @@ impl Tm1637 {
 
     /// Clocks out the next byte of a queued redraw (a no-op when there is none). Call once per
     /// loop pass.
+    #[inline]
     pub fn poll(&mut self) {
         if self.drawing.is_none() {
             if let Some(seg) = self.queued.take() {
@@ -158,11 +165,12 @@ impl Tm1637 {
     }
 }
 
-impl firmware::hw::SegmentDisplay for Tm1637 {
+impl crate::hw::SegmentDisplay for Tm1637 {
     type Error = Tm1637Error;
 
     /// Queues the digits; [`Tm1637::poll`] clocks them out over the next passes. Never fails
     /// here: a chip that does not acknowledge shows in [`Tm1637::missed_acks`].
+    #[inline]
     fn show(&mut self, s: [u8; 4]) -> Result<(), Tm1637Error> {
         self.queued = Some(s);
         Ok(())

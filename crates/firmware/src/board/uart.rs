@@ -110,6 +110,7 @@ impl Ring {
 
     /// Pops up to `buf.len()` bytes at once (one acquire of `head`, one release of `tail`:
     /// the barriers of a byte-by-byte [`Ring::pop`] once per call instead of once per byte).
+    #[inline]
     fn pop_into(&self, buf: &mut [u8]) -> usize {
         let mut tail = self.tail.load(Ordering::Relaxed);
         let head = self.head.load(Ordering::Acquire);
@@ -124,10 +125,12 @@ impl Ring {
         n
     }
 
+    #[inline]
     fn is_empty(&self) -> bool {
         self.tail.load(Ordering::Relaxed) == self.head.load(Ordering::Acquire)
     }
 
+    #[inline]
     fn is_full(&self) -> bool {
         let head = self.head.load(Ordering::Relaxed);
         (head + 1) % RING as u16 == self.tail.load(Ordering::Acquire)
@@ -204,6 +207,7 @@ impl HostUart {
     /// Configures SCI9 for [`BAUD`] 8N1 from `pclka_hz` on `tx`/`rx`, links its receive
     /// interrupts through the ICU and unmasks them in the NVIC (the bootloader leaves
     /// interrupts disabled; `main` enables them globally afterwards).
+    #[inline]
     pub fn new(pclka_hz: u32, tx: PortPin, rx: PortPin) -> Self {
         wr!(pac::SCI9.scr(), 0); // TE = RE = 0 while configuring
         wr!(pac::SCI9.smr(), 0); // async, 8 bits, no parity, 1 stop, PCLK/1
@@ -234,11 +238,13 @@ impl HostUart {
     }
 
     /// The transmitter has sent everything queued and stopped (`flush` would return).
+    #[inline]
     pub fn idle(&self) -> bool {
         !TX_ACTIVE.load(Ordering::Acquire)
     }
 
     /// Bytes lost so far (ring full or line errors).
+    #[inline]
     pub fn dropped(&self) -> u32 {
         RX_DROPPED.load(Ordering::Relaxed)
     }
@@ -249,6 +255,7 @@ impl embedded_io::ErrorType for HostUart {
 }
 
 impl embedded_io::ReadReady for HostUart {
+    #[inline]
     fn read_ready(&mut self) -> Result<bool, Infallible> {
         Ok(!RX.is_empty())
     }
@@ -257,6 +264,7 @@ impl embedded_io::ReadReady for HostUart {
 impl embedded_io::Read for HostUart {
     /// Blocks until at least one byte is there (embedded-io's contract); the shell only calls
     /// it after `read_ready`.
+    #[inline]
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
         if buf.is_empty() {
             return Ok(0);
@@ -270,6 +278,7 @@ impl embedded_io::Read for HostUart {
 }
 
 impl embedded_io::WriteReady for HostUart {
+    #[inline]
     fn write_ready(&mut self) -> Result<bool, Infallible> {
         Ok(!TX.is_full())
     }
@@ -278,6 +287,7 @@ impl embedded_io::WriteReady for HostUart {
 impl embedded_io::Write for HostUart {
     /// Queues as many bytes as the transmit ring takes (at least one: with the ring full it
     /// waits for the handler to free a slot, ≤ 87 µs) and starts the transmitter if idle.
+    #[inline]
     fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
         let mut n = 0;
         for &b in buf.iter().take(TX_PER_WRITE) {
@@ -304,6 +314,7 @@ impl embedded_io::Write for HostUart {
         Ok(n)
     }
 
+    #[inline]
     fn flush(&mut self) -> Result<(), Infallible> {
         while !self.idle() {
             core::hint::spin_loop();

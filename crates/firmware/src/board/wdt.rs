@@ -38,11 +38,13 @@ const WDTCSTPR_COUNT_IN_SLEEP: u8 = 0;
 /// Timeout in PCLKB cycles (2048 · 4096).
 const TIMEOUT_PCLKB_CYCLES: u32 = 2048 * 4096;
 
+#[inline]
 fn ofs0() -> u32 {
     // SAFETY: a read of the option-setting memory in code flash (always mapped, read-only).
     unsafe { read_volatile(OFS0_ADDR as *const u32) }
 }
 
+#[inline]
 fn iwdt_running() -> bool {
     ofs0() & OFS0_IWDTSTRT == 0
 }
@@ -63,6 +65,7 @@ pub fn feed() {
 /// a watchdog, a brown-out, a software reset, power-on; none of them set (the RES pin, or a
 /// bootloader that cleared them) is `Unknown`. Reads and clears the flags (write 0 after
 /// reading 1) so the next reset starts clean.
+#[inline]
 pub fn take_reset_cause() -> ResetCause {
     let r1 = rd!(pac::SYSTEM.rstsr1());
     let r0 = rd!(pac::SYSTEM.rstsr0());
@@ -86,6 +89,7 @@ pub fn take_reset_cause() -> ResetCause {
 }
 
 /// A name for the log.
+#[inline]
 pub fn cause_name(c: ResetCause) -> &'static str {
     match c {
         ResetCause::PowerOn => "power-on",
@@ -97,6 +101,7 @@ pub fn cause_name(c: ResetCause) -> &'static str {
 }
 
 /// Starts the WDT; returns its timeout in ms for the log.
+#[inline]
 pub fn start(pclkb_hz: u32) -> u32 {
     if ofs0() & OFS0_WDTSTRT != 0 {
         // Register-start mode: these writes are accepted once, before the first refresh.

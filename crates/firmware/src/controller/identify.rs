@@ -28,19 +28,9 @@ use protocol::{Plan, Primitive, StateSet, Step, StepKind};
 
 /// Plan id of the probe (refused for uploads).
 pub const IDENTIFY_PLAN_ID: u16 = u16::MAX;
-/// Sealed hold after the fill, ms: a pressure that falls by more than [`LEAK_DROP_KPA`] from
-/// its first 100 ms (or from the fill's end) to its last 100 ms is a leak, and a leaking trunk
-/// fills slower than its volume says: the probe then tells nothing.
-pub const HOLD_MS: u32 = 500;
-/// See [`HOLD_MS`] (the simulator's tight trunk moves by at most 0.04 kPa).
-pub const LEAK_DROP_KPA: f32 = 0.15;
 
-/// The probe's fill target, kPa: under a third of the lowest snap (13.1 kPa).
-pub const PROBE_KPA: f32 = 4.0;
-/// Sealed settle before the fill, ms; the baseline is the mean of its second half.
-pub const SETTLE_MS: u32 = 300;
-/// Fill-rate tolerance (fraction of the signature) within which a state is kept.
-pub const RATE_TOLERANCE: f32 = 0.05;
+/// The probe's definition, which the host's calibration runs too (`protocol::probe`).
+pub use protocol::probe::{HOLD_MS, LEAK_DROP_KPA, PROBE, PROBE_KPA, RATE_TOLERANCE, SETTLE_MS};
 
 /// What a calibration measured through this probe on one trunk (the wire type: stored on the
 /// device with [`protocol::RequestBody::SetProbeProfile`]).
@@ -65,24 +55,6 @@ pub const SIM_PROFILE: ProbeProfile = ProbeProfile {
 /// [`RATE_TOLERANCE`] of it, the trunk may be between states, so the probe confirms nothing
 /// (F&F and F&P½ are 2 % apart, D&F and D&P½ 2 %, F&P and F&P½ 6 %).
 pub const BETWEEN_SIGNATURES: [f32; 2] = [11.05, 13.20];
-
-/// The probe's primitives: vent, settle sealed, fill, hold sealed (the measurement), vent.
-/// The identification plan runs them as two steps; a manual step runs them after the person's
-/// confirm (`docs/firmware.md`, "Manual steps: the check").
-pub const PROBE: [Primitive; 5] = [
-    Primitive::Vent { pressure_kpa: 0.0 },
-    Primitive::Hold {
-        duration_ms: SETTLE_MS,
-    },
-    Primitive::Inflate {
-        pressure_kpa: PROBE_KPA,
-        snaps: 0,
-    },
-    Primitive::Hold {
-        duration_ms: HOLD_MS,
-    },
-    Primitive::Vent { pressure_kpa: 0.0 },
-];
 
 /// The probe, as a plan within `state` (steps within one state change no belief): vent,
 /// settle, fill, hold; then vent.
@@ -160,8 +132,7 @@ impl ProbeLog {
 
     /// Fill rate, kPa/s (`None` until the fill is recorded).
     pub fn rate_kpa_per_s(&self) -> Option<f32> {
-        let p0 = self.p0.get()?;
-        (self.fill_ms > 0).then(|| (self.filled_kpa - p0) * 1_000.0 / self.fill_ms as f32)
+        protocol::probe::fill_rate(self.p0.get()?, self.filled_kpa, self.fill_ms)
     }
 
     /// Whether the sealed hold lost pressure like a leak (`None` until it is recorded).
@@ -169,7 +140,7 @@ impl ProbeLog {
         // The inlet regulator keeps holding the target through the hold: a leak shows as a
         // hold under the target (refilled in cycles), a slow one as a falling hold.
         let (first, last) = (self.hold_first.get()?, self.hold_last.get()?);
-        Some(first - last > LEAK_DROP_KPA || self.filled_kpa - last > LEAK_DROP_KPA)
+        Some(protocol::probe::leaking(self.filled_kpa, first, last))
     }
 
     /// The states consistent with the measurement under `profile`, for narrowing `candidates`: every state

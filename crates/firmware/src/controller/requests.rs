@@ -416,16 +416,22 @@ impl Controller {
                 ));
             }
         }
-        // Letting the air out changes no state: a single vent within the state is allowed when
-        // the state is not confirmed too (the host lets out air left sealed in the trunk before
-        // it identifies it).
-        let vent_only = steps.len() == 1
+        // Letting the air out changes no state, nor does the probe's fill (under a third of the
+        // lowest snap: `protocol::probe`): a single step within the state of vents, holds and
+        // fills to at most the probe's pressure without snaps is allowed when the state is not
+        // confirmed too (the host lets out air left sealed in the trunk before it identifies
+        // it; a calibration probes a trunk the person holds between states).
+        let harmless = steps.len() == 1
             && steps[0].from == steps[0].to
-            && steps[0]
-                .primitives
-                .iter()
-                .all(|p| matches!(p, Primitive::Vent { .. }));
-        if !self.confirmed() && !vent_only {
+            && steps[0].primitives.iter().all(|p| match *p {
+                Primitive::Vent { .. } | Primitive::Hold { .. } => true,
+                Primitive::Inflate {
+                    pressure_kpa,
+                    snaps,
+                } => snaps == 0 && pressure_kpa <= protocol::probe::PROBE_KPA,
+                _ => false,
+            });
+        if !self.confirmed() && !harmless {
             return Err((RejectReason::Unconfirmed, None));
         }
         if steps[0].from != self.state() {

@@ -2921,7 +2921,8 @@ fn a_leak_opening_mid_inflation_is_not_taken_for_the_snap() {
 /// when the state is not confirmed (the host lets out air an interrupted step left sealed before
 /// it identifies the state), leaves the belief as it was, and nothing else is let through.
 #[test]
-fn a_vent_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief() {
+fn a_vent_or_the_probes_fill_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief()
+{
     let mut r = Rig::connected(DD);
     r.keepalive();
     r.upload_and_start(Rig::plan(2, &[DD, FD]));
@@ -2947,11 +2948,20 @@ fn a_vent_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief(
             timeout_ms: 20_000,
         }
     };
-    // Not a vent alone, or not within the state: refused as before.
+    // Not a vent, hold or probe's fill alone, or not within the state: refused as before.
     let grip = Some(Primitive::Gripper { close: true });
+    let fill = |pressure_kpa: f32, snaps: u8| {
+        Some(Primitive::Inflate {
+            pressure_kpa,
+            snaps,
+        })
+    };
+    let probe_kpa = protocol::probe::PROBE_KPA;
     for step in [
         vent(before.state, before.state, grip),
         vent(before.state, FF, None),
+        vent(before.state, before.state, fill(probe_kpa + 0.1, 0)),
+        vent(before.state, before.state, fill(probe_kpa, 1)),
     ] {
         assert_eq!(
             r.request(RequestBody::RunStep(step)).0,
@@ -2983,6 +2993,34 @@ fn a_vent_alone_is_allowed_while_the_state_is_unconfirmed_and_changes_no_belief(
         "{after:?}"
     );
     assert_eq!(after.faults, 0);
+    // The probe's fill (a calibration's probe of a trunk between states): accepted, and the
+    // belief stays as it was.
+    assert_eq!(
+        r.request(RequestBody::RunStep(vent(
+            before.state,
+            before.state,
+            fill(probe_kpa, 0)
+        )))
+        .0,
+        ResultCode::InProgress
+    );
+    for _ in 0..200 {
+        if r.ctl.mode() != Mode::Running {
+            break;
+        }
+        r.run(100);
+    }
+    let probed = r.ctl.status();
+    assert_eq!(
+        probed.plan.map(|p| p.phase),
+        Some(PlanPhase::Done),
+        "{probed:?}"
+    );
+    assert!(!probed.state_confirmed);
+    assert_eq!(
+        (probed.state, probed.candidates),
+        (before.state, before.candidates)
+    );
 }
 
 #[test]

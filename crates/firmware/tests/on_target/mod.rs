@@ -23,9 +23,9 @@ use core::sync::atomic::{AtomicBool, Ordering};
 
 use crate::board;
 use crate::board::gpio::{pfs, PortPin};
-use crate::board::pins;
 use crate::board::regs::{pac, rd, wr};
 use defmt_rtt as _;
+use firmware::pins::{self, Gpt5, Gpt7};
 
 /// Runs before each test asks for its command: a pending continuation first.
 #[embedded_test::setup]
@@ -197,9 +197,9 @@ pub fn unsafe_lines() -> u32 {
     let lines = [
         pins::INLET,
         pins::EXHAUST,
-        pins::SERVO0,
-        pins::SERVO1,
-        pins::SERVO2,
+        pins::SERVO0.pin(),
+        pins::SERVO1.pin(),
+        pins::SERVO2.pin(),
     ];
     let mut mask = 0;
     for (i, p) in lines.into_iter().enumerate() {
@@ -227,12 +227,12 @@ pub fn actuate(b: &Board) {
     let _ = board::gpio::Output::new_high(pins::GRIPPER);
     let _ = board::gpio::Output::new(pins::INLET).set_high();
     let _ = board::gpio::Output::new(pins::EXHAUST).set_high();
-    let gpt7 = board::pwm::Timer::start(pac::GPT167, b.clocks.pclkd_hz);
-    let gpt5 = board::pwm::Timer::start(pac::GPT165, b.clocks.pclkd_hz);
+    let gpt7 = board::pwm::Timer::<Gpt7>::start(b.clocks.pclkd_hz);
+    let gpt5 = board::pwm::Timer::<Gpt5>::start(b.clocks.pclkd_hz);
     for mut ch in [
-        gpt7.channel(board::pwm::Output::A, pins::SERVO0),
-        gpt7.channel(board::pwm::Output::B, pins::SERVO1),
-        gpt5.channel(board::pwm::Output::A, pins::SERVO2),
+        gpt7.channel(pins::SERVO0),
+        gpt7.channel(pins::SERVO1),
+        gpt5.channel(pins::SERVO2),
     ] {
         let d = (u32::from(ch.max_duty_cycle()) * 1_500 / 20_000) as u16;
         let _ = ch.set_duty_cycle(d);

@@ -13,6 +13,8 @@
 //! length: the trunk cannot jump), so their strokes cannot be read from the crane's sensors:
 //! they run at the catalogue's lengths and the profile says so.
 
+mod probe;
+
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 
@@ -499,7 +501,10 @@ pub struct Args {
     pub json: bool,
     /// Also walk the fold by hand: D&F → D&P (the person packs the bottom when prompted; the
     /// simulated person on --sim), then D&P → D&F by pressure, measuring the bottom's
-    /// unpacking under a deployed top (otherwise D&P → D&F takes F&P → F&F's snap).
+    /// unpacking under a deployed top (otherwise D&P → D&F takes F&P → F&F's snap). The walk
+    /// then passes through every state, and the identification probe's signatures are
+    /// measured in each and in the two half-packed rests (the person makes and undoes each
+    /// when asked); they are written to the profile and stored on the device.
     #[arg(long)]
     pub manual: bool,
 }
@@ -934,7 +939,8 @@ pub fn run(args: Args) -> Result<(), Failure> {
                     if stored {
                         "; its probe signatures stored on the device"
                     } else {
-                        "; no probe signatures measured: nothing stored on the device"
+                        "; no probe signatures measured (calibrate --manual measures them): nothing stored \
+                         on the device"
                     }
                 );
             }
@@ -947,7 +953,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
 }
 
-fn refuse(msg: String) -> Failure {
+pub(crate) fn refuse(msg: String) -> Failure {
     Failure::Runtime(anyhow::anyhow!("calibration refused: {msg}"))
 }
 
@@ -1018,6 +1024,36 @@ fn calibrate(device: &DeviceConfig, name: &str, manual: bool) -> Result<Profile,
         let servo = protocol::CraneGeometry::default().winch;
         let steps = walk(manual);
         let mut measured = Vec::new();
+        // The probe's signatures (with --manual: the walk then passes through every state).
+        let mut rates: [Option<probe::Reading>; 6] = [None; 6];
+        let mut between: [Option<probe::Reading>; 2] = [None; 2];
+        let mut probe_at =
+            |s: &mut host::Driver<Recorder<AnyIo>>, at: TrunkState| -> Result<(), Failure> {
+                if !manual || rates[at.index()].is_some() {
+                    return Ok(());
+                }
+                let r = probe::measure(s, at, &interrupted)?;
+                crate::say!(
+                    "calibrate: the probe at {at} fills at {:.2} kPa/s ({:.0} ms from {:+.2} kPa)",
+                    r.rate,
+                    r.fill_ms,
+                    r.p0_kpa
+                );
+                rates[at.index()] = Some(r);
+                for b in [probe::Between::FoldedTop, probe::Between::DeployedTop] {
+                    if b.home() == at && between[b.index()].is_none() {
+                        let rb = probe::measure_between(s, b, r, &interrupted)?;
+                        crate::say!(
+                            "calibrate: the probe at the rest {} fills at {:.2} kPa/s",
+                            b.name(),
+                            rb.rate
+                        );
+                        between[b.index()] = Some(rb);
+                    }
+                }
+                Ok(())
+            };
+        probe_at(s, first)?;
         for (k, (from, to, what)) in steps.iter().copied().enumerate() {
             if interrupted.load(std::sync::atomic::Ordering::SeqCst) {
                 return Err(Failure::Interrupted("calibration interrupted".into()));
@@ -1118,7 +1154,30 @@ fn calibrate(device: &DeviceConfig, name: &str, manual: bool) -> Result<Profile,
                 )));
             }
             measured.push(m);
+            probe_at(s, to)?;
         }
+        let probe = if manual {
+            let all = |v: &[Option<probe::Reading>]| -> Option<Vec<f64>> {
+                v.iter().map(|r| r.map(|r| round(r.rate, 100.0))).collect()
+            };
+            let (Some(states), Some(between)) = (all(&rates), all(&between)) else {
+                return Err(refuse(format!(
+                    "the walk did not probe every state and rest (states {:?}, rests {:?})",
+                    rates.map(|r| r.is_some()),
+                    between.map(|r| r.is_some())
+                )));
+            };
+            let (s6, b2) = (
+                <[f64; 6]>::try_from(states.as_slice()).unwrap_or_default(),
+                <[f64; 2]>::try_from(between.as_slice()).unwrap_or_default(),
+            );
+            for note in probe::check(&s6, &b2).map_err(refuse)? {
+                crate::say!("calibrate: {note}");
+            }
+            Some(ProbeSignatures { states, between })
+        } else {
+            None
+        };
         let profile = Profile {
             format: FORMAT_VERSION,
             name: name.to_string(),
@@ -1129,7 +1188,7 @@ fn calibrate(device: &DeviceConfig, name: &str, manual: bool) -> Result<Profile,
             tendon_reach_mm: REACH_MM,
             sensor_zero_kpa: (zero * 1000.0).round() / 1000.0,
             duration_s: (s.io.now_ms() - start_ms) as f64 / 1000.0,
-            probe: None,
+            probe,
             transitions: measured,
         };
         profile.check().map_err(refuse)?;

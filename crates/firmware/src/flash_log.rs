@@ -1,6 +1,9 @@
-//! Wear-aware record log for [`firmware::hw::StateStore`] on a small NOR flash (the RA4M1 data
-//! flash): pure logic over the [`NorFlash`] trait, so the host tests it against an emulated
-//! flash with power-loss injection (`crates/firmware/tests/board_flash_log.rs`).
+//! Wear-aware record log for [`crate::hw::StateStore`] on a small NOR flash (the RA4M1 data
+//! flash): pure logic over the [`NorFlash`] trait, built for every target. The board's data
+//! flash driver (`board::dataflash`, feature `board-uno-r4`) implements the trait on the chip; the host
+//! tests the log against an emulated flash with power-loss injection
+//! (`crates/firmware/tests/board_flash_log.rs`), and the simulator writes and reads the
+//! emulated board's data flash through it (`hil-sim`'s `elf_board`).
 //!
 //! Layout: two erase blocks used ping-pong. Each block holds [`SLOTS_PER_BLOCK`] slots of
 //! [`SLOT_LEN`] bytes, appended in order:
@@ -32,7 +35,7 @@
 //!
 //! The identification probe's profile ([`FlashLog::with_profile_block`]) has a block of its
 //! own too, one slot at its start written the same way: bytes 0–35
-//! [`firmware::store::profile_to_bytes`] (schema id, eight f32 fill rates), 36–37 their
+//! [`crate::store::profile_to_bytes`] (schema id, eight f32 fill rates), 36–37 their
 //! CRC-16. Storing one erases the block first, so a power cut mid-write leaves an erased or
 //! torn slot: it loads as no profile (identification asks the operator), never as a mix of
 //! the old and the new.
@@ -41,8 +44,18 @@
 //! background erase, a slot programmed one byte per call), the others return
 //! [`FlashError::Busy`] without touching it.
 
-use firmware::hw::StateStore;
-use firmware::store::{crc16, StoredState, PROFILE_LEN, STORED_LEN};
+use crate::hw::StateStore;
+use crate::store::{crc16, StoredState, PROFILE_LEN, STORED_LEN};
+
+/// The board's data-flash layout (RA4M1: eight blocks of 1 KiB), as the board binary opens its
+/// log and the simulator reads the emulated board's data flash: blocks 0 and 1 hold the state
+/// log.
+pub const STATE_LOG_FIRST_BLOCK: usize = 0;
+/// Data-flash block 2 holds the link-signing key.
+pub const LINK_KEY_BLOCK: usize = 2;
+/// Data-flash block 3 holds the identification probe's calibration profile (blocks 4..7 are
+/// free for later use; the on-target tests write 4–6).
+pub const PROBE_PROFILE_BLOCK: usize = 3;
 
 /// Bytes per slot.
 pub const SLOT_LEN: usize = 16;
@@ -104,7 +117,6 @@ pub const fn slots_per_block(block_size: usize) -> usize {
 }
 
 /// Slots per block with the RA4M1's 1 KiB data-flash blocks.
-#[allow(dead_code)] // named by the host tests and the docs; the board computes it per flash
 pub const SLOTS_PER_BLOCK: usize = slots_per_block(1024);
 
 /// What a slot holds.

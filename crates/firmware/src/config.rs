@@ -169,9 +169,9 @@ pub struct JoystickConfig {
 /// Everything the controller needs to know about its crane.
 ///
 /// Aligned to 8 bytes for the board binary's size: the controller that holds it (its `u64`
-/// clocks) is laid out around it, and LLVM's code for the loop is that much smaller (measured:
-/// 46 352 B of flash with it, 46 588 B without, at the commit that added it; 8 B alignment
-/// costs no RAM there, the controller's size is unchanged).
+/// clocks) is laid out around it as when the configuration was 288 B, and LLVM's code for the
+/// loop is that much smaller (measured on the board binary: 46 276 B of flash with it, 46 756 B
+/// without; BENCHMARKS.md, "Issue 28"). It costs no RAM: the controller's size is unchanged.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[repr(align(8))]
 pub struct CraneConfig {

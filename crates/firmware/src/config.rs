@@ -7,7 +7,7 @@
 //! safety meaning (the pressure cap never exceeds [`protocol::HARD_MAX_PRESSURE_KPA`]).
 
 use geometry::{BottomState, ShapeState, TopState, TrunkState};
-use protocol::{Board, ModuleConfig, TrunkConfig};
+use protocol::{Board, CraneGeometry, ModuleConfig};
 
 /// Linear calibration of the pressure sensor: raw 14-bit ADC counts → gauge kPa.
 ///
@@ -44,7 +44,7 @@ impl PressureSensorConfig {
     }
 }
 
-/// Servo limits and the tendon winch geometry.
+/// Servo limits (the winch each servo turns is [`CraneGeometry::winch`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ServoConfig {
     /// Lowest allowed angle (any command is clamped to it).
@@ -53,30 +53,9 @@ pub struct ServoConfig {
     pub max_deg: f32,
     /// Slew-rate limit of every servo command.
     pub slew_deg_per_s: f32,
-    /// Angle of each servo at which its tendon is slack (zero shortening).
-    pub slack_deg: [f32; 3],
-    /// `+1.0` when pulling the tendon increases the servo angle, `-1.0` when it decreases it.
-    pub pull_sign: [f32; 3],
-    /// Radius of the winch spool (or horn) the tendon winds on: mm of tendon per radian.
-    pub spool_radius_mm: f32,
 }
 
 impl ServoConfig {
-    /// Millimetres of tendon wound per degree of servo rotation.
-    pub fn mm_per_deg(&self) -> f32 {
-        self.spool_radius_mm * core::f32::consts::PI / 180.0
-    }
-
-    /// Servo angle for a tendon shortening of `length_mm` on servo `i` (not clamped).
-    pub fn angle_for_length(&self, i: usize, length_mm: f32) -> f32 {
-        self.slack_deg[i % 3] + self.pull_sign[i % 3] * length_mm / self.mm_per_deg()
-    }
-
-    /// Tendon shortening of servo `i` at `angle_deg`.
-    pub fn length_for_angle(&self, i: usize, angle_deg: f32) -> f32 {
-        (angle_deg - self.slack_deg[i % 3]) * self.pull_sign[i % 3] * self.mm_per_deg()
-    }
-
     /// Whether `angle_deg` is within the configured limits.
     pub fn allows(&self, angle_deg: f32) -> bool {
         angle_deg.is_finite() && angle_deg >= self.min_deg && angle_deg <= self.max_deg
@@ -175,7 +154,8 @@ pub struct RiseWatchConfig {
     pub ambient_band_kpa: f32,
 }
 
-/// Joystick calibration and standalone bending.
+/// Joystick calibration (its full-deflection bend per state is
+/// [`CraneGeometry::max_bend_deg_in`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JoystickConfig {
     /// Raw count of a centred axis (both axes).
@@ -184,30 +164,26 @@ pub struct JoystickConfig {
     pub half_range_raw: f32,
     /// Deflection (fraction of full, 0–1) ignored around the centre.
     pub dead_zone: f32,
-    /// Bend angle of the trunk tip at full deflection.
-    pub max_bend_deg: f32,
-    /// Bend at full deflection in a flexible state without a folded module (`D&P`: a
-    /// deployed top over a packed bottom). Neither module bends easily there, so a one-sided
-    /// pull mostly compresses the trunk, and the deployed top buckles under ≈ 75 N (7 mm of
-    /// compression past taut in the simulator); 8° keeps the pull ≈ 6 mm past taut (≈ 31 N,
-    /// 2.6° of real bend in the simulator). Also the largest `Bend` allowed there (a larger
-    /// one faults with ServoLimit).
-    pub stiff_max_bend_deg: f32,
 }
 
 /// Everything the controller needs to know about its crane.
+///
+/// Aligned to 8 bytes for the board binary's size: the controller that holds it (its `u64`
+/// clocks) is laid out around it as when the configuration was 288 B, and LLVM's code for the
+/// loop is that much smaller (measured on the board binary: 46 276 B of flash with it, 46 756 B
+/// without; BENCHMARKS.md, "Issue 28"). It costs no RAM: the controller's size is unchanged.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(align(8))]
 pub struct CraneConfig {
     /// The board reported in the handshake.
     pub board: Board,
     /// Firmware version reported in the handshake, `[major, minor, patch]`.
     pub firmware_version: [u8; 3],
-    /// The trunk (its `pressure_limit_kpa` is kept equal to [`CraneConfig::pressure_limit_kpa`]).
-    pub trunk: TrunkConfig,
     /// Pressure sensor calibration.
     pub pressure_sensor: PressureSensorConfig,
     /// Pressure cap; above it the controller vents at once (OverPressure). Never above
-    /// [`protocol::HARD_MAX_PRESSURE_KPA`].
+    /// [`protocol::HARD_MAX_PRESSURE_KPA`]. The one copy on the device: `SetParam` changes it,
+    /// `GetParam` and the handshake report it.
     pub pressure_limit_kpa: f32,
     /// Hysteresis band of the inflate-and-hold regulator: the inlet reopens below
     /// `target − hysteresis`.
@@ -218,18 +194,10 @@ pub struct CraneConfig {
     pub pull_relief_kpa: f32,
     /// After an over-pressure the exhaust stays open until the pressure is below this.
     pub overpressure_vent_to_kpa: f32,
-    /// Servos and tendon winches.
+    /// Servo limits.
     pub servo: ServoConfig,
-    /// Radial distance of the tendons from the trunk axis (differential bending; the tendons
-    /// sit at 0°, 120°, 240°, [`geometry::tendon::TENDON_ANGLES`]).
-    pub tendon_radius_mm: f32,
     /// Longest tendon shortening any primitive may ask for.
     pub max_tendon_mm: f32,
-    /// Height of one self-packed layer (its panels stacked; the geometry's d → 0).
-    pub packed_layer_mm: f32,
-    /// The joystick and `Bend` take up a flexible state's tendon slack up to this much short of
-    /// taut, so an error in the modelled heights never compresses the trunk.
-    pub take_up_margin_mm: f32,
     /// Sealed-release confirmation of tendon steps.
     pub tendon_check: TendonCheckConfig,
     /// Stuck-open inlet watch.
@@ -255,6 +223,10 @@ pub struct CraneConfig {
     /// profile). `None` (the default): the probe is no evidence, identification asks the
     /// operator and a manual step is not checked by it (`docs/firmware.md`, "Identification").
     pub probe_profile: Option<crate::controller::identify::ProbeProfile>,
+    /// The crane's shape: the trunk's modules, tendons, winches, bend limits (what a host
+    /// models of it too). The handshake reports its modules with
+    /// [`CraneConfig::pressure_limit_kpa`] ([`CraneGeometry::trunk`]).
+    pub geometry: CraneGeometry,
 }
 
 impl Default for CraneConfig {
@@ -262,24 +234,8 @@ impl Default for CraneConfig {
         Self {
             board: Board::UnoR4Wifi,
             firmware_version: [0, 1, 0],
-            trunk: TrunkConfig {
-                // The paper's trunk (§5.4): n = 3 (the largest folded/deployed height
-                // contrast), 75 mm edges, two layers per module (the bottom packs layer by
-                // layer in two snaps); docs/simulator.md gives the reasoning.
-                bottom: ModuleConfig {
-                    n: 3,
-                    beta_deg: 35.0,
-                    edge_mm: 75.0,
-                    layers: 2,
-                },
-                top: ModuleConfig {
-                    n: 3,
-                    beta_deg: 31.72,
-                    edge_mm: 75.0,
-                    layers: 2,
-                },
-                pressure_limit_kpa: 40.0,
-            },
+            // The paper's trunk (§5.4), as a host assumes it.
+            geometry: CraneGeometry::PAPER,
             pressure_sensor: PressureSensorConfig {
                 offset_raw: 655.3,
                 kpa_per_count: 0.006_782,
@@ -290,21 +246,15 @@ impl Default for CraneConfig {
             },
             pressure_limit_kpa: 40.0,
             hysteresis_kpa: 1.0,
-            vent_tolerance_kpa: 0.5,
+            vent_tolerance_kpa: protocol::DEFAULT_VENT_TOLERANCE_KPA,
             pull_relief_kpa: 15.0,
             overpressure_vent_to_kpa: 5.0,
             servo: ServoConfig {
                 min_deg: 0.0,
                 max_deg: 180.0,
                 slew_deg_per_s: 90.0,
-                slack_deg: [0.0; 3],
-                pull_sign: [1.0; 3],
-                spool_radius_mm: 60.0,
             },
-            tendon_radius_mm: 60.0,
             max_tendon_mm: 185.0,
-            packed_layer_mm: 5.0,
-            take_up_margin_mm: 2.0,
             tendon_check: TendonCheckConfig {
                 // A module fold (46–60 mm shorter) reads +5.6 to +7.9 kPa after the sealed
                 // release in the simulator, packing one layer +3.2, no snap +0.04 (the sensor's
@@ -350,8 +300,6 @@ impl Default for CraneConfig {
                 center_raw: [8192, 8192],
                 half_range_raw: 8000.0,
                 dead_zone: 0.1,
-                max_bend_deg: 30.0,
-                stiff_max_bend_deg: 8.0,
             },
             link_timeout_ms: protocol::DEFAULT_LINK_TIMEOUT_MS,
             telemetry_hz: 10.0,
@@ -363,27 +311,9 @@ impl Default for CraneConfig {
 }
 
 impl CraneConfig {
-    /// The joystick's full-deflection bend in `state`, degrees: [`JoystickConfig::max_bend_deg`]
-    /// with a folded module, [`JoystickConfig::stiff_max_bend_deg`] without one.
-    pub fn max_bend_deg_in(&self, state: TrunkState) -> f32 {
-        let folded = state.top == TopState::Folded || state.bottom == BottomState::Folded;
-        if folded {
-            self.joystick.max_bend_deg
-        } else {
-            self.joystick.stiff_max_bend_deg
-        }
-    }
-
-    /// The largest bend the crane is bent by in `state` (the joystick at full deflection, a
-    /// `Bend`), degrees; `None` where it is not bent at all (`F&P`, `D&D`: not among the
-    /// flexible states, their tendons are not taken up).
-    pub fn bend_limit_deg(&self, state: TrunkState) -> Option<f32> {
-        state.is_flexible().then(|| self.max_bend_deg_in(state))
-    }
-
     /// Unloaded height of the straight trunk in `state`, mm: per module, layers × the layer's
     /// slant height d (folded or deployed, the geometry crate's Table 1) × the edge, or layers ×
-    /// [`CraneConfig::packed_layer_mm`] when self-packed. `None` for a module the geometry
+    /// [`CraneGeometry::packed_layer_mm`] when self-packed. `None` for a module the geometry
     /// rejects (n outside 3..=64, β outside (0°, 90°)).
     ///
     /// In `f32`, from the geometry crate's closed forms (eq 2: deployed d = w = tan β; Table 1:
@@ -395,7 +325,7 @@ impl CraneConfig {
         let module = |m: &ModuleConfig, s: Option<ShapeState>| -> Option<f32> {
             let layers = m.layers as f32;
             match s {
-                None => Some(layers * self.packed_layer_mm),
+                None => Some(layers * self.geometry.packed_layer_mm),
                 Some(s) => {
                     let valid_n = (geometry::design::MIN_N..=geometry::design::MAX_N)
                         .contains(&u32::from(m.n));
@@ -427,7 +357,8 @@ impl CraneConfig {
             BottomState::Folded => Some(ShapeState::Folded),
             BottomState::Deployed => Some(ShapeState::Deployed),
         };
-        let h = module(&self.trunk.top, top)? + module(&self.trunk.bottom, bottom)?;
+        let g = &self.geometry;
+        let h = module(&g.top, top)? + module(&g.bottom, bottom)?;
         h.is_finite().then_some(h)
     }
 
@@ -454,7 +385,6 @@ impl CraneConfig {
             protocol::HARD_MAX_PRESSURE_KPA,
             d.pressure_limit_kpa,
         );
-        self.trunk.pressure_limit_kpa = self.pressure_limit_kpa;
         self.servo.min_deg = fix(self.servo.min_deg, 0.0, 180.0, d.servo.min_deg);
         self.servo.max_deg = fix(
             self.servo.max_deg,
@@ -463,10 +393,11 @@ impl CraneConfig {
             d.servo.max_deg,
         );
         self.servo.slew_deg_per_s = fix(self.servo.slew_deg_per_s, 1.0, 600.0, 90.0);
-        if !(self.servo.spool_radius_mm.is_finite() && self.servo.spool_radius_mm > 0.1) {
-            self.servo.spool_radius_mm = d.servo.spool_radius_mm;
+        let (g, dg) = (&mut self.geometry, &d.geometry);
+        if !(g.winch.spool_radius_mm.is_finite() && g.winch.spool_radius_mm > 0.1) {
+            g.winch.spool_radius_mm = dg.winch.spool_radius_mm;
         }
-        for s in &mut self.servo.pull_sign {
+        for s in &mut g.winch.pull_sign {
             *s = if *s < 0.0 { -1.0 } else { 1.0 };
         }
         self.link_timeout_ms = self.link_timeout_ms.clamp(200, 60_000);
@@ -481,14 +412,15 @@ impl CraneConfig {
         self.pressure_sensor.filter_tau_ms =
             fix(self.pressure_sensor.filter_tau_ms, 0.0, 1000.0, 8.0);
         self.joystick.dead_zone = fix(self.joystick.dead_zone, 0.0, 0.9, d.joystick.dead_zone);
-        self.joystick.stiff_max_bend_deg = fix(
-            self.joystick.stiff_max_bend_deg,
+        let (g, dg) = (&mut self.geometry, &d.geometry);
+        g.stiff_max_bend_deg = fix(
+            g.stiff_max_bend_deg,
             0.0,
-            self.joystick.max_bend_deg.max(0.0),
-            d.joystick.stiff_max_bend_deg,
+            g.max_bend_deg.max(0.0),
+            dg.stiff_max_bend_deg,
         );
-        self.packed_layer_mm = fix(self.packed_layer_mm, 0.0, 50.0, d.packed_layer_mm);
-        self.take_up_margin_mm = fix(self.take_up_margin_mm, 0.0, 50.0, d.take_up_margin_mm);
+        g.packed_layer_mm = fix(g.packed_layer_mm, 0.0, 50.0, dg.packed_layer_mm);
+        g.take_up_margin_mm = fix(g.take_up_margin_mm, 0.0, 50.0, dg.take_up_margin_mm);
         // A zero threshold would confirm any tendon step.
         self.tendon_check.min_rise_kpa = fix(
             self.tendon_check.min_rise_kpa,
@@ -546,10 +478,6 @@ mod tests {
         }
         .validated();
         assert_eq!(cfg.pressure_limit_kpa, protocol::HARD_MAX_PRESSURE_KPA);
-        assert_eq!(
-            cfg.trunk.pressure_limit_kpa,
-            protocol::HARD_MAX_PRESSURE_KPA
-        );
         let cfg = CraneConfig {
             pressure_limit_kpa: f32::NAN,
             ..CraneConfig::default()
@@ -563,8 +491,8 @@ mod tests {
         // docs/simulator.md, "Geometry": F&P 43.1, F&F 92.5, F&D 138.1, D&P 102.7, D&F 152.1,
         // D&D 197.7 mm (the simulator builds its trunk from the same geometry).
         let cfg = CraneConfig::default();
-        assert_eq!((cfg.trunk.top.n, cfg.trunk.top.layers), (3, 2));
-        assert_eq!((cfg.trunk.bottom.n, cfg.trunk.bottom.layers), (3, 2));
+        assert_eq!((cfg.geometry.top.n, cfg.geometry.top.layers), (3, 2));
+        assert_eq!((cfg.geometry.bottom.n, cfg.geometry.bottom.layers), (3, 2));
         let want = [
             ("F&P", 43.1),
             ("F&F", 92.5),
@@ -583,12 +511,12 @@ mod tests {
         let dd: TrunkState = "D&D".parse().unwrap();
         assert_eq!(cfg.tendon_slack_mm(dd), 0.0);
         let bad = CraneConfig {
-            trunk: TrunkConfig {
+            geometry: CraneGeometry {
                 top: ModuleConfig {
                     n: 1,
-                    ..cfg.trunk.top
+                    ..cfg.geometry.top
                 },
-                ..cfg.trunk
+                ..cfg.geometry
             },
             ..cfg
         };
@@ -598,10 +526,11 @@ mod tests {
 
     #[test]
     fn winch_geometry_round_trips() {
-        let s = CraneConfig::default().servo;
+        let cfg = CraneConfig::default();
+        let (s, w) = (cfg.servo, cfg.geometry.winch);
         // 60 mm spool: 60·π/180 = 1.047 mm per degree; 175 mm (pack the bottom) fits in 180°.
-        assert!((s.mm_per_deg() - core::f32::consts::FRAC_PI_3).abs() < 1e-5);
-        assert!(s.allows(s.angle_for_length(0, 175.0)));
-        assert!((s.length_for_angle(1, s.angle_for_length(1, 42.0)) - 42.0).abs() < 1e-3);
+        assert!((w.mm_per_deg() - core::f32::consts::FRAC_PI_3).abs() < 1e-5);
+        assert!(s.allows(w.angle_for_length(0, 175.0)));
+        assert!((w.length_for_angle(1, w.angle_for_length(1, 42.0)) - 42.0).abs() < 1e-3);
     }
 }

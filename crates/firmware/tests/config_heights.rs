@@ -11,13 +11,13 @@ fn f32_heights_match_the_geometry_crate_over_the_design_range() {
         for tenth in 100..=800 {
             let beta = tenth as f32 / 10.0;
             let mut cfg = CraneConfig::default();
-            cfg.trunk.top.n = n;
-            cfg.trunk.top.beta_deg = beta;
-            cfg.trunk.bottom.n = n;
-            cfg.trunk.bottom.beta_deg = beta;
+            cfg.geometry.top.n = n;
+            cfg.geometry.top.beta_deg = beta;
+            cfg.geometry.bottom.n = n;
+            cfg.geometry.bottom.beta_deg = beta;
             let d = ModuleDesign::new(u32::from(n), f64::from(beta)).unwrap();
-            let edge = f64::from(cfg.trunk.top.edge_mm);
-            let layers = f64::from(cfg.trunk.top.layers);
+            let edge = f64::from(cfg.geometry.top.edge_mm);
+            let layers = f64::from(cfg.geometry.top.layers);
             for (state, want) in [
                 (
                     TrunkState::new(TopState::Deployed, BottomState::Deployed),
@@ -41,13 +41,13 @@ fn f32_heights_match_the_geometry_crate_over_the_design_range() {
 #[test]
 fn an_invalid_module_has_no_height() {
     let mut cfg = CraneConfig::default();
-    cfg.trunk.top.beta_deg = 90.0;
+    cfg.geometry.top.beta_deg = 90.0;
     assert_eq!(
         cfg.trunk_height_mm(TrunkState::new(TopState::Deployed, BottomState::Deployed)),
         None
     );
-    cfg.trunk.top.beta_deg = 30.0;
-    cfg.trunk.top.n = 2;
+    cfg.geometry.top.beta_deg = 30.0;
+    cfg.geometry.top.n = 2;
     assert_eq!(
         cfg.trunk_height_mm(TrunkState::new(TopState::Folded, BottomState::Folded)),
         None

@@ -54,7 +54,7 @@ impl Default for RigConfig {
             pressure_cap_kpa: protocol::HARD_MAX_PRESSURE_KPA as f64,
             hysteresis_kpa: fw.hysteresis_kpa as f64,
             pull_relief_kpa: fw.pull_relief_kpa as f64,
-            winch_mm_per_s: (fw.servo.slew_deg_per_s * fw.servo.mm_per_deg()) as f64,
+            winch_mm_per_s: (fw.servo.slew_deg_per_s * fw.geometry.winch.mm_per_deg()) as f64,
             max_pull_mm: fw.max_tendon_mm as f64,
             settle_s: 1.5,
         }

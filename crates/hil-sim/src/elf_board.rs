@@ -19,7 +19,7 @@ use firmware::flash_log::{self, LINK_KEY_BLOCK, PROBE_PROFILE_BLOCK, STATE_LOG_F
 use firmware::hw::{StateStore, SERVO_PWM_HZ};
 use firmware::pins::{self, GptOutput, PortPin};
 use firmware::StoredState;
-use protocol::messages::{DeviceMessage, Event, Mode, ResponseBody};
+use protocol::messages::{DeviceMessage, Event, Mode, ParamId, ResponseBody};
 use protocol::FrameDecoder;
 use ra4m1_emu::{Emulator, Line, Options, PinDrive};
 
@@ -99,6 +99,17 @@ pub struct ElfBoard {
     pub mode: Mode,
     /// State last reported (telemetry, status, state events).
     pub state: geometry::TrunkState,
+    /// The pressure cap the board last reported (its handshake, an answer to `GetParam` or
+    /// `SetParam`); its boot value until then ([`boot_pressure_limit_kpa`]).
+    pub pressure_limit_kpa: f32,
+}
+
+/// The pressure cap the board ELF boots with: the firmware's default configuration's
+/// (`crates/firmware/src/bin/uno_r4.rs`), which no reset keeps a change of.
+pub fn boot_pressure_limit_kpa() -> f32 {
+    firmware::CraneConfig::default()
+        .validated()
+        .pressure_limit_kpa
 }
 
 impl std::fmt::Debug for ElfBoard {
@@ -126,6 +137,7 @@ impl ElfBoard {
             sniffer: FrameDecoder::default(),
             mode: Mode::Standalone,
             state: initial.state,
+            pressure_limit_kpa: boot_pressure_limit_kpa(),
         })
     }
 
@@ -263,6 +275,18 @@ impl ElfBoard {
                 self.mode = s.mode;
                 self.state = s.state;
             }
+            Some(Ok(DeviceMessage::Response {
+                body: ResponseBody::Hello(info),
+                ..
+            })) => self.pressure_limit_kpa = info.trunk.pressure_limit_kpa,
+            Some(Ok(DeviceMessage::Response {
+                body:
+                    ResponseBody::Param {
+                        id: ParamId::PressureLimitKpa,
+                        value,
+                    },
+                ..
+            })) => self.pressure_limit_kpa = value,
             _ => {}
         }
     }
@@ -271,6 +295,7 @@ impl ElfBoard {
     pub fn power_cycle(&mut self) -> Result<(), ElfBoardError> {
         self.emu.power_cycle()?;
         self.sniffer = FrameDecoder::default();
+        self.pressure_limit_kpa = boot_pressure_limit_kpa();
         Ok(())
     }
 }

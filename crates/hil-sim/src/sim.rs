@@ -4,10 +4,12 @@ use std::collections::VecDeque;
 use std::fmt::Write as _;
 
 use firmware::hw::{PinInputs, PinOutputs, ServoOutput, ServoPulse, Shell};
-use firmware::{Buttons, Controller, CraneConfig, StoredState};
+/// The buttons a test or a person holds ([`Sim::set_buttons`]): the controller's own input.
+pub use firmware::Buttons;
+use firmware::{Controller, CraneConfig, StoredState};
 use geometry::TrunkState;
 use protocol::messages::{Board, DeviceMessage, Event, ManualTask, Mode, ModuleConfig};
-use protocol::FrameDecoder;
+use protocol::{CraneGeometry, FrameDecoder};
 use rand::{Rng, SeedableRng};
 
 use crate::devices::{
@@ -96,7 +98,7 @@ pub struct Safety {
     pub true_state: Option<TrunkState>,
     /// True gauge pressure, kPa.
     pub pressure_kpa: f32,
-    /// The controller's pressure cap, kPa.
+    /// The running controller's pressure cap, kPa ([`Sim::pressure_limit_kpa`]).
     pub pressure_limit_kpa: f32,
     /// The inlet passes air (a stuck valve included).
     pub inlet_open: bool,
@@ -117,7 +119,7 @@ pub struct GroundTruth {
     pub true_state: Option<TrunkState>,
     /// Highest true gauge pressure so far, kPa.
     pub max_pressure_kpa: f32,
-    /// The controller's pressure cap, kPa.
+    /// The running controller's pressure cap, kPa ([`Sim::pressure_limit_kpa`]).
     pub pressure_limit_kpa: f32,
     /// Inlet closed, every servo limp or at its command (none pushing toward a position it
     /// has not reached), and the pressure within the cap.
@@ -175,24 +177,33 @@ pub type SimShell = Shell<SimInputs, SimOutputs, SimDisplay, SimFlash, SimSerial
 /// trunk: a test checks it), with the board of this simulator; the trunk is still set from
 /// the physics' constants, so a change there reaches the controller.
 pub fn sim_crane_config() -> CraneConfig {
-    let mut cfg = CraneConfig {
+    CraneConfig {
         board: Board::Simulator,
+        geometry: sim_crane_geometry(),
         ..CraneConfig::default()
-    };
-    cfg.trunk.top = ModuleConfig {
-        n: N_SIDES as u8,
-        beta_deg: TOP_BETA_DEG as f32,
-        edge_mm: EDGE_MM as f32,
-        layers: TOP_LAYERS as u8,
-    };
-    cfg.trunk.bottom = ModuleConfig {
-        n: N_SIDES as u8,
-        beta_deg: BOTTOM_BETA_DEG as f32,
-        edge_mm: EDGE_MM as f32,
-        layers: BOTTOM_LAYERS as u8,
-    };
-    cfg.packed_layer_mm = PACKED_LAYER_MM as f32;
-    cfg.validated()
+    }
+    .validated()
+}
+
+/// The simulated crane's shape (what a host plans the simulator with): the firmware's default
+/// geometry with the simulated trunk's modules and packed layer.
+pub fn sim_crane_geometry() -> CraneGeometry {
+    CraneGeometry {
+        top: ModuleConfig {
+            n: N_SIDES as u8,
+            beta_deg: TOP_BETA_DEG as f32,
+            edge_mm: EDGE_MM as f32,
+            layers: TOP_LAYERS as u8,
+        },
+        bottom: ModuleConfig {
+            n: N_SIDES as u8,
+            beta_deg: BOTTOM_BETA_DEG as f32,
+            edge_mm: EDGE_MM as f32,
+            layers: BOTTOM_LAYERS as u8,
+        },
+        packed_layer_mm: PACKED_LAYER_MM as f32,
+        ..CraneConfig::default().geometry
+    }
 }
 
 /// The simulated crane running the real controller.
@@ -300,12 +311,12 @@ impl Sim {
         let cfg = sim_crane_config();
         let mut params = opts.trunk.params()?;
         // The tendons run where the rig puts them: the controller's configured radius.
-        params.tendon_radius_mm = cfg.tendon_radius_mm as f64;
+        params.tendon_radius_mm = cfg.geometry.tendon_radius_mm as f64;
         let trunk = Trunk::new(params, opts.initial);
         let spec = ServoSpec::default();
         let faults = FaultInjector::new(&opts.faults);
         let mut servos: [Servo; 3] =
-            core::array::from_fn(|i| Servo::new(spec, cfg.servo.slack_deg[i] as f64));
+            core::array::from_fn(|i| Servo::new(spec, cfg.geometry.winch.slack_deg[i] as f64));
         for s in &mut servos {
             s.spec.stall_torque_n_m *= faults.stall_torque_factor();
         }
@@ -476,7 +487,8 @@ impl Sim {
         self.now_ms
     }
 
-    /// The crane configuration the controller runs with.
+    /// The crane configuration the host-built controller booted with (a board ELF boots with
+    /// its own; the pressure cap in effect is [`Sim::pressure_limit_kpa`]).
     pub fn crane_config(&self) -> &CraneConfig {
         &self.cfg
     }
@@ -724,16 +736,20 @@ impl Sim {
         let exhaust_cmd = out.exhaust.high;
         let inlet_open = self.faults.inlet(out.inlet.high);
         let dt_s = STEP_MS as f64 * 1e-3;
-        let spool_m = self.cfg.servo.spool_radius_mm as f64 * 1e-3;
+        let spool_m = self.cfg.geometry.winch.spool_radius_mm as f64 * 1e-3;
         let tensions = self.trunk.tensions_n();
         let mut pay_in_mm = [0.0; 3];
         for (i, servo) in self.servos.iter_mut().enumerate() {
             // The tendon's torque opposes the pulling direction of the shaft.
-            let sign = self.cfg.servo.pull_sign[i] as f64;
+            let sign = self.cfg.geometry.winch.pull_sign[i] as f64;
             servo.step(dt_s, sign * tensions[i] * spool_m);
             let bits = servo.angle_deg.to_bits();
             if self.pay_in[i].0 != bits {
-                let mm = self.cfg.servo.length_for_angle(i, servo.angle_deg as f32) as f64;
+                let mm = self
+                    .cfg
+                    .geometry
+                    .winch
+                    .length_for_angle(i, servo.angle_deg as f32) as f64;
                 self.pay_in[i] = (bits, mm);
             }
             pay_in_mm[i] = self.pay_in[i].1;
@@ -918,7 +934,7 @@ impl Sim {
 
     /// What really happened.
     pub fn ground_truth(&self) -> GroundTruth {
-        let limit = self.cfg.pressure_limit_kpa;
+        let limit = self.pressure_limit_kpa();
         let p = self.trunk.pressure_kpa() as f32;
         let inlet_open = self.inlet_passes();
         let (believed_state, mode) = self.believed();
@@ -1005,7 +1021,7 @@ impl Sim {
         Safety {
             true_state: self.trunk.state(),
             pressure_kpa: self.trunk.pressure_kpa() as f32,
-            pressure_limit_kpa: self.cfg.pressure_limit_kpa,
+            pressure_limit_kpa: self.pressure_limit_kpa(),
             inlet_open: self.inlet_passes(),
             inlet_commanded_open: self.shell.outputs.inlet.high,
             exhaust_open: self.shell.outputs.exhaust.high,
@@ -1024,8 +1040,20 @@ impl Sim {
             .all(|s| s.limp || (s.angle_deg - s.command_deg).abs() < 0.5)
     }
 
+    /// The pressure cap of the controller that runs, kPa: the host-built controller's own
+    /// (every `SetParam` it accepted), or with a board ELF what the board last reported
+    /// ([`ElfBoard::pressure_limit_kpa`](crate::elf_board::ElfBoard::pressure_limit_kpa)).
+    /// The one source of the cap the judge holds the pressure to.
+    pub fn pressure_limit_kpa(&self) -> f32 {
+        #[cfg(feature = "pil")]
+        if let Some(b) = &self.board {
+            return b.pressure_limit_kpa;
+        }
+        self.ctl.config().pressure_limit_kpa
+    }
+
     fn actuators_safe(&self) -> bool {
-        let limit = self.ctl.config().pressure_limit_kpa as f64;
+        let limit = self.pressure_limit_kpa() as f64;
         !self.inlet_passes() && self.servos_still() && self.trunk.pressure_kpa() <= limit
     }
 
@@ -1168,8 +1196,7 @@ mod tests {
     fn the_firmware_default_is_this_trunk_and_its_heights_are_the_physics_wells() {
         let fw = CraneConfig::default();
         let sim = sim_crane_config();
-        assert_eq!(fw.trunk, sim.trunk);
-        assert_eq!(fw.packed_layer_mm, sim.packed_layer_mm);
+        assert_eq!(fw.geometry, sim.geometry);
         // The controller's state heights (its joystick take-up) are where the physics rests.
         for s in TrunkState::ALL {
             let trunk = Trunk::new(crate::physics::TrunkParams::pdf().unwrap(), s);

@@ -620,7 +620,7 @@ impl Checker {
 
 /// The host's model of the straight trunk's heights, for the simulator's own configuration.
 pub fn model_heights() -> Option<geometry::reach::TrunkHeights> {
-    let cfg = crate::sim::sim_crane_config();
+    let cfg = crate::sim::sim_crane_geometry();
     let m = |c: &protocol::ModuleConfig| geometry::reach::BuiltModule {
         n: u32::from(c.n),
         beta_deg: f64::from(c.beta_deg),
@@ -628,8 +628,8 @@ pub fn model_heights() -> Option<geometry::reach::TrunkHeights> {
         layers: u32::from(c.layers),
     };
     geometry::reach::TrunkHeights::of_modules(
-        m(&cfg.trunk.top),
-        m(&cfg.trunk.bottom),
+        m(&cfg.top),
+        m(&cfg.bottom),
         f64::from(cfg.packed_layer_mm),
     )
     .ok()

@@ -298,7 +298,7 @@ pub fn true_tip(trunk: &Trunk) -> TipPose {
 /// (docs/geometry.md, "Tip pose and workspace").
 pub fn calibrate(
     mut ws: planner::task::Workspace,
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
 ) -> Result<planner::task::Workspace, String> {
     use geometry::reach::side_tip_split;
     use geometry::TrunkState;

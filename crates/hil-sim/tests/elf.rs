@@ -621,6 +621,48 @@ fn pressure_limit(host: &mut SimHost, sim: &mut Sim) -> f32 {
     }
 }
 
+/// The judge holds the pressure to the cap the running board has, not the simulator's boot
+/// copy nor its host-built controller's: a `SetParam` the board accepted moves it (the safety
+/// check and the ground truth alike, equal to the board's `GetParam` answer), a refused one
+/// does not, and a power cut brings back the board's boot cap (no reset keeps a change).
+#[test]
+fn the_judge_holds_the_pressure_to_the_cap_the_board_elf_has_now() {
+    use protocol::messages::{ParamId, RequestBody};
+    use protocol::ResultCode;
+    let (mut sim, mut host) = sim("F&P");
+    let boot = hil_sim::elf_board::boot_pressure_limit_kpa();
+    assert_eq!(pressure_limit(&mut host, &mut sim), boot);
+    assert_eq!(sim.pressure_limit_kpa(), boot);
+    for kpa in [25.0, 52.5] {
+        let set = RequestBody::SetParam {
+            id: ParamId::PressureLimitKpa,
+            value: kpa,
+        };
+        let (res, _) = host.request(&mut sim, set, 1_000).expect("answered");
+        assert_eq!(res, ResultCode::Ok);
+        assert_eq!(pressure_limit(&mut host, &mut sim), kpa);
+        assert_eq!(sim.safety().pressure_limit_kpa, kpa);
+        assert_eq!(sim.ground_truth().pressure_limit_kpa, kpa);
+        // The host-built controller the simulator also holds never saw the change.
+        assert_eq!(sim.controller().config().pressure_limit_kpa, boot);
+    }
+    let set = RequestBody::SetParam {
+        id: ParamId::PressureLimitKpa,
+        value: protocol::HARD_MAX_PRESSURE_KPA + 1.0,
+    };
+    let (res, _) = host.request(&mut sim, set, 1_000).expect("answered");
+    assert!(matches!(res, ResultCode::Rejected(_)), "{res:?}");
+    assert_eq!(sim.safety().pressure_limit_kpa, 52.5);
+
+    sim.power_cycle();
+    assert_eq!(sim.safety().pressure_limit_kpa, boot);
+    sim.run_for(100);
+    let mut host = SimHost::new();
+    host.hello(&mut sim).expect("handshake after the cut");
+    assert_eq!(pressure_limit(&mut host, &mut sim), boot);
+    assert_eq!(sim.ground_truth().pressure_limit_kpa, boot);
+}
+
 /// Steps the board until `done` (at most `limit_ms`); the milliseconds it took.
 fn until(sim: &mut Sim, limit_ms: u64, done: impl Fn(&Sim) -> bool) -> Option<u64> {
     let t0 = sim.now_ms();

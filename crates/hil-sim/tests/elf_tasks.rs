@@ -37,12 +37,12 @@ fn the_elf_grasps_carries_and_places_an_object() {
     // The workspace the host plans with on the simulator (calibrated against it).
     let cfg = *sim.crane_config();
     let limits = Workspace::held_limits(
-        TrunkState::ALL.map(|s| cfg.bend_limit_deg(s).map(f64::from)),
-        f64::from(cfg.take_up_margin_mm),
-        f64::from(cfg.tendon_radius_mm),
+        TrunkState::ALL.map(|s| cfg.geometry.bend_limit_deg(s).map(f64::from)),
+        f64::from(cfg.geometry.take_up_margin_mm),
+        f64::from(cfg.geometry.tendon_radius_mm),
     );
-    let ws = Workspace::of_trunk(&cfg.trunk, f64::from(cfg.packed_layer_mm), limits).unwrap();
-    let ws = hil_sim::world::calibrate(ws, &cfg).unwrap();
+    let ws = Workspace::of_crane(&cfg.geometry, limits).unwrap();
+    let ws = hil_sim::world::calibrate(ws, &cfg.geometry).unwrap();
     let at = ws.tip(fp, 0.0, 0.0).unwrap().position_mm;
     let place = ws.tip(ff, 15.0, 180.0).unwrap().position_mm;
     let object = Object::parse(&format!("low:{},{},{},0.05", at[0], at[1], at[2])).unwrap();
@@ -66,8 +66,9 @@ fn the_elf_grasps_carries_and_places_an_object() {
     run(&mut host, &mut sim, 3, &carry);
     let n = ws.nearest_in(ff, place).unwrap();
     assert!(n.distance_mm < 1e-6);
-    let tg = geometry::tendon::TendonGeometry::new(f64::from(cfg.tendon_radius_mm)).unwrap();
-    let cmd = tg.command_for(n.bend, f64::from(cfg.take_up_margin_mm));
+    let tg =
+        geometry::tendon::TendonGeometry::new(f64::from(cfg.geometry.tendon_radius_mm)).unwrap();
+    let cmd = tg.command_for(n.bend, f64::from(cfg.geometry.take_up_margin_mm));
     run(
         &mut host,
         &mut sim,

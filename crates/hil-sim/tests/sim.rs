@@ -636,3 +636,48 @@ fn a_paired_link_key_survives_a_power_cycle() {
         "the handshake after the power cycle says signing is on"
     );
 }
+
+/// The device's cap as it answers `GetParam`.
+fn device_cap(host: &mut SimHost, sim: &mut Sim) -> f32 {
+    use protocol::messages::{ParamId, RequestBody, ResponseBody};
+    match host.request_ok(sim, RequestBody::GetParam(ParamId::PressureLimitKpa), 1_000) {
+        Ok(ResponseBody::Param { value, .. }) => value,
+        other => panic!("{other:?}"),
+    }
+}
+
+/// The judge holds the pressure to the cap the running controller has: a `SetParam` the
+/// controller accepted moves the judge's cap (the safety check, the ground truth and
+/// `actuators_safe` alike), a refused one does not; never the boot copy.
+#[test]
+fn the_judge_holds_the_pressure_to_the_cap_the_controller_has_now() {
+    use protocol::messages::{ParamId, RequestBody, ResponseBody};
+    use protocol::ResultCode;
+    let (mut sim, mut host) = sim_at(st("F&P"), &[]);
+    assert_eq!(device_cap(&mut host, &mut sim), 40.0);
+    assert_eq!(sim.pressure_limit_kpa(), 40.0);
+    for kpa in [25.0, 52.5] {
+        let set = RequestBody::SetParam {
+            id: ParamId::PressureLimitKpa,
+            value: kpa,
+        };
+        match host.request(&mut sim, set, 1_000) {
+            Ok((ResultCode::Ok, ResponseBody::Param { value, .. })) => assert_eq!(value, kpa),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(device_cap(&mut host, &mut sim), kpa);
+        assert_eq!(sim.pressure_limit_kpa(), kpa);
+        assert_eq!(sim.safety().pressure_limit_kpa, kpa);
+        assert_eq!(sim.ground_truth().pressure_limit_kpa, kpa);
+    }
+    // Above the hard maximum: refused, the cap stays.
+    let set = RequestBody::SetParam {
+        id: ParamId::PressureLimitKpa,
+        value: protocol::HARD_MAX_PRESSURE_KPA + 1.0,
+    };
+    let (res, _) = host.request(&mut sim, set, 1_000).expect("answered");
+    assert!(matches!(res, ResultCode::Rejected(_)), "{res:?}");
+    assert_eq!(device_cap(&mut host, &mut sim), 52.5);
+    assert_eq!(sim.safety().pressure_limit_kpa, 52.5);
+    assert_eq!(sim.ground_truth().pressure_limit_kpa, 52.5);
+}

@@ -11,11 +11,11 @@ use protocol::StepKind;
 pub fn workspace(sim: &Sim) -> Workspace {
     let cfg = sim.crane_config();
     let limits = Workspace::held_limits(
-        TrunkState::ALL.map(|s| cfg.bend_limit_deg(s).map(f64::from)),
-        f64::from(cfg.take_up_margin_mm),
-        f64::from(cfg.tendon_radius_mm),
+        TrunkState::ALL.map(|s| cfg.geometry.bend_limit_deg(s).map(f64::from)),
+        f64::from(cfg.geometry.take_up_margin_mm),
+        f64::from(cfg.geometry.tendon_radius_mm),
     );
-    Workspace::of_trunk(&cfg.trunk, f64::from(cfg.packed_layer_mm), limits).unwrap()
+    Workspace::of_crane(&cfg.geometry, limits).unwrap()
 }
 
 /// Bends the simulator in `state` by `angle_deg` toward `dir_deg` through the controller, lets
@@ -30,11 +30,12 @@ fn bent(state: TrunkState, angle_deg: f64, dir_deg: f64) -> ([f64; 3], [f64; 3],
     host.hello(&mut sim).unwrap();
     let bend = ws.check_bend(state, angle_deg, dir_deg).unwrap();
     let cfg = sim.crane_config();
-    let tg = geometry::tendon::TendonGeometry::new(f64::from(cfg.tendon_radius_mm)).unwrap();
+    let tg =
+        geometry::tendon::TendonGeometry::new(f64::from(cfg.geometry.tendon_radius_mm)).unwrap();
     let cmd = if std::env::var_os("RAW").is_some() {
         bend
     } else {
-        tg.command_for(bend, f64::from(cfg.take_up_margin_mm))
+        tg.command_for(bend, f64::from(cfg.geometry.take_up_margin_mm))
     };
     let step = step_within(state, StepKind::Tendon, &[bend_primitive(cmd)]);
     let (ok, end) = host.run_plan(&mut sim, 1, &[step], 30_000).unwrap();
@@ -197,8 +198,9 @@ fn largest_tip_load_each_state_holds() {
 fn calibrated_reach_error_over_a_grid_of_each_state() {
     let sim = Sim::new(SimOptions::default());
     let cfg = *sim.crane_config();
-    let ws = hil_sim::world::calibrate(workspace(&sim), &cfg).unwrap();
-    let tg = geometry::tendon::TendonGeometry::new(f64::from(cfg.tendon_radius_mm)).unwrap();
+    let ws = hil_sim::world::calibrate(workspace(&sim), &cfg.geometry).unwrap();
+    let tg =
+        geometry::tendon::TendonGeometry::new(f64::from(cfg.geometry.tendon_radius_mm)).unwrap();
     for state in TrunkState::ALL.into_iter().filter(|s| s.is_flexible()) {
         let limit = ws.limit_deg(state).unwrap();
         let mut errors = Vec::new();
@@ -218,7 +220,7 @@ fn calibrated_reach_error_over_a_grid_of_each_state() {
                 });
                 let mut host = SimHost::new();
                 host.hello(&mut sim).unwrap();
-                let cmd = tg.command_for(n.bend, f64::from(cfg.take_up_margin_mm));
+                let cmd = tg.command_for(n.bend, f64::from(cfg.geometry.take_up_margin_mm));
                 let step = step_within(state, StepKind::Tendon, &[bend_primitive(cmd)]);
                 let (ok, _) = host.run_plan(&mut sim, 1, &[step], 30_000).unwrap();
                 assert!(ok);

@@ -726,7 +726,7 @@ fn parse_aim(
 /// What the checks know of the crane the mission runs on.
 pub struct Crane<'a> {
     /// The crane's configuration (the simulator's for `--sim`).
-    pub cfg: &'a firmware::CraneConfig,
+    pub cfg: &'a protocol::CraneGeometry,
     /// Whether the built-in simulator runs it (a prompt's person is simulated then).
     pub sim: bool,
     /// Whether a `host-tool serve` server holds the device.

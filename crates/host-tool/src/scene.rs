@@ -13,13 +13,13 @@ use std::collections::HashMap;
 use fabrication::folded::{fold, LayerState};
 use fabrication::pattern::Pattern;
 use fabrication::{Module, Trunk};
-use firmware::config::CraneConfig;
 use foxglove::messages::{
     Color, CubePrimitive, FrameTransform, FrameTransforms, Point3, Pose, Quaternion, SceneEntity,
     SceneUpdate, SpherePrimitive, TextPrimitive, Timestamp, TriangleListPrimitive, Vector3,
 };
 use geometry::tendon::{Bend, TendonGeometry};
 use geometry::{BottomState, ModuleDesign, TopState, TrunkState};
+use protocol::CraneGeometry;
 
 /// The frame the trunk is drawn in.
 pub const BASE_FRAME: &str = "base";
@@ -52,7 +52,8 @@ pub struct Scene {
     pattern: Pattern,
     designs: Vec<(TrunkLayer, ModuleDesign)>,
     meshes: HashMap<TrunkState, Vec<ModuleMesh>>,
-    cfg: CraneConfig,
+    cfg: CraneGeometry,
+    pressure_limit_kpa: f32,
     tendons: TendonGeometry,
 }
 
@@ -65,14 +66,11 @@ enum TrunkLayer {
 
 impl Scene {
     /// The scene of the trunk the device reports in its handshake (modules, layers, edge
-    /// length, pressure cap); the servo winches and the tendon radius are the firmware's
-    /// defaults (the device does not report them).
+    /// length, pressure cap); the servo winches and the tendon radius are the crane's as built
+    /// ([`CraneGeometry::default`]: the device does not report them).
     pub fn new(trunk: &protocol::TrunkConfig) -> anyhow::Result<Self> {
-        let cfg = CraneConfig {
-            trunk: *trunk,
-            pressure_limit_kpa: trunk.pressure_limit_kpa,
-            ..CraneConfig::default()
-        };
+        let cfg = CraneGeometry::default().with_trunk(trunk);
+        let trunk_cap = trunk.pressure_limit_kpa;
         let module = |m: &protocol::ModuleConfig| -> anyhow::Result<Module> {
             let design = ModuleDesign::new(u32::from(m.n), f64::from(m.beta_deg))
                 .map_err(|e| anyhow::anyhow!("the trunk's module design: {e:?}"))?;
@@ -106,6 +104,7 @@ impl Scene {
             designs,
             meshes: HashMap::new(),
             cfg,
+            pressure_limit_kpa: trunk_cap,
             tendons,
         })
     }
@@ -113,7 +112,8 @@ impl Scene {
     /// The scene of the firmware's default trunk (the paper's crane).
     #[cfg(test)]
     pub fn crane() -> anyhow::Result<Self> {
-        Self::new(&CraneConfig::default().trunk)
+        // 40 kPa: the firmware's default cap.
+        Self::new(&CraneGeometry::default().trunk(40.0))
     }
 
     /// Number of modules (one scene entity each).
@@ -123,12 +123,12 @@ impl Scene {
 
     /// The pressure cap the colour scale ends at, kPa.
     pub fn pressure_limit_kpa(&self) -> f32 {
-        self.cfg.pressure_limit_kpa
+        self.pressure_limit_kpa
     }
 
     /// The bend the servo angles make (their common part is an axial pull, not a bend).
     pub fn bend(&self, servo_deg: [f32; 3]) -> Bend {
-        let dl = [0, 1, 2].map(|i| -f64::from(self.cfg.servo.length_for_angle(i, servo_deg[i])));
+        let dl = [0, 1, 2].map(|i| -f64::from(self.cfg.winch.length_for_angle(i, servo_deg[i])));
         self.tendons
             .bend_from_length_changes(dl)
             .map_or(Bend::STRAIGHT, |s| s.bend)

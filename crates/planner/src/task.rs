@@ -199,11 +199,10 @@ impl Workspace {
         })
     }
 
-    /// The workspace of the trunk a device reports (its two modules) with the self-packed
-    /// layer height and the bend limits of its configuration.
-    pub fn of_trunk(
-        trunk: &protocol::TrunkConfig,
-        packed_layer_mm: f64,
+    /// The workspace of a crane's trunk (its two modules and self-packed layer height) with
+    /// the bend limits of its configuration.
+    pub fn of_crane(
+        crane: &protocol::CraneGeometry,
         limits_deg: [Option<f64>; 6],
     ) -> Result<Self, TaskError> {
         let m = |c: &protocol::ModuleConfig| BuiltModule {
@@ -212,7 +211,8 @@ impl Workspace {
             edge_mm: f64::from(c.edge_mm),
             layers: u32::from(c.layers),
         };
-        let heights = TrunkHeights::of_modules(m(&trunk.top), m(&trunk.bottom), packed_layer_mm)
+        let packed_layer_mm = f64::from(crane.packed_layer_mm);
+        let heights = TrunkHeights::of_modules(m(&crane.top), m(&crane.bottom), packed_layer_mm)
             .map_err(|_| TaskError::BadInput("the device's trunk has an invalid module"))?;
         Self::new(heights, limits_deg)
     }

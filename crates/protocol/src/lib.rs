@@ -23,6 +23,8 @@
 //!   [`DEFAULT_LINK_TIMEOUT_MS`], [`RESPONSE_TIMEOUT_MS`], [`MAX_RETRIES`].
 //! - [`transitions`]: the nominal trunk transition catalogue (owned by the simulator's
 //!   calibration; shared so planner, firmware and simulator agree).
+//! - [`crane`]: the crane's shape as host and controller both model it ([`CraneGeometry`]:
+//!   modules, tendons, winches, bend limits per state); plain data, not on the wire.
 //!
 //! # What this crate must not do
 //!
@@ -66,6 +68,7 @@
 #![cfg_attr(test, allow(clippy::assertions_on_constants))]
 
 pub mod codec;
+pub mod crane;
 pub mod frame;
 pub mod legacy;
 pub mod messages;
@@ -73,6 +76,7 @@ pub mod probe;
 pub mod sign;
 pub mod transitions;
 
+pub use crane::{CraneGeometry, WinchConfig, DEFAULT_VENT_TOLERANCE_KPA};
 pub use frame::{
     decode, encode, encode_device_message, DecoderStats, Feed, FrameDecoder, FrameError,
     LEGACY_CHECK_MAX, MAX_FRAME_LEN, MAX_RAW_LEN,

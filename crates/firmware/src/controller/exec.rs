@@ -396,8 +396,13 @@ impl Controller {
     /// lengthening trunk, and the snap would not come).
     fn pre_release_needed(&self, step: Option<&Step>) -> bool {
         step.is_some_and(|s| s.kind == StepKind::Pneumatic)
-            && ((0..3).any(|i| self.cfg.servo.length_for_angle(i, self.servo_deg[i]) > 0.5)
-                || self.vent_first(step))
+            && ((0..3).any(|i| {
+                self.cfg
+                    .geometry
+                    .winch
+                    .length_for_angle(i, self.servo_deg[i])
+                    > 0.5
+            }) || self.vent_first(step))
     }
 
     /// A pneumatic transition starts from the air: its snaps are counted on a ramp from
@@ -591,7 +596,12 @@ impl Controller {
         }
         let (p, valid) = (self.pressure.filt_kpa, self.pressure_valid());
         let pull_mm = (0..3).fold(0.0f32, |m, i| {
-            m.max(self.cfg.servo.length_for_angle(i, self.servo_deg[i]))
+            m.max(
+                self.cfg
+                    .geometry
+                    .winch
+                    .length_for_angle(i, self.servo_deg[i]),
+            )
         });
         if let Some(e) = self.exec.as_mut() {
             e.peak_kpa = e.peak_kpa.max(p);

@@ -1267,7 +1267,7 @@ impl Controller {
         {
             return None;
         }
-        let k = self.cfg.tendon_radius_mm * angle_rad;
+        let k = self.cfg.geometry.tendon_radius_mm * angle_rad;
         let (sin_d, cos_d) = crate::mathf::sin_cos_deg(direction_deg);
         if !(sin_d.is_finite() && k.is_finite()) {
             return None;
@@ -1308,11 +1308,13 @@ impl Controller {
             return;
         }
         self.joystick.used_raw = Some(raw);
-        let jc = crate::config::JoystickConfig {
-            max_bend_deg: self.max_bend_deg,
-            ..jc
-        };
-        let dl = joystick_lengths_f32(x, y, &jc, self.cfg.tendon_radius_mm);
+        let dl = joystick_lengths_f32(
+            x,
+            y,
+            jc.dead_zone,
+            self.max_bend_deg,
+            self.cfg.geometry.tendon_radius_mm,
+        );
         let take_up_mm = self.take_up_for(self.state());
         for (i, d) in dl.iter().enumerate() {
             // Around the state's taken-up slack: the inside tendon shortens, the others pay
@@ -1320,7 +1322,8 @@ impl Controller {
             let l = crate::clampf(take_up_mm + d, 0.0, self.cfg.max_tendon_mm);
             self.servo_target_deg[i] = self
                 .cfg
-                .servo
+                .geometry
+                .winch
                 .angle_for_length(i, l)
                 .max(self.cfg.servo.min_deg)
                 .min(self.cfg.servo.max_deg);
@@ -1462,7 +1465,8 @@ impl Controller {
 pub fn joystick_lengths_f32(
     x: f32,
     y: f32,
-    jc: &crate::config::JoystickConfig,
+    dead_zone: f32,
+    max_bend_deg: f32,
     tendon_radius_mm: f32,
 ) -> [f32; 3] {
     if !(x.is_finite() && y.is_finite()) {
@@ -1471,11 +1475,11 @@ pub fn joystick_lengths_f32(
     let (x, y) = (crate::clampf(x, -1.0, 1.0), crate::clampf(y, -1.0, 1.0));
     let r = crate::mathf::hypot(x, y);
     let m = r.min(1.0);
-    let dz = crate::clampf(jc.dead_zone, 0.0, 0.99);
+    let dz = crate::clampf(dead_zone, 0.0, 0.99);
     if m <= dz {
         return [0.0; 3];
     }
-    let angle_rad = jc.max_bend_deg.to_radians() * (m - dz) / (1.0 - dz);
+    let angle_rad = max_bend_deg.to_radians() * (m - dz) / (1.0 - dz);
     let k = tendon_radius_mm * angle_rad;
     // The bend's direction φ is the deflection's: cos(φ − φ_i) = (x cos φ_i + y sin φ_i) / r,
     // no angle needed (r > the dead zone ≥ 0 here).
@@ -1493,14 +1497,14 @@ const TENDON_DIRECTIONS: [(f32, f32); 3] = [(0.0, 1.0), (0.866_025_4, -0.5), (-0
 
 /// The servo angles of a set of tendon shortenings, or `None` if one is outside the limits.
 fn angles_for(cfg: &CraneConfig, length_mm: [f32; 3]) -> Option<[f32; 3]> {
-    let sc = &cfg.servo;
-    let deg_per_mm = 1.0 / sc.mm_per_deg();
+    let (sc, w) = (&cfg.servo, &cfg.geometry.winch);
+    let deg_per_mm = 1.0 / w.mm_per_deg();
     let mut a = [0.0; 3];
     for (i, l) in length_mm.iter().enumerate() {
         if !(l.is_finite() && *l >= 0.0 && *l <= cfg.max_tendon_mm) {
             return None;
         }
-        a[i] = sc.slack_deg[i] + sc.pull_sign[i] * l * deg_per_mm;
+        a[i] = w.slack_deg[i] + w.pull_sign[i] * l * deg_per_mm;
         if !sc.allows(a[i]) {
             return None;
         }
@@ -1518,13 +1522,13 @@ fn angles_for(cfg: &CraneConfig, length_mm: [f32; 3]) -> Option<[f32; 3]> {
 fn equal_pull_range(cfg: &CraneConfig) -> (f32, f32) {
     const EMPTY: (f32, f32) = (1.0, 0.0);
     let ok = |l: f32| angles_for(cfg, [l; 3]).is_some();
-    let sc = &cfg.servo;
+    let (sc, w) = (&cfg.servo, &cfg.geometry.winch);
     let top = cfg.max_tendon_mm;
-    let mm_per_deg = sc.mm_per_deg();
+    let mm_per_deg = w.mm_per_deg();
     let (mut lo, mut hi) = (0.0f32, top);
     for i in 0..3 {
-        let a = (sc.min_deg - sc.slack_deg[i]) * mm_per_deg * sc.pull_sign[i];
-        let b = (sc.max_deg - sc.slack_deg[i]) * mm_per_deg * sc.pull_sign[i];
+        let a = (sc.min_deg - w.slack_deg[i]) * mm_per_deg * w.pull_sign[i];
+        let b = (sc.max_deg - w.slack_deg[i]) * mm_per_deg * w.pull_sign[i];
         lo = lo.max(a.min(b));
         hi = hi.min(a.max(b));
     }
@@ -1556,7 +1560,7 @@ fn equal_pull_range(cfg: &CraneConfig) -> (f32, f32) {
 fn slack_angles(cfg: &CraneConfig) -> [f32; 3] {
     core::array::from_fn(|i| {
         crate::clampf(
-            cfg.servo.angle_for_length(i, 0.0),
+            cfg.geometry.winch.angle_for_length(i, 0.0),
             cfg.servo.min_deg,
             cfg.servo.max_deg,
         )
@@ -1565,14 +1569,14 @@ fn slack_angles(cfg: &CraneConfig) -> [f32; 3] {
 
 /// The largest bend in `state`: the joystick's full deflection, less where no module is folded.
 fn max_bend_deg(cfg: &CraneConfig, state: TrunkState) -> f32 {
-    cfg.max_bend_deg_in(state)
+    cfg.geometry.max_bend_deg_in(state)
 }
 
 /// The largest bend a stiff state takes before it buckles (D&P: no folded module), with a
 /// rounding allowance, or `None` where only the tendons limit a bend. The same rule at a
 /// plan's upload (each step's `from`) and when a `Bend` runs.
 fn stiff_bend_limit_rad(cfg: &CraneConfig, take_up_mm: f32, max_bend_deg: f32) -> Option<f32> {
-    (take_up_mm > 0.0 && max_bend_deg < cfg.joystick.max_bend_deg)
+    (take_up_mm > 0.0 && max_bend_deg < cfg.geometry.max_bend_deg)
         .then(|| max_bend_deg.to_radians() + 1e-5)
 }
 
@@ -1582,5 +1586,5 @@ fn take_up_mm(cfg: &CraneConfig, state: TrunkState) -> f32 {
     if !state.is_flexible() {
         return 0.0;
     }
-    (cfg.tendon_slack_mm(state) - cfg.take_up_margin_mm).max(0.0)
+    (cfg.tendon_slack_mm(state) - cfg.geometry.take_up_margin_mm).max(0.0)
 }

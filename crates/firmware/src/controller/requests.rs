@@ -134,7 +134,7 @@ impl Controller {
             schema_id: SCHEMA_ID,
             firmware_version: self.cfg.firmware_version,
             board: self.cfg.board,
-            trunk: self.cfg.trunk,
+            trunk: self.cfg.geometry.trunk(self.cfg.pressure_limit_kpa),
             session,
             reset_cause: self.link.reset_cause,
             signing: self.signing(),
@@ -493,7 +493,8 @@ impl Controller {
                 // one loop pass): the most any tendon is pulled by a bend of θ is take-up +
                 // r_t·θ, whatever the direction.
                 let take_up_mm = self.take_up_for(from);
-                let worst_mm = take_up_mm + self.cfg.tendon_radius_mm * angle_deg.to_radians();
+                let worst_mm =
+                    take_up_mm + self.cfg.geometry.tendon_radius_mm * angle_deg.to_radians();
                 let stiff_rad =
                     stiff_bend_limit_rad(&self.cfg, take_up_mm, max_bend_deg(&self.cfg, from));
                 if !(direction_deg.is_finite()
@@ -620,7 +621,6 @@ impl Controller {
         match id {
             ParamId::PressureLimitKpa => {
                 self.cfg.pressure_limit_kpa = value;
-                self.cfg.trunk.pressure_limit_kpa = value;
             }
             ParamId::ServoMinDeg => {
                 if value > self.cfg.servo.max_deg {

@@ -160,7 +160,7 @@ impl Plant {
         // Limp servos are back-driven to slack by the trunk.
         self.pulled_mm = if out.servos_enabled {
             (0..3)
-                .map(|i| cfg.servo.length_for_angle(i, out.servo_deg[i]))
+                .map(|i| cfg.geometry.winch.length_for_angle(i, out.servo_deg[i]))
                 .sum::<f32>()
                 / 3.0
         } else {
@@ -1505,12 +1505,12 @@ fn gripper_and_bend_primitives() {
     // the bend shortens by r_t·θ = 60 mm · 0.349 = 20.94 mm more, tendons 1 and 2 pay out half
     // of that (cos 120° = −0.5).
     let o = r.ctl.poll_outputs();
-    let take = r.cfg.tendon_slack_mm(FF) - r.cfg.take_up_margin_mm;
+    let take = r.cfg.tendon_slack_mm(FF) - r.cfg.geometry.take_up_margin_mm;
     assert!((take - 103.2).abs() < 0.1, "{take}");
     let pull = 60.0 * 20f32.to_radians();
     let want = [take + pull, take - pull / 2.0, take - pull / 2.0];
     for (i, w) in want.iter().enumerate() {
-        let got = r.cfg.servo.length_for_angle(i, o.servo_deg[i]);
+        let got = r.cfg.geometry.winch.length_for_angle(i, o.servo_deg[i]);
         assert!((got - w).abs() < 0.01, "{i}: {got} vs {w}: {o:?}");
     }
     assert!(r.ctl.status().state_confirmed);
@@ -1542,7 +1542,7 @@ fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
     };
     let reject = |_| ResultCode::Rejected(RejectReason::OutOfRange);
     let mut r = Rig::connected(FF);
-    let limit_deg = (r.cfg.max_tendon_mm - r.ctl.take_up_for(FF)) / r.cfg.tendon_radius_mm;
+    let limit_deg = (r.cfg.max_tendon_mm - r.ctl.take_up_for(FF)) / r.cfg.geometry.tendon_radius_mm;
     assert!((limit_deg.to_degrees() - 78.1).abs() < 0.1, "{limit_deg}");
     // 90° (94 mm of pull alone: the old check, without the take-up, let it through).
     let (code, body) = upload(&mut r, 1, &[bend(FF, 90.0)]);
@@ -1601,8 +1601,8 @@ fn a_bend_is_checked_at_upload_around_its_steps_taken_up_slack() {
     r.run_until(20_000, |r| r.plan_done().is_some()).unwrap();
     assert_eq!(r.plan_done(), Some((true, FF)), "{:?}", r.faults_raised());
     let o = r.ctl.poll_outputs();
-    let pulled = r.cfg.servo.length_for_angle(0, o.servo_deg[0]);
-    let want = r.ctl.take_up_for(FF) + r.cfg.tendon_radius_mm * 77f32.to_radians();
+    let pulled = r.cfg.geometry.winch.length_for_angle(0, o.servo_deg[0]);
+    let want = r.ctl.take_up_for(FF) + r.cfg.geometry.tendon_radius_mm * 77f32.to_radians();
     assert!((pulled - want).abs() < 0.01, "{pulled} vs {want}");
 }
 
@@ -2093,7 +2093,7 @@ fn joystick_bends_only_flexible_states() {
     r.run(3_000);
     let lengths = |r: &Rig| {
         let o = r.ctl.poll_outputs();
-        [0, 1, 2].map(|i| cfg.servo.length_for_angle(i, o.servo_deg[i]))
+        [0, 1, 2].map(|i| cfg.geometry.winch.length_for_angle(i, o.servo_deg[i]))
     };
     let near = |got: [f32; 3], want: [f32; 3]| {
         assert!(
@@ -2101,8 +2101,8 @@ fn joystick_bends_only_flexible_states() {
             "{got:?} vs {want:?}"
         );
     };
-    let take = cfg.tendon_slack_mm(FF) - cfg.take_up_margin_mm;
-    let pull0 = cfg.tendon_radius_mm * 30f32.to_radians();
+    let take = cfg.tendon_slack_mm(FF) - cfg.geometry.take_up_margin_mm;
+    let pull0 = cfg.geometry.tendon_radius_mm * 30f32.to_radians();
     near(
         lengths(&r),
         [take + pull0, take - pull0 / 2.0, take - pull0 / 2.0],
@@ -2127,7 +2127,7 @@ fn joystick_bends_only_flexible_states() {
         cfg.joystick.center_raw[1],
     ];
     r.run(2_000);
-    let take_df = cfg.tendon_slack_mm(DF) - cfg.take_up_margin_mm;
+    let take_df = cfg.tendon_slack_mm(DF) - cfg.geometry.take_up_margin_mm;
     assert!((take_df - 43.6).abs() < 0.1, "{take_df}");
     near(
         lengths(&r),
@@ -2214,16 +2214,16 @@ fn the_equal_pull_range_is_exactly_where_angles_for_succeeds() {
     let base = CraneConfig::default();
     cfgs.push(base);
     let mut c = base;
-    c.servo.pull_sign = [-1.0, 1.0, -1.0];
-    c.servo.slack_deg = [180.0, 0.0, 175.0];
+    c.geometry.winch.pull_sign = [-1.0, 1.0, -1.0];
+    c.geometry.winch.slack_deg = [180.0, 0.0, 175.0];
     cfgs.push(c);
     let mut c = base;
     c.servo.min_deg = 10.0;
     c.servo.max_deg = 20.0;
-    c.servo.slack_deg = [12.0, 11.0, 15.0];
+    c.geometry.winch.slack_deg = [12.0, 11.0, 15.0];
     cfgs.push(c);
     // Tendon 1 needs ≥ 10.5 mm to reach 10°, tendon 0 allows ≤ 8.4 mm: nothing.
-    c.servo.slack_deg = [12.0, 0.0, 15.0];
+    c.geometry.winch.slack_deg = [12.0, 0.0, 15.0];
     cfgs.push(c);
     let mut c = base;
     c.servo.min_deg = 90.0;
@@ -2235,8 +2235,8 @@ fn the_equal_pull_range_is_exactly_where_angles_for_succeeds() {
     c.max_tendon_mm = 20.0;
     cfgs.push(c);
     let mut c = base;
-    c.servo.spool_radius_mm = 7.3;
-    c.servo.slack_deg = [3.3, 41.0, 0.7];
+    c.geometry.winch.spool_radius_mm = 7.3;
+    c.geometry.winch.slack_deg = [3.3, 41.0, 0.7];
     cfgs.push(c);
     for (k, cfg) in cfgs.iter().enumerate() {
         let cfg = cfg.validated();
@@ -2296,7 +2296,7 @@ fn tendon_direction_table_is_the_geometry_crates() {
 #[test]
 fn bend_lengths_match_the_geometry_crate_for_any_direction() {
     let r = Rig::connected(DD);
-    let tg = geometry::tendon::TendonGeometry::new(r.cfg.tendon_radius_mm as f64).unwrap();
+    let tg = geometry::tendon::TendonGeometry::new(r.cfg.geometry.tendon_radius_mm as f64).unwrap();
     let mut worst: f64 = 0.0;
     let far = [1.0e6f32, -3.6e7 + 45.0, 3.0e38];
     for dir in (-1080..=1080).map(|d| d as f32).chain(far) {
@@ -2323,17 +2323,17 @@ fn bend_lengths_match_the_geometry_crate_for_any_direction() {
 fn joystick_twin_matches_the_geometry_crate() {
     let cfg = CraneConfig::default();
     let jc = cfg.joystick;
-    let map = geometry::tendon::JoystickMap::new(
-        (jc.max_bend_deg as f64).to_radians(),
-        jc.dead_zone as f64,
-    )
-    .unwrap();
-    let tg = geometry::tendon::TendonGeometry::new(cfg.tendon_radius_mm as f64).unwrap();
+    let max_deg = cfg.geometry.max_bend_deg;
+    let map =
+        geometry::tendon::JoystickMap::new((max_deg as f64).to_radians(), jc.dead_zone as f64)
+            .unwrap();
+    let tg = geometry::tendon::TendonGeometry::new(cfg.geometry.tendon_radius_mm as f64).unwrap();
     let mut worst: f64 = 0.0;
     for i in -20..=20 {
         for j in -20..=20 {
             let (x, y) = (i as f32 / 16.0, j as f32 / 16.0); // beyond ±1 too (clamped)
-            let ours = joystick_lengths_f32(x, y, &jc, cfg.tendon_radius_mm);
+            let ours =
+                joystick_lengths_f32(x, y, jc.dead_zone, max_deg, cfg.geometry.tendon_radius_mm);
             let dl = tg.length_changes(map.bend(x as f64, y as f64));
             for k in 0..3 {
                 worst = worst.max((ours[k] as f64 + dl[k]).abs());
@@ -2341,7 +2341,10 @@ fn joystick_twin_matches_the_geometry_crate() {
         }
     }
     assert!(worst < 0.01, "{worst} mm");
-    assert_eq!(joystick_lengths_f32(f32::NAN, 0.0, &jc, 60.0), [0.0; 3]);
+    assert_eq!(
+        joystick_lengths_f32(f32::NAN, 0.0, jc.dead_zone, max_deg, 60.0),
+        [0.0; 3]
+    );
 }
 
 #[test]

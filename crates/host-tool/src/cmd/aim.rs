@@ -293,7 +293,7 @@ impl Aimed {
 /// `change_state`, first in the state that aims closest.
 pub fn aim_crane(
     link: &mut Link,
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
     heading: Heading,
     (az, el): (f64, f64),
     change_state: bool,
@@ -502,7 +502,7 @@ mod tests {
 
     #[test]
     fn limits_are_the_held_limits_under_the_controllers() {
-        let cfg = firmware::CraneConfig::default();
+        let cfg = protocol::CraneGeometry::default();
         let ws = crate::cmd::pose::crane_workspace(&cfg).unwrap();
         let extra =
             (2.0 * f64::from(cfg.take_up_margin_mm) / f64::from(cfg.tendon_radius_mm)).to_degrees();
@@ -523,7 +523,7 @@ mod tests {
     #[test]
     fn on_a_calibrated_model_the_predicted_axis_meets_a_target_within_reach() {
         use planner::task::Calibration;
-        let cfg = firmware::CraneConfig::default();
+        let cfg = protocol::CraneGeometry::default();
         let fd: TrunkState = "F&D".parse().unwrap();
         let c = Calibration {
             gain: 0.7,

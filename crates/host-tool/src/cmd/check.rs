@@ -12,11 +12,11 @@
 
 use std::io::IsTerminal as _;
 
-use firmware::Buttons;
+use hil_sim::sim::Buttons;
 use protocol::{Primitive, Status};
 use serde_json::{json, Value};
 
-use crate::cmd::prim::{crane_config, run_step, step_for, Link};
+use crate::cmd::prim::{run_step, step_for, Link};
 use crate::device::DeviceArgs;
 use crate::failure::Failure;
 use host::text;
@@ -154,11 +154,7 @@ fn await_status(
 }
 
 /// Runs the lines in order into `out`; the first failure stops the ones after it.
-fn run_lines(
-    link: &mut Link,
-    cfg: &firmware::CraneConfig,
-    out: &mut Vec<Line>,
-) -> Result<(), Failure> {
+fn run_lines(link: &mut Link, out: &mut Vec<Line>) -> Result<(), Failure> {
     let st = link.status()?;
     out.push(line(
         "link",
@@ -175,7 +171,7 @@ fn run_lines(
         return Ok(());
     }
     let state = st.state;
-    let tol = cfg.vent_tolerance_kpa;
+    let tol = protocol::DEFAULT_VENT_TOLERANCE_KPA;
 
     // The sensor's zero: at rest with the exhaust open the trunk is at ambient.
     let end = run_step(link, step_for(state, Primitive::Vent { pressure_kpa: 0.0 }))?;
@@ -468,7 +464,6 @@ pub fn run(args: Args) -> Result<(), Failure> {
             "check needs a person at the crane to press the e-stop and the buttons and to answer with Enter: run it on a terminal (or with --sim)",
         ));
     }
-    let cfg = crane_config(&args.device);
     let mut link = Link::open_recorded(
         &args.device,
         &crate::cmd::task::WorldArgs::default().parse()?,
@@ -476,12 +471,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
         "check",
     )?;
     let mut lines = Vec::new();
-    let result = run_lines(&mut link, &cfg, &mut lines);
+    let result = run_lines(&mut link, &mut lines);
     // Whatever happened, the crane ends vented and released.
     release(&mut link);
     let safe = match link.status() {
         Ok(st)
-            if st.pressure_kpa > cfg.vent_tolerance_kpa
+            if st.pressure_kpa > protocol::DEFAULT_VENT_TOLERANCE_KPA
                 && crate::cmd::prim::blocked(&st).is_none() =>
         {
             run_step(

@@ -110,7 +110,7 @@ pub fn grip(link: &mut Link, close: bool) -> Result<Vec<Value>, Failure> {
     Ok(events)
 }
 
-fn straighten(link: &mut Link, cfg: &firmware::CraneConfig) -> Result<(), Failure> {
+fn straighten(link: &mut Link, cfg: &protocol::CraneGeometry) -> Result<(), Failure> {
     let st = link.status()?;
     if !st.state.is_flexible() {
         return Ok(());
@@ -130,7 +130,7 @@ const NOTHING_CAUGHT: &str = "nothing was caught";
 /// straighten. With a crane (no simulator) a person is asked to place the object first.
 pub fn pick(
     link: &mut Link,
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
     at: [f64; 3],
     place: [f64; 3],
     tolerance: f64,
@@ -274,7 +274,7 @@ type Part = (String, [f64; 3], [f64; 3]);
 
 /// The three objects of §6.3: one at each height, each picked in its state and placed on the
 /// other side.
-fn manipulation_set(cfg: &firmware::CraneConfig) -> Result<Vec<Part>, Failure> {
+fn manipulation_set(cfg: &protocol::CraneGeometry) -> Result<Vec<Part>, Failure> {
     let ws = crate::cmd::task::task_workspace(cfg)?;
     let tip = |s: &str, angle: f64, dir: f64| -> Result<[f64; 3], Failure> {
         let state: TrunkState = s.parse().map_err(|_| anyhow::anyhow!("state {s}"))?;
@@ -560,7 +560,6 @@ pub const TRUE_AMBIENT_KPA: f64 = 0.8;
 pub const HOLD_MS: u64 = 60_000;
 
 fn load(args: &DemoArgs) -> Result<(), Failure> {
-    let cfg = crane_config(&args.device);
     let world = WorldArgs::default().parse()?;
     let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "demo load")?;
     let st = link.status()?;
@@ -582,7 +581,7 @@ fn load(args: &DemoArgs) -> Result<(), Failure> {
         // Let the load settle on the sealed trunk, then let out what it squeezed: no air.
         link.wait(1_000)?;
         let st = link.status()?;
-        if st.pressure_kpa > cfg.vent_tolerance_kpa {
+        if st.pressure_kpa > protocol::DEFAULT_VENT_TOLERANCE_KPA {
             note(args.json, "vent: no air in the trunk");
             let end = run_step(
                 &mut link,
@@ -614,7 +613,7 @@ fn load(args: &DemoArgs) -> Result<(), Failure> {
     let device_ok = st.as_ref().is_some_and(|s| {
         s.state == dd
             && s.state_confirmed
-            && s.pressure_kpa <= cfg.vent_tolerance_kpa
+            && s.pressure_kpa <= protocol::DEFAULT_VENT_TOLERANCE_KPA
             && s.faults == 0
     });
     let truth_ok = truth.as_ref().is_none_or(|t| {

@@ -1,16 +1,16 @@
 //! `host-tool pose` (where the tip is for a state and a bend) and `host-tool workspace` (each
 //! state's reachable tips: JSON, a table, a side-view figure).
 //!
-//! Both are geometry queries (`geometry::reach`) on the crane the firmware is configured for
-//! (`firmware::CraneConfig::default()`: its trunk, its bend limits per state and its tendon
-//! take-up margin); nothing is sent to a device.
+//! Both are geometry queries (`geometry::reach`) on the crane as built
+//! (`protocol::CraneGeometry::default()`, what the firmware is configured with: its trunk, its
+//! bend limits per state and its tendon take-up margin); nothing is sent to a device.
 
 use std::path::PathBuf;
 
-use firmware::CraneConfig;
 use geometry::reach::{chain_in_plane, side_tip, TrunkHeights};
 use geometry::TrunkState;
 use planner::task::Workspace;
+use protocol::CraneGeometry;
 use serde_json::{json, Value};
 
 use crate::failure::Failure;
@@ -52,13 +52,13 @@ pub struct WorkspaceArgs {
 /// The crane's workspace as the firmware is configured: its trunk, the controller's bend
 /// limits per state less what the tendons' take-up margin costs
 /// ([`Workspace::held_limits`]).
-pub fn crane_workspace(cfg: &CraneConfig) -> Result<Workspace, Failure> {
+pub fn crane_workspace(cfg: &CraneGeometry) -> Result<Workspace, Failure> {
     let limits = Workspace::held_limits(
         TrunkState::ALL.map(|s| cfg.bend_limit_deg(s).map(f64::from)),
         f64::from(cfg.take_up_margin_mm),
         f64::from(cfg.tendon_radius_mm),
     );
-    Workspace::of_trunk(&cfg.trunk, f64::from(cfg.packed_layer_mm), limits)
+    Workspace::of_crane(cfg, limits)
         .map_err(|e| Failure::Runtime(anyhow::anyhow!("the crane's configuration: {e}")))
 }
 
@@ -86,7 +86,7 @@ fn r3(v: f64) -> f64 {
 pub fn run_pose(args: PoseArgs) -> Result<(), Failure> {
     let state = args.state;
     let (angle, dir) = args.bend.unwrap_or((0.0, 0.0));
-    let ws = crane_workspace(&CraneConfig::default())?;
+    let ws = crane_workspace(&CraneGeometry::default())?;
     let tip = ws
         .tip(state, angle, dir)
         .map_err(|e| Failure::usage(format!("--bend {angle},{dir}: {e}")))?;
@@ -164,7 +164,7 @@ pub fn run_workspace(args: WorkspaceArgs) -> Result<(), Failure> {
         })?),
         None => None,
     };
-    let cfg = CraneConfig::default();
+    let cfg = CraneGeometry::default();
     let ws = crane_workspace(&cfg)?;
     let all: Vec<Summary> = states
         .iter()

@@ -90,11 +90,11 @@ pub struct VentArgs {
 
 /// The crane configuration the host assumes: the simulator's for `--sim`, else the firmware's
 /// defaults (the crane as built).
-pub fn crane_config(device: &DeviceArgs) -> firmware::CraneConfig {
+pub fn crane_config(device: &DeviceArgs) -> protocol::CraneGeometry {
     if device.sim {
-        hil_sim::sim::sim_crane_config()
+        hil_sim::sim::sim_crane_geometry()
     } else {
-        firmware::CraneConfig::default()
+        protocol::CraneGeometry::default()
     }
 }
 
@@ -570,7 +570,7 @@ pub fn run_bend(args: BendArgs) -> Result<(), Failure> {
 /// take-up margin's compensation ([`TendonGeometry::command_for`]).
 pub fn bend_step(
     ws: &Workspace,
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
     state: TrunkState,
     angle: f64,
     toward: f64,
@@ -604,12 +604,8 @@ pub fn bend_step(
 /// The vent step for the device's state `st`: `Ok(None)` when the trunk is within the vent
 /// tolerance of ambient already (nothing to let out), refused where the simulator's physics
 /// says the trunk would collapse.
-pub fn vent_step(
-    link: &mut Link,
-    cfg: &firmware::CraneConfig,
-    st: &Status,
-) -> Result<Option<protocol::Step>, Failure> {
-    if st.pressure_kpa <= cfg.vent_tolerance_kpa {
+pub fn vent_step(link: &mut Link, st: &Status) -> Result<Option<protocol::Step>, Failure> {
+    if st.pressure_kpa <= protocol::DEFAULT_VENT_TOLERANCE_KPA {
         return Ok(None);
     }
     if let Some(why) = link
@@ -627,17 +623,16 @@ pub fn vent_step(
 /// Runs `host-tool vent`.
 pub fn run_vent(args: VentArgs) -> Result<(), Failure> {
     let world = args.world.parse()?;
-    let cfg = crane_config(&args.device);
     let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "vent")?;
     let st = ready(&mut link)?;
-    let step = match vent_step(&mut link, &cfg, &st) {
+    let step = match vent_step(&mut link, &st) {
         Ok(Some(step)) => step,
         Ok(None) => {
             link.close();
             return Err(Failure::Runtime(anyhow::anyhow!(
                 "refused: the trunk is at {} kPa, within {} kPa of ambient: nothing to let out",
                 crate::num::fixed(f64::from(st.pressure_kpa), 1),
-                cfg.vent_tolerance_kpa
+                protocol::DEFAULT_VENT_TOLERANCE_KPA
             )));
         }
         Err(e) => {

@@ -78,7 +78,7 @@ pub fn parse_tolerance(text: &str) -> Result<f64, Failure> {
 /// The plan to put the tip at `goal` from `from`, or the refusal (a usage error: no state
 /// reaches it, whatever the trunk's state).
 pub fn plan_reach(
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
     from: TrunkState,
     goal: [f64; 3],
     tolerance: f64,
@@ -190,7 +190,7 @@ pub fn go_to_state(link: &mut Link, target: TrunkState) -> Result<(), Failure> {
 /// Carries out a reach plan: the transitions, then the bend (or straightening) in the state.
 pub fn execute(
     link: &mut Link,
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
     plan: &ReachPlan,
 ) -> Result<protocol::Status, Failure> {
     let st = link.status()?;

@@ -92,7 +92,7 @@ fn runtime(text: String) -> Failure {
 /// Runs one step's action on the link; its details (JSON) on success.
 fn act(
     link: &mut Link,
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
     step: &Step,
     json_out: bool,
 ) -> Result<Value, Failure> {
@@ -150,7 +150,7 @@ fn act(
         }
         Action::Vent => {
             let st = ready(link)?;
-            match crate::cmd::prim::vent_step(link, cfg, &st)? {
+            match crate::cmd::prim::vent_step(link, &st)? {
                 None => Ok(json!({"vented": false, "pressure_kpa": st.pressure_kpa})),
                 Some(s) => {
                     let end = run_step(link, s)?;
@@ -238,7 +238,7 @@ fn act(
 /// Runs a step under its time limit.
 fn run_one(
     link: &mut Link,
-    cfg: &firmware::CraneConfig,
+    cfg: &protocol::CraneGeometry,
     step: &Step,
     json_out: bool,
 ) -> Result<Ended, Failure> {

@@ -200,11 +200,14 @@ pub fn run(args: Args) -> Result<(), Failure> {
 /// `states --crane`: the crane trunk's height in each of its six states.
 fn crane(json: bool) -> Result<(), Failure> {
     use geometry::trunk::TrunkState;
-    let cfg = firmware::config::CraneConfig::default();
-    let t = &cfg.trunk;
+    let cfg = protocol::CraneGeometry::default();
+    let t = &cfg;
+    // The geometry crate's closed forms (the firmware's f32 twin agrees to 1e-4 relative,
+    // `crates/firmware/tests/config_heights.rs`), in f32 as the controller holds them.
+    let model = planner::task::Workspace::of_crane(&cfg, [None; 6]).ok();
     let heights: Vec<(TrunkState, Option<f32>)> = TrunkState::ALL
         .iter()
-        .map(|&s| (s, cfg.trunk_height_mm(s)))
+        .map(|&s| (s, model.as_ref().map(|w| w.heights().height_mm(s) as f32)))
         .collect();
     let module = |m: &protocol::ModuleConfig| {
         ordered_object(&[

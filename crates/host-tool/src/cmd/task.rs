@@ -141,7 +141,7 @@ pub fn vent_would_collapse(sim: &hil_sim::Sim, state: TrunkState) -> Option<Stri
 static TASK_WORKSPACE: std::sync::OnceLock<planner::task::Workspace> = std::sync::OnceLock::new();
 
 /// The workspace tasks plan with (see [`TASK_WORKSPACE`]).
-pub fn task_workspace(cfg: &firmware::CraneConfig) -> Result<planner::task::Workspace, Failure> {
+pub fn task_workspace(cfg: &protocol::CraneGeometry) -> Result<planner::task::Workspace, Failure> {
     match TASK_WORKSPACE.get() {
         Some(ws) => Ok(*ws),
         None => crate::cmd::pose::crane_workspace(cfg),
@@ -150,7 +150,7 @@ pub fn task_workspace(cfg: &firmware::CraneConfig) -> Result<planner::task::Work
 
 /// Calibrates the workspace tasks plan with against the simulator
 /// ([`hil_sim::world::calibrate`]).
-pub fn calibrate_for_sim(cfg: &firmware::CraneConfig) -> Result<(), Failure> {
+pub fn calibrate_for_sim(cfg: &protocol::CraneGeometry) -> Result<(), Failure> {
     let ws = crate::cmd::pose::crane_workspace(cfg)?;
     let ws = hil_sim::world::calibrate(ws, cfg)
         .map_err(|e| Failure::Runtime(anyhow::anyhow!("calibrating against the simulator: {e}")))?;

@@ -882,7 +882,7 @@ fn probe(t: &Transition, limit_kpa: f32, what: Measure) -> Transition {
     }
 }
 
-fn tendon_mm(cfg: &firmware::config::ServoConfig, deg: &[f32; 3]) -> f64 {
+fn tendon_mm(cfg: &protocol::WinchConfig, deg: &[f32; 3]) -> f64 {
     (0..3)
         .map(|i| f64::from(cfg.length_for_angle(i, deg[i])))
         .sum::<f64>()
@@ -1046,7 +1046,7 @@ fn calibrate(
                  correct the sensor's offset (its calibration in the firmware's configuration)"
             )));
         }
-        let servo = firmware::config::CraneConfig::default().servo;
+        let servo = protocol::CraneGeometry::default().winch;
         let steps = walk(manual);
         let mut measured = Vec::new();
         // The probe's signatures (with --manual: the walk then passes through every state).

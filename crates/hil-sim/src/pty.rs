@@ -265,18 +265,9 @@ impl PtySim {
             return Err(crate::world::WorldError::Duplicate(name));
         }
         lock(&self.truth.inbox).push(object);
-        let deadline = Instant::now() + limit;
-        let mut now = lock(&self.truth.now);
-        while !lock(&self.truth.objects).iter().any(|o| o.name == name) {
-            let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() || self.thread.as_ref().is_none_or(|t| t.is_finished()) {
-                break;
-            }
-            now = match self.truth.changed.wait_timeout(now, left) {
-                Ok((g, _)) => g,
-                Err(e) => e.into_inner().0,
-            };
-        }
+        self.wait_until(limit, || {
+            lock(&self.truth.objects).iter().any(|o| o.name == name)
+        });
         Ok(())
     }
 
@@ -289,27 +280,22 @@ impl PtySim {
         limit: Duration,
     ) {
         lock(&self.truth.folds).push((module, well));
-        let deadline = Instant::now() + limit;
-        let mut now = lock(&self.truth.now);
-        while !lock(&self.truth.folds).is_empty() {
-            let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() || self.thread.as_ref().is_none_or(|t| t.is_finished()) {
-                break;
-            }
-            now = match self.truth.changed.wait_timeout(now, left) {
-                Ok((g, _)) => g,
-                Err(e) => e.into_inner().0,
-            };
-        }
+        self.wait_until(limit, || lock(&self.truth.folds).is_empty());
     }
 
     /// Cuts and restores the board's power ([`Sim::power_cycle`]), and waits (at most `limit`
     /// of wall time) until the simulator has.
     pub fn power_cycle(&self, limit: Duration) {
         *lock(&self.truth.cuts) += 1;
+        self.wait_until(limit, || *lock(&self.truth.cuts) == 0);
+    }
+
+    /// Waits (at most `limit` of wall time, and not past the simulator thread's end) until
+    /// `done` holds, looking again at each update of the ground truth.
+    fn wait_until(&self, limit: Duration, done: impl Fn() -> bool) {
         let deadline = Instant::now() + limit;
         let mut now = lock(&self.truth.now);
-        while *lock(&self.truth.cuts) > 0 {
+        while !done() {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() || self.thread.as_ref().is_none_or(|t| t.is_finished()) {
                 break;

@@ -1225,15 +1225,12 @@ fn calibrate(
     let result = result.and_then(|profile| {
         std::fs::write(out, profile.to_toml())
             .map_err(|e| anyhow::anyhow!("writing {}: {e}", out.display()))?;
-        let store = match &profile.probe {
-            Some(probe) => Some(
-                probe
-                    .to_wire()
-                    .map_err(refuse)
-                    .and_then(|wire| store_in_session(s, wire)),
-            ),
-            None => None,
-        };
+        let store = profile.probe.as_ref().map(|probe| {
+            probe
+                .to_wire()
+                .map_err(refuse)
+                .and_then(|wire| store_in_session(s, wire))
+        });
         Ok((profile, store))
     });
     if let Some(value) = previous_rate {

@@ -559,6 +559,34 @@ impl TrunkSpec {
         })
     }
 
+    /// This trunk's physics printed to another design: the heights, the piston area and the
+    /// tendons' slack length derived from `design` (the packed well P and everything else
+    /// kept; the contact heights keep their ratio to each module's first well), named `name`.
+    /// The design is checked; the physics is checked by [`TrunkSpec::params`], not here (a
+    /// design's heights with this trunk's forces may be a trunk the crane cannot drive).
+    pub fn with_design(&self, name: &str, design: TrunkDesign) -> Result<Self, TrunkError> {
+        design.check()?;
+        let h = design.heights();
+        let mut s = self.clone();
+        s.name = name.to_string();
+        s.design = Some(design);
+        if s.top.wells.len() == 2 {
+            let first = s.top.wells[0].height_mm;
+            s.top.wells[0].height_mm = h.top[0];
+            s.top.wells[1].height_mm = h.top[1];
+            s.top.contact_mm *= h.top[0] / first;
+        }
+        if s.bottom.wells.len() == 4 {
+            let p = s.bottom.wells[0].height_mm;
+            s.bottom.wells[1].height_mm = 0.5 * p + 0.5 * h.bottom_folded_mm;
+            s.bottom.wells[2].height_mm = h.bottom_folded_mm;
+            s.bottom.wells[3].height_mm = h.bottom_deployed_mm;
+        }
+        s.pneumatics.area_mm2 = h.area_mm2;
+        s.mechanics.tendon_slack_length_mm = h.tendon_slack_length_mm;
+        Ok(s)
+    }
+
     /// Every snap force (each barrier's tension and compression) times `k` (checked against
     /// [`SCALE_RANGE`]; the result is checked by [`TrunkSpec::params`]).
     pub fn scaled(&self, k: f64) -> Result<Self, TrunkError> {
@@ -809,6 +837,17 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    #[test]
+    fn explore_designs() {
+        use super::super::design::ModuleDesignSpec as M;
+        let pdf = TrunkSpec::pdf();
+        for (name, n, edge, tb, bb) in [("l90", 3, 90.0, 31.72, 35.0), ("n4", 4, 75.0, 23.0, 30.0), ("l60", 3, 60.0, 30.5, 35.0)] {
+            let d = TrunkDesign { n, edge_mm: edge, top: M { beta_deg: tb, layers: 2 }, bottom: M { beta_deg: bb, layers: 2 } };
+            let s = pdf.with_design(name, d).unwrap();
+            std::fs::write(format!("/tmp/trunk25-{name}.toml"), s.to_toml()).unwrap();
+        }
     }
 
     #[test]

@@ -839,15 +839,56 @@ mod tests {
         ));
     }
 
-    #[test]
-    fn explore_designs() {
-        use super::super::design::ModuleDesignSpec as M;
-        let pdf = TrunkSpec::pdf();
-        for (name, n, edge, tb, bb) in [("l90", 3, 90.0, 31.72, 35.0), ("n4", 4, 75.0, 23.0, 30.0), ("l60", 3, 60.0, 30.5, 35.0)] {
-            let d = TrunkDesign { n, edge_mm: edge, top: M { beta_deg: tb, layers: 2 }, bottom: M { beta_deg: bb, layers: 2 } };
-            let s = pdf.with_design(name, d).unwrap();
-            std::fs::write(format!("/tmp/trunk25-{name}.toml"), s.to_toml()).unwrap();
+    /// `trunks/n4.toml`'s design: n = 4, 75 mm edges, a 23° top over a 30° bottom.
+    fn n4() -> TrunkDesign {
+        use super::super::design::ModuleDesignSpec;
+        TrunkDesign {
+            n: 4,
+            edge_mm: 75.0,
+            top: ModuleDesignSpec {
+                beta_deg: 23.0,
+                layers: 2,
+            },
+            bottom: ModuleDesignSpec {
+                beta_deg: 30.0,
+                layers: 2,
+            },
         }
+    }
+
+    #[test]
+    fn the_n4_example_is_the_pdf_physics_printed_to_its_design() {
+        let file = TrunkSpec::from_toml(include_str!("../../../../trunks/n4.toml")).unwrap();
+        let want = TrunkSpec::pdf().with_design("n4", n4()).unwrap();
+        assert_eq!(file, want);
+        file.check_design().unwrap();
+        file.params().unwrap();
+        // The same physics at the PDF's heights: the heights disagree with the design.
+        let mut wrong = file.clone();
+        wrong.top.wells = TrunkSpec::pdf().top.wells;
+        match wrong.check_design().unwrap_err() {
+            TrunkError::Disagrees { field, design, .. } => {
+                assert_eq!(field, "top.wells[0].height_mm (F)");
+                assert!((design - file.top.wells[0].height_mm).abs() < 1e-4);
+            }
+            e => panic!("{e}"),
+        }
+        // Within the tolerance (0.1 %) a rounded height is accepted, beyond it refused.
+        let mut rounded = file.clone();
+        rounded.pneumatics.area_mm2 *= 1.0 + 0.9 * DESIGN_TOLERANCE;
+        rounded.check_design().unwrap();
+        rounded.pneumatics.area_mm2 = file.pneumatics.area_mm2 * (1.0 + 1.1 * DESIGN_TOLERANCE);
+        assert!(matches!(
+            rounded.check_design().unwrap_err(),
+            TrunkError::Disagrees {
+                field: "pneumatics.area_mm2",
+                ..
+            }
+        ));
+        // A file without [design] is physics only: nothing to check.
+        let mut old = file;
+        old.design = None;
+        old.check_design().unwrap();
     }
 
     #[test]

@@ -74,9 +74,8 @@ fn design(n: u32, edge_mm: f64, top: (f64, u32), bottom: (f64, u32)) -> TrunkDes
 
 /// The DXF without its entity handles' random UUIDs (the only lines two runs differ in).
 fn dxf_lines(path: &Path) -> Vec<String> {
-    let uuid = |l: &str| {
-        l.len() == 36 && l.bytes().filter(|&b| b == b'-').count() == 4 && l.is_ascii()
-    };
+    let uuid =
+        |l: &str| l.len() == 36 && l.bytes().filter(|&b| b == b'-').count() == 4 && l.is_ascii();
     std::fs::read_to_string(path)
         .unwrap()
         .lines()
@@ -92,7 +91,15 @@ fn pattern(tag: &str, args: &[&str]) -> (String, Vec<String>, String) {
         tmp(&format!("{tag}.dxf")),
         tmp(&format!("{tag}.fold")),
     );
-    let mut all = vec!["pattern", "--svg", s(&svg), "--dxf", s(&dxf), "--fold", s(&fold)];
+    let mut all = vec![
+        "pattern",
+        "--svg",
+        s(&svg),
+        "--dxf",
+        s(&dxf),
+        "--fold",
+        s(&fold),
+    ];
     all.extend_from_slice(args);
     let out = host_tool(&all);
     assert_eq!(out.status.code(), Some(0), "{args:?}: {}", text(&out));
@@ -109,12 +116,27 @@ fn pattern_of_the_pdf_file_is_the_pattern_of_its_flags() {
     let of_file = pattern("pdf-file", &["--trunk", &pdf]);
     let of_flags = pattern(
         "pdf-flags",
-        &["--n", "3", "--beta", "35,31.72", "--layers", "2", "--edge-mm", "75"],
+        &[
+            "--n",
+            "3",
+            "--beta",
+            "35,31.72",
+            "--layers",
+            "2",
+            "--edge-mm",
+            "75",
+        ],
     );
     // And the defaults, which are the PDF trunk.
     let of_defaults = pattern("pdf-defaults", &[]);
-    assert!(of_file == of_flags, "--trunk pdf.toml differs from its flags");
-    assert!(of_file == of_defaults, "--trunk pdf.toml differs from the defaults");
+    assert!(
+        of_file == of_flags,
+        "--trunk pdf.toml differs from its flags"
+    );
+    assert!(
+        of_file == of_defaults,
+        "--trunk pdf.toml differs from the defaults"
+    );
     // The SVG's legend names the trunk (the 3 mm gap under the 35° module included).
     assert!(of_file.0.contains("n = 3"), "{}", &of_file.0[..400]);
 }
@@ -126,9 +148,21 @@ fn a_trunk_of_other_dimensions_gets_its_files() {
     let of_file = pattern("n4-file", &["--trunk", &n4]);
     let of_flags = pattern(
         "n4-flags",
-        &["--n", "4", "--beta", "30,23", "--layers", "2", "--edge-mm", "75"],
+        &[
+            "--n",
+            "4",
+            "--beta",
+            "30,23",
+            "--layers",
+            "2",
+            "--edge-mm",
+            "75",
+        ],
     );
-    assert!(of_file == of_flags, "--trunk n4.toml differs from its flags");
+    assert!(
+        of_file == of_flags,
+        "--trunk n4.toml differs from its flags"
+    );
     assert_ne!(of_file.2, pattern("n4-pdf", &[]).2);
     // A 90 mm n = 3 trunk: the sheet is 90/75 of the PDF's 225 × 197.7 mm (plus the 5 mm
     // seam tab).
@@ -152,7 +186,10 @@ fn a_trunk_of_other_dimensions_gets_its_files() {
     let out = host_tool(&["model", "--trunk", &n4, "--states", "F&P", "--stl", s(&stl)]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
     let t = text(&out);
-    assert!(t.contains("n = 4") && t.contains("self-packed,self-packed,folded,folded"), "{t}");
+    assert!(
+        t.contains("n = 4") && t.contains("self-packed,self-packed,folded,folded"),
+        "{t}"
+    );
     assert!(std::fs::metadata(&stl).unwrap().len() > 1000);
 }
 
@@ -185,14 +222,7 @@ fn plan_sim_trunk_reaches_targets_on_a_trunk_of_other_dimensions() {
     let v = plan_json(&repo("trunks/n4.toml"), "F&P", "D&D");
     assert_eq!(v["sim"]["true_state"], "D&D", "{v}");
     // --sim-trunk is the same flag.
-    let out = host_tool(&[
-        "plan",
-        "--sim",
-        "--sim-trunk",
-        s(&small),
-        "--target",
-        "F&F",
-    ]);
+    let out = host_tool(&["plan", "--sim", "--sim-trunk", s(&small), "--target", "F&F"]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
 }
 
@@ -224,11 +254,21 @@ fn refused(args: &[&str], reason: &str) {
 /// Each command that takes `--trunk` refuses `file` with `reason`.
 fn refused_everywhere(file: &Path, reason: &str) {
     let f = s(file);
-    refused(&["pattern", "--trunk", f, "--dxf", s(&tmp("x.dxf"))], reason);
+    refused(
+        &["pattern", "--trunk", f, "--dxf", s(&tmp("x.dxf"))],
+        reason,
+    );
     refused(&["model", "--trunk", f, "--stl", s(&tmp("x.stl"))], reason);
     refused(&["plan", "--sim", "--trunk", f, "--target", "F&F"], reason);
     refused(
-        &["calibrate", "--sim", "--trunk", f, "--out", s(&tmp("x-profile.toml"))],
+        &[
+            "calibrate",
+            "--sim",
+            "--trunk",
+            f,
+            "--out",
+            s(&tmp("x-profile.toml")),
+        ],
         reason,
     );
 }
@@ -239,7 +279,14 @@ fn designs_outside_the_crane_are_refused_with_the_reason() {
     for (name, d, reason) in [
         ("n2", TrunkDesign { n: 2, ..pdf }, "n = 2 is too small"),
         ("n65", TrunkDesign { n: 65, ..pdf }, "n = 65 is too large"),
-        ("edge0", TrunkDesign { edge_mm: 0.0, ..pdf }, "design.edge_mm = 0"),
+        (
+            "edge0",
+            TrunkDesign {
+                edge_mm: 0.0,
+                ..pdf
+            },
+            "design.edge_mm = 0",
+        ),
         (
             "edge-big",
             TrunkDesign {
@@ -352,7 +399,15 @@ fn flags_files_and_ports_that_do_not_go_with_trunk_are_refused() {
         for cmd in ["pattern", "model"] {
             let out_flag = if cmd == "pattern" { "--dxf" } else { "--stl" };
             refused(
-                &[cmd, "--trunk", &pdf, flag, value, out_flag, s(&tmp("c.out"))],
+                &[
+                    cmd,
+                    "--trunk",
+                    &pdf,
+                    flag,
+                    value,
+                    out_flag,
+                    s(&tmp("c.out")),
+                ],
                 &format!("'--trunk <FILE>' cannot be used with '{flag}"),
             );
         }
@@ -371,7 +426,14 @@ fn flags_files_and_ports_that_do_not_go_with_trunk_are_refused() {
         "cannot read the trunk file /nonexistent/trunk.toml",
     );
     refused(
-        &["calibrate", "--sim", "--trunk", missing, "--out", s(&tmp("m.toml"))],
+        &[
+            "calibrate",
+            "--sim",
+            "--trunk",
+            missing,
+            "--out",
+            s(&tmp("m.toml")),
+        ],
         "cannot read the trunk file /nonexistent/trunk.toml",
     );
     // A description without [design] is physics only: the simulator runs it, a pattern cannot
@@ -388,7 +450,15 @@ fn flags_files_and_ports_that_do_not_go_with_trunk_are_refused() {
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
     // With a real crane the trunk measures itself (calibrate --port … --name NAME).
     refused(
-        &["plan", "--port", "/dev/null", "--trunk", &pdf, "--target", "F&F"],
+        &[
+            "plan",
+            "--port",
+            "/dev/null",
+            "--trunk",
+            &pdf,
+            "--target",
+            "F&F",
+        ],
         "--sim-trunk (--trunk) only applies to the simulator",
     );
 }

@@ -104,9 +104,8 @@ impl TrunkDesign {
     /// The two modules' designs (top, bottom) with the edge length, or why the design is
     /// infeasible or outside the crane's topology.
     pub fn check(&self) -> Result<(ModuleDesign, ModuleDesign), DesignError> {
-        let infeasible = |what: &str, e: geometry::DesignError| {
-            DesignError::Infeasible(format!("{what}: {e}"))
-        };
+        let infeasible =
+            |what: &str, e: geometry::DesignError| DesignError::Infeasible(format!("{what}: {e}"));
         let top = ModuleDesign::new(self.n, self.top.beta_deg)
             .map_err(|e| infeasible("design.n / design.top.beta_deg", e))?;
         let bottom = ModuleDesign::new(self.n, self.bottom.beta_deg)
@@ -176,8 +175,7 @@ impl TrunkDesign {
         let top_d = self.top.layers as f64 * layer_deployed_d(self.top.beta_deg, self.n) * l;
         let bot_layer_f = folded_d(self.bottom.beta_deg, self.n) * l;
         let bot_f = self.bottom.layers as f64 * bot_layer_f;
-        let bot_d =
-            self.bottom.layers as f64 * layer_deployed_d(self.bottom.beta_deg, self.n) * l;
+        let bot_d = self.bottom.layers as f64 * layer_deployed_d(self.bottom.beta_deg, self.n) * l;
         DesignHeights {
             top: [top_f, top_d],
             bottom_folded_mm: bot_f,

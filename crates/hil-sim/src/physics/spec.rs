@@ -391,8 +391,16 @@ impl TrunkSpec {
             ("top.wells[0].height_mm (F)", t[0].height_mm, h.top[0]),
             ("top.wells[1].height_mm (D)", t[1].height_mm, h.top[1]),
             ("bottom.wells[1].height_mm (P½)", b[1].height_mm, half),
-            ("bottom.wells[2].height_mm (F)", b[2].height_mm, h.bottom_folded_mm),
-            ("bottom.wells[3].height_mm (D)", b[3].height_mm, h.bottom_deployed_mm),
+            (
+                "bottom.wells[2].height_mm (F)",
+                b[2].height_mm,
+                h.bottom_folded_mm,
+            ),
+            (
+                "bottom.wells[3].height_mm (D)",
+                b[3].height_mm,
+                h.bottom_deployed_mm,
+            ),
             ("pneumatics.area_mm2", self.pneumatics.area_mm2, h.area_mm2),
             (
                 "mechanics.tendon_slack_length_mm",

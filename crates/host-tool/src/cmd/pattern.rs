@@ -125,9 +125,7 @@ fn trunk_of_file(path: &std::path::Path) -> Result<Trunk, Failure> {
              simulated physics only, not the pattern"
         )));
     };
-    let (top, bottom) = design
-        .check()
-        .map_err(|e| refused(TrunkError::Design(e)))?;
+    let (top, bottom) = design.check().map_err(|e| refused(TrunkError::Design(e)))?;
     let modules = vec![
         Module {
             design: bottom,
@@ -313,7 +311,13 @@ fn report(
 
 fn parse_gaps(args: &Args, trunk: &Trunk) -> Result<Vec<f64>, Failure> {
     let m = trunk.modules().len();
-    let betas = Betas(trunk.modules().iter().map(|m| m.design.beta_deg()).collect());
+    let betas = Betas(
+        trunk
+            .modules()
+            .iter()
+            .map(|m| m.design.beta_deg())
+            .collect(),
+    );
     let text = match &args.gap_mm {
         Some(t) => t.clone(),
         None if parse_betas(Defaults::BETA).is_ok_and(|d| d == betas) => {

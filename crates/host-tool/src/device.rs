@@ -46,9 +46,11 @@ pub struct DeviceArgs {
           value_parser = hil_sim::cli::parse_seed)]
     pub seed: Option<u64>,
     /// Simulator: the trunk's description (TOML, as trunks/pdf.toml, the calibrated default):
-    /// its snap forces, wells, pneumatics, tendons and sensor error; one the physics cannot
-    /// represent is refused with the reason.
-    #[arg(long, value_name = "FILE")]
+    /// its design, snap forces, wells, pneumatics, tendons and sensor error; one the physics
+    /// cannot represent, or whose design is outside the crane's topology or disagrees with its
+    /// heights, is refused with the reason. `--trunk FILE` is the same flag (the file
+    /// `pattern --trunk` and `model --trunk` make the trunk's files from).
+    #[arg(long, visible_alias = "trunk", value_name = "FILE")]
     pub sim_trunk: Option<std::path::PathBuf>,
     /// Simulator: every snap force of the trunk times K [range: 0.1 to 10] (e.g. 1.35 is
     /// refused: the top's barriers overlap).
@@ -147,7 +149,7 @@ impl DeviceArgs {
                 (self.sim_speed.is_some(), "--sim-speed"),
                 (!self.sim_faults.is_empty(), "--sim-fault"),
                 (self.seed.is_some(), "--seed"),
-                (self.sim_trunk.is_some(), "--sim-trunk"),
+                (self.sim_trunk.is_some(), "--sim-trunk (--trunk)"),
                 (self.sim_trunk_scale.is_some(), "--sim-trunk-scale"),
             ];
             if let Some((_, flag)) = sim_only.iter().find(|(set, _)| *set) {

@@ -3,6 +3,7 @@
 
 use geometry::{ModuleDesign, ShapeState};
 
+use super::design::TrunkDesign;
 use super::multistable::{Barrier, CurveError, MultistableCurve, Well};
 
 /// Polygon sides of both modules. n = 3 because (i) it gives the largest state height
@@ -36,11 +37,17 @@ pub fn folded_d(beta_deg: f64, n: u32) -> f64 {
 /// Slant height d of one deployed layer in units of the edge (Table 1: d = w = tan β), from the
 /// geometry crate's catalogue.
 pub fn deployed_d(beta_deg: f64) -> f64 {
-    layer_d(beta_deg, N_SIDES, ShapeState::Deployed)
+    layer_deployed_d(beta_deg, N_SIDES)
+}
+
+/// Slant height d of one deployed layer of an n-gon module in units of the edge (d = w = tan β).
+pub fn layer_deployed_d(beta_deg: f64, n: u32) -> f64 {
+    layer_d(beta_deg, n, ShapeState::Deployed)
 }
 
 fn layer_d(beta_deg: f64, n: u32, s: ShapeState) -> f64 {
-    // The designs here are constants inside the valid range (n = 3, 0° < β < 90°).
+    // 0 for a design outside the valid range (n in [3, 64], 0° < β < 90°): the designs are
+    // checked before (`TrunkDesign::check`).
     ModuleDesign::new(n, beta_deg).map_or(0.0, |d| d.pose(s).d)
 }
 
@@ -108,14 +115,12 @@ impl TrunkParams {
     /// `trunks/pdf.toml` describes the same trunk (a test holds them equal) and is what the
     /// simulator runs by default ([`super::spec::TrunkSpec::pdf`]).
     pub fn pdf() -> Result<Self, CurveError> {
-        let l = EDGE_MM;
-        let top_f = TOP_LAYERS as f64 * folded_d(TOP_BETA_DEG, N_SIDES) * l;
-        let top_d = TOP_LAYERS as f64 * deployed_d(TOP_BETA_DEG) * l;
-        let bot_layer_f = folded_d(BOTTOM_BETA_DEG, N_SIDES) * l;
+        let h = TrunkDesign::PDF.heights();
+        let [top_f, top_d] = h.top;
+        let bot_layer_f = h.bottom_layer_folded_mm;
         let bot_p = BOTTOM_LAYERS as f64 * PACKED_LAYER_MM;
         let bot_half = PACKED_LAYER_MM + bot_layer_f;
-        let bot_f = BOTTOM_LAYERS as f64 * bot_layer_f;
-        let bot_d = BOTTOM_LAYERS as f64 * deployed_d(BOTTOM_BETA_DEG) * l;
+        let (bot_f, bot_d) = (h.bottom_folded_mm, h.bottom_deployed_mm);
         let well = |height_mm, stiffness_n_per_mm| Well {
             height_mm,
             stiffness_n_per_mm,
@@ -156,7 +161,7 @@ impl TrunkParams {
         Ok(Self {
             top,
             bottom,
-            area_mm2: piston_area_mm2(N_SIDES, EDGE_MM),
+            area_mm2: h.area_mm2,
             damping_n_s_per_mm: 0.05,
             top_bending_n_mm_per_rad: [900.0, 60_000.0],
             bottom_bending_n_mm_per_rad: [120_000.0, 8_000.0, 1_500.0, 90_000.0],
@@ -164,7 +169,7 @@ impl TrunkParams {
             tip_load_n: 0.5,
             tendon_radius_mm: 38.0,
             tendon_stiffness_n_per_mm: 50.0,
-            tendon_slack_length_mm: top_d + bot_d,
+            tendon_slack_length_mm: h.tendon_slack_length_mm,
             plenum_m3: 1.5e-3,
             supply_gauge_pa: 80e3,
             cd: 0.7,

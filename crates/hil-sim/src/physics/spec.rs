@@ -12,6 +12,7 @@
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
+use super::design::{DesignError, TrunkDesign, DESIGN_TOLERANCE};
 use super::multistable::{Barrier, CurveError, MultistableCurve, Well};
 use super::params::TrunkParams;
 
@@ -149,6 +150,12 @@ pub struct SensorSpec {
 pub struct TrunkSpec {
     /// The trunk's name.
     pub name: String,
+    /// The design it is printed from (n, edge, β and layers per module): `pattern`/`model`
+    /// make its files, and its heights and piston area must be the design's
+    /// ([`TrunkSpec::check_design`]). A description without it is physics only (the simulator
+    /// runs it as before; `pattern`/`model` refuse it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub design: Option<TrunkDesign>,
     /// The top module (wells F, D).
     pub top: ModuleSpec,
     /// The bottom module (wells P, P½, F, D).
@@ -235,6 +242,22 @@ pub enum TrunkError {
         what: &'static str,
         /// Its pressure step, kPa.
         step_kpa: f64,
+    },
+    /// The `[design]` table is infeasible or outside the crane's topology.
+    #[error("{0}")]
+    Design(#[from] DesignError),
+    /// A height or the piston area that is not the one the `[design]` table gives.
+    #[error(
+        "{field} = {value} but the design gives {design} (the heights, the piston area and the \
+         tendons' slack length follow from [design]; docs/simulator.md, \"Your own trunk\")"
+    )]
+    Disagrees {
+        /// The parameter.
+        field: &'static str,
+        /// Its value in the description.
+        value: f64,
+        /// What the design gives.
+        design: f64,
     },
     /// `--sim-trunk-scale` outside its range.
     #[error("a snap-force scale must be a number from 0.1 to 10 (got {0})")]
@@ -338,8 +361,62 @@ impl TrunkSpec {
             reason: e.to_string(),
         })?;
         let spec = Self::from_toml(&text)?;
+        spec.check_design()?;
         spec.params()?;
         Ok(spec)
+    }
+
+    /// The `[design]` table (if any) is feasible and of the crane's topology
+    /// ([`TrunkDesign::check`]), and the description's heights, piston area and tendon slack
+    /// are what it gives, within [`DESIGN_TOLERANCE`]: top F and D, bottom F and D, the
+    /// half-packed well P½ = P / 2 + F / 2 (one layer packed over one folded; the packed
+    /// layer's height is the printed panels' stack, not the pattern's, so P is the file's),
+    /// the piston area (dV/dH of a deployed layer) and the slack length (the D&D height).
+    /// Derived numbers are refused when they disagree rather than silently replaced: the file
+    /// says every number the physics runs, and a disagreement is a mistake in one or the other.
+    /// The swarm's spread trunks vary the heights on purpose and are not checked against it.
+    pub fn check_design(&self) -> Result<(), TrunkError> {
+        let Some(design) = &self.design else {
+            return Ok(());
+        };
+        design.check()?;
+        if self.top.wells.len() != 2 || self.bottom.wells.len() != 4 {
+            // The shape is refused with its reason by `params`.
+            return Ok(());
+        }
+        let h = design.heights();
+        let (t, b) = (&self.top.wells, &self.bottom.wells);
+        let half = 0.5 * b[0].height_mm + 0.5 * h.bottom_folded_mm;
+        for (field, value, want) in [
+            ("top.wells[0].height_mm (F)", t[0].height_mm, h.top[0]),
+            ("top.wells[1].height_mm (D)", t[1].height_mm, h.top[1]),
+            ("bottom.wells[1].height_mm (P½)", b[1].height_mm, half),
+            (
+                "bottom.wells[2].height_mm (F)",
+                b[2].height_mm,
+                h.bottom_folded_mm,
+            ),
+            (
+                "bottom.wells[3].height_mm (D)",
+                b[3].height_mm,
+                h.bottom_deployed_mm,
+            ),
+            ("pneumatics.area_mm2", self.pneumatics.area_mm2, h.area_mm2),
+            (
+                "mechanics.tendon_slack_length_mm",
+                self.mechanics.tendon_slack_length_mm,
+                h.tendon_slack_length_mm,
+            ),
+        ] {
+            if !((value - want).abs() <= DESIGN_TOLERANCE * want) {
+                return Err(TrunkError::Disagrees {
+                    field,
+                    value,
+                    design: (want * 1e4).round() / 1e4,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The description as TOML.
@@ -352,6 +429,7 @@ impl TrunkSpec {
     pub fn of(name: &str, p: &TrunkParams) -> Self {
         Self {
             name: name.to_string(),
+            design: None,
             top: ModuleSpec::of(&p.top, &p.top_bending_n_mm_per_rad),
             bottom: ModuleSpec::of(&p.bottom, &p.bottom_bending_n_mm_per_rad),
             pneumatics: PneumaticSpec {
@@ -487,6 +565,34 @@ impl TrunkSpec {
             top,
             bottom,
         })
+    }
+
+    /// This trunk's physics printed to another design: the heights, the piston area and the
+    /// tendons' slack length derived from `design` (the packed well P and everything else
+    /// kept; the contact heights keep their ratio to each module's first well), named `name`.
+    /// The design is checked; the physics is checked by [`TrunkSpec::params`], not here (a
+    /// design's heights with this trunk's forces may be a trunk the crane cannot drive).
+    pub fn with_design(&self, name: &str, design: TrunkDesign) -> Result<Self, TrunkError> {
+        design.check()?;
+        let h = design.heights();
+        let mut s = self.clone();
+        s.name = name.to_string();
+        s.design = Some(design);
+        if s.top.wells.len() == 2 {
+            let first = s.top.wells[0].height_mm;
+            s.top.wells[0].height_mm = h.top[0];
+            s.top.wells[1].height_mm = h.top[1];
+            s.top.contact_mm *= h.top[0] / first;
+        }
+        if s.bottom.wells.len() == 4 {
+            let p = s.bottom.wells[0].height_mm;
+            s.bottom.wells[1].height_mm = 0.5 * p + 0.5 * h.bottom_folded_mm;
+            s.bottom.wells[2].height_mm = h.bottom_folded_mm;
+            s.bottom.wells[3].height_mm = h.bottom_deployed_mm;
+        }
+        s.pneumatics.area_mm2 = h.area_mm2;
+        s.mechanics.tendon_slack_length_mm = h.tendon_slack_length_mm;
+        Ok(s)
     }
 
     /// Every snap force (each barrier's tension and compression) times `k` (checked against
@@ -639,10 +745,13 @@ mod tests {
         assert_eq!(TrunkSpec::pdf().params().unwrap(), want);
         assert_eq!(TrunkSpec::pdf().name, "pdf");
         // The file is what `of` writes (a changed pdf() must be written to the file).
+        let mut of = TrunkSpec::of("pdf", &want);
+        of.design = Some(TrunkDesign::PDF);
         assert_eq!(
-            TrunkSpec::from_toml(&TrunkSpec::of("pdf", &want).to_toml()).unwrap(),
+            TrunkSpec::from_toml(&of.to_toml()).unwrap(),
             TrunkSpec::pdf()
         );
+        TrunkSpec::pdf().check_design().unwrap();
     }
 
     #[test]
@@ -736,6 +845,58 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    /// `trunks/n4.toml`'s design: n = 4, 75 mm edges, a 23° top over a 30° bottom.
+    fn n4() -> TrunkDesign {
+        use super::super::design::ModuleDesignSpec;
+        TrunkDesign {
+            n: 4,
+            edge_mm: 75.0,
+            top: ModuleDesignSpec {
+                beta_deg: 23.0,
+                layers: 2,
+            },
+            bottom: ModuleDesignSpec {
+                beta_deg: 30.0,
+                layers: 2,
+            },
+        }
+    }
+
+    #[test]
+    fn the_n4_example_is_the_pdf_physics_printed_to_its_design() {
+        let file = TrunkSpec::from_toml(include_str!("../../../../trunks/n4.toml")).unwrap();
+        let want = TrunkSpec::pdf().with_design("n4", n4()).unwrap();
+        assert_eq!(file, want);
+        file.check_design().unwrap();
+        file.params().unwrap();
+        // The same physics at the PDF's heights: the heights disagree with the design.
+        let mut wrong = file.clone();
+        wrong.top.wells = TrunkSpec::pdf().top.wells;
+        match wrong.check_design().unwrap_err() {
+            TrunkError::Disagrees { field, design, .. } => {
+                assert_eq!(field, "top.wells[0].height_mm (F)");
+                assert!((design - file.top.wells[0].height_mm).abs() < 1e-4);
+            }
+            e => panic!("{e}"),
+        }
+        // Within the tolerance (0.1 %) a rounded height is accepted, beyond it refused.
+        let mut rounded = file.clone();
+        rounded.pneumatics.area_mm2 *= 1.0 + 0.9 * DESIGN_TOLERANCE;
+        rounded.check_design().unwrap();
+        rounded.pneumatics.area_mm2 = file.pneumatics.area_mm2 * (1.0 + 1.1 * DESIGN_TOLERANCE);
+        assert!(matches!(
+            rounded.check_design().unwrap_err(),
+            TrunkError::Disagrees {
+                field: "pneumatics.area_mm2",
+                ..
+            }
+        ));
+        // A file without [design] is physics only: nothing to check.
+        let mut old = file;
+        old.design = None;
+        old.check_design().unwrap();
     }
 
     #[test]

@@ -36,6 +36,12 @@ pub struct TrunkArgs {
     /// the trunk's base length (§5.4, Table 2's L3).
     #[arg(long, default_value_t = Defaults::EDGE_MM, allow_hyphen_values = true)]
     pub edge_mm: f64,
+    /// The trunk's description (TOML, as trunks/pdf.toml): its `[design]` table gives n, the
+    /// edge length and β and layers per module, in place of --n, --beta, --layers and
+    /// --edge-mm (refused together with them). A design outside the crane's topology, one
+    /// whose heights disagree with it, or a file without `[design]` is refused with the reason.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["n", "beta", "layers", "edge_mm"])]
+    pub trunk: Option<PathBuf>,
 }
 
 fn list_len(text: &str) -> usize {
@@ -81,6 +87,9 @@ impl TrunkArgs {
 
     /// Validates into a trunk.
     pub fn trunk(&self) -> Result<Trunk, Failure> {
+        if let Some(path) = &self.trunk {
+            return trunk_of_file(path);
+        }
         let n = self.n;
         let m = self.module_count();
         let designs = designs_from(n, &self.beta, m, &format!("the stack has {m} modules"))?;
@@ -98,6 +107,36 @@ impl TrunkArgs {
             .collect();
         Trunk::new(modules, self.edge_mm).map_err(|e| Failure::usage(e.to_string()))
     }
+}
+
+/// The trunk of a description's `[design]` (`--trunk FILE`): the bottom module, then the top.
+fn trunk_of_file(path: &std::path::Path) -> Result<Trunk, Failure> {
+    use hil_sim::physics::{TrunkError, TrunkSpec};
+    let shown = path.display();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::usage(format!("--trunk: cannot read the trunk file {shown}: {e}")))?;
+    let refused = |e: TrunkError| Failure::usage(format!("--trunk {shown}: {e}"));
+    let spec = TrunkSpec::from_toml(&text).map_err(refused)?;
+    spec.check_design().map_err(refused)?;
+    let Some(design) = spec.design else {
+        return Err(Failure::usage(format!(
+            "--trunk {shown} has no [design] table (n, edge_mm, [design.top] and \
+             [design.bottom] with beta_deg and layers, as in trunks/pdf.toml): it describes the \
+             simulated physics only, not the pattern"
+        )));
+    };
+    let (top, bottom) = design.check().map_err(|e| refused(TrunkError::Design(e)))?;
+    let modules = vec![
+        Module {
+            design: bottom,
+            layers: design.bottom.layers as usize,
+        },
+        Module {
+            design: top,
+            layers: design.top.layers as usize,
+        },
+    ];
+    Trunk::new(modules, design.edge_mm).map_err(|e| Failure::usage(format!("--trunk {shown}: {e}")))
 }
 
 /// Arguments of `host-tool pattern`.
@@ -270,10 +309,18 @@ fn report(
     }
 }
 
-fn parse_gaps(args: &Args, m: usize) -> Result<Vec<f64>, Failure> {
+fn parse_gaps(args: &Args, trunk: &Trunk) -> Result<Vec<f64>, Failure> {
+    let m = trunk.modules().len();
+    let betas = Betas(
+        trunk
+            .modules()
+            .iter()
+            .map(|m| m.design.beta_deg())
+            .collect(),
+    );
     let text = match &args.gap_mm {
         Some(t) => t.clone(),
-        None if parse_betas(Defaults::BETA).is_ok_and(|d| d == args.trunk.beta) && m == 2 => {
+        None if parse_betas(Defaults::BETA).is_ok_and(|d| d == betas) => {
             Defaults::GAP_MM_TRUNK.to_string()
         }
         None => Defaults::GAP_MM.to_string(),
@@ -551,7 +598,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     let panel = if wants_panel {
         let params = PanelParams {
-            gap_mm: parse_gaps(&args, trunk.modules().len())?,
+            gap_mm: parse_gaps(&args, &trunk)?,
             facet_mm: args.facet_mm,
             base_mm: args.base_mm,
         };

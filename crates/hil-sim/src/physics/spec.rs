@@ -408,7 +408,9 @@ impl TrunkSpec {
                 h.tendon_slack_length_mm,
             ),
         ] {
-            if !((value - want).abs() <= DESIGN_TOLERANCE * want) {
+            // A NaN agrees with nothing.
+            let agrees = (value - want).abs() <= DESIGN_TOLERANCE * want;
+            if !agrees {
                 return Err(TrunkError::Disagrees {
                     field,
                     value,

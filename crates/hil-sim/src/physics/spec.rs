@@ -361,8 +361,10 @@ impl TrunkSpec {
             reason: e.to_string(),
         })?;
         let spec = Self::from_toml(&text)?;
-        spec.check_design()?;
+        // The physics first: a value that is not a number at all is named as such, not as a
+        // disagreement with the design.
         spec.params()?;
+        spec.check_design()?;
         Ok(spec)
     }
 

@@ -3004,12 +3004,7 @@ fn a_vent_or_the_probes_fill_alone_is_allowed_while_the_state_is_unconfirmed_and
         .0,
         ResultCode::InProgress
     );
-    for _ in 0..200 {
-        if r.ctl.mode() != Mode::Running {
-            break;
-        }
-        r.run(100);
-    }
+    r.run_until(20_000, |r| r.ctl.mode() != Mode::Running);
     let probed = r.ctl.status();
     assert_eq!(
         probed.plan.map(|p| p.phase),

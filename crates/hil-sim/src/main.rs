@@ -130,6 +130,12 @@ enum Command {
         #[arg(long, value_name = "K", allow_negative_numbers = true,
                   value_parser = hil_sim::cli::parse_trunk_scale)]
         sim_trunk_scale: Option<f64>,
+        /// Calibrate each scenario's trunk first (host::calibration, as `host-tool calibrate
+        /// --sim`), on a twin of its crane with nothing injected and judged by the same
+        /// invariants; the scenario then runs as drawn, its plans on the measured thresholds
+        /// (the catalogue's when the walk is refused, which is counted).
+        #[arg(long)]
+        calibrate: bool,
     },
     /// Discover the transition graph the simulated trunk supports.
     Discover {
@@ -202,6 +208,7 @@ fn main() -> ExitCode {
             trunk_spread,
             sim_trunk,
             sim_trunk_scale,
+            calibrate,
         }) => {
             let trunk = match hil_sim::cli::sim_trunk(sim_trunk.as_deref(), sim_trunk_scale) {
                 Ok(t) => t,
@@ -214,8 +221,12 @@ fn main() -> ExitCode {
                 mistakes: !no_operator_mistakes,
                 trunk,
                 trunk_spread,
+                calibrate,
             };
-            let again = replay_options(trunk_spread, sim_trunk.as_deref(), sim_trunk_scale);
+            let mut again = replay_options(trunk_spread, sim_trunk.as_deref(), sim_trunk_scale);
+            if calibrate {
+                again += " --calibrate";
+            }
             swarm_command(runs, seed, replay, threads, json, &opts, &again)
         }
         Some(Command::Discover { dot, .. }) => {
@@ -359,6 +370,19 @@ fn swarm_command(
         } else {
             let _ = writeln!(out, "{}", scenario.describe());
             let _ = write!(out, "{}", rep.trace);
+            match &rep.calibration {
+                Some(Ok(ms)) => {
+                    let _ = writeln!(
+                        out,
+                        "calibrated in {:.1} s of virtual time",
+                        *ms as f64 / 1000.0
+                    );
+                }
+                Some(Err(e)) => {
+                    let _ = writeln!(out, "{e}: the plans used the catalogue's thresholds");
+                }
+                None => {}
+            }
             let _ = writeln!(
                 out,
                 "reached {}/{} targets in {:.1} s of virtual time; {} violation(s)",
@@ -394,6 +418,11 @@ fn swarm_command(
         v["targets"] = serde_json::json!(rep.targets);
         v["reached"] = serde_json::json!(rep.reached);
         v["wall_s"] = serde_json::json!(wall_s);
+        if opts.calibrate {
+            v["calibrations"] = serde_json::json!(rep.calibrations);
+            v["calibrations_refused"] = serde_json::json!(rep.calibrations_refused);
+            v["calibration_virtual_hours"] = serde_json::json!(rep.calibration_ms as f64 / 3.6e6);
+        }
         let _ = writeln!(out, "{v}");
     } else {
         let _ = writeln!(
@@ -408,6 +437,16 @@ fn swarm_command(
             rep.targets,
             rep.violations.len()
         );
+        if opts.calibrate {
+            let _ = writeln!(
+                out,
+                "  calibrations: {} walked in {:.1} virtual hours, {} refused (those scenarios \
+                 ran on the catalogue's thresholds)",
+                rep.calibrations,
+                rep.calibration_ms as f64 / 3.6e6,
+                rep.calibrations_refused
+            );
+        }
         for v in &rep.violations {
             let _ = writeln!(
                 out,

@@ -97,6 +97,10 @@ pub struct Scenario {
     pub trunk_spread: f64,
     /// Draws refused (the physics could not represent them) before this trunk.
     pub trunk_redraws: u32,
+    /// The scenario's trunk is calibrated first (`host::calibration`, as `host-tool calibrate
+    /// --sim` does), on a twin of its crane with nothing injected; its plans then use the
+    /// measured thresholds, or the catalogue's when the walk was refused.
+    pub calibrate: bool,
 }
 
 /// How scenarios are drawn beyond their seed.
@@ -109,6 +113,8 @@ pub struct ScenarioOptions {
     /// Each scenario's trunk varies every parameter within ±this fraction
     /// ([`TrunkSpec::spread`]; 0: every scenario runs `trunk` itself).
     pub trunk_spread: f64,
+    /// Each scenario begins with a calibration walk ([`Scenario::calibrate`]).
+    pub calibrate: bool,
 }
 
 impl Default for ScenarioOptions {
@@ -117,6 +123,7 @@ impl Default for ScenarioOptions {
             mistakes: true,
             trunk: TrunkSpec::pdf(),
             trunk_spread: 0.0,
+            calibrate: false,
         }
     }
 }
@@ -145,6 +152,7 @@ impl Scenario {
         s.trunk = trunk;
         s.trunk_spread = opts.trunk_spread;
         s.trunk_redraws = redraws;
+        s.calibrate = opts.calibrate;
         Ok(s)
     }
 
@@ -213,6 +221,7 @@ impl Scenario {
             trunk: TrunkSpec::pdf(),
             trunk_spread: 0.0,
             trunk_redraws: 0,
+            calibrate: false,
         }
     }
 
@@ -272,9 +281,14 @@ impl Scenario {
     pub fn describe(&self) -> String {
         let names = |v: &[TrunkState]| v.iter().map(|s| s.name()).collect::<Vec<_>>().join(" → ");
         let mut t = format!(
-            "seed {}: {} → {}",
+            "seed {}: {}{} → {}",
             self.seed,
             self.initial,
+            if self.calibrate {
+                ", calibrated first"
+            } else {
+                ""
+            },
             names(&self.targets)
         );
         for (f, at) in &self.faults {
@@ -648,12 +662,17 @@ pub struct RunReport {
     pub violations: Vec<Violation>,
     /// The trace, when asked for.
     pub trace: String,
+    /// The calibration walk's outcome, when the scenario asked for one: its duration (virtual
+    /// ms), or why it was refused.
+    pub calibration: Option<Result<u64, String>>,
+    /// Virtual time of the calibration walk's twin, ms (not in `virtual_ms`).
+    pub calibration_ms: u64,
 }
 
 /// Plays `scenario`; with `trace`, records what happened.
 pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
     let seed = scenario.seed;
-    let mut sim = Sim::new(SimOptions {
+    let sim = Sim::new(SimOptions {
         initial: scenario.initial,
         seed,
         faults: Vec::new(),
@@ -662,8 +681,6 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
         firmware_elf: None,
         trunk: scenario.trunk.clone(),
     });
-    sim.set_line_noise_rate(scenario.line_noise);
-    sim.operator_mut().mistake = scenario.mistake;
     let checker = Rc::new(RefCell::new(Checker {
         seed,
         trace: trace.then(String::new),
@@ -678,6 +695,14 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
     // liveness.
     let upsets = Rc::new(RefCell::new(0_u32));
     let mut io = SimIo::new(sim);
+    let (graph, calibration, calibration_ms) = if scenario.calibrate {
+        let (graph, outcome, ms) = calibrate_twin(scenario, &checker);
+        (graph, Some(outcome), ms)
+    } else {
+        (Graph::nominal(), None, 0)
+    };
+    io.sim.set_line_noise_rate(scenario.line_noise);
+    io.sim.operator_mut().mistake = scenario.mistake;
     {
         let checker = Rc::clone(&checker);
         let crash = Rc::clone(&crash);
@@ -735,7 +760,14 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
             let start_truth = io.sim.ground_truth().true_state;
             let start_ms = io.sim.now_ms();
             let mut driver = Driver::new(Host::new(Timing::standard(), first_seq), &mut io);
-            let result = play_target(&mut driver, target, &crash, &stop, &checker, takeover);
+            let result = play_target(
+                &mut driver,
+                (&graph, target),
+                &crash,
+                &stop,
+                &checker,
+                takeover,
+            );
             takeover = matches!(result, Played::Crashed);
             if takeover {
                 driver.vanish();
@@ -827,6 +859,96 @@ pub fn run(scenario: &Scenario, trace: bool) -> RunReport {
         reached,
         violations: c.violations.clone(),
         trace: c.trace.clone().unwrap_or_default(),
+        calibration,
+        calibration_ms,
+    }
+}
+
+/// The calibration walk of a scenario's trunk ([`Scenario::calibrate`]), on a twin of its
+/// crane (the same trunk, seed and initial state, nothing injected) watched by a judge of its
+/// own, whose violations are the scenario's: the scenario itself then runs exactly as drawn
+/// (a refused walk changes nothing), its plans on the measured graph. A walk on the crane
+/// itself would leave the trunk wherever a refused walk stopped, and the scenario's
+/// comparison with its uncalibrated run would measure that, not the thresholds.
+fn calibrate_twin(
+    scenario: &Scenario,
+    checker: &RefCell<Checker>,
+) -> (Graph, Result<u64, String>, u64) {
+    let twin = Sim::new(SimOptions {
+        initial: scenario.initial,
+        seed: scenario.seed,
+        faults: Vec::new(),
+        speed: f64::INFINITY,
+        operator: true,
+        firmware_elf: None,
+        trunk: scenario.trunk.clone(),
+    });
+    let judge = Rc::new(RefCell::new(Checker {
+        seed: scenario.seed,
+        trace: checker.borrow().trace.as_ref().map(|_| String::new()),
+        ..Checker::default()
+    }));
+    let mut io = SimIo::new(twin);
+    let j = Rc::clone(&judge);
+    io.monitor = Some(Box::new(move |sim: &mut Sim| j.borrow_mut().check(sim)));
+    let (graph, outcome) = calibrate_first(&mut io, &judge);
+    io.monitor = None;
+    let judge = judge.borrow();
+    let mut c = checker.borrow_mut();
+    if let (Some(t), Some(twin)) = (c.trace.as_mut(), judge.trace.as_ref()) {
+        for line in twin.lines() {
+            let _ = writeln!(t, "  calibration {line}");
+        }
+    }
+    for v in &judge.violations {
+        c.violate(
+            v.t_ms,
+            v.invariant,
+            format!("in the calibration walk: {}", v.detail),
+        );
+    }
+    (graph, outcome, io.sim.now_ms())
+}
+
+/// One host session running `host::calibration::run` on `io`, the simulated person answering
+/// its prompts. The graph plans then use: the measured one, or the catalogue's when the walk
+/// was refused (what a person does with a trunk that will not calibrate: run it on the
+/// catalogue's thresholds, which fail honestly where they do not fit).
+fn calibrate_first(io: &mut SimIo, checker: &RefCell<Checker>) -> (Graph, Result<u64, String>) {
+    let start = io.sim.now_ms();
+    checker.borrow_mut().note(start, "calibration walk begins");
+    let mut d = Driver::new(Host::new(Timing::standard(), 1), &mut *io);
+    let walked = match d.connect() {
+        Ok(_) => host::calibration::run(
+            &mut d,
+            &mut crate::pair::SimShell::default(),
+            false,
+            &mut host::calibration::Quiet,
+        )
+        .map_err(|e| e.to_string()),
+        Err(e) => Err(format!("the calibration's handshake failed: {e}")),
+    };
+    drop(d);
+    let outcome = walked.and_then(|w| {
+        let c = &w.calibration;
+        c.graph(c.pressure_limit_kpa)
+            .map(|g| (g, w.duration_ms))
+            .map_err(|e| format!("calibration refused: {e}"))
+    });
+    let t = io.sim.now_ms();
+    match outcome {
+        Ok((graph, ms)) => {
+            checker
+                .borrow_mut()
+                .note(t, &format!("calibration walk done in {ms} ms"));
+            (graph, Ok(ms))
+        }
+        Err(e) => {
+            checker
+                .borrow_mut()
+                .note(t, &format!("{e}; the catalogue's thresholds"));
+            (Graph::nominal(), Err(e))
+        }
     }
 }
 
@@ -839,7 +961,7 @@ enum Played {
 /// One host session toward `target`: connect, run the plan, judge the host's final claim.
 fn play_target(
     d: &mut Driver<&mut SimIo>,
-    target: TrunkState,
+    (graph, target): (&Graph, TrunkState),
     crash: &RefCell<bool>,
     stop: &RefCell<bool>,
     checker: &RefCell<Checker>,
@@ -888,7 +1010,7 @@ fn play_target(
                         take_over_running: true,
                         ..RunOptions::default()
                     };
-                    d.host.run_plan(Graph::nominal(), target, options, now);
+                    d.host.run_plan(graph.clone(), target, options, now);
                 }
                 HostEvent::Session(SessionEvent::HandshakeFailed(e)) => {
                     checker
@@ -1210,6 +1332,12 @@ pub struct SwarmReport {
     pub reached: u64,
     /// Every violation, with its seed.
     pub violations: Vec<Violation>,
+    /// Calibration walks done (scenarios that asked for one).
+    pub calibrations: u64,
+    /// Of them, refused (their scenarios ran on the catalogue's thresholds).
+    pub calibrations_refused: u64,
+    /// Virtual time of the calibration walks, ms (not in `virtual_ms`).
+    pub calibration_ms: u64,
 }
 
 /// Runs `runs` scenarios with seeds `seed..seed + runs` on `threads` threads.
@@ -1247,12 +1375,19 @@ pub fn swarm_of(
                                 detail: "the run panicked".into(),
                             }],
                             trace: String::new(),
+                            calibration: None,
+                            calibration_ms: 0,
                         });
                         r.runs += 1;
                         r.virtual_ms += rep.virtual_ms;
                         r.targets += s.targets.len() as u64;
                         r.reached += rep.reached as u64;
                         r.violations.extend(rep.violations);
+                        if let Some(c) = &rep.calibration {
+                            r.calibrations += 1;
+                            r.calibrations_refused += u64::from(c.is_err());
+                        }
+                        r.calibration_ms += rep.calibration_ms;
                         i += threads;
                     }
                     r
@@ -1271,6 +1406,9 @@ pub fn swarm_of(
         total.targets += p.targets;
         total.reached += p.reached;
         total.violations.extend(p.violations);
+        total.calibrations += p.calibrations;
+        total.calibrations_refused += p.calibrations_refused;
+        total.calibration_ms += p.calibration_ms;
     }
     total.violations.sort_by_key(|v| (v.seed, v.t_ms));
     total

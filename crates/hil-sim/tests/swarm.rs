@@ -290,3 +290,50 @@ fn the_seeds_of_the_edges_hold_every_invariant() {
         assert!(!Scenario::generate(seed).stops.is_empty(), "{seed}");
     }
 }
+
+/// `swarm --calibrate`: a calibration walk on a twin of each scenario's crane before the
+/// scenario. On the calibrated trunk every walk is accepted, the walks and the scenarios hold
+/// every invariant, and the swarm is the same swarm twice; on a trunk drawn within ±25 % a
+/// refused walk says why (seed 5007: its bottom deploys above the 40 kPa limit) and its
+/// scenario still runs, on the catalogue's thresholds.
+#[test]
+fn a_calibration_walk_before_each_scenario_holds_every_invariant() {
+    use hil_sim::swarm::{swarm_of, ScenarioOptions};
+    let opts = ScenarioOptions {
+        calibrate: true,
+        ..ScenarioOptions::default()
+    };
+    let make = |seed| Scenario::generate_with(seed, &opts).expect("the calibrated trunk");
+    let r = swarm_of(7000, 12, 2, &make);
+    assert_eq!((r.calibrations, r.calibrations_refused), (12, 0));
+    assert!(r.violations.is_empty(), "{:?}", r.violations);
+    // Each walk passes 8 transitions: at least 30 s of virtual time.
+    assert!(r.calibration_ms >= 12 * 30_000, "{} ms", r.calibration_ms);
+    assert_eq!(swarm_of(7000, 12, 1, &make), r);
+    let spread = ScenarioOptions {
+        calibrate: true,
+        trunk_spread: 0.25,
+        ..ScenarioOptions::default()
+    };
+    let s = Scenario::generate_with(5007, &spread).expect("a trunk the physics represents");
+    let rep = run(&s, false);
+    let why = rep.calibration.expect("a walk").expect_err("refused");
+    assert!(
+        why.starts_with("calibration refused: D&F → D&D: no snap seen on the ramp")
+            && why.contains("the limit is 40 kPa"),
+        "{why}"
+    );
+    assert!(rep.violations.is_empty(), "{:?}", rep.violations);
+    assert_eq!(
+        rep.virtual_ms,
+        run(
+            &Scenario {
+                calibrate: false,
+                ..s
+            },
+            false
+        )
+        .virtual_ms,
+        "the scenario itself runs as drawn"
+    );
+}

@@ -10,6 +10,8 @@
 //!   `handle_timeout(now)`, `poll_transmit()`, `poll_timeout()`, `poll_event()`.
 //! - [`driver`]: the one blocking loop around the engine, over any [`driver::Io`] — a serial
 //!   port on the wall clock, or the simulator on its virtual clock.
+//! - [`calibration`]: the calibration walk over any [`driver::Io`] and the thresholds plans
+//!   take from what it measured.
 //! - [`text`]: the words for the wire's enums (faults, refusals, modes, requests).
 //!
 //! # What this crate must not do
@@ -34,6 +36,7 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod calibration;
 pub mod driver;
 pub mod engine;
 pub mod runner;

@@ -15,14 +15,13 @@
 
 mod probe;
 
-use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 
 use geometry::TrunkState;
-use host::{Io as _, RunEvent, RunOptions, RunShell, ShellAction};
-use planner::graph::{kind_name, CostModel, Graph};
-use protocol::transitions::{self, Transition};
-use protocol::{Event, ParamId, RequestBody, ResponseBody, StepKind, Telemetry};
+use host::calibration::{Calibration, Hooks, Measured, Targets, WalkError};
+use planner::graph::Graph;
+use protocol::transitions;
+use protocol::{RequestBody, ResponseBody, StepKind};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
@@ -34,129 +33,6 @@ use crate::transport::AnyIo;
 
 /// The profile file's format version: a file of another is refused, naming both.
 pub const FORMAT_VERSION: u32 = 1;
-/// The margin a calibrated plan adds to each measured threshold: an inflation toward
-/// snap × (1 + 0.15), a pull to stroke × (1 + 0.15) (at least stroke + 3 mm).
-pub const MARGIN: f64 = 0.15;
-/// The least a pull's length exceeds its measured stroke, mm (a top that buckles after 10 mm
-/// of pull would get 1.5 mm otherwise: under two telemetry samples of the servos' slew).
-pub const MIN_TENDON_MARGIN_MM: f64 = 3.0;
-/// The tendons' reach, mm: the longest pull the catalogue makes (within the winches' 185 mm).
-pub const REACH_MM: f64 = transitions::PACK_BOTTOM_MM as f64;
-/// The telemetry rate of a calibration, Hz (the device's highest).
-pub const TELEMETRY_HZ: u32 = 50;
-/// A fall of the pressure this far under its peak ends a ramp's peak: the snap, kPa. The
-/// ramp rises 0.1–0.4 kPa per 20 ms sample and its noise is ≈ 0.05 kPa, so a fall of 0.6 kPa
-/// is no noise; it is under the firmware's own detector (1.5 kPa over the ramp), so a snap too
-/// small for the device (the top's pop-out over a deployed bottom drops ≈ 1 kPa on a × 1.1
-/// trunk) is still measured here, and the profile says the device did not confirm it.
-pub const SNAP_FALL_KPA: f64 = 0.6;
-/// A rise between two telemetry samples this large during a pull is the top's buckling spike,
-/// kPa (the sealed trunk's compression by the pull itself rises ≤ 0.5 kPa per 20 ms).
-pub const SPIKE_KPA: f64 = 0.6;
-/// The physical range of a snap pressure, kPa: above the sensor's noise at rest, and at most
-/// the protocol's hard pressure ceiling.
-pub const SNAP_RANGE_KPA: (f64, f64) = (1.0, protocol::HARD_MAX_PRESSURE_KPA as f64);
-/// A pressure sensor reading more than this at rest (vented) is refused, kPa: the device's vent
-/// tolerance (`CraneConfig::vent_tolerance_kpa`, 0.5 kPa). Every pneumatic step starts from the
-/// air, a vent that ends when the sensor reads under the tolerance, so a sensor reading
-/// +1 kPa at ambient never starts one (measured: a simulated offset of +1 kPa times every
-/// inflation out, E-03, with or without a profile).
-pub const MAX_ZERO_KPA: f64 = 0.5;
-
-/// What a calibration measures on each step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Measure {
-    /// The snap pressure of an inflation.
-    Snap,
-    /// The stroke of the top's buckling.
-    Stroke,
-    /// Nothing the sensors can read: the step moves the trunk on.
-    Pass,
-}
-
-fn state(name: &str) -> TrunkState {
-    // The six names are the catalogue's: parsing them cannot fail.
-    name.parse().unwrap_or(TrunkState::ALL[0])
-}
-
-/// The walk, in order; with `manual`, the fold by hand to D&P and the unpacking under a
-/// deployed top from there.
-fn walk(manual: bool) -> Vec<(TrunkState, TrunkState, Measure)> {
-    let by_hand: &[(&str, &str, Measure)] = if manual {
-        &[("D&F", "D&P", Measure::Pass), ("D&P", "D&F", Measure::Snap)]
-    } else {
-        &[]
-    };
-    [("F&P", "F&F", Measure::Snap), ("F&F", "D&F", Measure::Snap)]
-        .iter()
-        .chain(by_hand)
-        .chain(&[
-            ("D&F", "F&F", Measure::Stroke),
-            ("F&F", "D&F", Measure::Pass),
-            ("D&F", "D&D", Measure::Snap),
-            ("D&D", "F&D", Measure::Stroke),
-            ("F&D", "F&F", Measure::Pass),
-            ("F&F", "F&P", Measure::Pass),
-        ])
-        .map(|&(a, b, m)| (state(a), state(b), m))
-        .collect()
-}
-
-/// Which measured edge each calibrated edge of the catalogue takes its threshold from: the
-/// same barrier under the same force (the modules are in series, so D&P → D&F unpacks the
-/// bottom at F&P → F&F's pressure, and F&D → D&D pops the top out at F&F → D&F's: measured
-/// 19.55 against 19.53 kPa on the calibrated trunk, 21.45 against 21.49 at × 1.1). F&D → D&D
-/// is not measured itself: over a deployed bottom the pop-out drops the pressure by ≈ 1 kPa at
-/// × 1.1 and under 0.6 kPa at × 1.2 (the stiff deployed bottom barely lengthens), under what a
-/// ramp can tell from its noise.
-/// D&P → D&F takes its own snap when the walk measured it (`calibrate --manual`).
-fn source_of(
-    from: TrunkState,
-    to: TrunkState,
-    self_measured: bool,
-) -> Option<(TrunkState, TrunkState)> {
-    let pair = (from.name(), to.name());
-    if pair == ("D&P", "D&F") && self_measured {
-        return Some((from, to));
-    }
-    let src = match pair {
-        ("F&P", "F&F") | ("D&P", "D&F") => ("F&P", "F&F"),
-        ("F&F", "D&F") | ("F&D", "D&D") => ("F&F", "D&F"),
-        ("D&F", "D&D") => ("D&F", "D&D"),
-        ("D&D", "F&D") => ("D&D", "F&D"),
-        ("D&F", "F&F") => ("D&F", "F&F"),
-        _ => return None,
-    };
-    Some((state(src.0), state(src.1)))
-}
-
-/// Measured targets: `((from, to), value)`, kPa for a pneumatic edge, mm for a tendon edge.
-pub type Targets = Vec<((TrunkState, TrunkState), f32)>;
-
-/// One measured transition of a profile.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Measured {
-    /// Start state.
-    pub from: String,
-    /// End state.
-    pub to: String,
-    /// `pneumatic` or `tendon`.
-    pub kind: String,
-    /// The pressure of each snap on the ramp, kPa (pneumatic steps).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub snap_kpa: Vec<f64>,
-    /// The pressure the trunk settled to after its snap, before the vent, kPa.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub hold_kpa: Option<f64>,
-    /// The commanded tendon length at each snap, mm (tendon steps).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub stroke_mm: Vec<f64>,
-    /// Whether the device confirmed the step's target state from its sensors (it held when
-    /// released); `false` when the person (or the simulated one) had to say the state.
-    pub held: bool,
-}
-
 /// A calibration profile (TOML).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -296,193 +172,39 @@ impl Profile {
         )
     }
 
-    /// The measured transition `from` → `to`.
-    pub fn measured(&self, from: TrunkState, to: TrunkState) -> Option<&Measured> {
-        self.transitions
-            .iter()
-            .find(|m| m.from == from.name() && m.to == to.name())
+    /// What the walk measured, as the thresholds plans take.
+    pub fn calibration(&self) -> Calibration {
+        Calibration {
+            margin: self.margin,
+            pressure_limit_kpa: self.pressure_limit_kpa,
+            tendon_reach_mm: self.tendon_reach_mm,
+            transitions: self.transitions.clone(),
+        }
     }
 
-    fn snap(&self, from: TrunkState, to: TrunkState) -> Option<f64> {
-        self.measured(from, to)
-            .and_then(|m| m.snap_kpa.last().copied())
-    }
-
-    fn stroke(&self, from: TrunkState, to: TrunkState) -> Option<f64> {
-        self.measured(from, to)
-            .and_then(|m| m.stroke_mm.last().copied())
-    }
-
-    /// Refuses a profile whose snaps are missing, out of order or outside the physical range,
-    /// naming what it holds.
+    /// Refuses a profile whose probe signatures the device would refuse, or whose snaps are
+    /// missing, out of order or outside the physical range ([`Calibration::check`]).
     pub fn check(&self) -> Result<(), String> {
         if let Some(p) = &self.probe {
             p.to_wire()?;
         }
-        if !(self.margin.is_finite() && (0.0..=1.0).contains(&self.margin)) {
-            return Err(format!(
-                "margin {} is not a fraction from 0 to 1",
-                self.margin
-            ));
-        }
-        if !(self.pressure_limit_kpa.is_finite()
-            && self.pressure_limit_kpa > 0.0
-            && self.pressure_limit_kpa <= SNAP_RANGE_KPA.1)
-        {
-            return Err(format!(
-                "pressure_limit_kpa {} is outside 0 to {} kPa",
-                self.pressure_limit_kpa, SNAP_RANGE_KPA.1
-            ));
-        }
-        for m in &self.transitions {
-            let (from, to) = (
-                m.from
-                    .parse::<TrunkState>()
-                    .map_err(|_| format!("'{}' is not a trunk state", m.from))?,
-                m.to.parse::<TrunkState>()
-                    .map_err(|_| format!("'{}' is not a trunk state", m.to))?,
-            );
-            if m.snap_kpa.len() > 1 {
-                return Err(format!(
-                    "{from} → {to}: {} snaps seen ({}); an inflation toward one snap makes one",
-                    m.snap_kpa.len(),
-                    list(&m.snap_kpa, "kPa")
-                ));
-            }
-            for &p in &m.snap_kpa {
-                if !(p.is_finite() && p >= SNAP_RANGE_KPA.0 && p <= self.pressure_limit_kpa) {
-                    return Err(format!(
-                        "{from} → {to}: a snap at {p:.2} kPa, outside the physical range {} to \
-                         {} kPa (the pressure limit)",
-                        SNAP_RANGE_KPA.0, self.pressure_limit_kpa
-                    ));
-                }
-            }
-            for &s in &m.stroke_mm {
-                if !(s.is_finite() && s > 0.0 && s <= self.tendon_reach_mm) {
-                    return Err(format!(
-                        "{from} → {to}: a stroke of {s:.1} mm, outside the tendons' reach 0 to \
-                         {} mm",
-                        self.tendon_reach_mm
-                    ));
-                }
-            }
-        }
-        for (from, to, what) in walk(false) {
-            let found = match what {
-                Measure::Snap => self.snap(from, to).is_some(),
-                Measure::Stroke => self.stroke(from, to).is_some(),
-                Measure::Pass => true,
-            };
-            if !found {
-                return Err(format!(
-                    "{from} → {to}: no {} measured",
-                    if what == Measure::Snap {
-                        "snap pressure"
-                    } else {
-                        "buckling stroke"
-                    }
-                ));
-            }
-        }
-        // Under pressure: the bottom unpacks, then the top pops out, then the bottom deploys.
-        let order = [
-            (state("F&P"), state("F&F"), "the bottom's unpacking"),
-            (state("F&F"), state("D&F"), "the top's pop-out"),
-            (state("D&F"), state("D&D"), "the bottom's deployment"),
-        ];
-        if let Some(p) = self.snap(state("D&P"), state("D&F")) {
-            let deploy = self.snap(state("D&F"), state("D&D")).unwrap_or(0.0);
-            if p >= deploy {
-                return Err(format!(
-                    "snaps out of order: the bottom's unpacking under a deployed top at {p:.2} \
-                     kPa is not below the bottom's deployment at {deploy:.2} kPa"
-                ));
-            }
-        }
-        for w in order.windows(2) {
-            let (a, b) = (
-                self.snap(w[0].0, w[0].1).unwrap_or(0.0),
-                self.snap(w[1].0, w[1].1).unwrap_or(0.0),
-            );
-            if a >= b {
-                return Err(format!(
-                    "snaps out of order: {} at {a:.2} kPa is not below {} at {b:.2} kPa (under \
-                     pressure the bottom unpacks, then the top pops out, then the bottom deploys)",
-                    w[0].2, w[1].2
-                ));
-            }
-        }
-        Ok(())
+        self.calibration().check()
     }
 
-    /// The measured targets of the catalogue's edges: each pneumatic step inflates toward
-    /// snap × (1 + margin), capped by `limit_kpa`; each measured tendon step pulls to
-    /// max(stroke × (1 + margin), stroke + 3 mm) within the reach. Refused when the cap is
-    /// under a measured snap or the reach under a stroke.
+    /// The measured targets under `limit_kpa` ([`Calibration::targets`]).
     pub fn targets(&self, limit_kpa: f64) -> Result<Targets, String> {
-        let mut out = Vec::new();
-        for t in &transitions::TRANSITIONS {
-            let own = self.snap(t.from, t.to).is_some();
-            let Some((a, b)) = source_of(t.from, t.to, own) else {
-                continue;
-            };
-            let value = match t.kind {
-                StepKind::Pneumatic => {
-                    let Some(snap) = self.snap(a, b) else {
-                        continue;
-                    };
-                    if limit_kpa < snap {
-                        return Err(format!(
-                            "{} → {}: the pressure limit {limit_kpa} kPa is under the measured \
-                             snap at {snap:.2} kPa: raise it (param set pressure-limit-kpa) or \
-                             calibrate again",
-                            t.from, t.to
-                        ));
-                    }
-                    (snap * (1.0 + self.margin)).min(limit_kpa)
-                }
-                StepKind::Tendon => {
-                    let Some(stroke) = self.stroke(a, b) else {
-                        continue;
-                    };
-                    if self.tendon_reach_mm < stroke {
-                        return Err(format!(
-                            "{} → {}: the tendons' reach {} mm is under the measured stroke \
-                             {stroke:.1} mm",
-                            t.from, t.to, self.tendon_reach_mm
-                        ));
-                    }
-                    (stroke * (1.0 + self.margin))
-                        .max(stroke + MIN_TENDON_MARGIN_MM)
-                        .min(self.tendon_reach_mm)
-                }
-                StepKind::Manual => continue,
-            };
-            // Rounded to 0.1 (the listing's precision).
-            out.push(((t.from, t.to), ((value * 10.0).round() / 10.0) as f32));
-        }
-        Ok(out)
+        self.calibration().targets(limit_kpa)
     }
 
     /// The calibrated graph under `limit_kpa` (the device's pressure limit, or the profile's).
     pub fn graph(&self, limit_kpa: f64) -> Result<Graph, String> {
-        Ok(Graph::calibrated(&self.targets(limit_kpa)?))
+        self.calibration().graph(limit_kpa)
     }
 
     /// The profile as JSON.
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
     }
-}
-
-fn round(x: f64, per: f64) -> f64 {
-    (x * per).round() / per
-}
-
-fn list(v: &[f64], unit: &str) -> String {
-    let parts: Vec<String> = v.iter().map(|x| format!("{x:.2} {unit}")).collect();
-    parts.join(", ")
 }
 
 /// Arguments of `host-tool calibrate`.
@@ -743,13 +465,7 @@ fn show_text(p: &Profile, targets: &[((TrunkState, TrunkState), f32)]) -> String
         p.duration_s
     );
     for m in &p.transitions {
-        s += &format!(
-            "  {} → {} ({}): {}\n",
-            m.from,
-            m.to,
-            m.kind,
-            measured_text(m)
-        );
+        s += &format!("  {} → {} ({}): {}\n", m.from, m.to, m.kind, m.text());
     }
     s += &format!("plans use (margin {:.0} %):\n", p.margin * 100.0);
     for ((a, b), v) in targets {
@@ -766,127 +482,6 @@ fn show_text(p: &Profile, targets: &[((TrunkState, TrunkState), f32)]) -> String
     }
     s += "  other edges: the catalogue's (not measurable from the crane's sensors, or by hand)\n";
     s
-}
-
-fn measured_text(m: &Measured) -> String {
-    let mut parts = Vec::new();
-    if !m.snap_kpa.is_empty() {
-        parts.push(format!("snap at {}", list(&m.snap_kpa, "kPa")));
-    }
-    if let Some(h) = m.hold_kpa {
-        parts.push(format!("holds at {h:.2} kPa"));
-    }
-    if !m.stroke_mm.is_empty() {
-        let v: Vec<String> = m.stroke_mm.iter().map(|x| format!("{x:.1} mm")).collect();
-        parts.push(format!("buckles at {}", v.join(", ")));
-    }
-    if parts.is_empty() {
-        parts.push("moved on (no snap the sensors can read)".into());
-    }
-    parts.push(if m.held { "held" } else { "not confirmed" }.into());
-    parts.join(", ")
-}
-
-/// The shell of a calibration's steps: the plan command's (progress, prompts, the simulated
-/// person) plus the telemetry samples of the step.
-struct CalShell {
-    inner: CliShell,
-    samples: Vec<Telemetry>,
-}
-
-impl RunShell<Recorder<AnyIo>> for CalShell {
-    fn event(&mut self, event: &RunEvent, io: &mut Recorder<AnyIo>) {
-        self.inner.event(event, io);
-    }
-    fn poll(&mut self, io: &mut Recorder<AnyIo>) -> Option<ShellAction> {
-        self.inner.poll(io)
-    }
-    fn device_event(&mut self, event: &Event, _io: &mut Recorder<AnyIo>) {
-        if let Event::Telemetry(t) = event {
-            self.samples.push(*t);
-        }
-    }
-}
-
-/// The peak of an inflation's ramp before its first fall of [`SNAP_FALL_KPA`], and the
-/// pressure the trunk settled to after it before the exhaust opened.
-pub fn ramp_snap(samples: &[(f64, bool, bool)]) -> (Option<f64>, Option<f64>, f64) {
-    let start = samples.iter().position(|s| s.1).unwrap_or(samples.len());
-    let mut peak = f64::NEG_INFINITY;
-    let mut snap = None;
-    let mut after = samples.len();
-    for (i, &(p, _, _)) in samples.iter().enumerate().skip(start) {
-        if p > peak {
-            peak = p;
-        } else if p < peak - SNAP_FALL_KPA {
-            // A snap falls while the inlet is open (the device closes it at the drop); a fall
-            // after the inlet closed is the regulator at its target, or the leak: the ramp
-            // goes on from there.
-            if samples[i - 1].1 {
-                snap = Some(peak);
-                after = i;
-                break;
-            }
-            peak = p;
-        }
-    }
-    let max = samples
-        .iter()
-        .map(|s| s.0)
-        .fold(f64::NEG_INFINITY, f64::max);
-    // The hold: only when the inlet closed at the fall (the device saw the snap); an
-    // inflation that went on to the cap holds nothing of the snap's.
-    let closed = samples[after.min(samples.len())..]
-        .iter()
-        .take(3)
-        .any(|s| !s.1);
-    let hold = snap.filter(|_| closed).and_then(|_| {
-        samples[after..]
-            .iter()
-            .take_while(|s| !s.2)
-            .last()
-            .map(|s| s.0)
-    });
-    (snap, hold, max)
-}
-
-/// Each buckling spike of a pull: the commanded tendon length (mm) at each sample whose
-/// pressure rose [`SPIKE_KPA`] over the one before while the tendons were not let out.
-pub fn pull_spikes(samples: &[(f64, f64)]) -> Vec<f64> {
-    let mut out = Vec::new();
-    let mut longest = 0.0f64;
-    let mut last_spike: Option<usize> = None;
-    for i in 1..samples.len() {
-        let (p0, l0) = samples[i - 1];
-        let (p, l) = samples[i];
-        longest = longest.max(l);
-        let pulling = l >= l0 - 1e-3 && l > 0.5;
-        // One snap's spike lasts a few samples: count it once.
-        if pulling && p - p0 >= SPIKE_KPA && last_spike.is_none_or(|k| i > k + 5) {
-            out.push(longest);
-            last_spike = Some(i);
-        } else if p - p0 >= SPIKE_KPA {
-            last_spike = Some(i);
-        }
-    }
-    out
-}
-
-/// The calibration's one-step transition from `from` to `to`: toward the pressure limit with
-/// one snap, or toward the reach with the step's snaps.
-fn probe(t: &Transition, limit_kpa: f32, what: Measure) -> Transition {
-    match what {
-        Measure::Snap => planner::graph::retarget(t, limit_kpa),
-        Measure::Stroke => planner::graph::retarget(t, REACH_MM as f32),
-        Measure::Pass => *t,
-    }
-}
-
-fn tendon_mm(cfg: &protocol::WinchConfig, deg: &[f32; 3]) -> f64 {
-    (0..3)
-        .map(|i| f64::from(cfg.length_for_angle(i, deg[i])))
-        .sum::<f64>()
-        / 3.0
 }
 
 /// Runs `host-tool calibrate`.
@@ -972,10 +567,90 @@ fn store_in_session(
     }
 }
 
-/// Walks the calibration, writes the profile to `out` and, when it holds the probe's
-/// signatures, stores them on the same device (in the same session: with `--sim` the
-/// simulator that was calibrated) and reads them back. The second value is the store's
-/// outcome (`None`: nothing to store).
+/// host-tool's side of the walk: its progress lines, Ctrl-C, and (with `--manual`) the probe's
+/// signatures in each state the walk reaches and in the two rests between states.
+struct CliHooks {
+    manual: bool,
+    interrupted: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    rates: [Option<probe::Reading>; 6],
+    between: [Option<probe::Reading>; 2],
+}
+
+impl Hooks<Recorder<AnyIo>> for CliHooks {
+    type Error = Failure;
+
+    fn say(&mut self, line: &str) {
+        crate::say!("{line}");
+    }
+
+    fn interrupted(&self) -> bool {
+        self.interrupted.load(std::sync::atomic::Ordering::SeqCst)
+    }
+
+    fn at_state(
+        &mut self,
+        s: &mut host::Driver<Recorder<AnyIo>>,
+        at: TrunkState,
+    ) -> Result<(), Failure> {
+        if !self.manual || self.rates[at.index()].is_some() {
+            return Ok(());
+        }
+        let r = probe::measure(s, at, &self.interrupted)?;
+        crate::say!(
+            "calibrate: the probe at {at} fills at {:.2} kPa/s ({:.0} ms from {:+.2} kPa)",
+            r.rate,
+            r.fill_ms,
+            r.p0_kpa
+        );
+        self.rates[at.index()] = Some(r);
+        for b in [probe::Between::FoldedTop, probe::Between::DeployedTop] {
+            if b.home() == at && self.between[b.index()].is_none() {
+                let rb = probe::measure_between(s, b, r, &self.interrupted)?;
+                crate::say!(
+                    "calibrate: the probe at the rest {} fills at {:.2} kPa/s",
+                    b.name(),
+                    rb.rate
+                );
+                self.between[b.index()] = Some(rb);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CliHooks {
+    /// The probe's signatures the walk measured (`None` without `--manual`).
+    fn signatures(&self) -> Result<Option<ProbeSignatures>, Failure> {
+        if !self.manual {
+            return Ok(None);
+        }
+        let all = |v: &[Option<probe::Reading>]| -> Option<Vec<f64>> {
+            v.iter()
+                .map(|r| r.map(|r| (r.rate * 100.0).round() / 100.0))
+                .collect()
+        };
+        let (Some(states), Some(between)) = (all(&self.rates), all(&self.between)) else {
+            return Err(refuse(format!(
+                "the walk did not probe every state and rest (states {:?}, rests {:?})",
+                self.rates.map(|r| r.is_some()),
+                self.between.map(|r| r.is_some())
+            )));
+        };
+        let (s6, b2) = (
+            <[f64; 6]>::try_from(states.as_slice()).unwrap_or_default(),
+            <[f64; 2]>::try_from(between.as_slice()).unwrap_or_default(),
+        );
+        for note in probe::check(&s6, &b2).map_err(refuse)? {
+            crate::say!("calibrate: {note}");
+        }
+        Ok(Some(ProbeSignatures { states, between }))
+    }
+}
+
+/// Walks the calibration ([`host::calibration::run`]), writes the profile to `out` and, when
+/// it holds the probe's signatures, stores them on the same device (in the same session: with
+/// `--sim` the simulator that was calibrated) and reads them back. The second value is the
+/// store's outcome (`None`: nothing to store).
 #[allow(clippy::type_complexity)]
 fn calibrate(
     device: &DeviceConfig,
@@ -986,242 +661,39 @@ fn calibrate(
     let interrupted = crate::cmd::plan::interrupt_flag();
     let mut conn = device.connect()?;
     let s = &mut conn.session;
-    let limit_kpa = match s.command(RequestBody::GetParam(ParamId::PressureLimitKpa)) {
-        Ok(ResponseBody::Param { value, .. }) => value,
-        other => {
-            return Err(anyhow::anyhow!("reading the device's pressure limit: {other:?}").into())
-        }
+    let mut shell = CliShell::new(interrupted.clone());
+    let mut hooks = CliHooks {
+        manual,
+        interrupted: interrupted.clone(),
+        rates: [None; 6],
+        between: [None; 2],
     };
-    let previous_rate = crate::cmd::monitor::set_telemetry_rate(s, TELEMETRY_HZ);
-    let start_ms = s.io.now_ms();
-    let mut shell = CalShell {
-        inner: CliShell::new(interrupted.clone()),
-        samples: Vec::new(),
-    };
-    let result = (|| -> Result<Profile, Failure> {
-        let st = s
-            .status()
-            .map_err(|e| anyhow::anyhow!("reading the device's state: {e}"))?;
-        let first = state("F&P");
-        if !(st.state == first && st.state_confirmed) {
-            crate::say!(
-                "calibrate: the trunk is at {}{}: taking it to F&P first",
-                st.state,
-                if st.state_confirmed {
-                    ""
-                } else {
-                    " (unconfirmed)"
-                }
-            );
-            let out = s.run_plan(Graph::nominal(), first, RunOptions::default(), &mut shell);
-            if !out.ok() {
-                return Err(refuse(format!(
-                    "could not start from F&P: {}",
-                    out.error().unwrap_or("not reached")
-                )));
-            }
-        }
-        // The sensor's zero: one second of telemetry at rest, vented.
-        s.device_events.clear();
-        s.idle(1000)
-            .map_err(|e| anyhow::anyhow!("reading the sensor at rest: {e}"))?;
-        let rest: Vec<f64> = drain_telemetry(&mut s.device_events)
-            .iter()
-            .map(|t| f64::from(t.pressure_kpa))
-            .collect();
-        if rest.is_empty() {
-            return Err(refuse(
-                "no telemetry at rest: the device sends none at 50 Hz".into(),
-            ));
-        }
-        let zero = rest.iter().sum::<f64>() / rest.len() as f64;
-        crate::say!(
-            "calibrate: sensor zero {zero:+.2} kPa at rest ({} samples)",
-            rest.len()
-        );
-        if zero > MAX_ZERO_KPA {
-            return Err(refuse(format!(
-                "the pressure sensor reads {zero:+.2} kPa at rest, vented: over the device's \
-                 {MAX_ZERO_KPA} kPa vent tolerance, no inflation can start from the air; \
-                 correct the sensor's offset (its calibration in the firmware's configuration)"
-            )));
-        }
-        let servo = protocol::CraneGeometry::default().winch;
-        let steps = walk(manual);
-        let mut measured = Vec::new();
-        // The probe's signatures (with --manual: the walk then passes through every state).
-        let mut rates: [Option<probe::Reading>; 6] = [None; 6];
-        let mut between: [Option<probe::Reading>; 2] = [None; 2];
-        let mut probe_at =
-            |s: &mut host::Driver<Recorder<AnyIo>>, at: TrunkState| -> Result<(), Failure> {
-                if !manual || rates[at.index()].is_some() {
-                    return Ok(());
-                }
-                let r = probe::measure(s, at, &interrupted)?;
-                crate::say!(
-                    "calibrate: the probe at {at} fills at {:.2} kPa/s ({:.0} ms from {:+.2} kPa)",
-                    r.rate,
-                    r.fill_ms,
-                    r.p0_kpa
-                );
-                rates[at.index()] = Some(r);
-                for b in [probe::Between::FoldedTop, probe::Between::DeployedTop] {
-                    if b.home() == at && between[b.index()].is_none() {
-                        let rb = probe::measure_between(s, b, r, &interrupted)?;
-                        crate::say!(
-                            "calibrate: the probe at the rest {} fills at {:.2} kPa/s",
-                            b.name(),
-                            rb.rate
-                        );
-                        between[b.index()] = Some(rb);
-                    }
-                }
-                Ok(())
+    let result = host::calibration::run(s, &mut shell, manual, &mut hooks)
+        .map_err(|e| match e {
+            WalkError::Refused(m) => refuse(m),
+            WalkError::Interrupted => Failure::Interrupted("calibration interrupted".into()),
+            WalkError::Device(m) => Failure::Runtime(anyhow::anyhow!(m)),
+            WalkError::Hook(f) => f,
+        })
+        .and_then(|walked| {
+            let probe = hooks.signatures()?;
+            let c = walked.calibration;
+            let profile = Profile {
+                format: FORMAT_VERSION,
+                name: name.to_string(),
+                schema_id: schema_text(),
+                date: chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
+                margin: c.margin,
+                pressure_limit_kpa: c.pressure_limit_kpa,
+                tendon_reach_mm: c.tendon_reach_mm,
+                sensor_zero_kpa: walked.sensor_zero_kpa,
+                duration_s: walked.duration_ms as f64 / 1000.0,
+                probe,
+                transitions: c.transitions,
             };
-        probe_at(s, first)?;
-        for (k, (from, to, what)) in steps.iter().copied().enumerate() {
-            if interrupted.load(std::sync::atomic::Ordering::SeqCst) {
-                return Err(Failure::Interrupted("calibration interrupted".into()));
-            }
-            let Some(t) = transitions::transition(from, to) else {
-                return Err(refuse(format!("{from} → {to} is not in the catalogue")));
-            };
-            let t = probe(t, limit_kpa, what);
-            let graph = Graph::from_transitions(vec![t], CostModel::default());
-            shell.samples.clear();
-            crate::say!(
-                "calibrate {}/{}: {from} → {to} by {}{}",
-                k + 1,
-                steps.len(),
-                match t.kind {
-                    StepKind::Tendon => "the tendons",
-                    StepKind::Pneumatic => "pressure",
-                    StepKind::Manual => "hand (the person folds it when prompted)",
-                },
-                match what {
-                    Measure::Snap => format!(", a ramp toward {limit_kpa} kPa"),
-                    Measure::Stroke => format!(", a pull toward {REACH_MM} mm"),
-                    Measure::Pass => String::new(),
-                }
-            );
-            let out = s.run_plan(graph, to, RunOptions::default(), &mut shell);
-            let samples = std::mem::take(&mut shell.samples);
-            let mut m = Measured {
-                from: from.name().into(),
-                to: to.name().into(),
-                kind: kind_name(t.kind).into(),
-                snap_kpa: Vec::new(),
-                hold_kpa: None,
-                stroke_mm: Vec::new(),
-                held: out.steps.first().is_some_and(|r| r.ok),
-            };
-            match what {
-                Measure::Snap => {
-                    let ramp: Vec<(f64, bool, bool)> = samples
-                        .iter()
-                        .map(|t| (f64::from(t.pressure_kpa), t.inlet_open, t.exhaust_open))
-                        .collect();
-                    let (snap, hold, max) = ramp_snap(&ramp);
-                    let Some(snap) = snap else {
-                        return Err(refuse(format!(
-                            "{from} → {to}: no snap seen on the ramp (the pressure rose to \
-                             {max:.2} kPa; the limit is {limit_kpa} kPa){}",
-                            out.error()
-                                .map(|e| format!("; the step: {e}"))
-                                .unwrap_or_default()
-                        )));
-                    };
-                    m.snap_kpa.push(round(snap, 100.0));
-                    m.hold_kpa = hold.map(|h| round(h, 100.0));
-                    crate::say!(
-                        "calibrate {}/{}: snap at {snap:.2} kPa{}",
-                        k + 1,
-                        steps.len(),
-                        hold.map(|h| format!(", holds at {h:.2} kPa"))
-                            .unwrap_or_default()
-                    );
-                }
-                Measure::Stroke => {
-                    let pull: Vec<(f64, f64)> = samples
-                        .iter()
-                        .map(|t| (f64::from(t.pressure_kpa), tendon_mm(&servo, &t.servo_deg)))
-                        .collect();
-                    let spikes = pull_spikes(&pull);
-                    let longest = pull.iter().map(|p| p.1).fold(0.0, f64::max);
-                    let Some(&stroke) = spikes.first() else {
-                        return Err(refuse(format!(
-                            "{from} → {to}: no buckling seen (the tendons pulled {longest:.1} \
-                             mm){}",
-                            out.error()
-                                .map(|e| format!("; the step: {e}"))
-                                .unwrap_or_default()
-                        )));
-                    };
-                    m.stroke_mm = spikes.iter().map(|&x| round(x, 10.0)).collect();
-                    crate::say!(
-                        "calibrate {}/{}: buckles at {stroke:.1} mm of pull",
-                        k + 1,
-                        steps.len()
-                    );
-                }
-                Measure::Pass => {}
-            }
-            if !out.ok() {
-                return Err(refuse(format!(
-                    "{from} → {to}: {} (measured so far: {})",
-                    out.error().unwrap_or("the step did not reach its target"),
-                    measured
-                        .iter()
-                        .chain(std::iter::once(&m))
-                        .map(|m: &Measured| format!("{} → {}: {}", m.from, m.to, measured_text(m)))
-                        .collect::<Vec<_>>()
-                        .join("; ")
-                )));
-            }
-            measured.push(m);
-            probe_at(s, to)?;
-        }
-        let probe = if manual {
-            let all = |v: &[Option<probe::Reading>]| -> Option<Vec<f64>> {
-                v.iter().map(|r| r.map(|r| round(r.rate, 100.0))).collect()
-            };
-            let (Some(states), Some(between)) = (all(&rates), all(&between)) else {
-                return Err(refuse(format!(
-                    "the walk did not probe every state and rest (states {:?}, rests {:?})",
-                    rates.map(|r| r.is_some()),
-                    between.map(|r| r.is_some())
-                )));
-            };
-            let (s6, b2) = (
-                <[f64; 6]>::try_from(states.as_slice()).unwrap_or_default(),
-                <[f64; 2]>::try_from(between.as_slice()).unwrap_or_default(),
-            );
-            for note in probe::check(&s6, &b2).map_err(refuse)? {
-                crate::say!("calibrate: {note}");
-            }
-            Some(ProbeSignatures { states, between })
-        } else {
-            None
-        };
-        let profile = Profile {
-            format: FORMAT_VERSION,
-            name: name.to_string(),
-            schema_id: schema_text(),
-            date: chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
-            margin: MARGIN,
-            pressure_limit_kpa: f64::from(limit_kpa),
-            tendon_reach_mm: REACH_MM,
-            sensor_zero_kpa: (zero * 1000.0).round() / 1000.0,
-            duration_s: (s.io.now_ms() - start_ms) as f64 / 1000.0,
-            probe,
-            transitions: measured,
-        };
-        profile.check().map_err(refuse)?;
-        profile
-            .targets(profile.pressure_limit_kpa)
-            .map_err(refuse)?;
-        Ok(profile)
-    })();
+            profile.check().map_err(refuse)?;
+            Ok(profile)
+        });
     let result = result.and_then(|profile| {
         std::fs::write(out, profile.to_toml())
             .map_err(|e| anyhow::anyhow!("writing {}: {e}", out.display()))?;
@@ -1233,27 +705,11 @@ fn calibrate(
         });
         Ok((profile, store))
     });
-    if let Some(value) = previous_rate {
-        let _ = s.command(RequestBody::SetParam {
-            id: ParamId::TelemetryHz,
-            value,
-        });
-    }
     conn.close();
     if interrupted.load(std::sync::atomic::Ordering::SeqCst) {
         return Err(Failure::Interrupted("calibration interrupted".into()));
     }
     result
-}
-
-fn drain_telemetry(events: &mut VecDeque<Event>) -> Vec<Telemetry> {
-    events
-        .drain(..)
-        .filter_map(|e| match e {
-            Event::Telemetry(t) => Some(t),
-            _ => None,
-        })
-        .collect()
 }
 
 /// The graph `plan --calibration FILE` runs: the profile's targets under `limit_kpa`; on the
@@ -1282,43 +738,10 @@ pub fn plan_graph(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use host::calibration::{MARGIN, REACH_MM};
 
-    #[test]
-    fn the_ramps_peak_before_its_fall_is_the_snap() {
-        // 0.22 kPa per sample up to 13.09, the snap's fall, the hold, then the vent.
-        let mut s: Vec<(f64, bool, bool)> =
-            (0..60).map(|i| (i as f64 * 0.22, true, false)).collect();
-        s.push((12.79, true, false));
-        s.push((9.64, false, false));
-        s.push((12.2, false, false));
-        s.push((12.1, false, false));
-        s.push((8.0, false, true));
-        let (snap, hold, _) = ramp_snap(&s);
-        assert!((snap.unwrap() - 59.0 * 0.22).abs() < 1e-9);
-        assert_eq!(hold, Some(12.1));
-        let flat: Vec<_> = (0..60).map(|i| (i as f64 * 0.2, true, false)).collect();
-        assert_eq!(ramp_snap(&flat).0, None);
-        // At the cap: the inlet closes, the pressure settles and leaks: no snap.
-        let mut cap = flat.clone();
-        cap.extend((0..20).map(|i| (11.8 - 0.1 * i as f64, false, false)));
-        cap.extend((0..3).map(|i| (10.0 + 0.5 * i as f64, true, false)));
-        cap.extend((0..20).map(|i| (11.0 - 0.1 * i as f64, false, false)));
-        assert_eq!(ramp_snap(&cap).0, None);
-    }
-
-    #[test]
-    fn a_pulls_spike_gives_its_stroke() {
-        let s = [
-            (0.1, 0.0),
-            (0.2, 2.0),
-            (0.3, 4.0),
-            (1.9, 6.0),
-            (3.6, 6.0),
-            (3.0, 4.0),
-        ];
-        assert_eq!(pull_spikes(&s), vec![6.0]);
-        let flat = [(0.1, 0.0), (0.4, 2.0), (0.8, 4.0)];
-        assert!(pull_spikes(&flat).is_empty());
+    fn state(name: &str) -> TrunkState {
+        name.parse().unwrap()
     }
 
     fn profile() -> Profile {

@@ -11,9 +11,10 @@
 //! state's first, or the trunk is not back where the device believes it is.
 
 use geometry::TrunkState;
-use host::{Driver, Io as _};
+use host::calibration::WithinError;
+use host::Driver;
 use protocol::probe::{HOLD_MS, LEAK_DROP_KPA, PROBE, PROBE_KPA, RATE_TOLERANCE, SETTLE_MS};
-use protocol::{Event, Mode, PlanPhase, RequestBody, Step, StepKind, Telemetry};
+use protocol::{RequestBody, Telemetry};
 
 use crate::failure::Failure;
 use crate::record::Recorder;
@@ -114,81 +115,25 @@ fn refuse(msg: String) -> Failure {
     super::refuse(msg)
 }
 
-/// Runs one step within `state` and waits for its end on the device's clock; returns the
-/// telemetry during it and the step's duration from its `StepDone`.
+/// Runs one step within `state` ([`host::calibration::run_within`]); a failure names the
+/// probe.
 fn run_within(
     s: &mut Driver<Recorder<AnyIo>>,
     state: TrunkState,
     prims: &[protocol::Primitive],
     interrupted: &std::sync::atomic::AtomicBool,
 ) -> Result<(Vec<Telemetry>, u32), Failure> {
-    let step = Step {
-        kind: StepKind::Pneumatic,
-        from: state,
-        to: state,
-        primitives: prims.iter().copied().collect(),
-        timeout_ms: STEP_TIMEOUT_MS as u32,
-    };
-    s.device_events.clear();
-    s.command(RequestBody::RunStep(step)).map_err(|e| {
-        refuse(format!(
-            "the probe at {state}: the device refused its step: {e}"
-        ))
-    })?;
-    let start = s.io.now_ms();
-    let mut samples = Vec::new();
-    let mut done: Option<(bool, u32)> = None;
-    loop {
-        if interrupted.load(std::sync::atomic::Ordering::SeqCst) {
-            let _ = s.command(RequestBody::Abort);
-            return Err(Failure::Interrupted(
+    let stop = || interrupted.load(std::sync::atomic::Ordering::SeqCst);
+    host::calibration::run_within(s, state, prims, STEP_TIMEOUT_MS as u32, &stop).map_err(|e| {
+        match e {
+            WithinError::Interrupted => Failure::Interrupted(
                 "calibration interrupted: the probe was aborted, the device is in its safe state"
                     .into(),
-            ));
+            ),
+            WithinError::Link(e) => anyhow::anyhow!("the probe at {state}: {e}").into(),
+            WithinError::Failed { why, .. } => refuse(format!("the probe at {state}: {why}")),
         }
-        s.idle(20)
-            .map_err(|e| anyhow::anyhow!("the probe at {state}: {e}"))?;
-        for ev in s.device_events.drain(..) {
-            match ev {
-                Event::Telemetry(t) => samples.push(t),
-                Event::StepDone {
-                    plan_id: 0,
-                    ok,
-                    duration_ms,
-                    ..
-                } => done = Some((ok, duration_ms)),
-                _ => {}
-            }
-        }
-        if done.is_some() || s.io.now_ms() > start + STEP_TIMEOUT_MS + 2_000 {
-            break;
-        }
-    }
-    let st = s
-        .status()
-        .map_err(|e| anyhow::anyhow!("the probe at {state}: reading the status: {e}"))?;
-    let phase = st.plan.filter(|p| p.plan_id == 0).map(|p| p.phase);
-    match (done, phase, st.mode) {
-        (_, _, Mode::Running | Mode::WaitingManual) => {
-            let _ = s.command(RequestBody::Abort);
-            Err(refuse(format!(
-                "the probe at {state}: its step did not end within {} s",
-                STEP_TIMEOUT_MS / 1000
-            )))
-        }
-        (Some((true, ms)), Some(PlanPhase::Done), _) => Ok((samples, ms)),
-        (None, Some(PlanPhase::Done), _) => Err(refuse(format!(
-            "the probe at {state}: the step's end was not heard (its duration is the reading): \
-             calibrate again"
-        ))),
-        (_, Some(PlanPhase::Failed(code)), _) => Err(refuse(format!(
-            "the probe at {state}: the device stopped its step: {}",
-            host::text::fault(code)
-        ))),
-        (_, other, _) => Err(refuse(format!(
-            "the probe at {state}: its step ended in phase {other:?}"
-        ))),
-    }
+    })
 }
 
 fn mean(v: &[f64]) -> Option<f64> {

@@ -424,3 +424,72 @@ fn calibration_load_show_and_erase_the_devices_probe_profile_over_the_pty() {
     assert!(show().is_null(), "erased");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `calibrate --port P --trunk FILE`: on a real crane the trunk's description names the
+/// profile (and is checked); `hil-sim --trunk` is `--sim-trunk`'s alias, so the simulated
+/// crane behind the pty runs the same description.
+#[test]
+fn calibrate_over_a_port_names_the_profile_from_the_trunks_description() {
+    let dir = std::env::temp_dir().join(format!("e2e-port-trunk-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let trunk = dir.join("my-print.toml");
+    let pdf = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../trunks/pdf.toml"))
+        .unwrap();
+    assert!(pdf.contains("\nname = \"pdf\"\n"));
+    std::fs::write(
+        &trunk,
+        pdf.replace("\nname = \"pdf\"\n", "\nname = \"my-print\"\n"),
+    )
+    .unwrap();
+    let trunk_s = trunk.to_str().unwrap();
+    let profile = dir.join("profile.toml");
+    let sim = hil_sim_pty(&[
+        "--trunk",
+        trunk_s,
+        "--initial",
+        "F&P",
+        "--speed",
+        "20",
+        "--seed",
+        "3",
+    ]);
+    let out = host_tool(
+        &[
+            "calibrate",
+            "--port",
+            &sim.path,
+            "--trunk",
+            trunk_s,
+            "--out",
+            profile.to_str().unwrap(),
+            "--json",
+        ],
+        Duration::from_secs(120),
+    );
+    assert_eq!(out.code(), 0, "{}", out.stderr);
+    assert_eq!(out.json()["name"], "my-print");
+    let text = std::fs::read_to_string(&profile).unwrap();
+    assert!(text.contains("name = \"my-print\""), "{text}");
+    // A description that is not one is refused before the port is opened (exit 2).
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, pdf.replace("[pneumatics]", "[pneumatic]")).unwrap();
+    let out = host_tool(
+        &[
+            "calibrate",
+            "--port",
+            &sim.path,
+            "--trunk",
+            bad.to_str().unwrap(),
+            "--out",
+            profile.to_str().unwrap(),
+        ],
+        LIMIT,
+    );
+    assert_eq!(out.code(), 2, "{}", out.stderr);
+    assert!(
+        out.stderr
+            .contains(&format!("invalid trunk {}", bad.display())),
+        "{}",
+        out.stderr
+    );
+}

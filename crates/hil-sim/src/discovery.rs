@@ -47,6 +47,18 @@ pub struct RigConfig {
     pub settle_s: f64,
 }
 
+impl RigConfig {
+    /// The crane's own limits: its pressure cap (`CraneConfig::pressure_limit_kpa`) and the
+    /// winches' travel, not the protocol's hard maximum.
+    pub fn crane() -> Self {
+        let fw = firmware::CraneConfig::default();
+        Self {
+            pressure_cap_kpa: fw.pressure_limit_kpa as f64,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for RigConfig {
     fn default() -> Self {
         let fw = firmware::CraneConfig::default();
@@ -96,9 +108,14 @@ pub struct Rig {
 }
 
 impl Rig {
-    /// A rig with the trunk at rest in `state`.
+    /// A rig with the calibrated trunk at rest in `state`.
     pub fn new(state: TrunkState, cfg: RigConfig) -> Self {
         let params = TrunkParams::pdf().unwrap_or_else(|e| unreachable!("pdf params: {e}"));
+        Self::with_params(params, state, cfg)
+    }
+
+    /// A rig with the trunk of `params` at rest in `state`.
+    pub fn with_params(params: TrunkParams, state: TrunkState, cfg: RigConfig) -> Self {
         Self {
             trunk: Trunk::new(params, state),
             cfg,
@@ -317,7 +334,10 @@ pub struct Outcome {
 
 /// Inflates from `from` until the first snap (or the cap), then vents.
 pub fn explore_pneumatic(from: TrunkState, cfg: RigConfig) -> Outcome {
-    let mut rig = Rig::new(from, cfg);
+    explore_pneumatic_of(Rig::new(from, cfg), from, cfg)
+}
+
+fn explore_pneumatic_of(mut rig: Rig, from: TrunkState, cfg: RigConfig) -> Outcome {
     rig.inflate(cfg.pressure_cap_kpa, 1);
     rig.vent(0.0);
     let to = rig.settled_state();
@@ -333,7 +353,10 @@ pub fn explore_pneumatic(from: TrunkState, cfg: RigConfig) -> Outcome {
 /// Pulls from `from` until the trunk sits in another named state after a snap (or the winch
 /// travel ends), then releases.
 pub fn explore_tendon(from: TrunkState, cfg: RigConfig) -> Outcome {
-    let mut rig = Rig::new(from, cfg);
+    explore_tendon_of(Rig::new(from, cfg), from, cfg)
+}
+
+fn explore_tendon_of(mut rig: Rig, from: TrunkState, cfg: RigConfig) -> Outcome {
     let max = cfg.max_pull_mm;
     rig.pull_until(max, |t, seen| {
         seen > 0 && t.state().is_some_and(|s| s != from)
@@ -404,10 +427,17 @@ pub struct Graph {
 
 /// Runs every exploration (12 runs of the physics).
 pub fn discover(cfg: RigConfig) -> Graph {
+    let params = TrunkParams::pdf().unwrap_or_else(|e| unreachable!("pdf params: {e}"));
+    discover_trunk(&params, cfg)
+}
+
+/// [`discover`] on the trunk of `params`.
+pub fn discover_trunk(params: &TrunkParams, cfg: RigConfig) -> Graph {
     let mut outcomes = Vec::new();
     for from in TrunkState::ALL {
-        outcomes.push(explore_pneumatic(from, cfg));
-        outcomes.push(explore_tendon(from, cfg));
+        let rig = || Rig::with_params(params.clone(), from, cfg);
+        outcomes.push(explore_pneumatic_of(rig(), from, cfg));
+        outcomes.push(explore_tendon_of(rig(), from, cfg));
     }
     let mut edges: Vec<Edge> = outcomes
         .iter()

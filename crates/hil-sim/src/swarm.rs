@@ -1338,6 +1338,31 @@ pub struct SwarmReport {
     pub calibrations_refused: u64,
     /// Virtual time of the calibration walks, ms (not in `virtual_ms`).
     pub calibration_ms: u64,
+    /// With [`swarm_split`]: the scenarios whose trunk's physics makes every actuated
+    /// transition of the catalogue within the crane's limits ([`feasible`]), their targets and
+    /// the targets they reached.
+    pub feasible: Option<(u64, u64, u64)>,
+}
+
+/// Whether the physics of `trunk` makes every actuated transition of the catalogue, to the
+/// catalogue's end state, within the crane's own limits (its 40 kPa pressure cap, the winches'
+/// 185 mm): `discovery::discover_trunk` with `RigConfig::crane()`. A trunk that is not is one no
+/// threshold can take through every state: its bottom deploys over the cap, or a fold or the
+/// pack needs more tendon than the winches have, or a snap lands elsewhere.
+pub fn feasible(trunk: &TrunkSpec) -> bool {
+    use crate::discovery::{discover_trunk, EdgeKind, RigConfig};
+    let Ok(params) = trunk.params() else {
+        return false;
+    };
+    let g = discover_trunk(&params, RigConfig::crane());
+    protocol::transitions::TRANSITIONS
+        .iter()
+        .filter(|t| t.kind != protocol::StepKind::Manual)
+        .all(|t| {
+            g.edges
+                .iter()
+                .any(|e| e.from == t.from && e.to == t.to && e.kind == EdgeKind::from(t.kind))
+        })
 }
 
 /// Runs `runs` scenarios with seeds `seed..seed + runs` on `threads` threads.
@@ -1352,12 +1377,26 @@ pub fn swarm_of(
     threads: usize,
     make: &(dyn Fn(u64) -> Scenario + Sync),
 ) -> SwarmReport {
+    swarm_split(seed, runs, threads, make, false)
+}
+
+/// [`swarm_of`]; with `split`, also the totals of the scenarios on [`feasible`] trunks.
+pub fn swarm_split(
+    seed: u64,
+    runs: u64,
+    threads: usize,
+    make: &(dyn Fn(u64) -> Scenario + Sync),
+    split: bool,
+) -> SwarmReport {
     let threads = threads.max(1) as u64;
     let parts: Vec<SwarmReport> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..threads)
             .map(|k| {
                 scope.spawn(move || {
-                    let mut r = SwarmReport::default();
+                    let mut r = SwarmReport {
+                        feasible: split.then_some((0, 0, 0)),
+                        ..SwarmReport::default()
+                    };
                     let mut i = k;
                     while i < runs {
                         let s = make(seed.wrapping_add(i));
@@ -1388,6 +1427,11 @@ pub fn swarm_of(
                             r.calibrations_refused += u64::from(c.is_err());
                         }
                         r.calibration_ms += rep.calibration_ms;
+                        if let Some(f) = r.feasible.as_mut().filter(|_| feasible(&s.trunk)) {
+                            f.0 += 1;
+                            f.1 += s.targets.len() as u64;
+                            f.2 += rep.reached as u64;
+                        }
                         i += threads;
                     }
                     r
@@ -1399,7 +1443,10 @@ pub fn swarm_of(
             .map(|h| h.join().unwrap_or_default())
             .collect()
     });
-    let mut total = SwarmReport::default();
+    let mut total = SwarmReport {
+        feasible: split.then_some((0, 0, 0)),
+        ..SwarmReport::default()
+    };
     for p in parts {
         total.runs += p.runs;
         total.virtual_ms += p.virtual_ms;
@@ -1409,6 +1456,11 @@ pub fn swarm_of(
         total.calibrations += p.calibrations;
         total.calibrations_refused += p.calibrations_refused;
         total.calibration_ms += p.calibration_ms;
+        if let (Some(t), Some(f)) = (total.feasible.as_mut(), p.feasible) {
+            t.0 += f.0;
+            t.1 += f.1;
+            t.2 += f.2;
+        }
     }
     total.violations.sort_by_key(|v| (v.seed, v.t_ms));
     total

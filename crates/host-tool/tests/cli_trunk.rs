@@ -448,7 +448,20 @@ fn flags_files_and_ports_that_do_not_go_with_trunk_are_refused() {
     );
     let out = host_tool(&["plan", "--sim", "--trunk", s(&f), "--target", "F&F"]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
-    // With a real crane the trunk measures itself (calibrate --port … --name NAME).
+    // With a real crane the trunk measures itself: `calibrate --port P --trunk FILE` takes
+    // its name from the description (tests/e2e/pty.rs), every other command refuses it.
+    refused(
+        &[
+            "calibrate",
+            "--port",
+            "/dev/null",
+            "--trunk",
+            missing,
+            "--out",
+            s(&tmp("p.toml")),
+        ],
+        "invalid trunk /nonexistent/trunk.toml: cannot read the trunk file",
+    );
     refused(
         &[
             "plan",

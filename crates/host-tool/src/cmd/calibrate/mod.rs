@@ -215,8 +215,8 @@ pub struct Args {
     /// Write the profile here (TOML).
     #[arg(long, value_name = "PROFILE.toml")]
     pub out: PathBuf,
-    /// The trunk's name in the profile [default: the simulated trunk's name with --sim, else
-    /// `crane`].
+    /// The trunk's name in the profile [default: the trunk's name: the simulated one's with
+    /// --sim, the description's given with --trunk FILE on a port, else `crane`].
     #[arg(long, value_name = "NAME")]
     pub name: Option<String>,
     /// Print the profile as one JSON object on stdout.
@@ -485,7 +485,19 @@ fn show_text(p: &Profile, targets: &[((TrunkState, TrunkState), f32)]) -> String
 }
 
 /// Runs `host-tool calibrate`.
-pub fn run(args: Args) -> Result<(), Failure> {
+pub fn run(mut args: Args) -> Result<(), Failure> {
+    // On a port, `--trunk FILE` describes the real trunk being calibrated (its name for the
+    // profile, its description checked), not a simulated one.
+    let real_trunk = match args.device.sim_trunk.take() {
+        Some(path) if !args.device.sim => Some(
+            hil_sim::cli::sim_trunk(Some(&path), None)
+                .map_err(|e| Failure::usage(format!("invalid trunk {}: {e}", path.display())))?,
+        ),
+        other => {
+            args.device.sim_trunk = other;
+            None
+        }
+    };
     let device = args.device.validate(None)?;
     let name = match (&args.name, &device) {
         (Some(n), _) if n.trim().is_empty() => {
@@ -493,7 +505,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         (Some(n), _) => n.clone(),
         (None, DeviceConfig::Sim(sim)) => sim.trunk.name.clone(),
-        (None, DeviceConfig::Port(_)) => "crane".to_string(),
+        (None, DeviceConfig::Port(_)) => real_trunk.map_or_else(|| "crane".to_string(), |t| t.name),
     };
     // The output file is opened before the work (a path that cannot be written is said now).
     std::fs::write(&args.out, "")

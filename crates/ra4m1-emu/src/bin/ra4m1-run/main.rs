@@ -94,6 +94,9 @@ fn main() -> ExitCode {
         &bytes,
         Options {
             board,
+            // The crane's display, where its pin map puts it (an ELF that never clocks those
+            // pins sees no difference).
+            tm1637: Some(tests::display_wiring()),
             ..Options::default()
         },
     ) {

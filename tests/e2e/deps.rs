@@ -205,6 +205,17 @@ fn the_emulator_comes_with_hil_sims_feature_pil_and_not_without_it() {
 }
 
 #[test]
+fn the_emulators_library_links_no_crane_and_its_runner_reads_the_pin_map() {
+    let library = linked("ra4m1-emu", &["--no-default-features"]);
+    assert!(
+        !library.iter().any(|(n, _)| n == "firmware"),
+        "ra4m1-emu's library links firmware: {library:?}"
+    );
+    let runner = linked("ra4m1-emu", &[]);
+    assert!(runner.iter().any(|(n, _)| n == "firmware"), "{runner:?}");
+}
+
+#[test]
 fn the_host_engine_builds_no_inverse_kinematics() {
     let crates = linked("host", &[]);
     for ik_only in ["planner", "rayon"] {

@@ -1,17 +1,24 @@
 //! The UNO R4 board's pin map, in RA4M1 port/pin terms: plain data, no register access, built
 //! for every target. The board support (`firmware::board`, feature `board-uno-r4`), its on-target
-//! suites and the simulator's processor-in-the-loop wiring (`hil-sim`'s `elf_board`, on the
-//! host) all read this one map. The same binary runs on the UNO R4 Minima and WiFi: every pin
+//! suites, the emulator's runner that fits their stimulus fixture (`ra4m1-run`) and the
+//! simulator's processor-in-the-loop wiring (`hil-sim`'s `elf_board`, on the host) all read
+//! this one map; the emulator itself is a plain RA4M1 and is told the wiring by them. The same binary runs on the UNO R4 Minima and WiFi: every pin
 //! below reaches a header on both boards (the header labels differ between the two;
 //! `docs/hardware.md` has both columns).
 //!
-//! A pin that carries a peripheral function is a type ([`P304`] …), and the functions it
-//! carries are trait impls, as in embassy's `ChannelAPin<T>`: [`GtiocPin<T, O>`] says which
-//! output `O` of which GPT channel `T` a pin is, [`AnalogPin<C>`] which ADC channel `C`. The
-//! map's servo lines ([`Gtioc`]) and analog inputs ([`Analog`]) name pin, channel and output
-//! together, and only a pairing the chip has compiles; the board's PWM and ADC setup take
-//! these lines, so a timer cannot be given another timer's pin. The numbers the simulator
-//! needs come from the same definitions ([`Gtioc::line`], [`Analog::channel`]).
+//! Each pin is a type ([`P304`] …), and the functions it carries are trait impls, as in
+//! embassy's `ChannelAPin<T>`: [`GtiocPin<T, O>`] says which output `O` of which GPT channel `T`
+//! a pin is, [`AnalogPin<C>`] which ADC channel `C`, [`TxdPin<S>`] and [`RxdPin<S>`] which
+//! SCI channel's transmit or receive line, [`GpioPin<M>`] which GPIO modes it has ([`mode`]:
+//! push-pull, pulled-up input, open drain). Every line of the map names pin and function
+//! together: the servo lines ([`Gtioc`]), the analog inputs ([`Analog`]), the host link
+//! ([`Txd`], [`Rxd`]), the valve, gripper and button lines and the display's clock and data
+//! ([`Gpio`]); only a pairing the chip has compiles. The board's drivers take these lines (a
+//! GPT7 timer only GPT7's, the SCI9 link only SCI9's TXD and RXD, an output only a push-pull
+//! line, the display's data driver only an open-drain one), so a peripheral cannot be given
+//! another one's pin, nor a button's pin driven. The numbers the simulator and the emulator's
+//! runner need come from the same definitions ([`Gtioc::line`], [`Analog::channel`],
+//! `pin()`).
 //!
 //! A pin wired to the wrong timer output is refused at compile time:
 //! ```compile_fail,E0277
@@ -25,12 +32,47 @@
 //! // P014 is AN009.
 //! const WRONG: Analog<P014, An001> = Analog::new();
 //! ```
+//! the serial link's lines swapped (the transmit pin as the receive line, and the reverse):
+//! ```compile_fail,E0277
+//! use firmware::pins::{Rxd, Sci9, P109};
+//! // P109 is TXD9, not RXD9.
+//! const WRONG: Rxd<P109, Sci9> = Rxd::new();
+//! ```
+//! ```compile_fail,E0277
+//! use firmware::pins::{Sci9, Txd, P110};
+//! // P110 is RXD9, not TXD9.
+//! const WRONG: Txd<P110, Sci9> = Txd::new();
+//! ```
+//! an input-only pin as an output (a valve gate, the display's clock):
+//! ```compile_fail,E0277
+//! use firmware::pins::{mode, Gpio, P200};
+//! // P200 (NMI) is input only.
+//! const WRONG: Gpio<P200, mode::PushPull> = Gpio::new();
+//! ```
+//! or as the display's open-drain data line:
+//! ```compile_fail,E0277
+//! use firmware::pins::{mode, Gpio, P200};
+//! const WRONG: Gpio<P200, mode::OpenDrain> = Gpio::new();
+//! ```
+//! and a line of the map in another mode than its own: the display's data line (open drain,
+//! which the chip pulls low to acknowledge) is not a push-pull clock, a button (a pulled-up
+//! switch to ground) is not an output to drive:
+//! ```compile_fail,E0308
+//! use firmware::pins::{self, mode, Gpio, P302};
+//! const WRONG: Gpio<P302, mode::PushPull> = pins::TM_DIO;
+//! ```
+//! ```compile_fail,E0308
+//! use firmware::pins::{self, mode, Gpio, P105};
+//! const WRONG: Gpio<P105, mode::PushPull> = pins::BTN_UP;
+//! ```
 //! while the map's own pairings do:
 //! ```
 //! use firmware::pins::{self, GptOutput, PortPin};
 //! let servo1 = pins::SERVO1.line();
 //! assert_eq!((servo1.pin, servo1.channel, servo1.output), (PortPin::new(3, 3), 7, GptOutput::B));
 //! assert_eq!(pins::PRESSURE.channel(), 9);
+//! assert_eq!((pins::HOST_TX.pin(), pins::HOST_TX.channel()), (PortPin::new(1, 9), 9));
+//! assert_eq!((pins::TM_CLK.pin(), pins::TM_DIO.pin()), (PortPin::new(1, 11), PortPin::new(3, 2)));
 //! ```
 
 use core::marker::PhantomData;
@@ -51,7 +93,7 @@ impl PortPin {
     }
 }
 
-/// A pin as a type, for the pins that carry a peripheral function here.
+/// A pin as a type: the pins of the map, and P200 (input only, which no output line takes).
 pub trait Pin {
     /// Its port and pin numbers.
     const PORT_PIN: PortPin;
@@ -71,8 +113,22 @@ macro_rules! pin_types {
 pin_types! {
     P000 = (0, 0);
     P001 = (0, 1);
+    P002 = (0, 2);
     P014 = (0, 14);
+    P100 = (1, 0);
     P101 = (1, 1);
+    P103 = (1, 3);
+    P104 = (1, 4);
+    P105 = (1, 5);
+    P106 = (1, 6);
+    P107 = (1, 7);
+    P109 = (1, 9);
+    P110 = (1, 10);
+    P111 = (1, 11);
+    P112 = (1, 12);
+    P200 = (2, 0);
+    P301 = (3, 1);
+    P302 = (3, 2);
     P303 = (3, 3);
     P304 = (3, 4);
 }
@@ -257,6 +313,154 @@ impl<P: AnalogPin<C>, C: AdcChannel> Default for Analog<P, C> {
     }
 }
 
+/// An SCI channel (SCIn).
+pub trait SciChannel {
+    /// Its number `n`.
+    const NUMBER: u8;
+}
+
+/// SCI channel 9 (the host link).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sci9;
+impl SciChannel for Sci9 {
+    const NUMBER: u8 = 9;
+}
+
+/// The pin carries TXD`S` (pin function select SCI): the transmit line of SCI channel `S`.
+pub trait TxdPin<S: SciChannel>: Pin {}
+/// The pin carries RXD`S` (pin function select SCI): the receive line of SCI channel `S`.
+pub trait RxdPin<S: SciChannel>: Pin {}
+
+impl TxdPin<Sci9> for P109 {}
+impl RxdPin<Sci9> for P110 {}
+
+/// How a GPIO line is configured (PmnPFS with PMR = 0), as types.
+pub mod mode {
+    /// A GPIO mode ([`PushPull`], [`PullUp`], [`OpenDrain`]).
+    pub trait GpioMode {}
+
+    /// Push-pull output.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct PushPull;
+    impl GpioMode for PushPull {}
+
+    /// Input with the internal pull-up (a switch to ground reads low when closed).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct PullUp;
+    impl GpioMode for PullUp {}
+
+    /// N-channel open drain with the internal pull-up: driven low or released, and read back.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct OpenDrain;
+    impl GpioMode for OpenDrain {}
+}
+
+/// The pin can be a GPIO in mode `M`.
+pub trait GpioPin<M: mode::GpioMode>: Pin {}
+
+// Every pin of the map is a general I/O port pin, but P200: the NMI pin is input only, so it
+// takes neither output mode (and the map reads nothing on it).
+macro_rules! io_pins {
+    ($($name:ident),*) => {$(
+        impl GpioPin<mode::PushPull> for $name {}
+        impl GpioPin<mode::PullUp> for $name {}
+        impl GpioPin<mode::OpenDrain> for $name {}
+    )*};
+}
+
+io_pins!(
+    P000, P001, P002, P014, P100, P101, P103, P104, P105, P106, P107, P109, P110, P111, P112, P301,
+    P302, P303, P304
+);
+
+// Clone, Copy, Default and Debug for a line type: a marker of its pin and function, whose
+// numbers come from its `pin()` (and the type).
+macro_rules! line_impls {
+    ($ty:ident<$($p:ident: $bound:path),*>) => {
+        impl<$($p: $bound),*> Clone for $ty<$($p),*> {
+            fn clone(&self) -> Self {
+                *self
+            }
+        }
+        impl<$($p: $bound),*> Copy for $ty<$($p),*> {}
+        impl<$($p: $bound),*> Default for $ty<$($p),*> {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+        impl<$($p: $bound),*> core::fmt::Debug for $ty<$($p),*> {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                f.debug_struct(stringify!($ty)).field("pin", &self.pin()).finish()
+            }
+        }
+    };
+}
+
+/// A serial transmit line: pin `P` as TXD of SCI channel `S`. Only a pairing the chip has
+/// ([`TxdPin`]) names a type.
+pub struct Txd<P: TxdPin<S>, S: SciChannel>(PhantomData<(P, S)>);
+
+impl<P: TxdPin<S>, S: SciChannel> Txd<P, S> {
+    /// The line.
+    pub const fn new() -> Self {
+        Self(PhantomData)
+    }
+
+    /// Its pin.
+    pub const fn pin(&self) -> PortPin {
+        P::PORT_PIN
+    }
+
+    /// Its SCI channel number.
+    pub const fn channel(&self) -> u8 {
+        S::NUMBER
+    }
+}
+
+line_impls!(Txd<P: TxdPin<S>, S: SciChannel>);
+
+/// A serial receive line: pin `P` as RXD of SCI channel `S`. Only a pairing the chip has
+/// ([`RxdPin`]) names a type.
+pub struct Rxd<P: RxdPin<S>, S: SciChannel>(PhantomData<(P, S)>);
+
+impl<P: RxdPin<S>, S: SciChannel> Rxd<P, S> {
+    /// The line.
+    pub const fn new() -> Self {
+        Self(PhantomData)
+    }
+
+    /// Its pin.
+    pub const fn pin(&self) -> PortPin {
+        P::PORT_PIN
+    }
+
+    /// Its SCI channel number.
+    pub const fn channel(&self) -> u8 {
+        S::NUMBER
+    }
+}
+
+line_impls!(Rxd<P: RxdPin<S>, S: SciChannel>);
+
+/// A GPIO line: pin `P` in mode `M`. Only a mode the pin has ([`GpioPin`]) names a type, and
+/// the board's drivers take only their own mode's lines (an output only a [`mode::PushPull`]
+/// line), so a button's pin cannot be driven nor a gate's read as a switch.
+pub struct Gpio<P: GpioPin<M>, M: mode::GpioMode>(PhantomData<(P, M)>);
+
+impl<P: GpioPin<M>, M: mode::GpioMode> Gpio<P, M> {
+    /// The line.
+    pub const fn new() -> Self {
+        Self(PhantomData)
+    }
+
+    /// Its pin.
+    pub const fn pin(&self) -> PortPin {
+        P::PORT_PIN
+    }
+}
+
+line_impls!(Gpio<P: GpioPin<M>, M: mode::GpioMode>);
+
 /// Tendon servo 0: GTIOC7A (P304: D8 on both boards).
 pub const SERVO0: Gtioc<P304, Gpt7, OutA> = Gtioc::new();
 /// Tendon servo 1: GTIOC7B (P303: D9 on both boards).
@@ -267,38 +471,39 @@ pub const SERVO2: Gtioc<P101, Gpt5, OutA> = Gtioc::new();
 pub const SERVO_LINES: [GtiocLine; 3] = [SERVO0.line(), SERVO1.line(), SERVO2.line()];
 
 /// Inlet valve MOSFET gate, high = open (P104: WiFi D2, Minima D3).
-pub const INLET: PortPin = PortPin::new(1, 4);
+pub const INLET: Gpio<P104, mode::PushPull> = Gpio::new();
 /// Exhaust valve MOSFET gate, high = open (P301: D0 on both boards). Not P111: the Minima's
 /// bootloader fades P111 (its LED_BUILTIN) for as long as it stays in the bootloader after a
 /// double reset, which on a valve vents the trunk (`docs/hardware.md`, "Bootloader").
-pub const EXHAUST: PortPin = PortPin::new(3, 1);
+pub const EXHAUST: Gpio<P301, mode::PushPull> = Gpio::new();
 /// Gripper driver, high = closed (P100: A5/SCL on both boards).
-pub const GRIPPER: PortPin = PortPin::new(1, 0);
+pub const GRIPPER: Gpio<P100, mode::PushPull> = Gpio::new();
 
 /// Step-up button to ground (P105: WiFi D3, Minima D2).
-pub const BTN_UP: PortPin = PortPin::new(1, 5);
+pub const BTN_UP: Gpio<P105, mode::PullUp> = Gpio::new();
 /// Step-down button to ground (P106: WiFi D4, Minima D6).
-pub const BTN_DOWN: PortPin = PortPin::new(1, 6);
+pub const BTN_DOWN: Gpio<P106, mode::PullUp> = Gpio::new();
 /// Gripper toggle button to ground (P107: WiFi D5, Minima D7).
-pub const BTN_GRIPPER: PortPin = PortPin::new(1, 7);
+pub const BTN_GRIPPER: Gpio<P107, mode::PullUp> = Gpio::new();
 /// Confirm button to ground (P103: WiFi D10, Minima D4).
-pub const BTN_CONFIRM: PortPin = PortPin::new(1, 3);
+pub const BTN_CONFIRM: Gpio<P103, mode::PullUp> = Gpio::new();
 /// Show-pressure button to ground (P002: A3 on both boards, used as a digital input).
-pub const BTN_SHOW: PortPin = PortPin::new(0, 2);
+pub const BTN_SHOW: Gpio<P002, mode::PullUp> = Gpio::new();
 /// E-stop, normally-closed contact to ground (P112: WiFi D7, Minima D10).
-pub const BTN_ESTOP: PortPin = PortPin::new(1, 12);
+pub const BTN_ESTOP: Gpio<P112, mode::PullUp> = Gpio::new();
 
-/// TM1637 CLK (P111: WiFi D6, Minima D13 = LED_BUILTIN). The pin the bootloaders drive (low
-/// while they wait, faded on the Minima while parked): on the display's clock that only
-/// clocks nothing in (DIO stays high: no start condition).
-pub const TM_CLK: PortPin = PortPin::new(1, 11);
-/// TM1637 DIO (P302: D1 on both boards).
-pub const TM_DIO: PortPin = PortPin::new(3, 2);
+/// TM1637 CLK, push-pull (P111: WiFi D6, Minima D13 = LED_BUILTIN). The pin the bootloaders
+/// drive (low while they wait, faded on the Minima while parked): on the display's clock that
+/// only clocks nothing in (DIO stays high: no start condition).
+pub const TM_CLK: Gpio<P111, mode::PushPull> = Gpio::new();
+/// TM1637 DIO, open drain with pull-up: the chip pulls it low to acknowledge (P302: D1 on both
+/// boards).
+pub const TM_DIO: Gpio<P302, mode::OpenDrain> = Gpio::new();
 
 /// Host link TXD9 (P109: WiFi → ESP32-S3 USB bridge; Minima D11).
-pub const HOST_TX: PortPin = PortPin::new(1, 9);
+pub const HOST_TX: Txd<P109, Sci9> = Txd::new();
 /// Host link RXD9 (P110: WiFi ← ESP32-S3 USB bridge; Minima D12).
-pub const HOST_RX: PortPin = PortPin::new(1, 10);
+pub const HOST_RX: Rxd<P110, Sci9> = Rxd::new();
 
 /// Pressure sensor: AN009 (P014: A0 on both boards).
 pub const PRESSURE: Analog<P014, An009> = Analog::new();
@@ -331,6 +536,39 @@ mod tests {
         assert_eq!(
             [PRESSURE.channel(), JOY_X.channel(), JOY_Y.channel()],
             [9, 0, 1]
+        );
+        assert_eq!(
+            [INLET.pin(), EXHAUST.pin(), GRIPPER.pin()],
+            [PortPin::new(1, 4), PortPin::new(3, 1), PortPin::new(1, 0)]
+        );
+        assert_eq!(
+            [
+                BTN_UP.pin(),
+                BTN_DOWN.pin(),
+                BTN_GRIPPER.pin(),
+                BTN_CONFIRM.pin(),
+                BTN_SHOW.pin(),
+                BTN_ESTOP.pin()
+            ],
+            [
+                PortPin::new(1, 5),
+                PortPin::new(1, 6),
+                PortPin::new(1, 7),
+                PortPin::new(1, 3),
+                PortPin::new(0, 2),
+                PortPin::new(1, 12)
+            ]
+        );
+        assert_eq!(
+            [TM_CLK.pin(), TM_DIO.pin()],
+            [PortPin::new(1, 11), PortPin::new(3, 2)]
+        );
+        assert_eq!(
+            [
+                (HOST_TX.pin(), HOST_TX.channel()),
+                (HOST_RX.pin(), HOST_RX.channel())
+            ],
+            [(PortPin::new(1, 9), 9), (PortPin::new(1, 10), 9)]
         );
     }
 }

@@ -6,12 +6,13 @@
 //! them: the pressure sensor and the joystick into their ADC channels (AN009/AN000/AN001) as
 //! 14-bit counts; the buttons as switches to ground on their port pins
 //! (open when released, so the MCU's pull-up reads high; the normally-closed e-stop grounds its
-//! pin until pressed); host bytes into SCI9's RXD9 at 115 200 Bd. Out come the servo pulses
-//! from the GPT pins (a pin the timer does not drive — output disabled, 0 % duty — gives no
-//! pulse: the servo is limp), the valve and gripper gates from their port pins (a released
-//! valve gate is held low by the driver's gate pull-down, a released gripper input high by
-//! its fail-closed pull-up), the four digits the firmware clocked into
-//! the emulated TM1637, and SCI9's transmitted bytes.
+//! pin until pressed); host bytes into SCI9's RXD9 at 115 200 Bd; the TM1637 module on the
+//! display's CLK and DIO pins (the emulator is a plain RA4M1: it is told where). Out come the
+//! servo pulses from the GPT pins (a pin the timer does not drive — output disabled, 0 % duty
+//! — gives no pulse: the servo is limp), the valve and gripper gates from their port pins (a
+//! released valve gate is held low by the driver's gate pull-down, a released gripper input
+//! high by its fail-closed pull-up), the four digits the firmware clocked into the emulated
+//! TM1637, and SCI9's transmitted bytes.
 
 use std::path::Path;
 
@@ -75,6 +76,11 @@ impl flash_log::NorFlash for DataFlashImage<'_> {
     }
 }
 
+/// `P<port><pin>` as the emulator's `(port, pin)`.
+fn at(p: PortPin) -> (usize, usize) {
+    (usize::from(p.port), usize::from(p.pin))
+}
+
 /// Where `cargo firmware` writes the board ELF: `$UNO_R4_ELF` if set, else
 /// `thumbv7em-none-eabihf/firmware/uno-r4` under `$CARGO_TARGET_DIR` or the workspace's
 /// `target/` (the workspace as this crate was built in). The file may not exist yet.
@@ -127,7 +133,13 @@ impl ElfBoard {
             path: path.display().to_string(),
             err,
         })?;
-        let mut emu = Emulator::new(&elf, Options::default())?;
+        let mut emu = Emulator::new(
+            &elf,
+            Options {
+                tm1637: Some((at(pins::TM_CLK.pin()), at(pins::TM_DIO.pin()))),
+                ..Options::default()
+            },
+        )?;
         let mut log =
             flash_log::FlashLog::new(DataFlashImage(emu.data_flash_mut()), STATE_LOG_FIRST_BLOCK);
         // Writing into erased memory cannot fail.
@@ -204,27 +216,31 @@ impl ElfBoard {
         // A switch to ground: closed → low, open → the pull-up decides.
         let switch = |high: bool| if high { None } else { Some(false) };
         for (p, level) in [
-            (pins::BTN_UP, i.up.high),
-            (pins::BTN_DOWN, i.down.high),
-            (pins::BTN_GRIPPER, i.gripper.high),
-            (pins::BTN_CONFIRM, i.confirm.high),
-            (pins::BTN_SHOW, i.show_pressure.high),
-            (pins::BTN_ESTOP, i.estop.high),
+            (pins::BTN_UP.pin(), i.up.high),
+            (pins::BTN_DOWN.pin(), i.down.high),
+            (pins::BTN_GRIPPER.pin(), i.gripper.high),
+            (pins::BTN_CONFIRM.pin(), i.confirm.high),
+            (pins::BTN_SHOW.pin(), i.show_pressure.high),
+            (pins::BTN_ESTOP.pin(), i.estop.high),
         ] {
-            emu.drive_pin(p.port.into(), p.pin.into(), switch(level));
+            let (port, pin) = at(p);
+            emu.drive_pin(port, pin, switch(level));
         }
         if !shell.link.rx.is_empty() {
             let bytes: Vec<u8> = shell.link.rx.drain(..).collect();
             emu.host_send(&bytes);
         }
         emu.run_until_ns(now_ms * 1_000_000)?;
-        let drive = |emu: &Emulator, p: PortPin| emu.pin_drive(p.port.into(), p.pin.into());
+        let drive = |emu: &Emulator, p: PortPin| {
+            let (port, pin) = at(p);
+            emu.pin_drive(port, pin)
+        };
         let high = |emu: &Emulator, p: PortPin| drive(emu, p) == PinDrive::High;
-        shell.outputs.inlet.high = high(emu, pins::INLET);
-        shell.outputs.exhaust.high = high(emu, pins::EXHAUST);
+        shell.outputs.inlet.high = high(emu, pins::INLET.pin());
+        shell.outputs.exhaust.high = high(emu, pins::EXHAUST.pin());
         // Fail-closed wiring (docs/hardware.md): a released gripper pin is pulled up, closed.
         shell.outputs.gripper.high = matches!(
-            drive(emu, pins::GRIPPER),
+            drive(emu, pins::GRIPPER.pin()),
             PinDrive::High | PinDrive::Released { .. }
         );
         let period_us = 1e6 / f64::from(SERVO_PWM_HZ);
@@ -240,8 +256,9 @@ impl ElfBoard {
         let d: Vec<u16> = pins::SERVO_LINES
             .iter()
             .map(|l| {
+                let (port, pin) = at(l.pin);
                 let b = l.output == GptOutput::B;
-                duty(emu.timer_pin(l.pin.port.into(), l.pin.pin.into(), l.channel.into(), b))
+                duty(emu.timer_pin(port, pin, l.channel.into(), b))
             })
             .collect();
         let s = &mut shell.outputs.servos;

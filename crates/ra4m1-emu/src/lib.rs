@@ -74,8 +74,9 @@ pub struct Options {
     pub board: Board,
     /// Data-flash program/erase times.
     pub flash_timing: FlashTiming,
-    /// Wiring of the TM1637 display, `(clk, dio)` as `(port, pin)` (default: the board's pin
-    /// map, CLK P111, DIO P302).
+    /// Wiring of a TM1637 display module, `(clk, dio)` as `(port, pin)` (default: none, a bare
+    /// chip). The chip model knows no board's pins: whoever runs a board's ELF says where its
+    /// display is (the crane's from `firmware::pins`: `ra4m1-run`, `hil-sim`'s `elf_board`).
     pub tm1637: Option<((usize, usize), (usize, usize))>,
     /// A debug probe is attached (on-chip-debug mode: DBGSTOPCR's reset value masks the
     /// watchdogs' resets). `ra4m1-run` sets it for test ELFs, as probe-rs runs them.
@@ -87,7 +88,7 @@ impl Default for Options {
         Self {
             board: Board::Wifi,
             flash_timing: FlashTiming::default(),
-            tm1637: Some(((1, 11), (3, 2))),
+            tm1637: None,
             probe: false,
         }
     }

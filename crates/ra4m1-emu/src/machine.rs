@@ -101,9 +101,10 @@ pub fn bridge_wait_cycles(iclk: u32, pclk: u32) -> u64 {
         .saturating_sub(1)
 }
 
-/// The GTIOC pins of the board's timer channels: (port, pin, GPT channel, output B). A read of
-/// PIDR (PCNTR2 or PmnPFS) of one of them in its GPT function sees the timer's waveform at
-/// that instant.
+/// The GTIOC functions of the pins the GPT model reads back, from the RA4M1's pin function
+/// table: (port, pin, GPT channel, output B) — P304 GTIOC7A, P303 GTIOC7B, P101 GTIOC5A. A
+/// read of PIDR (PCNTR2 or PmnPFS) of one of them in its GPT function sees the timer's waveform
+/// at that instant; any other pin in its GPT function reads its port level.
 pub const GTIOC_PINS: [(usize, usize, usize, bool); 3] =
     [(3, 4, 7, false), (3, 3, 7, true), (1, 1, 5, false)];
 

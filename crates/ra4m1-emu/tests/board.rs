@@ -2,10 +2,11 @@
 
 mod support;
 
+use firmware::pins::{self, GptOutput};
 use protocol::messages::{DeviceMessage, ParamId, RequestBody};
 use protocol::FrameDecoder;
 use ra4m1_emu::Options;
-use support::{board, handshake, send, wait_for};
+use support::{at, board, handshake, send, wait_for};
 
 /// With telemetry at its maximum (50 Hz) the link is busy; a status request must still be
 /// answered within 20 ms (request on the wire, one pass, the answer on the wire at 115 200 Bd).
@@ -99,15 +100,36 @@ fn hello_info(emu: &mut ra4m1_emu::Emulator) -> protocol::messages::DeviceInfo {
     panic!("no answer to Hello within 2 s");
 }
 
-/// Servo pins (port, pin, GPT channel, output B).
-const SERVOS: [(usize, usize, usize, bool); 3] =
-    [(3, 4, 7, false), (3, 3, 7, true), (1, 1, 5, false)];
+/// The servo lines of the pin map: (port, pin, GPT channel, output B).
+fn servos() -> [(usize, usize, usize, bool); 3] {
+    pins::SERVO_LINES.map(|l| {
+        let (port, pin) = at(l.pin);
+        (port, pin, l.channel.into(), l.output == GptOutput::B)
+    })
+}
+
+/// The valve gates of the pin map, `(port, pin)`.
+fn valves() -> [(usize, usize); 2] {
+    [at(pins::INLET.pin()), at(pins::EXHAUST.pin())]
+}
+
+/// The GPT model reads back the timer's waveform on every servo pin of the map (it knows the
+/// GTIOC function of those pins): a servo line read through PIDR is the timer's, not a latch.
+#[test]
+fn the_models_gtioc_pins_cover_every_servo_line_of_the_pin_map() {
+    for s in servos() {
+        assert!(
+            ra4m1_emu::machine::GTIOC_PINS.contains(&s),
+            "servo line {s:?} is not a GTIOC pin the model reads back"
+        );
+    }
+}
 
 #[test]
 fn limp_servo_lines_are_driven_low_not_released() {
     let mut emu = board(Options::default());
     emu.run_until_ns(100_000_000).unwrap();
-    for (port, pin, ch, b) in SERVOS {
+    for (port, pin, ch, b) in servos() {
         assert_eq!(
             emu.timer_pin(port, pin, ch, b),
             ra4m1_emu::Line::Level(false),
@@ -161,14 +183,14 @@ fn a_hard_fault_makes_every_output_safe_then_the_watchdog_restarts_and_says_so()
     emu.inject_hard_fault();
     let t = emu.now_ns();
     emu.run_until_ns(t + 1_000_000).unwrap();
-    for (port, pin) in [(1, 4), (3, 1)] {
+    for (port, pin) in valves() {
         assert_eq!(
             emu.pin_drive(port, pin),
             PinDrive::Low,
             "valve P{port}{pin:02} closed"
         );
     }
-    for (port, pin, _, _) in SERVOS {
+    for (port, pin, _, _) in servos() {
         assert_eq!(
             emu.pin_drive(port, pin),
             PinDrive::Low,
@@ -277,13 +299,15 @@ fn the_watchdog_guards_the_board_with_a_probe_attached() {
 /// The board parked in the bootloader (a second reset within its 500 ms window,
 /// `arduino-renesas-bootloader` `src/main.c`): the bootloader drives P111 (low, and on the
 /// Minima fades it from GTIOC3A) and on the WiFi fades P102; no actuator of the board's pin map
-/// (`board/pins.rs`) is on those pins, so every actuator line is released: the valves' gate
+/// (`firmware::pins`) is on those pins, so every actuator line is released: the valves' gate
 /// pull-downs keep them closed, the servos get no pulse, the gripper's pull-up keeps it closed.
 #[test]
 fn a_board_parked_in_the_bootloader_drives_no_actuator() {
     use ra4m1_emu::PinDrive;
-    // board/pins.rs: inlet P104, exhaust P301, gripper P100, servos P304, P303, P101.
-    const ACTUATORS: [(usize, usize); 6] = [(1, 4), (3, 1), (1, 0), (3, 4), (3, 3), (1, 1)];
+    // The pin map's actuator lines: the valves, the gripper, the servos.
+    let mut actuators = vec![at(pins::GRIPPER.pin())];
+    actuators.extend(valves());
+    actuators.extend(servos().map(|(port, pin, _, _)| (port, pin)));
     for b in [ra4m1_emu::Board::Minima, ra4m1_emu::Board::Wifi] {
         let mut emu = board(Options {
             board: b,
@@ -302,7 +326,7 @@ fn a_board_parked_in_the_bootloader_drives_no_actuator() {
             matches!(emu.pin_drive(fade.0, fade.1), PinDrive::Peripheral { .. }),
             "{b:?}: the bootloader fades its LED pin"
         );
-        for (port, pin) in ACTUATORS {
+        for &(port, pin) in &actuators {
             assert!(
                 matches!(emu.pin_drive(port, pin), PinDrive::Released { .. }),
                 "{b:?}: actuator P{port}{pin:02} is {:?} in the parked bootloader",
@@ -365,11 +389,11 @@ fn a_probe_gone_in_blocking_mode_does_not_hang_the_board() {
 #[test]
 fn the_gripper_never_opens_across_a_watchdog_reset_or_a_brown_out() {
     use ra4m1_emu::PinDrive;
-    const GRIPPER: (usize, usize) = (1, 0);
+    let gripper = at(pins::GRIPPER.pin());
     let mut emu = board(Options::default());
     hello_info(&mut emu);
     assert_eq!(
-        emu.pin_drive(GRIPPER.0, GRIPPER.1),
+        emu.pin_drive(gripper.0, gripper.1),
         PinDrive::High,
         "boots closed"
     );
@@ -378,7 +402,7 @@ fn the_gripper_never_opens_across_a_watchdog_reset_or_a_brown_out() {
         while emu.now_ns() < end {
             let t = emu.now_ns() + 50_000;
             emu.run_until_ns(t).unwrap();
-            let d = emu.pin_drive(GRIPPER.0, GRIPPER.1);
+            let d = emu.pin_drive(gripper.0, gripper.1);
             assert!(
                 matches!(d, PinDrive::High | PinDrive::Released { .. }),
                 "{what}: gripper {d:?} at {} µs",
@@ -390,7 +414,7 @@ fn the_gripper_never_opens_across_a_watchdog_reset_or_a_brown_out() {
     emu.inject_hard_fault();
     watch(&mut emu, 600, "watchdog");
     assert_eq!(emu.resets(), &[ra4m1_emu::ResetKind::Watchdog]);
-    assert_eq!(emu.pin_drive(GRIPPER.0, GRIPPER.1), PinDrive::High);
+    assert_eq!(emu.pin_drive(gripper.0, gripper.1), PinDrive::High);
     // Brown-out: held in reset (pins released) while VCC is low, then the boot.
     emu.set_vcc_mv(3_500);
     watch(&mut emu, 20, "brown-out");
@@ -402,7 +426,7 @@ fn the_gripper_never_opens_across_a_watchdog_reset_or_a_brown_out() {
         ra4m1_emu::ResetKind::BrownOut
     ]));
     assert_eq!(
-        emu.pin_drive(GRIPPER.0, GRIPPER.1),
+        emu.pin_drive(gripper.0, gripper.1),
         PinDrive::High,
         "driven closed again"
     );
@@ -431,7 +455,8 @@ fn a_stack_overflow_is_caught_by_the_stack_pointer_monitor() {
     let t = emu.now_ns();
     emu.run_until_ns(t + 1_000_000).unwrap();
     assert_ne!(emu.machine().icu.nmisr & (1 << 12), 0, "NMISR.SPEST");
-    for (port, pin) in [(1, 4), (3, 1), (3, 4), (3, 3), (1, 1)] {
+    let servo_pins = servos().map(|(port, pin, _, _)| (port, pin));
+    for (port, pin) in valves().into_iter().chain(servo_pins) {
         assert_eq!(
             emu.pin_drive(port, pin),
             PinDrive::Low,

@@ -15,7 +15,7 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 use defmt_rtt as _;
 
 use firmware::board;
-use firmware::board::gpio::{OpenDrain, Output, PortPin, PullUpInput};
+use firmware::board::gpio::{OpenDrain, Output, PullUpInput};
 use firmware::board::log::{error, info, warn};
 use firmware::board::pwm;
 use firmware::flash_log::{self, LINK_KEY_BLOCK, PROBE_PROFILE_BLOCK, STATE_LOG_FIRST_BLOCK};
@@ -97,17 +97,16 @@ fn main() -> ! {
     };
 
     let mut adc = board::adc::Adc::new();
-    let button = |p: PortPin| PullUpInput::new(p);
     let inputs = PinInputs {
         pressure: adc.channel(pins::PRESSURE),
         joystick_x: adc.channel(pins::JOY_X),
         joystick_y: adc.channel(pins::JOY_Y),
-        up: button(pins::BTN_UP),
-        down: button(pins::BTN_DOWN),
-        gripper: button(pins::BTN_GRIPPER),
-        estop: button(pins::BTN_ESTOP),
-        confirm: button(pins::BTN_CONFIRM),
-        show_pressure: button(pins::BTN_SHOW),
+        up: PullUpInput::new(pins::BTN_UP),
+        down: PullUpInput::new(pins::BTN_DOWN),
+        gripper: PullUpInput::new(pins::BTN_GRIPPER),
+        estop: PullUpInput::new(pins::BTN_ESTOP),
+        confirm: PullUpInput::new(pins::BTN_CONFIRM),
+        show_pressure: PullUpInput::new(pins::BTN_SHOW),
     };
 
     let display = board::tm1637::Tm1637::new(

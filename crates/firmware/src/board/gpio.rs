@@ -1,5 +1,7 @@
 //! GPIO: pin function select (PmnPFS) and the port registers, with embedded-hal 1.0
-//! `OutputPin`/`InputPin` for the valves, the gripper and the buttons.
+//! `OutputPin`/`InputPin` for the valves, the gripper and the buttons. Each driver takes only
+//! its own mode's lines of the pin map ([`crate::pins::Gpio`]): an [`Output`] a push-pull
+//! line, a [`PullUpInput`] a pulled-up one, an [`OpenDrain`] an open-drain one.
 //!
 //! Addressing (RA4M1 hardware manual, I/O ports): PmnPFS at `0x4004_0800 + 0x40·m + 4·n`;
 //! PORTm at `0x4004_0000 + 0x20·m` with PCNTR1 (PDR | PODR<<16), PCNTR2 (PIDR) and PCNTR3
@@ -11,6 +13,7 @@ use core::ptr::{read_volatile, write_volatile};
 
 use super::regs::{pac, wr};
 pub use crate::pins::PortPin;
+use crate::pins::{mode, Gpio, GpioPin};
 
 /// PmnPFS bits.
 pub mod pfs {
@@ -105,17 +108,19 @@ pub fn self_check() -> bool {
 pub struct Output(PortPin);
 
 impl Output {
-    /// Configures `pin` as a push-pull output, initially low (valves closed).
+    /// Configures `line` as a push-pull output, initially low (valves closed).
     #[inline]
-    pub fn new(pin: PortPin) -> Self {
+    pub fn new<P: GpioPin<mode::PushPull>>(line: Gpio<P, mode::PushPull>) -> Self {
+        let pin = line.pin();
         pin.configure(pfs::PDR);
         Self(pin)
     }
 
-    /// Configures `pin` as a push-pull output, initially high (PODR set in the same PFS write:
-    /// no low glitch).
+    /// Configures `line` as a push-pull output, initially high (PODR set in the same PFS
+    /// write: no low glitch).
     #[inline]
-    pub fn new_high(pin: PortPin) -> Self {
+    pub fn new_high<P: GpioPin<mode::PushPull>>(line: Gpio<P, mode::PushPull>) -> Self {
+        let pin = line.pin();
         pin.configure(pfs::PDR | pfs::PODR);
         Self(pin)
     }
@@ -154,9 +159,10 @@ impl embedded_hal::digital::StatefulOutputPin for Output {
 pub struct PullUpInput(PortPin);
 
 impl PullUpInput {
-    /// Configures `pin` as an input with pull-up.
+    /// Configures `line` as an input with pull-up.
     #[inline]
-    pub fn new(pin: PortPin) -> Self {
+    pub fn new<P: GpioPin<mode::PullUp>>(line: Gpio<P, mode::PullUp>) -> Self {
+        let pin = line.pin();
         pin.configure(pfs::PCR);
         Self(pin)
     }
@@ -182,9 +188,10 @@ impl embedded_hal::digital::InputPin for PullUpInput {
 pub struct OpenDrain(PortPin);
 
 impl OpenDrain {
-    /// Configures `pin` as an open-drain output, released (high through the pull-up).
+    /// Configures `line` as an open-drain output, released (high through the pull-up).
     #[inline]
-    pub fn new(pin: PortPin) -> Self {
+    pub fn new<P: GpioPin<mode::OpenDrain>>(line: Gpio<P, mode::OpenDrain>) -> Self {
+        let pin = line.pin();
         pin.configure(pfs::PDR | pfs::NCODR | pfs::PCR | pfs::PODR);
         Self(pin)
     }

@@ -7,7 +7,8 @@
 //! `thumbv7em-none-eabihf`), used by the `uno-r4` binary and the on-target suites
 //! (`tests/board.rs`, `tests/board_fixture.rs`); the host never builds it. What is not register
 //! access lives in the library for every target: the pin map ([`crate::pins`]: RA port/pin →
-//! function, timer and ADC channels paired by type; `docs/hardware.md` has the wiring table)
+//! function, timer, ADC and SCI channels and GPIO modes paired by type; `docs/hardware.md` has
+//! the wiring table)
 //! and the data-flash record log ([`crate::flash_log`]), which the simulator's ELF wiring reads
 //! too.
 //!
@@ -22,14 +23,17 @@
 //! - [`regs`]: register access helpers over the `ra4m1-pac` PAC.
 //! - [`clocks`]: HOCO 48 MHz and the bus dividers; reports the real frequencies.
 //! - [`time`]: 1 ms SysTick time base (`now_ms`) and cycle-counter delays.
-//! - [`gpio`]: push-pull outputs and pulled-up inputs (embedded-hal `OutputPin`/`InputPin`).
+//! - [`gpio`]: push-pull outputs, pulled-up inputs and open-drain lines (embedded-hal
+//!   `OutputPin`/`InputPin`), each from the pin map's typed line of its mode
+//!   ([`crate::pins::Gpio`]).
 //! - [`irq`]: clears the interrupt links and NVIC state the bootloader leaves.
 //! - [`lvd`]: the brown-out reset (voltage monitor 1).
 //! - [`pwm`]: GPT 16-bit timers at 50 Hz for the servos (embedded-hal `SetDutyCycle`), each
 //!   output taken from the pin map's typed lines ([`crate::pins::Gtioc`]).
 //! - [`adc`]: the 14-bit ADC (`hw::AnalogInput`), each channel taken from the pin map's typed
 //!   inputs ([`crate::pins::Analog`]).
-//! - [`uart`]: SCI9 host link with an interrupt-fed receive ring (embedded-io).
+//! - [`uart`]: SCI9 host link with an interrupt-fed receive ring (embedded-io), on SCI9's typed
+//!   lines of the pin map ([`crate::pins::Txd`], [`crate::pins::Rxd`]).
 //! - [`wdt`]: the watchdog (WDT, register-start; the IWDT only if the option bytes started it).
 //! - [`tm1637`]: the bit-banged four-digit display (`hw::SegmentDisplay`).
 //! - [`dataflash`]: the data flash through the flash sequencer ([`crate::flash_log::NorFlash`]).

@@ -13,7 +13,7 @@ use crate::pins;
 
 /// Drives every actuator line to its safe level (idempotent).
 pub fn outputs() {
-    for p in [pins::INLET, pins::EXHAUST] {
+    for p in [pins::INLET.pin(), pins::EXHAUST.pin()] {
         let port = 0x4004_0000 + 0x20 * p.port as usize;
         // SAFETY: PCNTR3 (PORR half) of the valve ports: write-only, resets exactly this pin.
         unsafe { core::ptr::write_volatile((port + 8) as *mut u32, 1u32 << (p.pin + 16)) };

@@ -18,8 +18,9 @@ use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU32, Ordering};
 
 use cortex_m::peripheral::NVIC;
 
-use super::gpio::{pfs, PortPin};
+use super::gpio::pfs;
 use super::regs::{pac, rd, wr};
+use crate::pins::{Rxd, RxdPin, Sci9, Txd, TxdPin};
 use pac::interrupt;
 
 /// Host link speed.
@@ -204,11 +205,17 @@ fn IEL1() {
 pub struct HostUart(());
 
 impl HostUart {
-    /// Configures SCI9 for [`BAUD`] 8N1 from `pclka_hz` on `tx`/`rx`, links its receive
-    /// interrupts through the ICU and unmasks them in the NVIC (the bootloader leaves
+    /// Configures SCI9 for [`BAUD`] 8N1 from `pclka_hz` on `tx`/`rx` (SCI9's own lines of the
+    /// pin map: another channel's pin, or the two swapped, does not compile), links its
+    /// receive interrupts through the ICU and unmasks them in the NVIC (the bootloader leaves
     /// interrupts disabled; `main` enables them globally afterwards).
     #[inline]
-    pub fn new(pclka_hz: u32, tx: PortPin, rx: PortPin) -> Self {
+    pub fn new<T: TxdPin<Sci9>, R: RxdPin<Sci9>>(
+        pclka_hz: u32,
+        tx: Txd<T, Sci9>,
+        rx: Rxd<R, Sci9>,
+    ) -> Self {
+        let (tx, rx) = (tx.pin(), rx.pin());
         wr!(pac::SCI9.scr(), 0); // TE = RE = 0 while configuring
         wr!(pac::SCI9.smr(), 0); // async, 8 bits, no parity, 1 stop, PCLK/1
         wr!(pac::SCI9.scmr(), 0xF2); // reset value: serial mode, LSB first, no inversion

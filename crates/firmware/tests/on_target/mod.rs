@@ -195,8 +195,8 @@ fn pfs_of(p: PortPin) -> u32 {
 /// 2..=4. Safe = a GPIO output (PMR = 0, PDR = 1) set low (PODR = 0) and reading low (PIDR).
 pub fn unsafe_lines() -> u32 {
     let lines = [
-        pins::INLET,
-        pins::EXHAUST,
+        pins::INLET.pin(),
+        pins::EXHAUST.pin(),
         pins::SERVO0.pin(),
         pins::SERVO1.pin(),
         pins::SERVO2.pin(),
@@ -215,7 +215,7 @@ pub fn unsafe_lines() -> u32 {
 
 /// Whether the gripper line drives its closed level (high: GPIO output, PODR = 1, reads high).
 pub fn gripper_closed() -> bool {
-    let f = pfs_of(pins::GRIPPER);
+    let f = pfs_of(pins::GRIPPER.pin());
     f & pfs::PMR == 0 && f & pfs::PDR != 0 && f & pfs::PODR != 0 && f & (1 << 1) != 0
 }
 

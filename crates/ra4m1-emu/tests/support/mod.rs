@@ -8,6 +8,7 @@
 
 use std::path::PathBuf;
 
+use firmware::pins::{self, PortPin};
 use protocol::messages::{DeviceMessage, RequestBody};
 use protocol::{encode, FrameDecoder, Request, MAX_FRAME_LEN};
 use ra4m1_emu::{Emulator, Options};
@@ -33,8 +34,18 @@ pub fn elf() -> Vec<u8> {
     })
 }
 
-/// A booted emulator.
+/// `P<port><pin>` as the emulator's `(port, pin)`.
+pub fn at(p: PortPin) -> (usize, usize) {
+    (usize::from(p.port), usize::from(p.pin))
+}
+
+/// A booted emulator, the chip wired as the crane's board is (its display where the pin map
+/// puts it, [`firmware::pins`]).
 pub fn board(options: Options) -> Emulator {
+    let options = Options {
+        tm1637: Some((at(pins::TM_CLK.pin()), at(pins::TM_DIO.pin()))),
+        ..options
+    };
     Emulator::new(&elf(), options).expect("the ELF loads")
 }
 

@@ -9,7 +9,8 @@
 //! ([`tests`]): each case on a fresh chip, as `probe-rs run` runs it on a board, with the
 //! stimulus fixture fitted (`--bare`: a bare board, without the display module either); ARGS
 //! are libtest's (a filter, `--list`, `--exact`, `--ignored` …) and the report is probe-rs's.
-//! Any other ELF runs once:
+//! Any other ELF runs once, with the crane's display module wired where its pin map
+//! (`firmware::pins`) puts it:
 //! The program's semihosting output goes to stdout (SCI9's bytes too with `--uart`); the run
 //! ends with the program's semihosting exit code (SYS_EXIT / SYS_EXIT_EXTENDED), 124 when the
 //! virtual time limit passes first (default 10 s), 1 when the emulator stops on an access it
@@ -94,6 +95,9 @@ fn main() -> ExitCode {
         &bytes,
         Options {
             board,
+            // The crane's display, where its pin map puts it (an ELF that never clocks those
+            // pins sees no difference).
+            tm1637: Some(tests::display_wiring()),
             ..Options::default()
         },
     ) {

@@ -23,11 +23,13 @@
 //! reported `ignored, bench only` (and counted), never run and never silently dropped.
 //!
 //! The emulated bench has the stimulus fixture of `docs/flashing.md` fitted ([`Fixture`]), so the
-//! stimulus tests run here as on a bench with the jumpers in place.
+//! stimulus tests run here as on a bench with the jumpers in place; where it is fitted comes from
+//! the crane's pin map (`firmware::pins`), the one the suites themselves read.
 
 use std::io::Write as _;
 use std::sync::Arc;
 
+use firmware::pins::{self, PortPin};
 use libtest_mimic::{Arguments, Failed, Trial};
 use object::{Object, ObjectSection, ObjectSymbol, SymbolKind};
 use ra4m1_emu::{Board, Emulator, Options};
@@ -124,21 +126,28 @@ fn read_str<'a>(
     std::str::from_utf8(bytes).map_err(|e| format!("module path: {e}"))
 }
 
-/// The stimulus fixture the emulated bench has fitted (the jumpers of `docs/flashing.md`):
-/// SCI9's TXD9 looped back to RXD9 (Minima: a jumper D11–D12; WiFi: the host echoes on the
-/// bridge's port), A0 (AN009) to GND, A1 (AN000) to 3V3, A2 (AN001) to 5 V (AVCC0), and a
-/// TM1637 display on CLK P111 (Minima D13, WiFi D6) and DIO P302 (D1).
+/// The crane's TM1637 module, `(clk, dio)` as the emulator takes it: where the pin map puts it.
+pub fn display_wiring() -> ((usize, usize), (usize, usize)) {
+    let at = |p: PortPin| (usize::from(p.port), usize::from(p.pin));
+    (at(pins::TM_CLK.pin()), at(pins::TM_DIO.pin()))
+}
+
+/// The stimulus fixture the emulated bench has fitted (the jumpers of `docs/flashing.md`), on
+/// the pins of the crane's pin map ([`firmware::pins`]): SCI9's TXD9 looped back to RXD9
+/// (Minima: a jumper D11–D12; WiFi: the host echoes on the bridge's port), the pressure input
+/// (A0, AN009) to GND, joystick x (A1, AN000) to 3V3, joystick y (A2, AN001) to 5 V (AVCC0),
+/// and a TM1637 display on the display's CLK (P111: Minima D13, WiFi D6) and DIO (P302: D1).
 #[derive(Debug, Clone, Copy)]
 pub struct Fixture;
 
 impl Fixture {
     /// 3.3 V against the 5 V reference, 14 bits.
-    pub const AN000_3V3: u16 = (3300u32 * 16383 / 5000) as u16;
+    pub const COUNTS_3V3: u16 = (3300u32 * 16383 / 5000) as u16;
 
     fn wire(self, emu: &mut Emulator) {
-        emu.set_analog(9, 0);
-        emu.set_analog(0, Self::AN000_3V3);
-        emu.set_analog(1, 16383);
+        emu.set_analog(pins::PRESSURE.channel().into(), 0);
+        emu.set_analog(pins::JOY_X.channel().into(), Self::COUNTS_3V3);
+        emu.set_analog(pins::JOY_Y.channel().into(), 16383);
     }
 
     /// The loopback: what SCI9 sent comes back on its receive line, at the line rate.
@@ -228,7 +237,7 @@ fn run_case(elf: &[u8], case: &Case, settings: Settings) -> Result<(), Failed> {
         Options {
             board: settings.board,
             // The display module is part of the fixture; a bare board has none.
-            tm1637: settings.fixture.and(Options::default().tm1637),
+            tm1637: settings.fixture.map(|_| display_wiring()),
             // probe-rs runs a test with its probe attached: on-chip-debug mode.
             probe: true,
             ..Options::default()

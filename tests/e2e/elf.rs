@@ -615,3 +615,72 @@ fn host_tool_pairs_the_elf_obeys_only_signed_changes_and_unpairs() {
     drop(sim);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `calibrate --port P --trunk FILE`: on a real crane the trunk's description names the
+/// profile (and is checked first). Over the pty of the simulated crane (the host-built
+/// controller, the description's trunk) with the person at host-tool's terminal typing the
+/// states the device cannot vouch for without a probe profile.
+#[test]
+fn calibrate_over_a_port_names_the_profile_from_the_trunks_description() {
+    let dir = std::env::temp_dir().join(format!("e2e-port-trunk-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let trunk = dir.join("my-print.toml");
+    let pdf = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../trunks/pdf.toml"))
+        .unwrap();
+    assert!(pdf.contains("\nname = \"pdf\"\n"));
+    std::fs::write(
+        &trunk,
+        pdf.replace("\nname = \"pdf\"\n", "\nname = \"my-print\"\n"),
+    )
+    .unwrap();
+    let trunk_s = trunk.to_str().unwrap();
+    let sim = PtySim::spawn(SimOptions {
+        initial: "F&P".parse().unwrap(),
+        speed: 5.0,
+        trunk: hil_sim::physics::TrunkSpec::load(&trunk).unwrap(),
+        ..SimOptions::default()
+    })
+    .expect("the simulated crane starts");
+    let path = sim.path().display().to_string();
+    let profile = dir.join("profile.toml");
+    let profile_s = profile.to_str().unwrap();
+    let out = plan_as_operator(
+        &[
+            "calibrate",
+            "--port",
+            &path,
+            "--trunk",
+            trunk_s,
+            "--out",
+            profile_s,
+            "-j",
+        ],
+        &sim,
+    );
+    assert_eq!(out.code(), 0, "{}\n{}", out.stdout, out.stderr);
+    assert_eq!(out.json()["name"], "my-print");
+    let text = std::fs::read_to_string(&profile).unwrap();
+    assert!(text.contains("name = \"my-print\""), "{text}");
+    // A description that is not one is refused before the port is opened (exit 2).
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, pdf.replace("[pneumatics]", "[pneumatic]")).unwrap();
+    let out = host_tool(
+        &[
+            "calibrate",
+            "--port",
+            &path,
+            "--trunk",
+            bad.to_str().unwrap(),
+            "--out",
+            profile_s,
+        ],
+        Duration::from_secs(60),
+    );
+    assert_eq!(out.code(), 2, "{}", out.stderr);
+    assert!(
+        out.stderr
+            .contains(&format!("invalid trunk {}", bad.display())),
+        "{}",
+        out.stderr
+    );
+}

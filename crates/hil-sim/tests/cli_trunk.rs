@@ -154,3 +154,22 @@ fn a_drawn_trunk_is_part_of_the_scenario_and_replayed() {
         other_first.split(", trunk drawn").next()
     );
 }
+
+#[test]
+fn trunk_is_sim_trunks_alias() {
+    let pdf = concat!(env!("CARGO_MANIFEST_DIR"), "/../../trunks/n4.toml");
+    let long = hil_sim(&["swarm", "--replay", "77", "--sim-trunk", pdf]);
+    let short = hil_sim(&["swarm", "--replay", "77", "--trunk", pdf]);
+    assert_eq!(
+        long.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&long.stderr)
+    );
+    assert!(String::from_utf8_lossy(&long.stdout).contains("trunk n4"));
+    assert_eq!(long.stdout, short.stdout);
+    refused(
+        &["--trunk", "/nonexistent/trunk.toml", "--pty"],
+        "cannot read the trunk file /nonexistent/trunk.toml",
+    );
+}

@@ -337,3 +337,17 @@ fn a_calibration_walk_before_each_scenario_holds_every_invariant() {
         "the scenario itself runs as drawn"
     );
 }
+
+/// `feasible`: the calibrated trunk makes every catalogue transition within the crane's limits;
+/// one whose bottom deploys at 135 N (41.7 kPa, over the 40 kPa cap) does not.
+#[test]
+fn a_trunk_is_feasible_when_its_physics_makes_every_catalogue_transition() {
+    use hil_sim::physics::TrunkSpec;
+    use hil_sim::swarm::feasible;
+    assert!(feasible(&TrunkSpec::pdf()));
+    let pdf = include_str!("../../../trunks/pdf.toml");
+    assert!(pdf.contains("tension_n = 97.0"));
+    let stiff = TrunkSpec::from_toml(&pdf.replace("tension_n = 97.0", "tension_n = 135.0"))
+        .expect("a trunk the physics represents");
+    assert!(!feasible(&stiff));
+}

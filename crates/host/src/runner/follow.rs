@@ -66,65 +66,21 @@ impl PlanRunner {
         &mut self,
         session: &mut Session,
         reply: Reply,
-        mut run: Following,
+        run: Following,
         now_ms: u64,
     ) {
-        let e = match reply.accepted("UploadPlan") {
+        match reply.accepted("UploadPlan") {
             Ok(_) => {
                 let plan_id = run.plan_id;
-                return self.ask(
+                self.ask(
                     session,
                     Wait::Start(run),
                     RequestBody::StartPlan { plan_id },
                     now_ms,
                 );
             }
-            Err(e) => e,
-        };
-        // A pressure refusal names the first step over the limit; the plan may need more
-        // later: the hint names the plan's most.
-        let most = most_pressure(&run.plan).and_then(|(i, kpa)| match &e {
-            SessionError::Rejected {
-                refusal:
-                    Some(protocol::Refusal {
-                        field: protocol::RefusedField::Pressure,
-                        value,
-                        ..
-                    }),
-                ..
-            } if kpa > *value => Some((i, kpa)),
-            _ => None,
-        });
-        // A refusal that names a step: the failure is that step's.
-        let step = match &e {
-            SessionError::Rejected {
-                refusal: Some(protocol::Refusal { step: Some(i), .. }),
-                ..
-            } => {
-                run.current = usize::from(*i);
-                step_of(&run)
-            }
-            _ => None,
-        };
-        let context = match step {
-            Some(s) => format!("uploading the plan: {s}"),
-            None => "uploading the plan".to_string(),
-        };
-        let mut failure = RunFailure::from_session(&context, &e);
-        failure.step = step;
-        if let Some((i, kpa)) = most {
-            // The hint's number is the plan's most, so one change lets it all run.
-            let asked = failure.refusal.map_or(0.0, |r| r.value);
-            failure.message = failure.message.replace(
-                &format!("`host-tool param set pressure-limit-kpa {asked}`"),
-                &format!(
-                    "`host-tool param set pressure-limit-kpa {kpa}` (the whole plan needs up to \
-                     {kpa} kPa, in step {})",
-                    i + 1
-                ),
-            );
+            Err(e) => self.finish(Some(upload_failure(run, &e))),
         }
-        self.finish(Some(failure))
     }
 
     pub(super) fn on_started(&mut self, reply: Reply, run: Following, now_ms: u64) {
@@ -434,6 +390,55 @@ impl PlanRunner {
             now_ms,
         );
     }
+}
+
+/// Why the device refused `run`'s upload: the step it names, and a pressure hint that lets the
+/// whole plan run.
+fn upload_failure(mut run: Following, e: &SessionError) -> RunFailure {
+    // A pressure refusal names the first step over the limit; the plan may need more
+    // later: the hint names the plan's most.
+    let most = most_pressure(&run.plan).and_then(|(i, kpa)| match e {
+        SessionError::Rejected {
+            refusal:
+                Some(protocol::Refusal {
+                    field: protocol::RefusedField::Pressure,
+                    value,
+                    ..
+                }),
+            ..
+        } if kpa > *value => Some((i, kpa)),
+        _ => None,
+    });
+    // A refusal that names a step: the failure is that step's.
+    let step = match e {
+        SessionError::Rejected {
+            refusal: Some(protocol::Refusal { step: Some(i), .. }),
+            ..
+        } => {
+            run.current = usize::from(*i);
+            step_of(&run)
+        }
+        _ => None,
+    };
+    let context = match step {
+        Some(s) => format!("uploading the plan: {s}"),
+        None => "uploading the plan".to_string(),
+    };
+    let mut failure = RunFailure::from_session(&context, e);
+    failure.step = step;
+    if let Some((i, kpa)) = most {
+        // The hint's number is the plan's most, so one change lets it all run.
+        let asked = failure.refusal.map_or(0.0, |r| r.value);
+        failure.message = failure.message.replace(
+            &format!("`host-tool param set pressure-limit-kpa {asked}`"),
+            &format!(
+                "`host-tool param set pressure-limit-kpa {kpa}` (the whole plan needs up to \
+                 {kpa} kPa, in step {})",
+                i + 1
+            ),
+        );
+    }
+    failure
 }
 
 /// Device time since the step `run` is in started (as far as the polls tell).

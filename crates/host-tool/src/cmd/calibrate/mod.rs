@@ -787,39 +787,24 @@ mod tests {
         }
     }
 
+    /// The thresholds themselves are `host::calibration`'s (tested there); the profile gives
+    /// them its fields and round-trips through TOML.
     #[test]
-    fn targets_add_the_margin_within_the_limits() {
+    fn a_profile_gives_its_targets_and_round_trips_through_toml() {
         let p = profile();
         p.check().unwrap();
         let t = p.targets(40.0).unwrap();
-        let get = |a: &str, b: &str| {
-            t.iter()
-                .find(|(e, _)| *e == (state(a), state(b)))
-                .unwrap()
-                .1
-        };
-        assert!((get("F&P", "F&F") - 15.1).abs() < 1e-4);
-        assert!((get("D&P", "D&F") - 15.1).abs() < 1e-4);
-        assert!((get("D&F", "D&D") - 34.6).abs() < 1e-4);
-        assert!((get("D&D", "F&D") - 17.8).abs() < 1e-4);
-        assert!((get("D&F", "F&F") - 69.0).abs() < 1e-4);
-        // Capped by the limit; refused under the snap.
-        assert!(
-            (p.targets(32.0)
-                .unwrap()
-                .iter()
-                .find(|(e, _)| *e == (state("D&F"), state("D&D")))
-                .unwrap()
-                .1
-                - 32.0)
-                .abs()
-                < 1e-4
-        );
+        assert_eq!(t, p.calibration().targets(40.0).unwrap());
+        let unpack = t
+            .iter()
+            .find(|(e, _)| *e == (state("F&P"), state("F&F")))
+            .unwrap()
+            .1;
+        assert!((unpack - 15.1).abs() < 1e-4, "13.1 kPa × 1.15: {unpack}");
         assert!(p
             .targets(30.0)
             .unwrap_err()
             .contains("under the measured snap at 30.10"));
-        // The round trip through TOML.
         assert_eq!(Profile::parse(&p.to_toml()).unwrap(), p);
     }
 

@@ -717,7 +717,7 @@ impl Controller {
         } else if self.safe {
             Mode::Safe
         } else if let Some(e) = &self.exec {
-            if e.waiting_manual {
+            if e.waiting_manual() {
                 Mode::WaitingManual
             } else {
                 Mode::Running
@@ -1061,7 +1061,7 @@ impl Controller {
         let w = self.cfg.inlet_watch;
         let still = self.servo_deg == self.servo_target_deg;
         // A person doing a manual step moves the trunk (packing it raises the pressure).
-        let by_hand = self.exec.as_ref().is_some_and(|e| e.waiting_manual);
+        let by_hand = self.exec.as_ref().is_some_and(Exec::waiting_manual);
         if self.outputs.inlet_open || !still || by_hand || self.fault_active(FaultCode::InletStuck)
         {
             self.inlet = InletWatch::default();
@@ -1200,8 +1200,7 @@ impl Controller {
         }
         let [up, down, grip, confirm] = pressed;
         if confirm {
-            if let Some(e) = self.exec.as_mut().filter(|e| e.waiting_manual) {
-                e.manual_confirmed = true;
+            if self.exec.as_mut().is_some_and(Exec::confirm_manual) {
                 self.advance_exec();
             } else if let (Some(shown), None) = (self.ident.asking, &self.exec) {
                 // The operator says the trunk is in the state shown.

@@ -321,14 +321,18 @@ impl Controller {
             RequestBody::UploadPlan(ref mut plan) => self.upload(plan),
             RequestBody::StartPlan { plan_id } => self.start_uploaded(plan_id),
             RequestBody::RunStep(ref step) => self.run_step(step),
-            RequestBody::ConfirmManual => match self.exec.as_mut() {
-                Some(e) if e.waiting_manual => {
-                    e.manual_confirmed = true;
+            RequestBody::ConfirmManual => {
+                if self
+                    .exec
+                    .as_mut()
+                    .is_some_and(super::exec::Exec::confirm_manual)
+                {
                     self.advance_exec();
                     ok()
+                } else {
+                    reject(RejectReason::NoManualPending)
                 }
-                _ => reject(RejectReason::NoManualPending),
-            },
+            }
             RequestBody::ResetFaults => {
                 if self.buttons.estop {
                     return reject(RejectReason::NotAllowed);

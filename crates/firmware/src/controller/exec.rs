@@ -322,8 +322,8 @@ impl Controller {
         });
         self.safe = false;
         self.enable_servos();
-        self.joystick.armed = false;
-        self.joystick.used_raw = None;
+        self.panel.joystick.armed = false;
+        self.panel.joystick.used_raw = None;
         let pre_release = self.pre_release_needed(plan.steps.first());
         let reach = self.step_reach(plan.steps.first());
         let journal = self.journal_step(plan.steps.first(), reach);
@@ -475,7 +475,7 @@ impl Controller {
                     self.store(StoredState::confirmed(b.state()));
                 }
                 if !b.is_confirmed() {
-                    self.leak_quiet_until_ms = now + super::LEAK_SETTLE_MS;
+                    self.watch.leak_quiet_until_ms = now + super::LEAK_SETTLE_MS;
                 }
                 self.set_belief(b);
             }
@@ -827,7 +827,10 @@ impl Controller {
         if snapped {
             // The check after the snaps watches the sealed fall itself (the drop's tail is no
             // leak).
-            self.leak_quiet_until_ms = self.leak_quiet_until_ms.max(now + super::snap::SLOT_MS);
+            self.watch.leak_quiet_until_ms = self
+                .watch
+                .leak_quiet_until_ms
+                .max(now + super::snap::SLOT_MS);
         }
         self.want_inlet = w.inlet;
         self.want_exhaust = w.exhaust;

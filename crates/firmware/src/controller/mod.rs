@@ -28,8 +28,10 @@ pub mod belief;
 mod exec;
 pub mod identify;
 pub mod link;
+mod panel;
 mod requests;
 pub mod snap;
+mod watch;
 
 #[cfg(test)]
 mod tests;
@@ -46,7 +48,9 @@ use crate::store::{BootRecord, StoredState};
 use belief::Belief;
 use exec::Exec;
 use link::{Fingerprint, ResponseCache, TxQueue, RESPONSE_RESERVE};
+use panel::{Debounce, Joystick, Panel};
 use snap::{SnapDetector, SnapSign};
+use watch::{InletWatch, LeakWatch, Watches};
 
 /// A button press must be stable this long to count (the e-stop acts at once).
 pub const DEBOUNCE_MS: u64 = 20;
@@ -146,46 +150,6 @@ struct Pressure {
     above_cap: u8,
 }
 
-/// Debounced buttons (up, down, gripper, confirm).
-#[derive(Debug, Clone, Copy, Default)]
-struct Debounce {
-    raw: [bool; 4],
-    stable: [bool; 4],
-    since_ms: [u64; 4],
-}
-
-/// Leak watch: a sealed, still trunk losing pressure faster than the allowance.
-#[derive(Debug, Clone, Copy, Default)]
-struct LeakWatch {
-    start: Option<(u64, f32)>,
-    suspect_since_ms: Option<u64>,
-}
-
-/// Stuck-open inlet watch: gas coming in with the inlet commanded closed.
-#[derive(Debug, Clone, Copy, Default)]
-struct InletWatch {
-    /// Since when the inlet is commanded closed with the servos still.
-    closed_since_ms: Option<u64>,
-    /// Lowest pressure since then, creeping up at the drift allowance.
-    floor_kpa: Option<f32>,
-    last_ms: u64,
-    /// A rise seen: when, and the pressure half-way through the confirmation (it must go on
-    /// rising in the second half to count).
-    suspect: Option<(u64, Option<f32>)>,
-    /// Venting window: start time and pressure.
-    vent_start: Option<(u64, f32)>,
-}
-
-/// The joystick: the last sample, the one last acted on, and whether it has taken the servos.
-#[derive(Debug, Clone, Copy)]
-struct Joystick {
-    raw: [u16; 2],
-    used_raw: Option<[u16; 2]>,
-    /// It takes the servos only once moved past the dead zone (entering standalone never
-    /// moves the tendons by itself).
-    armed: bool,
-}
-
 /// When the periodic events are due.
 #[derive(Debug, Clone, Copy)]
 struct Periodic {
@@ -257,8 +221,6 @@ pub struct Controller {
     // Trunk state.
     belief: Belief,
     journal: Journal,
-    /// The leak watch is quiet until then ([`LEAK_SETTLE_MS`]).
-    leak_quiet_until_ms: u64,
     ident: Identification,
 
     // Modes and faults.
@@ -273,14 +235,9 @@ pub struct Controller {
     // Sensors.
     pressure: Pressure,
     snap: SnapDetector,
-    last_snap_ms: Option<u64>,
-    /// At rest with the state confirmed: the lowest pressure since (the rest watch's floor).
-    rest_floor_kpa: Option<f32>,
-    leak: LeakWatch,
-    inlet: InletWatch,
-    buttons: Buttons,
-    debounce: Debounce,
-    joystick: Joystick,
+    watch: Watches,
+    /// The standalone panel: buttons and joystick.
+    panel: Panel,
 
     // Actuators.
     servo_deg: [f32; 3],
@@ -359,13 +316,6 @@ impl Controller {
             last_tick_ms: now_ms,
             belief,
             journal: Journal::default(),
-            // After a reset mid-step the servos, now slack, may let a compressed trunk
-            // lengthen, and a snap may still complete: not a leak.
-            leak_quiet_until_ms: if belief.is_confirmed() {
-                now_ms
-            } else {
-                now_ms + LEAK_SETTLE_MS
-            },
             ident: Identification::default(),
             faults,
             last_fault,
@@ -382,16 +332,26 @@ impl Controller {
                 above_cap: 0,
             },
             snap: SnapDetector::new(),
-            last_snap_ms: None,
-            rest_floor_kpa: None,
-            leak: LeakWatch::default(),
-            inlet: InletWatch::default(),
-            buttons: Buttons::default(),
-            debounce: Debounce::default(),
-            joystick: Joystick {
-                raw: cfg.joystick.center_raw,
-                used_raw: None,
-                armed: false,
+            watch: Watches {
+                // After a reset mid-step the servos, now slack, may let a compressed trunk
+                // lengthen, and a snap may still complete: not a leak.
+                leak_quiet_until_ms: if belief.is_confirmed() {
+                    now_ms
+                } else {
+                    now_ms + LEAK_SETTLE_MS
+                },
+                rest_floor_kpa: None,
+                leak: LeakWatch::default(),
+                inlet: InletWatch::default(),
+            },
+            panel: Panel {
+                buttons: Buttons::default(),
+                debounce: Debounce::default(),
+                joystick: Joystick {
+                    raw: cfg.joystick.center_raw,
+                    used_raw: None,
+                    armed: false,
+                },
             },
             servo_deg,
             servo_target_deg: servo_deg,
@@ -507,7 +467,7 @@ impl Controller {
         self.link.entropy = self.link.entropy.rotate_left(3) ^ u32::from(inputs.pressure_raw);
         self.on_pressure(inputs.pressure_raw);
         self.on_buttons(inputs.buttons);
-        self.joystick.raw = inputs.joystick_raw;
+        self.panel.joystick.raw = inputs.joystick_raw;
         self.update_outputs();
     }
 
@@ -544,7 +504,7 @@ impl Controller {
     /// plan runs and the first one lit while the state is unconfirmed.
     pub fn poll_display(&self) -> [u8; 4] {
         use crate::display;
-        if self.buttons.show_pressure {
+        if self.panel.buttons.show_pressure {
             if self.pressure_valid() {
                 return display::pressure(self.pressure.filt_kpa);
             }
@@ -670,7 +630,7 @@ impl Controller {
             || moving
             || self.outputs.inlet_open
             || self.outputs.exhaust_open
-            || self.joystick.armed;
+            || self.panel.joystick.armed;
         let mut d = if active {
             now + self.cfg.control_period_ms as u64
         } else {
@@ -903,10 +863,10 @@ impl Controller {
         // Limp servos push nothing; the origami holds its state without them.
         if self.servos_enabled {
             // The tendons may pull them back and let a compressed trunk lengthen: not a leak.
-            self.leak_quiet_until_ms = self.now_ms + LEAK_SETTLE_MS;
+            self.watch.leak_quiet_until_ms = self.now_ms + LEAK_SETTLE_MS;
         }
         self.servos_enabled = false;
-        self.joystick.armed = false;
+        self.panel.joystick.armed = false;
         self.want_inlet = false;
         self.want_exhaust = false;
         self.update_outputs();
@@ -926,14 +886,14 @@ impl Controller {
         let slack = slack_angles(&self.cfg);
         self.servo_deg = slack;
         self.servo_target_deg = slack;
-        self.joystick.used_raw = None;
+        self.panel.joystick.used_raw = None;
         self.servos_enabled = true;
     }
 
     /// Clears every fault whose cause is gone; leaves the safe state when none is left.
     /// Returns whether everything cleared.
     fn reset_faults(&mut self) -> bool {
-        if self.buttons.estop {
+        if self.panel.buttons.estop {
             return false;
         }
         for f in FaultCode::ALL {
@@ -941,7 +901,7 @@ impl Controller {
                 continue;
             }
             let cause_present = match f {
-                FaultCode::EStop => self.buttons.estop,
+                FaultCode::EStop => self.panel.buttons.estop,
                 // Until the safety vent is done.
                 FaultCode::OverPressure => {
                     self.venting_for_safety || self.pressure.filt_kpa > self.cfg.pressure_limit_kpa
@@ -966,7 +926,7 @@ impl Controller {
         self.estop_latched = false;
         if self.faults == 0 {
             self.safe = false;
-            self.leak = LeakWatch::default();
+            self.watch.leak = LeakWatch::default();
             self.enable_servos();
             true
         } else {
@@ -991,7 +951,7 @@ impl Controller {
                 self.raise(FaultCode::PressureSensor);
             }
             self.snap.reset();
-            self.leak = LeakWatch::default();
+            self.watch.leak = LeakWatch::default();
             return;
         }
         self.pressure.rail_since_ms = None;
@@ -1042,8 +1002,7 @@ impl Controller {
         // Snap-throughs.
         let snapped = self.snap.feed(p, now, &self.cfg.snap);
         if let Some(s) = snapped {
-            self.last_snap_ms = Some(now);
-            self.leak = LeakWatch::default();
+            self.watch.leak = LeakWatch::default();
             self.on_snap(s.sign);
         }
         self.check_rest(p, snapped.is_some());
@@ -1052,188 +1011,10 @@ impl Controller {
         self.check_inlet(p);
     }
 
-    /// A stuck-open inlet: the pressure rises although the inlet is commanded closed (the
-    /// servos still, so no tendon compresses the trunk), or a vent stops making progress.
-    /// Raises InletStuck; its fault keeps the exhaust open (`update_outputs`), which holds the
-    /// pressure at or below where it was.
-    fn check_inlet(&mut self, p: f32) {
-        let now = self.now_ms;
-        let w = self.cfg.inlet_watch;
-        let still = self.servo_deg == self.servo_target_deg;
-        // A person doing a manual step moves the trunk (packing it raises the pressure).
-        let by_hand = self.exec.as_ref().is_some_and(Exec::waiting_manual);
-        if self.outputs.inlet_open || !still || by_hand || self.fault_active(FaultCode::InletStuck)
-        {
-            self.inlet = InletWatch::default();
-            return;
-        }
-        let since = *self.inlet.closed_since_ms.get_or_insert(now);
-        if now.saturating_sub(since) < w.closed_settle_ms as u64 {
-            self.inlet.last_ms = now;
-            return;
-        }
-        let dt_s = now.saturating_sub(self.inlet.last_ms) as f32 / 1_000.0;
-        self.inlet.last_ms = now;
-        let floor = match self.inlet.floor_kpa {
-            Some(f) => (f + w.drift_kpa_per_s * dt_s).min(p),
-            None => p,
-        };
-        self.inlet.floor_kpa = Some(floor);
-        // A rise must go on: a load pressing on the sealed trunk raises it once, then stops
-        // (accepted as the new level); gas coming in keeps raising it.
-        // The second half of the window, so a step still settling through the filter (8 ms)
-        // or the trunk's damping (≈ 50 ms) is not taken for a continuing rise.
-        let mut stuck = false;
-        let half = w.confirm_ms as u64 / 2;
-        match self.inlet.suspect {
-            None if p - floor > w.rise_kpa => self.inlet.suspect = Some((now, None)),
-            Some((t0, None)) if now.saturating_sub(t0) >= half => {
-                self.inlet.suspect = Some((t0, Some(p)));
-            }
-            Some((t0, Some(p_half))) if now.saturating_sub(t0) >= 2 * half => {
-                if p - p_half > w.confirm_rise_kpa {
-                    stuck = true;
-                } else {
-                    self.inlet.suspect = None;
-                    self.inlet.floor_kpa = Some(p);
-                }
-            }
-            _ => {}
-        }
-        if self.outputs.exhaust_open && p > w.vent_min_pressure_kpa {
-            let (t0, p0) = *self.inlet.vent_start.get_or_insert((now, p));
-            if now.saturating_sub(t0) >= w.vent_window_ms as u64 {
-                stuck |= p0 - p < w.vent_min_drop_kpa;
-                self.inlet.vent_start = Some((now, p));
-            }
-        } else {
-            self.inlet.vent_start = None;
-        }
-        if stuck {
-            self.inlet = InletWatch::default();
-            self.raise(FaultCode::InletStuck);
-        }
-    }
-
-    fn check_leak(&mut self, p: f32) {
-        let now = self.now_ms;
-        let lc = self.cfg.leak;
-        let still = self.servo_deg == self.servo_target_deg;
-        let sealed = !self.outputs.inlet_open && !self.outputs.exhaust_open;
-        let settled = now >= self.leak_quiet_until_ms;
-        if !(sealed && still && settled && p >= lc.min_pressure_kpa) {
-            self.leak = LeakWatch::default();
-            return;
-        }
-        let (t0, p0) = *self.leak.start.get_or_insert((now, p));
-        let elapsed_ms = now.saturating_sub(t0);
-        if elapsed_ms < lc.min_window_ms as u64 {
-            return;
-        }
-        let allowed = lc.allowance_kpa_per_s * elapsed_ms as f32 / 1_000.0 + lc.margin_kpa;
-        if p0 - p > allowed {
-            // A snap also drops the pressure at once: wait until the snap detector has had a
-            // full window to claim the drop before calling it a leak.
-            let since = *self.leak.suspect_since_ms.get_or_insert(now);
-            let confirm_ms = self.cfg.snap.window_ms as u64 + 2 * snap::SLOT_MS;
-            if now.saturating_sub(since) >= confirm_ms {
-                self.leak = LeakWatch::default();
-                self.raise(FaultCode::Leak);
-            }
-        } else {
-            self.leak.suspect_since_ms = None;
-        }
-    }
-
-    /// The rest watch: with no step running, a confirmed state changes only if something moved
-    /// the trunk — a snap the detector saw, or gas coming in ([`REST_RISE_KPA`]). Then the state
-    /// is unconfirmed, its candidates what a change at rest may make of it
-    /// (`transitions::rest_reach`): the swarm found valves stuck open unpacking a resting F&P and
-    /// D&P while the device held them confirmed. (Air left sealed in the trunk is let out by the
-    /// host before it identifies a state: `host::PlanRunner`.)
-    fn check_rest(&mut self, p: f32, snapped: bool) {
-        if self.exec.is_some() || !self.belief.is_confirmed() {
-            self.rest_floor_kpa = None;
-            return;
-        }
-        let floor = self.rest_floor_kpa.map_or(p, |f| f.min(p));
-        self.rest_floor_kpa = Some(floor);
-        let filling = p >= protocol::transitions::SEALED_ACTS_KPA && p - floor >= REST_RISE_KPA;
-        if snapped || filling {
-            let state = self.belief.state();
-            self.rest_floor_kpa = None;
-            self.set_belief(Belief::unconfirmed(
-                state,
-                protocol::transitions::rest_reach(state),
-                None,
-            ));
-        }
-    }
-
     fn on_snap(&mut self, sign: SnapSign) {
         let counted = self.exec.as_mut().is_some_and(|e| e.on_snap(sign));
         if counted {
             self.advance_exec();
-        }
-    }
-
-    fn on_buttons(&mut self, b: Buttons) {
-        let now = self.now_ms;
-        self.buttons = b;
-        if b.estop && !self.estop_latched {
-            self.estop_latched = true;
-            self.raise(FaultCode::EStop);
-        }
-        let raw = [b.up, b.down, b.gripper, b.confirm];
-        let mut pressed = [false; 4];
-        for (i, r) in raw.into_iter().enumerate() {
-            if r != self.debounce.raw[i] {
-                self.debounce.raw[i] = r;
-                self.debounce.since_ms[i] = now;
-            }
-            if self.debounce.stable[i] != r
-                && now.saturating_sub(self.debounce.since_ms[i]) >= DEBOUNCE_MS
-            {
-                self.debounce.stable[i] = r;
-                pressed[i] = r;
-            }
-        }
-        let [up, down, grip, confirm] = pressed;
-        if confirm {
-            if self.exec.as_mut().is_some_and(Exec::confirm_manual) {
-                self.advance_exec();
-            } else if let (Some(shown), None) = (self.ident.asking, &self.exec) {
-                // The operator says the trunk is in the state shown.
-                self.declare(shown);
-            } else if self.safe || self.estop_latched {
-                self.reset_faults();
-            }
-        }
-        let idle = self.mode() == Mode::Standalone;
-        if idle && grip {
-            self.gripper_closed = !self.gripper_closed;
-        }
-        if let (Some(shown), true) = (self.ident.asking, idle || self.safe) {
-            // Identification by the operator: up/down pick a candidate, confirm takes it.
-            if up || down {
-                let c: Vec<TrunkState, 6> = self.belief.candidates().iter().collect();
-                if let Some(i) = c.iter().position(|s| *s == shown) {
-                    let n = c.len();
-                    let j = if up { (i + 1) % n } else { (i + n - 1) % n };
-                    self.ident.asking = Some(c[j]);
-                }
-            }
-            return;
-        }
-        if idle && (up || down) && self.confirmed() {
-            let t = if up {
-                protocol::transitions::step_up(self.state())
-            } else {
-                protocol::transitions::step_down(self.state())
-            };
-            if let Some(t) = t {
-                self.start_local_step(t);
-            }
         }
     }
 
@@ -1282,51 +1063,6 @@ impl Controller {
     /// The tendon shortening that takes up `state`'s slack (0 outside the flexible states).
     fn take_up_for(&self, state: TrunkState) -> f32 {
         self.take_up_mm[state.index()]
-    }
-
-    fn standalone_joystick(&mut self) {
-        if self.mode() != Mode::Standalone || !self.state().is_flexible() || !self.confirmed() {
-            self.joystick.armed = false;
-            self.joystick.used_raw = None;
-            return;
-        }
-        let raw = self.joystick.raw;
-        if self.joystick.used_raw == Some(raw) {
-            return;
-        }
-        let jc = self.cfg.joystick;
-        let x = (raw[0] as f32 - jc.center_raw[0] as f32) / jc.half_range_raw;
-        let y = (raw[1] as f32 - jc.center_raw[1] as f32) / jc.half_range_raw;
-        let m = crate::mathf::hypot(x, y);
-        if m > jc.dead_zone {
-            // The joystick takes the servos only once it has been moved: entering standalone
-            // (after a plan or an abort) never moves the tendons by itself.
-            self.joystick.armed = true;
-        }
-        if !self.joystick.armed {
-            return;
-        }
-        self.joystick.used_raw = Some(raw);
-        let dl = joystick_lengths_f32(
-            x,
-            y,
-            jc.dead_zone,
-            self.max_bend_deg,
-            self.cfg.geometry.tendon_radius_mm,
-        );
-        let take_up_mm = self.take_up_for(self.state());
-        for (i, d) in dl.iter().enumerate() {
-            // Around the state's taken-up slack: the inside tendon shortens, the others pay
-            // out. Human input is clamped silently to the limits (a plan's would fault).
-            let l = crate::clampf(take_up_mm + d, 0.0, self.cfg.max_tendon_mm);
-            self.servo_target_deg[i] = self
-                .cfg
-                .geometry
-                .winch
-                .angle_for_length(i, l)
-                .max(self.cfg.servo.min_deg)
-                .min(self.cfg.servo.max_deg);
-        }
     }
 
     fn slew(&mut self, dt_ms: u64) {

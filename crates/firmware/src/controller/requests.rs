@@ -334,7 +334,7 @@ impl Controller {
                 }
             }
             RequestBody::ResetFaults => {
-                if self.buttons.estop {
+                if self.panel.buttons.estop {
                     return reject(RejectReason::NotAllowed);
                 }
                 if self.reset_faults() {

@@ -348,7 +348,7 @@ impl Controller {
                 self.cfg
                     .geometry
                     .winch
-                    .length_for_angle(i, self.servo_deg[i])
+                    .length_for_angle(i, self.act.servo_deg[i])
                     > 0.5
             }) || self.vent_first(step))
     }
@@ -462,8 +462,8 @@ impl Controller {
             return;
         };
         let now = self.now_ms;
-        self.want_inlet = false;
-        self.want_exhaust = false;
+        self.act.want_inlet = false;
+        self.act.want_exhaust = false;
         let ok = phase == PlanPhase::Done;
         if e.origin == Origin::Identify {
             self.finish_identify(ok);
@@ -571,7 +571,7 @@ impl Controller {
                 self.cfg
                     .geometry
                     .winch
-                    .length_for_angle(i, self.servo_deg[i]),
+                    .length_for_angle(i, self.act.servo_deg[i]),
             )
         });
         if let Some(e) = self.exec.as_mut() {
@@ -644,8 +644,8 @@ impl Controller {
             e.phase = Phase::Primitive { check, run: None };
             e.prim_start_ms = now;
         }
-        self.want_inlet = false;
-        self.want_exhaust = false;
+        self.act.want_inlet = false;
+        self.act.want_exhaust = false;
     }
 
     /// Lets every tendon out (exhaust open: no vacuum) and vents a pressurised trunk before a
@@ -656,21 +656,21 @@ impl Controller {
             self.raise(FaultCode::ServoLimit);
             return false;
         };
-        self.servo_target_deg = slack;
-        self.want_inlet = false;
+        self.act.servo_target_deg = slack;
+        self.act.want_inlet = false;
         let step = self
             .exec
             .as_ref()
             .and_then(|e| e.plan.steps.get(e.step as usize));
         if self.servos_at_target() && !self.vent_first(step) {
-            self.want_exhaust = false;
+            self.act.want_exhaust = false;
             if let Some(e) = self.exec.as_mut() {
                 e.phase = Phase::PRIMITIVES;
                 e.prim_start_ms = self.now_ms;
             }
             return true;
         }
-        self.want_exhaust = true;
+        self.act.want_exhaust = true;
         false
     }
 
@@ -679,7 +679,7 @@ impl Controller {
         let cap = self.cfg.pressure_limit_kpa;
         let h = self.cfg.hysteresis_kpa;
         let p = self.pressure.filt_kpa;
-        let start_deg = self.servo_deg;
+        let start_deg = self.act.servo_deg;
         let mut targets = None;
         let mut manual = None;
         match prim {
@@ -698,12 +698,12 @@ impl Controller {
                     .ok_or(FaultCode::ServoLimit)?;
                 targets = Some(self.angles_for(l).ok_or(FaultCode::ServoLimit)?);
             }
-            Primitive::Gripper { close } => self.gripper_closed = close,
+            Primitive::Gripper { close } => self.act.gripper_closed = close,
             Primitive::Manual(task) => manual = Some(task),
             _ => {}
         }
         if let Some(t) = targets {
-            self.servo_target_deg = t;
+            self.act.servo_target_deg = t;
         }
         if matches!(
             prim,
@@ -769,7 +769,7 @@ impl Controller {
         let at_target = self.servos_at_target();
         // The inlet command in force since the last look (after the safety overlay: the cap,
         // an invalid reading or a safety vent keep it shut whatever the regulator wants).
-        let inlet_was_open = self.outputs.inlet_open;
+        let inlet_was_open = self.act.outputs.inlet_open;
         let cfg = &self.cfg;
         let Some(e) = self.exec.as_mut() else {
             return Progress::Running;
@@ -810,7 +810,7 @@ impl Controller {
         };
         let result = e.look(prim, cfg, look, &mut w);
         if let Some(t) = w.servo_deg {
-            self.servo_target_deg = t;
+            self.act.servo_target_deg = t;
         }
         // A primitive that completed (or failed by itself) in this pass keeps its verdict.
         let result = match (result, stall) {
@@ -832,8 +832,8 @@ impl Controller {
                 .leak_quiet_until_ms
                 .max(now + super::snap::SLOT_MS);
         }
-        self.want_inlet = w.inlet;
-        self.want_exhaust = w.exhaust;
+        self.act.want_inlet = w.inlet;
+        self.act.want_exhaust = w.exhaust;
         result
     }
 

@@ -24,6 +24,7 @@
 // board shell, `board/`, holds the register access).
 #![forbid(unsafe_code)]
 
+mod actuators;
 pub mod belief;
 mod exec;
 pub mod identify;
@@ -45,6 +46,7 @@ use protocol::{
 
 use crate::config::CraneConfig;
 use crate::store::{BootRecord, StoredState};
+use actuators::Actuators;
 use belief::Belief;
 use exec::Exec;
 use link::{Fingerprint, ResponseCache, TxQueue, RESPONSE_RESERVE};
@@ -240,10 +242,7 @@ pub struct Controller {
     panel: Panel,
 
     // Actuators.
-    servo_deg: [f32; 3],
-    servo_target_deg: [f32; 3],
-    /// Servo pulses on (off in the safe state).
-    servos_enabled: bool,
+    act: Actuators,
     /// Tendon shortening that takes up each state's slack (joystick and `Bend`), by
     /// [`TrunkState::index`]: computed once here (a plan's upload check needs the take-up of
     /// every step's `from`).
@@ -253,10 +252,6 @@ pub struct Controller {
     /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
     /// change.
     max_bend_deg: f32,
-    gripper_closed: bool,
-    want_inlet: bool,
-    want_exhaust: bool,
-    outputs: Outputs,
 
     // Plans.
     uploaded: Option<protocol::Plan>,
@@ -353,25 +348,27 @@ impl Controller {
                     armed: false,
                 },
             },
-            servo_deg,
-            servo_target_deg: servo_deg,
-            servos_enabled: faults == 0,
+            act: Actuators {
+                servo_deg,
+                servo_target_deg: servo_deg,
+                servos_enabled: faults == 0,
+                // Fail-closed: the controller boots holding (a reset while it carries a load
+                // must not drop it; the GPIO set-up already drives the pin closed): it opens
+                // only when told to (the gripper button, a `Gripper` primitive).
+                gripper_closed: true,
+                want_inlet: false,
+                want_exhaust: false,
+                outputs: Outputs {
+                    servo_deg,
+                    inlet_open: false,
+                    exhaust_open: false,
+                    gripper_closed: true,
+                    servos_enabled: faults == 0,
+                },
+            },
             take_up_mm,
             pull_range_mm: equal_pull_range(&cfg),
             max_bend_deg,
-            // Fail-closed: the controller boots holding (a reset while it carries a load must
-            // not drop it; the GPIO set-up already drives the pin closed): it opens only when
-            // told to (the gripper button, a `Gripper` primitive).
-            gripper_closed: true,
-            want_inlet: false,
-            want_exhaust: false,
-            outputs: Outputs {
-                servo_deg,
-                inlet_open: false,
-                exhaust_open: false,
-                gripper_closed: true,
-                servos_enabled: faults == 0,
-            },
             uploaded: None,
             exec: None,
             plan_status: None,
@@ -495,7 +492,7 @@ impl Controller {
 
     /// The actuator commands now.
     pub fn poll_outputs(&self) -> Outputs {
-        self.outputs
+        self.act.outputs
     }
 
     /// The display content now, in priority order: the pressure while show-pressure is held;
@@ -625,11 +622,11 @@ impl Controller {
     /// deadline (at most one second ahead).
     pub fn poll_deadline(&self) -> u64 {
         let now = self.now_ms;
-        let moving = self.servo_deg != self.servo_target_deg;
+        let moving = self.act.servo_deg != self.act.servo_target_deg;
         let active = self.exec.is_some()
             || moving
-            || self.outputs.inlet_open
-            || self.outputs.exhaust_open
+            || self.act.outputs.inlet_open
+            || self.act.outputs.exhaust_open
             || self.panel.joystick.armed;
         let mut d = if active {
             now + self.cfg.control_period_ms as u64
@@ -656,10 +653,10 @@ impl Controller {
             interrupted,
             mode: self.mode(),
             pressure_kpa: self.pressure.filt_kpa,
-            servo_deg: self.outputs.servo_deg,
-            inlet_open: self.outputs.inlet_open,
-            exhaust_open: self.outputs.exhaust_open,
-            gripper_closed: self.outputs.gripper_closed,
+            servo_deg: self.act.outputs.servo_deg,
+            inlet_open: self.act.outputs.inlet_open,
+            exhaust_open: self.act.outputs.exhaust_open,
+            gripper_closed: self.act.outputs.gripper_closed,
             estop: self.estop_latched,
             plan: self.plan_status,
             manual_task: self.exec.as_ref().and_then(|e| e.waiting_task()),
@@ -861,33 +858,15 @@ impl Controller {
         self.freeze_servos();
         // No position feedback: a servo may have stalled short of its command, still pushing.
         // Limp servos push nothing; the origami holds its state without them.
-        if self.servos_enabled {
+        if self.act.servos_enabled {
             // The tendons may pull them back and let a compressed trunk lengthen: not a leak.
             self.watch.leak_quiet_until_ms = self.now_ms + LEAK_SETTLE_MS;
         }
-        self.servos_enabled = false;
+        self.act.servos_enabled = false;
         self.panel.joystick.armed = false;
-        self.want_inlet = false;
-        self.want_exhaust = false;
+        self.act.want_inlet = false;
+        self.act.want_exhaust = false;
         self.update_outputs();
-    }
-
-    fn freeze_servos(&mut self) {
-        self.servo_target_deg = self.servo_deg;
-    }
-
-    /// Turns limp servos back on, commanded to the slack position: where a limp servo really
-    /// is is unknown (its tendon may have back-driven it toward slack), and paying tendon out
-    /// can never push the trunk, so slack is the one safe command. No-op when enabled.
-    pub(super) fn enable_servos(&mut self) {
-        if self.servos_enabled {
-            return;
-        }
-        let slack = slack_angles(&self.cfg);
-        self.servo_deg = slack;
-        self.servo_target_deg = slack;
-        self.panel.joystick.used_raw = None;
-        self.servos_enabled = true;
     }
 
     /// Clears every fault whose cause is gone; leaves the safe state when none is left.
@@ -1065,46 +1044,6 @@ impl Controller {
         self.take_up_mm[state.index()]
     }
 
-    fn slew(&mut self, dt_ms: u64) {
-        if self.safe || self.estop_latched {
-            self.freeze_servos();
-            return;
-        }
-        let max_step = self.cfg.servo.slew_deg_per_s * dt_ms as f32 / 1_000.0;
-        let (lo, hi) = (self.cfg.servo.min_deg, self.cfg.servo.max_deg);
-        for i in 0..3 {
-            let target = crate::clampf(self.servo_target_deg[i], lo, hi);
-            self.servo_target_deg[i] = target;
-            let d = target - self.servo_deg[i];
-            self.servo_deg[i] = if d.abs() <= max_step {
-                target
-            } else {
-                self.servo_deg[i] + max_step.copysign(d)
-            };
-        }
-    }
-
-    fn servos_at_target(&self) -> bool {
-        self.servo_deg == self.servo_target_deg
-    }
-
-    /// Computes the outputs from the wanted valve states and the safety overlay.
-    fn update_outputs(&mut self) {
-        let vent = self.venting_for_safety
-            || self.fault_active(FaultCode::PressureSensor)
-            || self.fault_active(FaultCode::InletStuck);
-        let running = self.exec.is_some() && !self.safe && !self.estop_latched;
-        // Never open the inlet at or above the cap, whatever asked for it.
-        let below_cap = self.pressure.filt_kpa < self.cfg.pressure_limit_kpa;
-        self.outputs = Outputs {
-            servo_deg: self.servo_deg,
-            inlet_open: running && self.want_inlet && !vent && below_cap && self.pressure_valid(),
-            exhaust_open: vent || (running && self.want_exhaust),
-            gripper_closed: self.gripper_closed,
-            servos_enabled: self.servos_enabled,
-        };
-    }
-
     // -----------------------------------------------------------------------------------------
     // Link
     // -----------------------------------------------------------------------------------------
@@ -1164,9 +1103,9 @@ impl Controller {
             let t = Telemetry {
                 uptime_ms: self.uptime_ms(),
                 pressure_kpa: self.pressure.filt_kpa,
-                servo_deg: self.outputs.servo_deg,
-                inlet_open: self.outputs.inlet_open,
-                exhaust_open: self.outputs.exhaust_open,
+                servo_deg: self.act.outputs.servo_deg,
+                inlet_open: self.act.outputs.inlet_open,
+                exhaust_open: self.act.outputs.exhaust_open,
                 state: self.state(),
                 state_confirmed: self.confirmed() && self.moving_step().is_none(),
             };

@@ -72,7 +72,7 @@ impl Controller {
         }
         let idle = self.mode() == Mode::Standalone;
         if idle && grip {
-            self.gripper_closed = !self.gripper_closed;
+            self.act.gripper_closed = !self.act.gripper_closed;
         }
         if let (Some(shown), true) = (self.ident.asking, idle || self.safe) {
             // Identification by the operator: up/down pick a candidate, confirm takes it.
@@ -133,7 +133,7 @@ impl Controller {
             // Around the state's taken-up slack: the inside tendon shortens, the others pay
             // out. Human input is clamped silently to the limits (a plan's would fault).
             let l = crate::clampf(take_up_mm + d, 0.0, self.cfg.max_tendon_mm);
-            self.servo_target_deg[i] = self
+            self.act.servo_target_deg[i] = self
                 .cfg
                 .geometry
                 .winch

@@ -50,10 +50,13 @@ impl Controller {
     pub(super) fn check_inlet(&mut self, p: f32) {
         let now = self.now_ms;
         let w = self.cfg.inlet_watch;
-        let still = self.servo_deg == self.servo_target_deg;
+        let still = self.act.servo_deg == self.act.servo_target_deg;
         // A person doing a manual step moves the trunk (packing it raises the pressure).
         let by_hand = self.exec.as_ref().is_some_and(Exec::waiting_manual);
-        if self.outputs.inlet_open || !still || by_hand || self.fault_active(FaultCode::InletStuck)
+        if self.act.outputs.inlet_open
+            || !still
+            || by_hand
+            || self.fault_active(FaultCode::InletStuck)
         {
             self.watch.inlet = InletWatch::default();
             return;
@@ -91,7 +94,7 @@ impl Controller {
             }
             _ => {}
         }
-        if self.outputs.exhaust_open && p > w.vent_min_pressure_kpa {
+        if self.act.outputs.exhaust_open && p > w.vent_min_pressure_kpa {
             let (t0, p0) = *self.watch.inlet.vent_start.get_or_insert((now, p));
             if now.saturating_sub(t0) >= w.vent_window_ms as u64 {
                 stuck |= p0 - p < w.vent_min_drop_kpa;
@@ -109,8 +112,8 @@ impl Controller {
     pub(super) fn check_leak(&mut self, p: f32) {
         let now = self.now_ms;
         let lc = self.cfg.leak;
-        let still = self.servo_deg == self.servo_target_deg;
-        let sealed = !self.outputs.inlet_open && !self.outputs.exhaust_open;
+        let still = self.act.servo_deg == self.act.servo_target_deg;
+        let sealed = !self.act.outputs.inlet_open && !self.act.outputs.exhaust_open;
         let settled = now >= self.watch.leak_quiet_until_ms;
         if !(sealed && still && settled && p >= lc.min_pressure_kpa) {
             self.watch.leak = LeakWatch::default();

@@ -378,7 +378,7 @@ impl Controller {
         if !completed {
             return;
         }
-        let mut b = self.belief;
+        let mut b = self.trunk.belief;
         if let Some(profile) = self.cfg.probe_profile {
             b.narrow(log.verdict(b.candidates(), &profile));
         }
@@ -470,7 +470,7 @@ impl Controller {
         }
         if !ok {
             if let Some(b) = self.interrupted_belief(&e) {
-                if b == self.belief && e.recorded {
+                if b == self.trunk.belief && e.recorded {
                     // Unchanged (confirmed `from`), but the record says "pending": rewrite it.
                     self.store(StoredState::confirmed(b.state()));
                 }

@@ -32,6 +32,7 @@ pub mod link;
 mod panel;
 mod requests;
 pub mod snap;
+mod trunk;
 mod watch;
 
 #[cfg(test)]
@@ -41,7 +42,7 @@ use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
     DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request,
-    ResetCause, StateSet, Status, Telemetry,
+    ResetCause, Status, Telemetry,
 };
 
 use crate::config::CraneConfig;
@@ -49,9 +50,11 @@ use crate::store::{BootRecord, StoredState};
 use actuators::Actuators;
 use belief::Belief;
 use exec::Exec;
+use identify::Identification;
 use link::{Fingerprint, ResponseCache, TxQueue, RESPONSE_RESERVE};
 use panel::{Debounce, Joystick, Panel};
 use snap::{SnapDetector, SnapSign};
+use trunk::{Journal, Trunk};
 use watch::{InletWatch, LeakWatch, Watches};
 
 /// A button press must be stable this long to count (the e-stop acts at once).
@@ -160,27 +163,6 @@ struct Periodic {
     last_progress_ms: u64,
 }
 
-/// The persisted record's handover to the shell: records made, taken
-/// ([`Controller::poll_store`]) and persisted ([`Controller::handle_stored`]), counted; a step
-/// actuates only once its journal record is persisted.
-#[derive(Debug, Clone, Copy, Default)]
-struct Journal {
-    pending: Option<StoredState>,
-    made: u32,
-    polled: u32,
-    persisted: u32,
-}
-
-/// Identification of an unconfirmed state.
-#[derive(Debug, Clone, Copy, Default)]
-struct Identification {
-    /// The operator is asked: the candidate shown (up/down select, confirm accepts).
-    asking: Option<TrunkState>,
-    /// The probe's measurements while it runs, and the last probe's.
-    probe: Option<identify::ProbeLog>,
-    last: Option<identify::ProbeLog>,
-}
-
 /// Who the device talks to (`docs/protocol.md`, "Sessions").
 #[derive(Debug, Clone, Copy)]
 struct LinkSession {
@@ -214,16 +196,15 @@ struct Signing {
 
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
 #[derive(Debug, Clone)]
+#[repr(C)]
 pub struct Controller {
-    cfg: CraneConfig,
+    // Declared (and laid out, `repr(C)`) from the most used to the largest: the fields read on
+    // every pass sit within the short load offsets of the M4 (the default layout puts every
+    // `bool` after the kilobytes of plans and buffers, each access then an address
+    // computation more).
     now_ms: u64,
     boot_ms: u64,
     last_tick_ms: u64,
-
-    // Trunk state.
-    belief: Belief,
-    journal: Journal,
-    ident: Identification,
 
     // Modes and faults.
     faults: u16,
@@ -234,15 +215,24 @@ pub struct Controller {
     /// Exhaust held open for safety (over-pressure until below the vent-to pressure).
     venting_for_safety: bool,
 
-    // Sensors.
+    // Actuators and sensors.
+    act: Actuators,
     pressure: Pressure,
-    snap: SnapDetector,
     watch: Watches,
     /// The standalone panel: buttons and joystick.
     panel: Panel,
 
-    // Actuators.
-    act: Actuators,
+    // Trunk state.
+    trunk: Trunk,
+    ident: Identification,
+
+    // Link.
+    periodic: Periodic,
+    link: LinkSession,
+    fingerprint: Fingerprint,
+    defer_events: bool,
+    plan_status: Option<PlanStatus>,
+
     /// Tendon shortening that takes up each state's slack (joystick and `Bend`), by
     /// [`TrunkState::index`]: computed once here (a plan's upload check needs the take-up of
     /// every step's `from`).
@@ -252,28 +242,20 @@ pub struct Controller {
     /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
     /// change.
     max_bend_deg: f32,
-
-    // Plans.
-    uploaded: Option<protocol::Plan>,
-    exec: Option<Exec>,
-    plan_status: Option<PlanStatus>,
-
-    // Link.
-    decoder: FrameDecoder,
-    fingerprint: Fingerprint,
-    link: LinkSession,
-    cache: ResponseCache,
-    tx: TxQueue,
-    defer_events: bool,
-    deferred: Vec<Event, 8>,
-    periodic: Periodic,
+    snap: SnapDetector,
     #[cfg(feature = "link-signing")]
     signing: Signing,
-    /// A probe profile change to persist ([`Controller::poll_probe_profile`]).
-    profile_to_store: Option<Option<identify::ProbeProfile>>,
-    /// Whether the store keeps a probe profile ([`Controller::set_probe_profile`]): storing
-    /// one is refused otherwise (it would be gone at the next reset).
-    store_keeps_profile: bool,
+    cfg: CraneConfig,
+
+    // Plans.
+    exec: Option<Exec>,
+    uploaded: Option<protocol::Plan>,
+
+    // Link buffers.
+    deferred: Vec<Event, 8>,
+    decoder: FrameDecoder,
+    cache: ResponseCache,
+    tx: TxQueue,
 }
 
 impl Controller {
@@ -309,8 +291,10 @@ impl Controller {
             now_ms,
             boot_ms: now_ms,
             last_tick_ms: now_ms,
-            belief,
-            journal: Journal::default(),
+            trunk: Trunk {
+                belief,
+                journal: Journal::default(),
+            },
             ident: Identification::default(),
             faults,
             last_fault,
@@ -390,8 +374,6 @@ impl Controller {
                 to_store: None,
                 store_keeps_key: false,
             },
-            profile_to_store: None,
-            store_keeps_profile: false,
             tx: TxQueue::new(),
             defer_events: false,
             deferred: Vec::new(),
@@ -530,11 +512,11 @@ impl Controller {
             }
             return seg;
         }
-        let mut seg = display::text(self.belief.state().display_text());
+        let mut seg = display::text(self.trunk.belief.state().display_text());
         if self.exec.is_some() {
             seg[3] |= display::DP;
         }
-        if !self.belief.is_confirmed() {
+        if !self.trunk.belief.is_confirmed() {
             seg[0] |= display::DP;
         }
         seg
@@ -543,9 +525,9 @@ impl Controller {
     /// The record to persist, once per change (the shell saves it, then calls
     /// [`Controller::handle_stored`]).
     pub fn poll_store(&mut self) -> Option<StoredState> {
-        let s = self.journal.pending.take();
+        let s = self.trunk.journal.pending.take();
         if s.is_some() {
-            self.journal.polled = self.journal.made;
+            self.trunk.journal.polled = self.trunk.journal.made;
         }
         s
     }
@@ -579,13 +561,13 @@ impl Controller {
         if profile.is_some() {
             self.cfg.probe_profile = profile;
         }
-        self.store_keeps_profile = store_keeps_profile;
+        self.ident.store_keeps_profile = store_keeps_profile;
     }
 
     /// A probe profile change to persist (`Some(None)`: erase it), taken once; the shell
     /// writes it to its store ([`crate::hw::StateStore::save_probe_profile`]).
     pub fn poll_probe_profile(&mut self) -> Option<Option<identify::ProbeProfile>> {
-        self.profile_to_store.take()
+        self.ident.profile_to_store.take()
     }
 
     /// The probe profile identification decides with (`None`: it asks the operator).
@@ -604,7 +586,7 @@ impl Controller {
     /// The record last taken with [`Controller::poll_store`] is persisted. A step's first
     /// actuation waits for this (the journal is written ahead of the motion).
     pub fn handle_stored(&mut self) {
-        self.journal.persisted = self.journal.polled;
+        self.trunk.journal.persisted = self.trunk.journal.polled;
     }
 
     /// What the last identification probe measured (for reports and calibration).
@@ -614,7 +596,7 @@ impl Controller {
 
     /// What the controller believes about the trunk.
     pub fn belief(&self) -> &Belief {
-        &self.belief
+        &self.trunk.belief
     }
 
     /// The next `now_ms` at which [`Controller::handle_time`] must run: one control period
@@ -647,7 +629,7 @@ impl Controller {
         let stats = self.decoder.stats();
         let (state_confirmed, candidates, interrupted) = self.reported_belief();
         Status {
-            state: self.belief.state(),
+            state: self.trunk.belief.state(),
             state_confirmed,
             candidates,
             interrupted,
@@ -717,123 +699,6 @@ impl Controller {
         self.pressure.init
             && !self.pressure.at_rail
             && !self.fault_active(FaultCode::PressureSensor)
-    }
-
-    // -----------------------------------------------------------------------------------------
-    // State tracking
-    // -----------------------------------------------------------------------------------------
-
-    /// The trunk state now (confirmed, or the best guess).
-    fn state(&self) -> TrunkState {
-        self.belief.state()
-    }
-
-    /// Whether the trunk state is confirmed.
-    fn confirmed(&self) -> bool {
-        self.belief.is_confirmed()
-    }
-
-    /// The step of a running plan that moves the trunk to another state, if one is under way,
-    /// and its reach.
-    fn moving_step(&self) -> Option<(&protocol::Step, StateSet)> {
-        let e = self.exec.as_ref()?;
-        let step = e.plan.steps.get(usize::from(e.step))?;
-        (step.from != step.to).then_some((step, e.reach))
-    }
-
-    /// What a report says of the state: the belief, except while a step moves the trunk — then
-    /// the trunk is between the step's ends or further along its reach, and the last confirmed
-    /// state (`state`, the step's `from`) is not claimed: unconfirmed, the step's reach as
-    /// candidates, the step as the one under way (`docs/firmware.md`,
-    /// "What a state report means").
-    fn reported_belief(&self) -> (bool, StateSet, Option<protocol::Transition>) {
-        match self.moving_step() {
-            Some((step, reach)) => (
-                false,
-                reach.with(self.belief.state()),
-                Some(protocol::Transition {
-                    from: step.from,
-                    to: step.to,
-                }),
-            ),
-            None => (
-                self.belief.is_confirmed(),
-                self.belief.candidates(),
-                self.belief.interrupted(),
-            ),
-        }
-    }
-
-    /// Takes `belief` as what is known; persists and reports it when it changed.
-    fn set_belief(&mut self, belief: Belief) {
-        if belief == self.belief {
-            return;
-        }
-        if belief.state() != self.belief.state() {
-            self.max_bend_deg = max_bend_deg(&self.cfg, belief.state());
-        }
-        self.belief = belief;
-        if belief.is_confirmed() {
-            self.ident.asking = None;
-        }
-        self.store(StoredState {
-            state: belief.state(),
-            confirmed: belief.is_confirmed(),
-            candidates: belief.candidates(),
-            pending: if belief.is_confirmed() {
-                None
-            } else {
-                belief.interrupted()
-            },
-        });
-        self.emit(Event::StateReached {
-            state: belief.state(),
-            confirmed: belief.is_confirmed(),
-        });
-    }
-
-    /// Hands `record` to the shell to persist; returns its number (see
-    /// [`Controller::journal_persisted`]).
-    fn store(&mut self, record: StoredState) -> u32 {
-        self.journal.made = self.journal.made.wrapping_add(1);
-        self.journal.pending = Some(record);
-        self.journal.made
-    }
-
-    /// Whether record number `n` (or a later one) is persisted.
-    fn journal_persisted(&self, n: u32) -> bool {
-        self.journal.persisted.wrapping_sub(n) < u32::MAX / 2
-    }
-
-    /// A person or the host says the trunk is in `state`: confirmed and persisted; a
-    /// StateStorage fault (nothing was known) is cleared with it.
-    fn declare(&mut self, state: TrunkState) {
-        self.confirm_state(state);
-        if self.fault_active(FaultCode::StateStorage) {
-            self.faults &= !FaultCode::StateStorage.bit();
-            self.emit(Event::FaultCleared(FaultCode::StateStorage));
-            if self.faults == 0 && !self.estop_latched {
-                self.safe = false;
-            }
-        }
-    }
-
-    /// Asks the operator which candidate the trunk is in (display, up/down, confirm; or the
-    /// host's DeclareState).
-    fn ask_operator(&mut self) {
-        let c = self.belief.candidates();
-        let shown = if c.contains(self.state()) {
-            Some(self.state())
-        } else {
-            c.iter().next()
-        };
-        self.ident.asking = shown;
-        self.emit(Event::IdentifyNeedsOperator { candidates: c });
-    }
-
-    /// Confirms `state` (sensors, a person, the host).
-    fn confirm_state(&mut self, state: TrunkState) {
-        self.set_belief(Belief::confirmed(state));
     }
 
     // -----------------------------------------------------------------------------------------

@@ -77,7 +77,7 @@ impl Controller {
         if let (Some(shown), true) = (self.ident.asking, idle || self.safe) {
             // Identification by the operator: up/down pick a candidate, confirm takes it.
             if up || down {
-                let c: Vec<TrunkState, 6> = self.belief.candidates().iter().collect();
+                let c: Vec<TrunkState, 6> = self.trunk.belief.candidates().iter().collect();
                 if let Some(i) = c.iter().position(|s| *s == shown) {
                     let n = c.len();
                     let j = if up { (i + 1) % n } else { (i + n - 1) % n };

@@ -194,7 +194,7 @@ impl Controller {
         if self.exec.is_some() {
             return (ResultCode::Busy, ResponseBody::None);
         }
-        if !self.store_keeps_profile {
+        if !self.ident.store_keeps_profile {
             return reject(RejectReason::NotAllowed);
         }
         if schema_id != protocol::SCHEMA_ID {
@@ -212,7 +212,7 @@ impl Controller {
             ));
         }
         self.cfg.probe_profile = *profile;
-        self.profile_to_store = Some(*profile);
+        self.ident.profile_to_store = Some(*profile);
         ok()
     }
 

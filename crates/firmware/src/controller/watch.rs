@@ -146,7 +146,7 @@ impl Controller {
     /// D&P while the device held them confirmed. (Air left sealed in the trunk is let out by the
     /// host before it identifies a state: `host::PlanRunner`.)
     pub(super) fn check_rest(&mut self, p: f32, snapped: bool) {
-        if self.exec.is_some() || !self.belief.is_confirmed() {
+        if self.exec.is_some() || !self.trunk.belief.is_confirmed() {
             self.watch.rest_floor_kpa = None;
             return;
         }
@@ -154,7 +154,7 @@ impl Controller {
         self.watch.rest_floor_kpa = Some(floor);
         let filling = p >= protocol::transitions::SEALED_ACTS_KPA && p - floor >= REST_RISE_KPA;
         if snapped || filling {
-            let state = self.belief.state();
+            let state = self.trunk.belief.state();
             self.watch.rest_floor_kpa = None;
             self.set_belief(Belief::unconfirmed(
                 state,

@@ -26,7 +26,7 @@ impl Controller {
     /// Moves each servo toward its target by at most the slew rate over `dt_ms` (frozen in
     /// the safe state and under the e-stop).
     pub(super) fn slew(&mut self, dt_ms: u64) {
-        if self.safe || self.estop_latched {
+        if self.safety.safe || self.safety.estop_latched {
             self.freeze_servos();
             return;
         }
@@ -51,10 +51,10 @@ impl Controller {
 
     /// Computes the outputs from the wanted valve states and the safety overlay.
     pub(super) fn update_outputs(&mut self) {
-        let vent = self.venting_for_safety
+        let vent = self.safety.venting_for_safety
             || self.fault_active(FaultCode::PressureSensor)
             || self.fault_active(FaultCode::InletStuck);
-        let running = self.exec.is_some() && !self.safe && !self.estop_latched;
+        let running = self.exec.is_some() && !self.safety.safe && !self.safety.estop_latched;
         // Never open the inlet at or above the cap, whatever asked for it.
         let below_cap = self.pressure.filt_kpa < self.cfg.pressure_limit_kpa;
         self.act.outputs = Outputs {

@@ -320,7 +320,7 @@ impl Controller {
             steps,
             phase: PlanPhase::Running,
         });
-        self.safe = false;
+        self.safety.safe = false;
         self.enable_servos();
         self.panel.joystick.armed = false;
         self.panel.joystick.used_raw = None;

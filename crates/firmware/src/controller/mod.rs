@@ -31,6 +31,7 @@ pub mod identify;
 pub mod link;
 mod panel;
 mod requests;
+mod safety;
 pub mod snap;
 mod trunk;
 mod watch;
@@ -41,8 +42,8 @@ mod tests;
 use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
-    DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request,
-    ResetCause, Status, Telemetry,
+    DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanStatus, Request, ResetCause, Status,
+    Telemetry,
 };
 
 use crate::config::CraneConfig;
@@ -53,6 +54,7 @@ use exec::Exec;
 use identify::Identification;
 use link::{Fingerprint, ResponseCache, TxQueue, RESPONSE_RESERVE};
 use panel::{Debounce, Joystick, Panel};
+use safety::Safety;
 use snap::{SnapDetector, SnapSign};
 use trunk::{Journal, Trunk};
 use watch::{InletWatch, LeakWatch, Watches};
@@ -207,13 +209,7 @@ pub struct Controller {
     last_tick_ms: u64,
 
     // Modes and faults.
-    faults: u16,
-    last_fault: Option<FaultCode>,
-    estop_latched: bool,
-    /// Safe state (after a fault or an abort) until reset.
-    safe: bool,
-    /// Exhaust held open for safety (over-pressure until below the vent-to pressure).
-    venting_for_safety: bool,
+    safety: Safety,
 
     // Actuators and sensors.
     act: Actuators,
@@ -296,11 +292,13 @@ impl Controller {
                 journal: Journal::default(),
             },
             ident: Identification::default(),
-            faults,
-            last_fault,
-            estop_latched: false,
-            safe: faults != 0,
-            venting_for_safety: false,
+            safety: Safety {
+                faults,
+                last_fault,
+                estop_latched: false,
+                safe: faults != 0,
+                venting_for_safety: false,
+            },
             pressure: Pressure {
                 filt_kpa: 0.0,
                 raw_kpa: 0.0,
@@ -489,8 +487,9 @@ impl Controller {
             }
             return display::text("----");
         }
-        if self.faults != 0 {
+        if self.safety.faults != 0 {
             let code = self
+                .safety
                 .last_fault
                 .filter(|f| self.fault_active(*f))
                 .or_else(|| FaultCode::ALL.into_iter().find(|f| self.fault_active(*f)));
@@ -498,7 +497,7 @@ impl Controller {
                 return display::fault(f.code());
             }
         }
-        if self.safe || self.estop_latched {
+        if self.safety.safe || self.safety.estop_latched {
             return display::text("SAFE");
         }
         if let Some(t) = self.exec.as_ref().and_then(|e| e.waiting_task()) {
@@ -639,10 +638,10 @@ impl Controller {
             inlet_open: self.act.outputs.inlet_open,
             exhaust_open: self.act.outputs.exhaust_open,
             gripper_closed: self.act.outputs.gripper_closed,
-            estop: self.estop_latched,
+            estop: self.safety.estop_latched,
             plan: self.plan_status,
             manual_task: self.exec.as_ref().and_then(|e| e.waiting_task()),
-            faults: self.faults,
+            faults: self.safety.faults,
             frames_rx: stats.frames_ok,
             frames_dropped: stats.frames_dropped,
             uptime_ms: self.uptime_ms(),
@@ -651,9 +650,9 @@ impl Controller {
 
     /// What the controller is doing.
     pub fn mode(&self) -> Mode {
-        if self.estop_latched {
+        if self.safety.estop_latched {
             Mode::EStop
-        } else if self.safe {
+        } else if self.safety.safe {
             Mode::Safe
         } else if let Some(e) = &self.exec {
             if e.waiting_manual() {
@@ -691,91 +690,10 @@ impl Controller {
         self.now_ms.saturating_sub(self.boot_ms) as u32
     }
 
-    fn fault_active(&self, f: FaultCode) -> bool {
-        self.faults & f.bit() != 0
-    }
-
     fn pressure_valid(&self) -> bool {
         self.pressure.init
             && !self.pressure.at_rail
             && !self.fault_active(FaultCode::PressureSensor)
-    }
-
-    // -----------------------------------------------------------------------------------------
-    // Faults and the safe state
-    // -----------------------------------------------------------------------------------------
-
-    /// Raises `code` (event once per activation) and goes to the safe state.
-    fn raise(&mut self, code: FaultCode) {
-        if !self.fault_active(code) {
-            self.faults |= code.bit();
-            self.emit(Event::FaultRaised(code));
-        }
-        self.last_fault = Some(code);
-        self.enter_safe(PlanPhase::Failed(code));
-    }
-
-    /// Stops whatever runs (ending its plan with `phase`), freezes the servos where they are and
-    /// closes the valves (the exhaust stays open while venting for safety).
-    fn enter_safe(&mut self, phase: PlanPhase) {
-        self.end_plan(phase);
-        self.safe = true;
-        self.freeze_servos();
-        // No position feedback: a servo may have stalled short of its command, still pushing.
-        // Limp servos push nothing; the origami holds its state without them.
-        if self.act.servos_enabled {
-            // The tendons may pull them back and let a compressed trunk lengthen: not a leak.
-            self.watch.leak_quiet_until_ms = self.now_ms + LEAK_SETTLE_MS;
-        }
-        self.act.servos_enabled = false;
-        self.panel.joystick.armed = false;
-        self.act.want_inlet = false;
-        self.act.want_exhaust = false;
-        self.update_outputs();
-    }
-
-    /// Clears every fault whose cause is gone; leaves the safe state when none is left.
-    /// Returns whether everything cleared.
-    fn reset_faults(&mut self) -> bool {
-        if self.panel.buttons.estop {
-            return false;
-        }
-        for f in FaultCode::ALL {
-            if !self.fault_active(f) {
-                continue;
-            }
-            let cause_present = match f {
-                FaultCode::EStop => self.panel.buttons.estop,
-                // Until the safety vent is done.
-                FaultCode::OverPressure => {
-                    self.venting_for_safety || self.pressure.filt_kpa > self.cfg.pressure_limit_kpa
-                }
-                FaultCode::PressureSensor => self.pressure.at_rail,
-                // Until the exhaust has brought the pressure down: a still-stuck inlet holds
-                // it up against the open exhaust.
-                FaultCode::InletStuck => {
-                    !self.pressure_valid()
-                        || self.pressure.filt_kpa > self.cfg.inlet_watch.vent_min_pressure_kpa
-                }
-                _ => false,
-            };
-            if !cause_present {
-                self.faults &= !f.bit();
-                self.emit(Event::FaultCleared(f));
-            }
-        }
-        if self.fault_active(FaultCode::EStop) {
-            return false;
-        }
-        self.estop_latched = false;
-        if self.faults == 0 {
-            self.safe = false;
-            self.watch.leak = LeakWatch::default();
-            self.enable_servos();
-            true
-        } else {
-            false
-        }
     }
 
     // -----------------------------------------------------------------------------------------
@@ -829,17 +747,17 @@ impl Controller {
             self.pressure.above_cap = 0;
         }
         if p > self.cfg.pressure_limit_kpa || self.pressure.above_cap >= OVERPRESSURE_SAMPLES {
-            self.venting_for_safety = true;
+            self.safety.venting_for_safety = true;
             if !self.fault_active(FaultCode::OverPressure) {
                 self.raise(FaultCode::OverPressure);
             }
-        } else if self.venting_for_safety {
+        } else if self.safety.venting_for_safety {
             let vent_to = self
                 .cfg
                 .overpressure_vent_to_kpa
                 .min(self.cfg.pressure_limit_kpa * 0.5);
             if p <= vent_to {
-                self.venting_for_safety = false;
+                self.safety.venting_for_safety = false;
             }
         }
 

@@ -41,8 +41,8 @@ impl Controller {
     pub(super) fn on_buttons(&mut self, b: Buttons) {
         let now = self.now_ms;
         self.panel.buttons = b;
-        if b.estop && !self.estop_latched {
-            self.estop_latched = true;
+        if b.estop && !self.safety.estop_latched {
+            self.safety.estop_latched = true;
             self.raise(FaultCode::EStop);
         }
         let raw = [b.up, b.down, b.gripper, b.confirm];
@@ -66,7 +66,7 @@ impl Controller {
             } else if let (Some(shown), None) = (self.ident.asking, &self.exec) {
                 // The operator says the trunk is in the state shown.
                 self.declare(shown);
-            } else if self.safe || self.estop_latched {
+            } else if self.safety.safe || self.safety.estop_latched {
                 self.reset_faults();
             }
         }
@@ -74,7 +74,7 @@ impl Controller {
         if idle && grip {
             self.act.gripper_closed = !self.act.gripper_closed;
         }
-        if let (Some(shown), true) = (self.ident.asking, idle || self.safe) {
+        if let (Some(shown), true) = (self.ident.asking, idle || self.safety.safe) {
             // Identification by the operator: up/down pick a candidate, confirm takes it.
             if up || down {
                 let c: Vec<TrunkState, 6> = self.trunk.belief.candidates().iter().collect();

@@ -366,10 +366,10 @@ impl Controller {
         if self.exec.is_some() {
             return Some((ResultCode::Busy, ResponseBody::None));
         }
-        if self.estop_latched {
+        if self.safety.estop_latched {
             return Some(reject(RejectReason::EStopLatched));
         }
-        if self.faults != 0 {
+        if self.safety.faults != 0 {
             return Some(reject(RejectReason::Faulted));
         }
         None
@@ -565,10 +565,10 @@ impl Controller {
         if self.confirmed() {
             return ok();
         }
-        if self.estop_latched {
+        if self.safety.estop_latched {
             return reject(RejectReason::EStopLatched);
         }
-        if self.faults != 0 || !self.pressure_valid() || self.cfg.probe_profile.is_none() {
+        if self.safety.faults != 0 || !self.pressure_valid() || self.cfg.probe_profile.is_none() {
             // No probing with a fault active (reset it first, or a person tells), nor without a
             // profile of this trunk (the probe's readings then say nothing about it).
             self.ask_operator();

@@ -117,10 +117,10 @@ impl Controller {
     pub(super) fn declare(&mut self, state: TrunkState) {
         self.confirm_state(state);
         if self.fault_active(FaultCode::StateStorage) {
-            self.faults &= !FaultCode::StateStorage.bit();
+            self.safety.faults &= !FaultCode::StateStorage.bit();
             self.emit(Event::FaultCleared(FaultCode::StateStorage));
-            if self.faults == 0 && !self.estop_latched {
-                self.safe = false;
+            if self.safety.faults == 0 && !self.safety.estop_latched {
+                self.safety.safe = false;
             }
         }
     }

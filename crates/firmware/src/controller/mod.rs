@@ -9,15 +9,25 @@
 //!   each answered by exactly one response; a retried request (same `seq`, same bytes) gets
 //!   the cached response and is not executed twice.
 //! - `exec`: plan execution, one step at a time, primitive by primitive, with the step's
-//!   time limit; state confirmation from snaps (or the person, for manual steps).
+//!   time limit; state confirmation from snaps (or the person, for manual steps). A step's
+//!   phase is data (`Phase`: journaling its record ahead of the first actuation, the
+//!   pre-release of the tendons, the primitives, a manual step's check by the probe); the
+//!   primitive under way (`exec/primitive.rs`, `Run`) carries only its kind's state (an
+//!   inflation's snap and hold stages, a pull's relief and sealed-release check, a manual
+//!   step's confirm), with one progress check per kind.
 //! - [`snap`]: the snap-through detector on the filtered pressure.
 //! - [`belief`]: what is known about the trunk's state (confirmed, or unconfirmed with the
 //!   candidates and the interrupted step), and the reach of a step.
+//! - `trunk`: the belief in force, what a report says of it while a step moves the trunk, and
+//!   the journal (each record's handover to the shell that persists it).
 //! - [`identify`]: the sealed-pressure probe that identifies an unconfirmed state, and the
 //!   operator's answer where it cannot decide.
-//! - `exec` also journals each step to the store ahead of its first actuation.
-//! - this module: sensors (pressure filter, dropout, over-pressure, leak), buttons and joystick,
-//!   servo slewing, the valve overlay of the safe state, periodic events, the display.
+//! - `safety`: faults, the safe state and the reset.
+//! - `watch`: the leak, stuck-open inlet and rest watches.
+//! - `panel`: the standalone buttons and joystick.
+//! - `actuators`: servo slewing, the gripper, the valve overlay of the safe state.
+//! - this module: the pressure filter, dropout and over-pressure, the tendon kinematics,
+//!   periodic events, the display.
 //!
 //! The full behaviour, with every number, is in `docs/firmware.md`.
 // The controller is plain logic over its inputs and outputs: no unsafe code anywhere in it (the

@@ -247,6 +247,105 @@ fn repress_kpa(snap_kpa: f32, cap: f32, h: f32) -> f32 {
     (snap_kpa - h).min(cap - h).max(0.0)
 }
 
+impl InflateRun {
+    /// Before the snaps: done at the pressure when none are expected, else failed if they do
+    /// not come within the settle time once it is reached.
+    fn filling(&mut self, target: f32, snaps: u8, cfg: &CraneConfig, l: Look) -> Progress {
+        let InflateStage::Filling { reached_ms } = &mut self.stage else {
+            return Progress::Running;
+        };
+        if l.p >= target && reached_ms.is_none() {
+            *reached_ms = Some(l.now);
+        }
+        match *reached_ms {
+            Some(_) if snaps == 0 => Progress::Done { evidence: false },
+            Some(t) if l.now.saturating_sub(t) >= cfg.snap.settle_ms as u64 => {
+                Progress::Fail(FaultCode::TransitionNotConfirmed)
+            }
+            _ => Progress::Running,
+        }
+    }
+
+    /// After the snaps (`seen` of them), the inlet shut: the drop must be a step.
+    fn dropping(
+        &mut self,
+        seen: u8,
+        hold: &mut Option<Hold>,
+        cfg: &CraneConfig,
+        l: Look,
+        w: &mut Wants,
+    ) -> Progress {
+        let InflateStage::Dropping {
+            since_ms,
+            after_kpa,
+        } = &mut self.stage
+        else {
+            return Progress::Running;
+        };
+        // A snap's drop is a step: once it is over, the sealed trunk holds its pressure. A leak
+        // opening drops it as fast at first, then goes on falling: that drop is no evidence.
+        w.inlet = false;
+        if let Some(hold) = hold.as_mut() {
+            hold.filling = false;
+        }
+        let snap_cfg = cfg.snap;
+        let quiet = snap_cfg.refractory_ms as u64;
+        let elapsed = l.now.saturating_sub(*since_ms);
+        match *after_kpa {
+            None if elapsed >= quiet => {
+                *after_kpa = Some(l.p);
+                Progress::Running
+            }
+            Some(p1) if l.p < p1 - snap_cfg.threshold_kpa => Progress::Fail(FaultCode::Leak),
+            Some(_) if elapsed >= 2 * quiet => {
+                // The drop was a snap: now the hold at the snap's pressure.
+                self.stage = InflateStage::Holding {
+                    quiet_since_ms: None,
+                    seen,
+                };
+                *hold = Some(Hold {
+                    kpa: repress_kpa(self.snap_kpa, cfg.pressure_limit_kpa, cfg.hysteresis_kpa),
+                    filling: true,
+                });
+                Progress::Running
+            }
+            _ => Progress::Running,
+        }
+    }
+
+    /// The hold after the snaps (`seen` of them now): back at the pressure the trunk snapped at
+    /// (the regulator fills to it). A trunk in the step's target holds there (its next barrier
+    /// is higher: the order every trunk the crane drives has); one left between wells goes on,
+    /// and shows it by a snap.
+    fn holding(&mut self, seen: u8, cfg: &CraneConfig, l: Look) -> Progress {
+        let InflateStage::Holding {
+            quiet_since_ms,
+            seen: counted,
+        } = &mut self.stage
+        else {
+            return Progress::Running;
+        };
+        let (cap, h) = (cfg.pressure_limit_kpa, cfg.hysteresis_kpa);
+        let quiet = 2 * cfg.snap.refractory_ms as u64;
+        if seen != *counted {
+            *quiet_since_ms = None;
+            *counted = seen;
+            Progress::Running
+        } else if let Some(t) = *quiet_since_ms {
+            if l.now.saturating_sub(t) >= quiet {
+                Progress::Done { evidence: true }
+            } else {
+                Progress::Running
+            }
+        } else {
+            if l.p >= repress_kpa(self.snap_kpa, cap, h) - h {
+                *quiet_since_ms = Some(l.now);
+            }
+            Progress::Running
+        }
+    }
+}
+
 /// `Done` (without evidence) once `cond` holds.
 fn done_if(cond: bool) -> Progress {
     if cond {
@@ -332,7 +431,7 @@ impl Exec {
         l: Look,
         w: &mut Wants,
     ) -> Progress {
-        let (h, cap, snap_cfg) = (cfg.hysteresis_kpa, cfg.pressure_limit_kpa, cfg.snap);
+        let (h, cap) = (cfg.hysteresis_kpa, cfg.pressure_limit_kpa);
         let target = self.hold.map_or(pressure_kpa, |hold| hold.kpa).min(cap - h);
         // Unpacking may stop with one layer of two unpacked (the first layer's drop took
         // the pressure under the second's barrier): the hold at the snap's pressure then
@@ -356,19 +455,7 @@ impl Exec {
         let seen = *seen;
         if !l.snapped {
             r.snap_kpa = r.snap_kpa.max(l.p);
-            let InflateStage::Filling { reached_ms } = &mut r.stage else {
-                return Progress::Running;
-            };
-            if l.p >= target && reached_ms.is_none() {
-                *reached_ms = Some(l.now);
-            }
-            return match *reached_ms {
-                Some(_) if snaps == 0 => Progress::Done { evidence: false },
-                Some(t) if l.now.saturating_sub(t) >= cfg.snap.settle_ms as u64 => {
-                    Progress::Fail(FaultCode::TransitionNotConfirmed)
-                }
-                _ => Progress::Running,
-            };
+            return r.filling(target, snaps, cfg, l);
         }
         if seen > allowed {
             // A snap more than the step can make: the trunk went on past its target.
@@ -380,69 +467,9 @@ impl Exec {
                 after_kpa: None,
             };
         }
-        match &mut r.stage {
-            InflateStage::Dropping {
-                since_ms,
-                after_kpa,
-            } => {
-                // A snap's drop is a step: once it is over, the sealed trunk holds its
-                // pressure. A leak opening drops it as fast at first, then goes on
-                // falling: that drop is no evidence.
-                w.inlet = false;
-                if let Some(hold) = self.hold.as_mut() {
-                    hold.filling = false;
-                }
-                let quiet = snap_cfg.refractory_ms as u64;
-                let elapsed = l.now.saturating_sub(*since_ms);
-                match *after_kpa {
-                    None if elapsed >= quiet => {
-                        *after_kpa = Some(l.p);
-                        Progress::Running
-                    }
-                    Some(p1) if l.p < p1 - snap_cfg.threshold_kpa => {
-                        Progress::Fail(FaultCode::Leak)
-                    }
-                    Some(_) if elapsed >= 2 * quiet => {
-                        // The drop was a snap: now the hold at the snap's pressure.
-                        r.stage = InflateStage::Holding {
-                            quiet_since_ms: None,
-                            seen,
-                        };
-                        self.hold = Some(Hold {
-                            kpa: repress_kpa(r.snap_kpa, cap, h),
-                            filling: true,
-                        });
-                        Progress::Running
-                    }
-                    _ => Progress::Running,
-                }
-            }
-            InflateStage::Holding {
-                quiet_since_ms,
-                seen: counted,
-            } => {
-                // The hold: back at the pressure the trunk snapped at (the regulator above
-                // fills to it). A trunk in the step's target holds there (its next barrier
-                // is higher: the order every trunk the crane drives has); one left between
-                // wells goes on, and shows it by a snap.
-                let quiet = 2 * snap_cfg.refractory_ms as u64;
-                if seen != *counted {
-                    *quiet_since_ms = None;
-                    *counted = seen;
-                    Progress::Running
-                } else if let Some(t) = *quiet_since_ms {
-                    if l.now.saturating_sub(t) >= quiet {
-                        Progress::Done { evidence: true }
-                    } else {
-                        Progress::Running
-                    }
-                } else {
-                    if l.p >= repress_kpa(r.snap_kpa, cap, h) - h {
-                        *quiet_since_ms = Some(l.now);
-                    }
-                    Progress::Running
-                }
-            }
+        match r.stage {
+            InflateStage::Dropping { .. } => r.dropping(seen, &mut self.hold, cfg, l, w),
+            InflateStage::Holding { .. } => r.holding(seen, cfg, l),
             InflateStage::Filling { .. } => Progress::Running,
         }
     }

@@ -8,9 +8,11 @@ use protocol::{
 
 use super::belief::{self, Belief};
 use super::identify::{ProbeLog, PROBE};
-use super::snap::SnapSign;
 use super::Controller;
 use crate::store::StoredState;
+use primitive::{Look, Progress, Run, RunKind, Wants};
+
+mod primitive;
 
 /// Who started the running plan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -21,120 +23,6 @@ pub(super) enum Origin {
     Local,
     /// The identification probe (started by the host's `Identify`).
     Identify,
-}
-
-/// Where a confirming tendon pull (`TendonPull` with snaps) is. Under a pull the tendons pin
-/// the trunk's height, so a buckling module may barely change the pressure; the volume tells
-/// once the tendons are let out again with the valves closed (`docs/firmware.md`, "Tendon
-/// steps").
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum PullPhase {
-    /// Pulling toward the length until the expected spikes (or the length, then settling).
-    Pulling,
-    /// Letting the tendons out to where the pull started, both valves closed.
-    Releasing,
-    /// Sealed and still, the trunk settles before the pressure is compared.
-    Settling,
-    /// Checked: venting what the smaller volume added, back to the pressure before the pull
-    /// (also when not confirmed: no air is left sealed in a trunk the step could not vouch
-    /// for; letting it out changes no state).
-    Venting,
-}
-
-/// The sealed-release check of a confirming tendon pull.
-#[derive(Debug, Clone, Copy)]
-struct PullCheck {
-    phase: PullPhase,
-    /// Filtered pressure when the pull started (valves closed).
-    baseline_kpa: f32,
-    /// Pressure lost through the relief valve during the pull (the drops while it was open),
-    /// added back before the comparison: that gas left, the volume did not grow.
-    relieved_kpa: f32,
-    /// Pressure when the relief valve last opened (while it is open).
-    relief_from_kpa: Option<f32>,
-    /// Servo angles when the pull started: the sealed release returns there.
-    start_deg: [f32; 3],
-    /// When the current phase began to wait (at the length, or released).
-    since_ms: Option<u64>,
-    /// A snap came while the trunk was let out sealed: something else moved (a packed bottom
-    /// unpacking under the pressure the pull left): the step is not confirmed.
-    surprise: bool,
-    /// The check did not confirm the fold: after the vent, the step fails unconfirmed.
-    unconfirmed: bool,
-}
-
-/// What the sealed-release check asks for now.
-enum CheckStep {
-    Running,
-    /// Stop pulling; release to the start angles.
-    Release,
-    /// Checked: vent back to the pressure before the pull, then end the step (confirmed or
-    /// not, as [`PullCheck::unconfirmed`] says).
-    Vent,
-}
-
-/// Advances the sealed-release check of a pull that expects `want` snaps (`seen` spikes so
-/// far): pull until the spikes or the length (then let the trunk settle there), release to the
-/// start sealed, settle, then compare the pressure with the one before the pull. The spikes
-/// count, and the volume confirms that a module folded: a rise of at least `min_rise_kpa`
-/// (docs/firmware.md, "Tendon steps"). A fold over a packed bottom (`packed`) is never
-/// confirmed: its spike may have unpacked the bottom as well.
-#[allow(clippy::too_many_arguments)]
-fn pull_check(
-    c: &mut PullCheck,
-    seen: u8,
-    want: u8,
-    at_target: bool,
-    now: u64,
-    p: f32,
-    cfg: crate::config::TendonCheckConfig,
-    packed: bool,
-) -> CheckStep {
-    let settle = cfg.settle_ms as u64;
-    match c.phase {
-        PullPhase::Pulling => {
-            let settled_at_length = at_target && {
-                let t = *c.since_ms.get_or_insert(now);
-                now.saturating_sub(t) >= settle
-            };
-            if seen >= want || settled_at_length {
-                c.phase = PullPhase::Releasing;
-                c.since_ms = None;
-                return CheckStep::Release;
-            }
-            CheckStep::Running
-        }
-        PullPhase::Releasing => {
-            if at_target {
-                c.phase = PullPhase::Settling;
-                c.since_ms = Some(now);
-            }
-            CheckStep::Running
-        }
-        PullPhase::Settling => {
-            let t = *c.since_ms.get_or_insert(now);
-            if now.saturating_sub(t) < settle {
-                return CheckStep::Running;
-            }
-            // Confirmed by both: the spikes the step expects, counted under the pull (the pull
-            // stops at them, so never more), and a sealed volume that shrank (a spike without
-            // it was no fold). How much it shrank depends on the trunk: not compared.
-            let folded = seen >= want && p - c.baseline_kpa + c.relieved_kpa >= cfg.min_rise_kpa;
-            c.unconfirmed = c.surprise || packed || !folded;
-            c.phase = PullPhase::Venting;
-            CheckStep::Vent
-        }
-        PullPhase::Venting => CheckStep::Vent,
-    }
-}
-
-/// The pressure of the hold after an inflation's snaps: one regulator band (`h`) under the
-/// pressure the trunk snapped at (`snap_kpa`, its filtered peak, which overshoots the barrier
-/// by the detection's lag), never above the cap: above a half-unpacked bottom's second barrier
-/// (a cascade's is well under its first's), under the next module's barrier (well above the
-/// first's: the order of every trunk the crane drives, `docs/firmware.md`).
-fn repress_kpa(snap_kpa: f32, cap: f32, h: f32) -> f32 {
-    (snap_kpa - h).min(cap - h).max(0.0)
 }
 
 /// Samples of the stalled-inflation watch's history: the window in `RISE_SLOTS - 1` intervals
@@ -201,6 +89,77 @@ impl RiseWatch {
     }
 }
 
+/// The inflate regulator's hold: the pressure kept for the rest of the step (through later
+/// `Hold`, `WaitSnap`, `Manual`, `Gripper`, `Bend`), until a vent or a tendon move.
+#[derive(Debug, Clone, Copy)]
+struct Hold {
+    kpa: f32,
+    /// Inlet wanted open (the regulator's hysteresis).
+    filling: bool,
+}
+
+/// Highest filtered pressure and longest commanded pull since the step's first actuation, and
+/// whether the pressure readings were valid throughout (what `belief::untouched` needs).
+#[derive(Debug, Clone, Copy)]
+struct Peaks {
+    kpa: f32,
+    pull_mm: f32,
+    readings_valid: bool,
+}
+
+impl Peaks {
+    const START: Self = Self {
+        kpa: 0.0,
+        pull_mm: 0.0,
+        readings_valid: true,
+    };
+}
+
+/// Where the current step is.
+#[derive(Debug, Clone, Copy)]
+#[repr(u8)]
+enum Phase {
+    /// Write-ahead: the step's journal record (number `record`) is being persisted; nothing
+    /// actuates before. Then the pre-release, if `pre_release`.
+    Journaling { record: u32, pre_release: bool },
+    /// A pneumatic step found the tendons out (or air sealed in the trunk): it lets them out
+    /// (and vents) before its first primitive (a held tendon would fight the lengthening
+    /// trunk).
+    PreRelease,
+    /// The primitives: the step's own ([`Exec::prim`]) or, after a person's confirm, the
+    /// check's [`PROBE`] primitive `check` in its place (`docs/firmware.md`, "Manual steps:
+    /// the check"); `run` once that primitive has begun.
+    Primitive { check: Option<u8>, run: Option<Run> },
+}
+
+impl Phase {
+    /// The phase a step starts in: its journal record (`None`: a step within one state needs
+    /// none), then the pre-release if needed, then its first primitive.
+    fn first(journal: Option<u32>, pre_release: bool) -> Self {
+        match journal {
+            Some(record) => Self::Journaling {
+                record,
+                pre_release,
+            },
+            None => Self::after_journal(pre_release),
+        }
+    }
+
+    fn after_journal(pre_release: bool) -> Self {
+        if pre_release {
+            Self::PreRelease
+        } else {
+            Self::PRIMITIVES
+        }
+    }
+
+    /// The step's primitives, the current one not begun.
+    const PRIMITIVES: Self = Self::Primitive {
+        check: None,
+        run: None,
+    };
+}
+
 /// The running plan.
 #[derive(Debug, Clone)]
 pub(super) struct Exec {
@@ -208,80 +167,99 @@ pub(super) struct Exec {
     pub(super) origin: Origin,
     pub(super) step: u8,
     pub(super) step_start_ms: u64,
+    /// The step's current primitive (also while the check's probe runs in its place).
     pub(super) prim: u8,
     prim_start_ms: u64,
-    prim_started: bool,
-    /// Snaps of the expected sign seen during the current primitive.
-    pub(super) snaps: u8,
-    /// When the current primitive reached its pressure or length.
-    reached_ms: Option<u64>,
-    /// An inflation's snaps were all seen: when, and the pressure once the drop is over. The
-    /// inlet stays shut while the drop is checked to be a step (a snap: the sealed trunk then
-    /// holds its pressure) and not the start of a fall (a leak opening).
-    snapped: Option<(u64, Option<f32>)>,
-    /// Highest pressure of the current inflation before its snaps: what the trunk snapped at.
-    snap_kpa: f32,
-    /// The hold after an inflation's snaps (`docs/firmware.md`, "Pneumatic steps"): since when
-    /// the pressure is back at the snap's and nothing snapped, and the snaps counted then.
-    repress: Option<(Option<u64>, u8)>,
+    phase: Phase,
     /// A primitive of this step completed on sensor evidence (its snaps) or a person's word.
     evidence: bool,
-    /// Pressure held by the inflate regulator for the rest of the step.
-    hold_kpa: Option<f32>,
-    /// Regulator state: inlet wanted open.
-    filling: bool,
-    /// Stalled-inflation watch over the regulator's open inlet.
-    rise: RiseWatch,
-    /// Relief state during a pull: exhaust wanted open.
-    relieving: bool,
-    /// The sealed-release check of the current `TendonPull` (with snaps).
-    pull: Option<PullCheck>,
-    /// A pneumatic step found the tendons out: it lets them out before its first primitive
-    /// (a held tendon would fight the lengthening trunk).
-    pre_release: bool,
-    pub(super) waiting_manual: bool,
-    pub(super) manual_confirmed: bool,
     /// A person worked on the trunk in this step (a `Manual` primitive began): only the
     /// check's probe, never the actuation's peaks, tells where it is.
     by_hand: bool,
-    /// After a person's confirm: the check's [`PROBE`] primitive running, in place of the
-    /// step's own (`docs/firmware.md`, "Manual steps: the check").
-    check: Option<u8>,
-    /// The step's journal record (`None`: a step within one state needs none) and whether it
-    /// is persisted; nothing actuates before.
-    journal: Option<u32>,
-    journaled: bool,
-    /// Highest filtered pressure and longest commanded pull since the step's first actuation,
-    /// and whether the pressure readings were valid throughout (what `belief::untouched` needs).
-    peak_kpa: f32,
-    peak_pull_mm: f32,
-    readings_valid: bool,
+    /// The step has a journal record (a step within one state has none).
+    recorded: bool,
+    peaks: Peaks,
+    /// The inflate regulator's hold (`None`: the inlet stays shut).
+    hold: Option<Hold>,
+    /// Stalled-inflation watch over the regulator's open inlet.
+    rise: RiseWatch,
     /// Every state the current step may leave the trunk in: its reach, widened by what the air
     /// sealed in the trunk when it started may do (`transitions::reach_sealed`).
     pub(super) reach: StateSet,
 }
 
-/// What a primitive's progress check decided.
-enum Progress {
-    Running,
-    Done { evidence: bool },
-    Fail(FaultCode),
-}
-
 impl Exec {
+    /// `plan` from its first step, now (its `reach`, `journal` record and pre-release).
+    fn new(
+        plan: protocol::Plan,
+        origin: Origin,
+        now: u64,
+        reach: StateSet,
+        journal: Option<u32>,
+        pre_release: bool,
+    ) -> Self {
+        Self {
+            plan,
+            origin,
+            step: 0,
+            step_start_ms: now,
+            prim: 0,
+            prim_start_ms: now,
+            phase: Phase::first(journal, pre_release),
+            evidence: false,
+            by_hand: false,
+            recorded: journal.is_some(),
+            peaks: Peaks::START,
+            hold: None,
+            rise: RiseWatch::EMPTY,
+            reach,
+        }
+    }
+
+    /// Goes on to step `index`, now.
+    fn begin_step(
+        &mut self,
+        index: u8,
+        now: u64,
+        reach: StateSet,
+        journal: Option<u32>,
+        pre_release: bool,
+    ) {
+        self.step = index;
+        self.step_start_ms = now;
+        self.prim = 0;
+        self.prim_start_ms = now;
+        self.phase = Phase::first(journal, pre_release);
+        self.evidence = false;
+        self.by_hand = false;
+        self.recorded = journal.is_some();
+        self.peaks = Peaks::START;
+        self.hold = None;
+        self.rise.reset();
+        self.reach = reach;
+    }
+
     fn current(&self) -> Option<(&Step, Option<Primitive>)> {
         let step = self.plan.steps.get(self.step as usize)?;
-        let prim = match self.check {
+        let prim = match self.check() {
             Some(i) => PROBE.get(i as usize),
             None => step.primitives.get(self.prim as usize),
         };
         Some((step, prim.copied()))
     }
 
+    /// The check's probe primitive running in place of the step's own (its index in [`PROBE`]).
+    fn check(&self) -> Option<u8> {
+        match self.phase {
+            Phase::Primitive { check, .. } => check,
+            _ => None,
+        }
+    }
+
     /// `prim` is an inflation whose expected snaps were all seen: its drop is being checked
     /// (the inlet shut) to be a snap and not a leak opening.
     fn snaps_all_seen(&self, prim: Primitive) -> bool {
-        matches!(prim, Primitive::Inflate { snaps, .. } if snaps > 0 && self.snaps >= snaps)
+        matches!(prim, Primitive::Inflate { snaps, .. } if snaps > 0 && self.snaps() >= snaps)
     }
 
     /// The probe primitive running (its index in [`PROBE`]): the identification plan's, or a
@@ -289,45 +267,45 @@ impl Exec {
     fn probe_index(&self) -> Option<u8> {
         match self.origin {
             Origin::Identify => Some(self.prim),
-            _ => self.check,
+            _ => self.check(),
+        }
+    }
+
+    /// A manual primitive waits for the person's confirm.
+    pub(super) fn waiting_manual(&self) -> bool {
+        matches!(
+            self.run(),
+            Some(Run {
+                kind: RunKind::Manual { .. },
+                ..
+            })
+        )
+    }
+
+    /// The person confirmed the manual primitive; returns whether one was waiting.
+    pub(super) fn confirm_manual(&mut self) -> bool {
+        match &mut self.phase {
+            Phase::Primitive {
+                run:
+                    Some(Run {
+                        kind: RunKind::Manual { confirmed },
+                        ..
+                    }),
+                ..
+            } => {
+                *confirmed = true;
+                true
+            }
+            _ => false,
         }
     }
 
     /// The task a manual step waits for (what the display and the status name).
     pub(super) fn waiting_task(&self) -> Option<protocol::ManualTask> {
         match self.current() {
-            Some((_, Some(Primitive::Manual(t)))) if self.waiting_manual => Some(t),
+            Some((_, Some(Primitive::Manual(t)))) if self.waiting_manual() => Some(t),
             _ => None,
         }
-    }
-
-    /// Counts a snap if the current primitive waits for one of this sign; returns whether it did.
-    pub(super) fn on_snap(&mut self, sign: SnapSign) -> bool {
-        let wanted = match self.current() {
-            Some((_, Some(Primitive::Inflate { snaps, .. }))) => {
-                snaps > 0 && sign == SnapSign::Drop
-            }
-            Some((_, Some(Primitive::TendonPull { snaps, .. }))) => {
-                snaps > 0
-                    && sign == SnapSign::Rise
-                    && self.pull.is_some_and(|c| c.phase == PullPhase::Pulling)
-            }
-            Some((_, Some(Primitive::WaitSnap { .. }))) => true,
-            _ => false,
-        };
-        if let Some(c) = self.pull.as_mut() {
-            // A drop under the pull (the trunk lengthened) or any snap while it is let out
-            // sealed: not the fold the step makes.
-            if matches!(c.phase, PullPhase::Releasing | PullPhase::Settling)
-                || (c.phase == PullPhase::Pulling && sign == SnapSign::Drop)
-            {
-                c.surprise = true;
-            }
-        }
-        if wanted && self.prim_started {
-            self.snaps = self.snaps.saturating_add(1);
-        }
-        wanted && self.prim_started
     }
 }
 
@@ -342,44 +320,14 @@ impl Controller {
             steps,
             phase: PlanPhase::Running,
         });
-        self.safe = false;
+        self.safety.safe = false;
         self.enable_servos();
-        self.joystick.armed = false;
-        self.joystick.used_raw = None;
+        self.panel.joystick.armed = false;
+        self.panel.joystick.used_raw = None;
         let pre_release = self.pre_release_needed(plan.steps.first());
         let reach = self.step_reach(plan.steps.first());
         let journal = self.journal_step(plan.steps.first(), reach);
-        self.exec = Some(Exec {
-            plan,
-            origin,
-            step: 0,
-            step_start_ms: now,
-            prim: 0,
-            prim_start_ms: now,
-            prim_started: false,
-            snaps: 0,
-            reached_ms: None,
-            snapped: None,
-            snap_kpa: 0.0,
-            repress: None,
-            evidence: false,
-            hold_kpa: None,
-            filling: false,
-            rise: RiseWatch::EMPTY,
-            relieving: false,
-            pull: None,
-            pre_release,
-            waiting_manual: false,
-            manual_confirmed: false,
-            by_hand: false,
-            check: None,
-            journal,
-            journaled: journal.is_none(),
-            peak_kpa: 0.0,
-            peak_pull_mm: 0.0,
-            readings_valid: true,
-            reach,
-        });
+        self.exec = Some(Exec::new(plan, origin, now, reach, journal, pre_release));
         self.advance_exec();
         self.update_outputs();
     }
@@ -400,7 +348,7 @@ impl Controller {
                 self.cfg
                     .geometry
                     .winch
-                    .length_for_angle(i, self.servo_deg[i])
+                    .length_for_angle(i, self.act.servo_deg[i])
                     > 0.5
             }) || self.vent_first(step))
     }
@@ -430,7 +378,7 @@ impl Controller {
         if !completed {
             return;
         }
-        let mut b = self.belief;
+        let mut b = self.trunk.belief;
         if let Some(profile) = self.cfg.probe_profile {
             b.narrow(log.verdict(b.candidates(), &profile));
         }
@@ -490,8 +438,10 @@ impl Controller {
             // it failed: the trunk is there.
             return Some(Belief::confirmed(step.to));
         }
-        if !e.journaled
-            || (e.readings_valid && belief::untouched(step.from, e.peak_kpa, e.peak_pull_mm))
+        let journaling = matches!(e.phase, Phase::Journaling { .. });
+        if journaling
+            || (e.peaks.readings_valid
+                && belief::untouched(step.from, e.peaks.kpa, e.peaks.pull_mm))
         {
             // Nothing moved, or nothing came near a snap: still where it started.
             return Some(Belief::confirmed(step.from));
@@ -512,20 +462,20 @@ impl Controller {
             return;
         };
         let now = self.now_ms;
-        self.want_inlet = false;
-        self.want_exhaust = false;
+        self.act.want_inlet = false;
+        self.act.want_exhaust = false;
         let ok = phase == PlanPhase::Done;
         if e.origin == Origin::Identify {
             self.finish_identify(ok);
         }
         if !ok {
             if let Some(b) = self.interrupted_belief(&e) {
-                if b == self.belief && e.journal.is_some() {
+                if b == self.trunk.belief && e.recorded {
                     // Unchanged (confirmed `from`), but the record says "pending": rewrite it.
                     self.store(StoredState::confirmed(b.state()));
                 }
                 if !b.is_confirmed() {
-                    self.leak_quiet_until_ms = now + super::LEAK_SETTLE_MS;
+                    self.watch.leak_quiet_until_ms = now + super::LEAK_SETTLE_MS;
                 }
                 self.set_belief(b);
             }
@@ -571,7 +521,7 @@ impl Controller {
         let Some(e) = self.exec.as_ref() else {
             return false;
         };
-        let Some((step, prim)) = e.current() else {
+        let Some((step, _)) = e.current() else {
             // Defensive: an index past the plan ends it.
             self.end_plan(PlanPhase::Done);
             return false;
@@ -580,50 +530,75 @@ impl Controller {
             self.raise(FaultCode::StepTimeout);
             return false;
         }
-        if !e.journaled {
-            // Write-ahead: the step's record must be persisted before anything moves.
-            let persisted = e.journal.is_some_and(|n| self.journal_persisted(n));
-            if persisted {
-                if let Some(e) = self.exec.as_mut() {
-                    e.journaled = true;
-                }
-                return true;
-            }
-            if now.saturating_sub(e.step_start_ms) >= super::JOURNAL_TIMEOUT_MS {
-                self.raise(FaultCode::StateStorage);
-            }
-            return false;
+        if let Phase::Journaling {
+            record,
+            pre_release,
+        } = e.phase
+        {
+            return self.await_journal(record, pre_release);
         }
+        self.track_peaks();
+        if self
+            .exec
+            .as_ref()
+            .is_some_and(|e| matches!(e.phase, Phase::PreRelease))
+        {
+            return self.pre_release();
+        }
+        self.advance_primitive()
+    }
+
+    /// Write-ahead: the step's record must be persisted before anything moves.
+    fn await_journal(&mut self, record: u32, pre_release: bool) -> bool {
+        if self.journal_persisted(record) {
+            if let Some(e) = self.exec.as_mut() {
+                e.phase = Phase::after_journal(pre_release);
+            }
+            return true;
+        }
+        let started = self.exec.as_ref().map_or(0, |e| e.step_start_ms);
+        if self.now_ms.saturating_sub(started) >= super::JOURNAL_TIMEOUT_MS {
+            self.raise(FaultCode::StateStorage);
+        }
+        false
+    }
+
+    /// The peaks of the step's actuation so far.
+    fn track_peaks(&mut self) {
         let (p, valid) = (self.pressure.filt_kpa, self.pressure_valid());
         let pull_mm = (0..3).fold(0.0f32, |m, i| {
             m.max(
                 self.cfg
                     .geometry
                     .winch
-                    .length_for_angle(i, self.servo_deg[i]),
+                    .length_for_angle(i, self.act.servo_deg[i]),
             )
         });
         if let Some(e) = self.exec.as_mut() {
-            e.peak_kpa = e.peak_kpa.max(p);
-            e.peak_pull_mm = e.peak_pull_mm.max(pull_mm);
-            e.readings_valid &= valid;
+            e.peaks.kpa = e.peaks.kpa.max(p);
+            e.peaks.pull_mm = e.peaks.pull_mm.max(pull_mm);
+            e.peaks.readings_valid &= valid;
         }
+    }
+
+    /// The step's primitives: begins the current one, looks at it, goes on when it is done.
+    fn advance_primitive(&mut self) -> bool {
+        let now = self.now_ms;
+        let p = self.pressure.filt_kpa;
         let Some(e) = self.exec.as_ref() else {
             return false;
         };
-        if let (Some(log), Some(i), false) =
-            (self.ident.probe.as_mut(), e.probe_index(), e.pre_release)
-        {
+        let Some((_, prim)) = e.current() else {
+            return false;
+        };
+        if let (Some(log), Some(i)) = (self.ident.probe.as_mut(), e.probe_index()) {
             log.sample(i, e.prim_start_ms, now, p);
-        }
-        if e.pre_release {
-            return self.pre_release();
         }
         let Some(prim) = prim else {
             self.finish_step();
             return self.exec.is_some();
         };
-        if !e.prim_started {
+        if e.run().is_none() {
             if let Err(code) = self.enter_primitive(prim) {
                 self.raise(code);
                 return false;
@@ -636,39 +611,41 @@ impl Controller {
                 false
             }
             Progress::Done { evidence } => {
-                let p = self.pressure.filt_kpa;
-                let profiled = self.cfg.probe_profile.is_some();
-                let at = self.exec.as_ref().and_then(Exec::probe_index);
-                if let (Some(log), Some(i)) = (self.ident.probe.as_mut(), at) {
-                    log.primitive_done(i, now, p);
-                }
-                if let Some(e) = self.exec.as_mut() {
-                    e.evidence |= evidence;
-                    // A person's confirm is checked by the probe before the step goes on (with a
-                    // profile of this trunk: without one the probe is no evidence).
-                    e.check = match (prim, e.check) {
-                        (Primitive::Manual(_), None) if profiled => Some(0),
-                        (_, Some(i)) if (i as usize) + 1 < PROBE.len() => Some(i + 1),
-                        _ => None,
-                    };
-                    if e.check == Some(0) {
-                        self.ident.probe = Some(ProbeLog::default());
-                    } else if e.check.is_none() {
-                        e.prim = e.prim.saturating_add(1);
-                    }
-                    e.prim_started = false;
-                    e.snaps = 0;
-                    e.reached_ms = None;
-                    e.waiting_manual = false;
-                    e.manual_confirmed = false;
-                    e.relieving = false;
-                    e.prim_start_ms = now;
-                }
-                self.want_inlet = false;
-                self.want_exhaust = false;
+                self.primitive_done(prim, evidence);
                 true
             }
         }
+    }
+
+    /// `prim` completed (on its snaps or a person's word: `evidence`): the next primitive, or
+    /// after a person's confirm the check's probe.
+    fn primitive_done(&mut self, prim: Primitive, evidence: bool) {
+        let now = self.now_ms;
+        let p = self.pressure.filt_kpa;
+        let profiled = self.cfg.probe_profile.is_some();
+        let at = self.exec.as_ref().and_then(Exec::probe_index);
+        if let (Some(log), Some(i)) = (self.ident.probe.as_mut(), at) {
+            log.primitive_done(i, now, p);
+        }
+        if let Some(e) = self.exec.as_mut() {
+            e.evidence |= evidence;
+            // A person's confirm is checked by the probe before the step goes on (with a
+            // profile of this trunk: without one the probe is no evidence).
+            let check = match (prim, e.check()) {
+                (Primitive::Manual(_), None) if profiled => Some(0),
+                (_, Some(i)) if (i as usize) + 1 < PROBE.len() => Some(i + 1),
+                _ => None,
+            };
+            if check == Some(0) {
+                self.ident.probe = Some(ProbeLog::default());
+            } else if check.is_none() {
+                e.prim = e.prim.saturating_add(1);
+            }
+            e.phase = Phase::Primitive { check, run: None };
+            e.prim_start_ms = now;
+        }
+        self.act.want_inlet = false;
+        self.act.want_exhaust = false;
     }
 
     /// Lets every tendon out (exhaust open: no vacuum) and vents a pressurised trunk before a
@@ -679,21 +656,21 @@ impl Controller {
             self.raise(FaultCode::ServoLimit);
             return false;
         };
-        self.servo_target_deg = slack;
-        self.want_inlet = false;
+        self.act.servo_target_deg = slack;
+        self.act.want_inlet = false;
         let step = self
             .exec
             .as_ref()
             .and_then(|e| e.plan.steps.get(e.step as usize));
         if self.servos_at_target() && !self.vent_first(step) {
-            self.want_exhaust = false;
+            self.act.want_exhaust = false;
             if let Some(e) = self.exec.as_mut() {
-                e.pre_release = false;
+                e.phase = Phase::PRIMITIVES;
                 e.prim_start_ms = self.now_ms;
             }
             return true;
         }
-        self.want_exhaust = true;
+        self.act.want_exhaust = true;
         false
     }
 
@@ -702,7 +679,7 @@ impl Controller {
         let cap = self.cfg.pressure_limit_kpa;
         let h = self.cfg.hysteresis_kpa;
         let p = self.pressure.filt_kpa;
-        let start_deg = self.servo_deg;
+        let start_deg = self.act.servo_deg;
         let mut targets = None;
         let mut manual = None;
         match prim {
@@ -721,12 +698,12 @@ impl Controller {
                     .ok_or(FaultCode::ServoLimit)?;
                 targets = Some(self.angles_for(l).ok_or(FaultCode::ServoLimit)?);
             }
-            Primitive::Gripper { close } => self.gripper_closed = close,
+            Primitive::Gripper { close } => self.act.gripper_closed = close,
             Primitive::Manual(task) => manual = Some(task),
             _ => {}
         }
         if let Some(t) = targets {
-            self.servo_target_deg = t;
+            self.act.servo_target_deg = t;
         }
         if matches!(
             prim,
@@ -739,26 +716,13 @@ impl Controller {
         let Some(e) = self.exec.as_mut() else {
             return Ok(());
         };
-        e.prim_started = true;
         e.prim_start_ms = now;
-        e.snaps = 0;
-        e.reached_ms = None;
-        e.snapped = None;
-        e.snap_kpa = 0.0;
-        e.repress = None;
-        e.pull = match prim {
-            Primitive::TendonPull { snaps, .. } if snaps > 0 => Some(PullCheck {
-                phase: PullPhase::Pulling,
-                baseline_kpa: p,
-                relieved_kpa: 0.0,
-                relief_from_kpa: None,
-                start_deg,
-                since_ms: None,
-                surprise: false,
-                unconfirmed: false,
-            }),
-            _ => None,
-        };
+        if let Phase::Primitive { run, .. } = &mut e.phase {
+            *run = Some(Run {
+                snaps: 0,
+                kind: RunKind::start(prim, p, start_deg),
+            });
+        }
         match prim {
             Primitive::Inflate {
                 pressure_kpa,
@@ -770,18 +734,18 @@ impl Controller {
                 // have been lowered since the upload).
                 let target = if snaps > 0 { cap } else { pressure_kpa };
                 let target = target.min(cap - h).max(0.0);
-                e.hold_kpa = Some(target);
-                e.filling = p < target;
+                e.hold = Some(Hold {
+                    kpa: target,
+                    filling: p < target,
+                });
             }
             Primitive::Vent { .. }
             | Primitive::TendonPull { .. }
-            | Primitive::TendonRelease { .. } => e.hold_kpa = None,
+            | Primitive::TendonRelease { .. } => e.hold = None,
             _ => {}
         }
         if let Some(task) = manual {
             e.by_hand = true;
-            e.waiting_manual = true;
-            e.manual_confirmed = false;
             let (plan_id, step) = (e.plan.plan_id, e.step);
             if let Some(ps) = self.plan_status.as_mut() {
                 ps.phase = PlanPhase::WaitingManual;
@@ -795,279 +759,59 @@ impl Controller {
         Ok(())
     }
 
+    /// One look at the primitive under way: the inflate regulator's hold and the stalled-
+    /// inflation watch, then the primitive's own check ([`Exec::look`]), then the valves.
     fn progress(&mut self, prim: Primitive) -> Progress {
         let now = self.now_ms;
         let p = self.pressure.filt_kpa;
         let h = self.cfg.hysteresis_kpa;
         let cap = self.cfg.pressure_limit_kpa;
-        let settle = self.cfg.snap.settle_ms as u64;
-        let snap_cfg = self.cfg.snap;
         let at_target = self.servos_at_target();
-        let relief = self.cfg.pull_relief_kpa;
-        let vent_tol = self.cfg.vent_tolerance_kpa;
-        let gripper_ms = self.cfg.gripper_settle_ms as u64;
-        let check = self.cfg.tendon_check;
-        let rise_cfg = self.cfg.rise_watch;
         // The inlet command in force since the last look (after the safety overlay: the cap,
         // an invalid reading or a safety vent keep it shut whatever the regulator wants).
-        let inlet_was_open = self.outputs.inlet_open;
+        let inlet_was_open = self.act.outputs.inlet_open;
+        let cfg = &self.cfg;
         let Some(e) = self.exec.as_mut() else {
             return Progress::Running;
         };
         // The inflate regulator keeps holding its pressure through later primitives of the
         // step (Hold, WaitSnap, Manual, Gripper, Bend), until a vent or a tendon move.
-        let mut inlet = false;
-        let mut exhaust = false;
-        if let Some(target) = e.hold_kpa {
+        let mut w = Wants {
+            inlet: false,
+            exhaust: false,
+            servo_deg: None,
+        };
+        if let Some(hold) = e.hold.as_mut() {
             // The cap may be lowered while the step runs.
-            let target = target.min(cap - h);
+            let target = hold.kpa.min(cap - h);
             if p >= target {
-                e.filling = false;
+                hold.filling = false;
             } else if p < target - h {
-                e.filling = true;
+                hold.filling = true;
             }
-            inlet = e.filling;
+            w.inlet = hold.filling;
         }
         // Stalled inflation: the regulator had the inlet open, yet the pressure does not rise.
         // Not while a person works on the trunk (their hands move it).
         // Nor once an inflation's snaps came (the check after them closes the inlet).
         let snapped = e.snaps_all_seen(prim);
         let mut stall = None;
-        if e.hold_kpa.is_some()
-            && inlet_was_open
-            && !snapped
-            && !matches!(prim, Primitive::Manual(_))
-        {
-            stall = e.rise.feed(now, p, rise_cfg);
+        if e.hold.is_some() && inlet_was_open && !snapped && !matches!(prim, Primitive::Manual(_)) {
+            stall = e.rise.feed(now, p, cfg.rise_watch);
         } else {
             e.rise.reset();
         }
-        let elapsed = now.saturating_sub(e.prim_start_ms);
-        let reached = |e: &mut Exec, cond: bool| {
-            if cond && e.reached_ms.is_none() {
-                e.reached_ms = Some(now);
-            }
-            e.reached_ms
+        let look = Look {
+            now,
+            p,
+            at_target,
+            elapsed: now.saturating_sub(e.prim_start_ms),
+            snapped,
         };
-        let result = match prim {
-            Primitive::Inflate {
-                pressure_kpa,
-                snaps,
-            } => {
-                let target = e.hold_kpa.unwrap_or(pressure_kpa).min(cap - h);
-                let r = reached(e, p >= target);
-                if !snapped {
-                    e.snap_kpa = e.snap_kpa.max(p);
-                }
-                // Unpacking may stop with one layer of two unpacked (the first layer's drop took
-                // the pressure under the second's barrier): the hold at the snap's pressure then
-                // unpacks the second, one snap more, and only there.
-                let unpacking = e.plan.steps.get(e.step as usize).is_some_and(|st| {
-                    st.from.bottom == geometry::BottomState::Packed
-                        && st.to.bottom != geometry::BottomState::Packed
-                });
-                let allowed = snaps.saturating_add(unpacking as u8);
-                if snapped && e.snaps > allowed {
-                    // A snap more than the step can make: the trunk went on past its target.
-                    Progress::Fail(FaultCode::TransitionNotConfirmed)
-                } else if let (true, Some((since, seen))) = (snapped, e.repress) {
-                    // The hold: back at the pressure the trunk snapped at (the regulator above
-                    // fills to it). A trunk in the step's target holds there (its next barrier
-                    // is higher: the order every trunk the crane drives has); one left between
-                    // wells goes on, and shows it by a snap.
-                    let quiet = 2 * snap_cfg.refractory_ms as u64;
-                    if e.snaps != seen {
-                        e.repress = Some((None, e.snaps));
-                        Progress::Running
-                    } else if let Some(t) = since {
-                        if now.saturating_sub(t) >= quiet {
-                            Progress::Done { evidence: true }
-                        } else {
-                            Progress::Running
-                        }
-                    } else {
-                        if p >= repress_kpa(e.snap_kpa, cap, h) - h {
-                            e.repress = Some((Some(now), seen));
-                        }
-                        Progress::Running
-                    }
-                } else if snapped {
-                    // A snap's drop is a step: once it is over, the sealed trunk holds its
-                    // pressure. A leak opening drops it as fast at first, then goes on
-                    // falling: that drop is no evidence.
-                    inlet = false;
-                    e.filling = false;
-                    let quiet = snap_cfg.refractory_ms as u64;
-                    let (t, after) = e.snapped.get_or_insert((now, None));
-                    let elapsed = now.saturating_sub(*t);
-                    match *after {
-                        None if elapsed >= quiet => {
-                            *after = Some(p);
-                            Progress::Running
-                        }
-                        Some(p1) if p < p1 - snap_cfg.threshold_kpa => {
-                            Progress::Fail(FaultCode::Leak)
-                        }
-                        Some(_) if elapsed >= 2 * quiet => {
-                            // The drop was a snap: now the hold at the snap's pressure.
-                            e.repress = Some((None, e.snaps));
-                            e.hold_kpa = Some(repress_kpa(e.snap_kpa, cap, h));
-                            e.filling = true;
-                            Progress::Running
-                        }
-                        _ => Progress::Running,
-                    }
-                } else if let Some(t) = r {
-                    if snaps == 0 {
-                        Progress::Done { evidence: false }
-                    } else if now.saturating_sub(t) >= settle {
-                        Progress::Fail(FaultCode::TransitionNotConfirmed)
-                    } else {
-                        Progress::Running
-                    }
-                } else {
-                    Progress::Running
-                }
-            }
-            Primitive::Vent { pressure_kpa } => {
-                inlet = false;
-                if p <= pressure_kpa + vent_tol {
-                    Progress::Done { evidence: false }
-                } else {
-                    exhaust = true;
-                    Progress::Running
-                }
-            }
-            Primitive::TendonPull { snaps, .. } => {
-                inlet = false;
-                match e.pull {
-                    None
-                    | Some(PullCheck {
-                        phase: PullPhase::Pulling,
-                        ..
-                    }) => {
-                        // The sealed trunk is compressed: the exhaust relieves above the
-                        // relief pressure (the check below allows for the gas it lets out).
-                        if p > relief {
-                            e.relieving = true;
-                        } else if p < relief - h {
-                            e.relieving = false;
-                        }
-                        exhaust = e.relieving;
-                    }
-                    Some(_) => e.relieving = false,
-                }
-                if let Some(c) = e.pull.as_mut() {
-                    // Account for the gas the relief lets out (measured as the drop while open;
-                    // the pull's own compression meanwhile makes it an underestimate, which errs
-                    // toward not confirming).
-                    match (e.relieving, c.relief_from_kpa) {
-                        (true, None) => c.relief_from_kpa = Some(p),
-                        (false, Some(from)) => {
-                            c.relieved_kpa += (from - p).max(0.0);
-                            c.relief_from_kpa = None;
-                        }
-                        _ => {}
-                    }
-                }
-                match e.pull.as_mut() {
-                    // A positioning pull: done at the length.
-                    None => {
-                        if at_target {
-                            Progress::Done { evidence: false }
-                        } else {
-                            Progress::Running
-                        }
-                    }
-                    Some(c) => match pull_check(c, e.snaps, snaps, at_target, now, p, check, {
-                        // A fold over a packed bottom: its sealed spike may unpack the bottom
-                        // (F&F), which the pressure does not tell from the fold alone (F&P).
-                        e.plan
-                            .steps
-                            .get(e.step as usize)
-                            .is_some_and(|st| st.from.bottom == geometry::BottomState::Packed)
-                    }) {
-                        CheckStep::Running => Progress::Running,
-                        CheckStep::Release => {
-                            // Stop pulling (at the spikes or the length) and go back to where
-                            // the pull started, sealed.
-                            self.servo_target_deg = c.start_deg;
-                            Progress::Running
-                        }
-                        CheckStep::Vent => {
-                            // Back to the pressure before the pull; a baseline within the
-                            // vent tolerance of ambient counts as ambient (no creep from step
-                            // to step).
-                            let to = if c.baseline_kpa < vent_tol {
-                                0.0
-                            } else {
-                                c.baseline_kpa
-                            };
-                            if p > to + vent_tol {
-                                exhaust = true;
-                                Progress::Running
-                            } else if c.unconfirmed {
-                                Progress::Fail(FaultCode::TransitionNotConfirmed)
-                            } else {
-                                Progress::Done { evidence: true }
-                            }
-                        }
-                    },
-                }
-            }
-            Primitive::TendonRelease { .. } => {
-                // Let air in as the trunk lengthens (no vacuum pulling it back).
-                inlet = false;
-                exhaust = true;
-                if at_target {
-                    Progress::Done { evidence: false }
-                } else {
-                    Progress::Running
-                }
-            }
-            Primitive::Hold { duration_ms } => {
-                if elapsed >= duration_ms as u64 {
-                    Progress::Done { evidence: false }
-                } else {
-                    Progress::Running
-                }
-            }
-            Primitive::WaitSnap { timeout_ms } => {
-                if e.snaps >= 1 {
-                    Progress::Done { evidence: true }
-                } else if elapsed >= timeout_ms as u64 {
-                    Progress::Fail(FaultCode::TransitionNotConfirmed)
-                } else {
-                    Progress::Running
-                }
-            }
-            Primitive::Manual(_) => {
-                // A person folds a trunk open to the air (unless the step holds a pressure on
-                // purpose): a sealed one, left pressurised by a failed step, would be squeezed
-                // over the cap by their hands.
-                exhaust = e.hold_kpa.is_none();
-                if e.manual_confirmed {
-                    // The person's word alone is no evidence: the check follows.
-                    Progress::Done { evidence: false }
-                } else {
-                    Progress::Running
-                }
-            }
-            Primitive::Gripper { .. } => {
-                if elapsed >= gripper_ms {
-                    Progress::Done { evidence: false }
-                } else {
-                    Progress::Running
-                }
-            }
-            Primitive::Bend { .. } => {
-                if at_target {
-                    Progress::Done { evidence: false }
-                } else {
-                    Progress::Running
-                }
-            }
-        };
+        let result = e.look(prim, cfg, look, &mut w);
+        if let Some(t) = w.servo_deg {
+            self.act.servo_target_deg = t;
+        }
         // A primitive that completed (or failed by itself) in this pass keeps its verdict.
         let result = match (result, stall) {
             (Progress::Running, Some(code)) => Progress::Fail(code),
@@ -1083,10 +827,13 @@ impl Controller {
         if snapped {
             // The check after the snaps watches the sealed fall itself (the drop's tail is no
             // leak).
-            self.leak_quiet_until_ms = self.leak_quiet_until_ms.max(now + super::snap::SLOT_MS);
+            self.watch.leak_quiet_until_ms = self
+                .watch
+                .leak_quiet_until_ms
+                .max(now + super::snap::SLOT_MS);
         }
-        self.want_inlet = inlet;
-        self.want_exhaust = exhaust;
+        self.act.want_inlet = w.inlet;
+        self.act.want_exhaust = w.exhaust;
         result
     }
 
@@ -1156,39 +903,16 @@ impl Controller {
             self.raise(FaultCode::TransitionNotConfirmed);
             return;
         }
-        if let Some(e) = self.exec.as_mut() {
-            e.step = next as u8;
-            e.step_start_ms = now;
-            e.prim = 0;
-            e.prim_start_ms = now;
-            e.prim_started = false;
-            e.snaps = 0;
-            e.reached_ms = None;
-            e.evidence = false;
-            e.hold_kpa = None;
-            e.filling = false;
-            e.rise.reset();
-            e.relieving = false;
-            e.pull = None;
-            e.by_hand = false;
-        }
-        let pre_release =
-            self.pre_release_needed(self.exec.as_ref().and_then(|e| e.plan.steps.get(next)));
         let next_step = self
             .exec
             .as_ref()
             .and_then(|e| e.plan.steps.get(next))
             .cloned();
+        let pre_release = self.pre_release_needed(next_step.as_ref());
         let reach = self.step_reach(next_step.as_ref());
         let journal = self.journal_step(next_step.as_ref(), reach);
         if let Some(e) = self.exec.as_mut() {
-            e.reach = reach;
-            e.pre_release = pre_release;
-            e.journal = journal;
-            e.journaled = journal.is_none();
-            e.peak_kpa = 0.0;
-            e.peak_pull_mm = 0.0;
-            e.readings_valid = true;
+            e.begin_step(next as u8, now, reach, journal, pre_release);
         }
         if let Some(ps) = self.plan_status.as_mut() {
             ps.step = next as u8;

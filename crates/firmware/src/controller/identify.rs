@@ -166,6 +166,21 @@ impl ProbeLog {
     }
 }
 
+/// Identification of an unconfirmed state.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Identification {
+    /// The operator is asked: the candidate shown (up/down select, confirm accepts).
+    pub(super) asking: Option<TrunkState>,
+    /// The probe's measurements while it runs, and the last probe's.
+    pub(super) probe: Option<ProbeLog>,
+    pub(super) last: Option<ProbeLog>,
+    /// Whether the store keeps a probe profile ([`super::Controller::set_probe_profile`]):
+    /// storing one is refused otherwise (it would be gone at the next reset).
+    pub(super) store_keeps_profile: bool,
+    /// A probe profile change to persist ([`super::Controller::poll_probe_profile`]).
+    pub(super) profile_to_store: Option<Option<ProbeProfile>>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

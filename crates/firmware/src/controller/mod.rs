@@ -9,27 +9,42 @@
 //!   each answered by exactly one response; a retried request (same `seq`, same bytes) gets
 //!   the cached response and is not executed twice.
 //! - `exec`: plan execution, one step at a time, primitive by primitive, with the step's
-//!   time limit; state confirmation from snaps (or the person, for manual steps).
+//!   time limit; state confirmation from snaps (or the person, for manual steps). A step's
+//!   phase is data (`Phase`: journaling its record ahead of the first actuation, the
+//!   pre-release of the tendons, the primitives, a manual step's check by the probe); the
+//!   primitive under way (`exec/primitive.rs`, `Run`) carries only its kind's state (an
+//!   inflation's snap and hold stages, a pull's relief and sealed-release check, a manual
+//!   step's confirm), with one progress check per kind.
 //! - [`snap`]: the snap-through detector on the filtered pressure.
 //! - [`belief`]: what is known about the trunk's state (confirmed, or unconfirmed with the
 //!   candidates and the interrupted step), and the reach of a step.
+//! - `trunk`: the belief in force, what a report says of it while a step moves the trunk, and
+//!   the journal (each record's handover to the shell that persists it).
 //! - [`identify`]: the sealed-pressure probe that identifies an unconfirmed state, and the
 //!   operator's answer where it cannot decide.
-//! - `exec` also journals each step to the store ahead of its first actuation.
-//! - this module: sensors (pressure filter, dropout, over-pressure, leak), buttons and joystick,
-//!   servo slewing, the valve overlay of the safe state, periodic events, the display.
+//! - `safety`: faults, the safe state and the reset.
+//! - `watch`: the leak, stuck-open inlet and rest watches.
+//! - `panel`: the standalone buttons and joystick.
+//! - `actuators`: servo slewing, the gripper, the valve overlay of the safe state.
+//! - this module: the pressure filter, dropout and over-pressure, the tendon kinematics,
+//!   periodic events, the display.
 //!
 //! The full behaviour, with every number, is in `docs/firmware.md`.
 // The controller is plain logic over its inputs and outputs: no unsafe code anywhere in it (the
 // board shell, `board/`, holds the register access).
 #![forbid(unsafe_code)]
 
+mod actuators;
 pub mod belief;
 mod exec;
 pub mod identify;
 pub mod link;
+mod panel;
 mod requests;
+mod safety;
 pub mod snap;
+mod trunk;
+mod watch;
 
 #[cfg(test)]
 mod tests;
@@ -37,16 +52,22 @@ mod tests;
 use geometry::TrunkState;
 use heapless::Vec;
 use protocol::{
-    DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanPhase, PlanStatus, Request,
-    ResetCause, StateSet, Status, Telemetry,
+    DeviceMessage, Event, FaultCode, FrameDecoder, Mode, PlanStatus, Request, ResetCause, Status,
+    Telemetry,
 };
 
 use crate::config::CraneConfig;
 use crate::store::{BootRecord, StoredState};
+use actuators::Actuators;
 use belief::Belief;
 use exec::Exec;
+use identify::Identification;
 use link::{Fingerprint, ResponseCache, TxQueue, RESPONSE_RESERVE};
+use panel::{Debounce, Joystick, Panel};
+use safety::Safety;
 use snap::{SnapDetector, SnapSign};
+use trunk::{Journal, Trunk};
+use watch::{InletWatch, LeakWatch, Watches};
 
 /// A button press must be stable this long to count (the e-stop acts at once).
 pub const DEBOUNCE_MS: u64 = 20;
@@ -146,73 +167,12 @@ struct Pressure {
     above_cap: u8,
 }
 
-/// Debounced buttons (up, down, gripper, confirm).
-#[derive(Debug, Clone, Copy, Default)]
-struct Debounce {
-    raw: [bool; 4],
-    stable: [bool; 4],
-    since_ms: [u64; 4],
-}
-
-/// Leak watch: a sealed, still trunk losing pressure faster than the allowance.
-#[derive(Debug, Clone, Copy, Default)]
-struct LeakWatch {
-    start: Option<(u64, f32)>,
-    suspect_since_ms: Option<u64>,
-}
-
-/// Stuck-open inlet watch: gas coming in with the inlet commanded closed.
-#[derive(Debug, Clone, Copy, Default)]
-struct InletWatch {
-    /// Since when the inlet is commanded closed with the servos still.
-    closed_since_ms: Option<u64>,
-    /// Lowest pressure since then, creeping up at the drift allowance.
-    floor_kpa: Option<f32>,
-    last_ms: u64,
-    /// A rise seen: when, and the pressure half-way through the confirmation (it must go on
-    /// rising in the second half to count).
-    suspect: Option<(u64, Option<f32>)>,
-    /// Venting window: start time and pressure.
-    vent_start: Option<(u64, f32)>,
-}
-
-/// The joystick: the last sample, the one last acted on, and whether it has taken the servos.
-#[derive(Debug, Clone, Copy)]
-struct Joystick {
-    raw: [u16; 2],
-    used_raw: Option<[u16; 2]>,
-    /// It takes the servos only once moved past the dead zone (entering standalone never
-    /// moves the tendons by itself).
-    armed: bool,
-}
-
 /// When the periodic events are due.
 #[derive(Debug, Clone, Copy)]
 struct Periodic {
     next_heartbeat_ms: u64,
     next_telemetry_ms: u64,
     last_progress_ms: u64,
-}
-
-/// The persisted record's handover to the shell: records made, taken
-/// ([`Controller::poll_store`]) and persisted ([`Controller::handle_stored`]), counted; a step
-/// actuates only once its journal record is persisted.
-#[derive(Debug, Clone, Copy, Default)]
-struct Journal {
-    pending: Option<StoredState>,
-    made: u32,
-    polled: u32,
-    persisted: u32,
-}
-
-/// Identification of an unconfirmed state.
-#[derive(Debug, Clone, Copy, Default)]
-struct Identification {
-    /// The operator is asked: the candidate shown (up/down select, confirm accepts).
-    asking: Option<TrunkState>,
-    /// The probe's measurements while it runs, and the last probe's.
-    probe: Option<identify::ProbeLog>,
-    last: Option<identify::ProbeLog>,
 }
 
 /// Who the device talks to (`docs/protocol.md`, "Sessions").
@@ -248,45 +208,37 @@ struct Signing {
 
 /// The crane controller. See the [crate docs](crate) for the API and the loop.
 #[derive(Debug, Clone)]
+#[repr(C)]
 pub struct Controller {
-    cfg: CraneConfig,
+    // Declared (and laid out, `repr(C)`) from the most used to the largest: the fields read on
+    // every pass sit within the short load offsets of the M4 (the default layout puts every
+    // `bool` after the kilobytes of plans and buffers, each access then an address
+    // computation more).
     now_ms: u64,
     boot_ms: u64,
     last_tick_ms: u64,
 
+    // Modes and faults.
+    safety: Safety,
+
+    // Actuators and sensors.
+    act: Actuators,
+    pressure: Pressure,
+    watch: Watches,
+    /// The standalone panel: buttons and joystick.
+    panel: Panel,
+
     // Trunk state.
-    belief: Belief,
-    journal: Journal,
-    /// The leak watch is quiet until then ([`LEAK_SETTLE_MS`]).
-    leak_quiet_until_ms: u64,
+    trunk: Trunk,
     ident: Identification,
 
-    // Modes and faults.
-    faults: u16,
-    last_fault: Option<FaultCode>,
-    estop_latched: bool,
-    /// Safe state (after a fault or an abort) until reset.
-    safe: bool,
-    /// Exhaust held open for safety (over-pressure until below the vent-to pressure).
-    venting_for_safety: bool,
+    // Link.
+    periodic: Periodic,
+    link: LinkSession,
+    fingerprint: Fingerprint,
+    defer_events: bool,
+    plan_status: Option<PlanStatus>,
 
-    // Sensors.
-    pressure: Pressure,
-    snap: SnapDetector,
-    last_snap_ms: Option<u64>,
-    /// At rest with the state confirmed: the lowest pressure since (the rest watch's floor).
-    rest_floor_kpa: Option<f32>,
-    leak: LeakWatch,
-    inlet: InletWatch,
-    buttons: Buttons,
-    debounce: Debounce,
-    joystick: Joystick,
-
-    // Actuators.
-    servo_deg: [f32; 3],
-    servo_target_deg: [f32; 3],
-    /// Servo pulses on (off in the safe state).
-    servos_enabled: bool,
     /// Tendon shortening that takes up each state's slack (joystick and `Bend`), by
     /// [`TrunkState::index`]: computed once here (a plan's upload check needs the take-up of
     /// every step's `from`).
@@ -296,32 +248,20 @@ pub struct Controller {
     /// Largest bend in the current state (joystick full deflection, `Bend`), once per state
     /// change.
     max_bend_deg: f32,
-    gripper_closed: bool,
-    want_inlet: bool,
-    want_exhaust: bool,
-    outputs: Outputs,
-
-    // Plans.
-    uploaded: Option<protocol::Plan>,
-    exec: Option<Exec>,
-    plan_status: Option<PlanStatus>,
-
-    // Link.
-    decoder: FrameDecoder,
-    fingerprint: Fingerprint,
-    link: LinkSession,
-    cache: ResponseCache,
-    tx: TxQueue,
-    defer_events: bool,
-    deferred: Vec<Event, 8>,
-    periodic: Periodic,
+    snap: SnapDetector,
     #[cfg(feature = "link-signing")]
     signing: Signing,
-    /// A probe profile change to persist ([`Controller::poll_probe_profile`]).
-    profile_to_store: Option<Option<identify::ProbeProfile>>,
-    /// Whether the store keeps a probe profile ([`Controller::set_probe_profile`]): storing
-    /// one is refused otherwise (it would be gone at the next reset).
-    store_keeps_profile: bool,
+    cfg: CraneConfig,
+
+    // Plans.
+    exec: Option<Exec>,
+    uploaded: Option<protocol::Plan>,
+
+    // Link buffers.
+    deferred: Vec<Event, 8>,
+    decoder: FrameDecoder,
+    cache: ResponseCache,
+    tx: TxQueue,
 }
 
 impl Controller {
@@ -357,21 +297,18 @@ impl Controller {
             now_ms,
             boot_ms: now_ms,
             last_tick_ms: now_ms,
-            belief,
-            journal: Journal::default(),
-            // After a reset mid-step the servos, now slack, may let a compressed trunk
-            // lengthen, and a snap may still complete: not a leak.
-            leak_quiet_until_ms: if belief.is_confirmed() {
-                now_ms
-            } else {
-                now_ms + LEAK_SETTLE_MS
+            trunk: Trunk {
+                belief,
+                journal: Journal::default(),
             },
             ident: Identification::default(),
-            faults,
-            last_fault,
-            estop_latched: false,
-            safe: faults != 0,
-            venting_for_safety: false,
+            safety: Safety {
+                faults,
+                last_fault,
+                estop_latched: false,
+                safe: faults != 0,
+                venting_for_safety: false,
+            },
             pressure: Pressure {
                 filt_kpa: 0.0,
                 raw_kpa: 0.0,
@@ -382,36 +319,48 @@ impl Controller {
                 above_cap: 0,
             },
             snap: SnapDetector::new(),
-            last_snap_ms: None,
-            rest_floor_kpa: None,
-            leak: LeakWatch::default(),
-            inlet: InletWatch::default(),
-            buttons: Buttons::default(),
-            debounce: Debounce::default(),
-            joystick: Joystick {
-                raw: cfg.joystick.center_raw,
-                used_raw: None,
-                armed: false,
+            watch: Watches {
+                // After a reset mid-step the servos, now slack, may let a compressed trunk
+                // lengthen, and a snap may still complete: not a leak.
+                leak_quiet_until_ms: if belief.is_confirmed() {
+                    now_ms
+                } else {
+                    now_ms + LEAK_SETTLE_MS
+                },
+                rest_floor_kpa: None,
+                leak: LeakWatch::default(),
+                inlet: InletWatch::default(),
             },
-            servo_deg,
-            servo_target_deg: servo_deg,
-            servos_enabled: faults == 0,
+            panel: Panel {
+                buttons: Buttons::default(),
+                debounce: Debounce::default(),
+                joystick: Joystick {
+                    raw: cfg.joystick.center_raw,
+                    used_raw: None,
+                    armed: false,
+                },
+            },
+            act: Actuators {
+                servo_deg,
+                servo_target_deg: servo_deg,
+                servos_enabled: faults == 0,
+                // Fail-closed: the controller boots holding (a reset while it carries a load
+                // must not drop it; the GPIO set-up already drives the pin closed): it opens
+                // only when told to (the gripper button, a `Gripper` primitive).
+                gripper_closed: true,
+                want_inlet: false,
+                want_exhaust: false,
+                outputs: Outputs {
+                    servo_deg,
+                    inlet_open: false,
+                    exhaust_open: false,
+                    gripper_closed: true,
+                    servos_enabled: faults == 0,
+                },
+            },
             take_up_mm,
             pull_range_mm: equal_pull_range(&cfg),
             max_bend_deg,
-            // Fail-closed: the controller boots holding (a reset while it carries a load must
-            // not drop it; the GPIO set-up already drives the pin closed): it opens only when
-            // told to (the gripper button, a `Gripper` primitive).
-            gripper_closed: true,
-            want_inlet: false,
-            want_exhaust: false,
-            outputs: Outputs {
-                servo_deg,
-                inlet_open: false,
-                exhaust_open: false,
-                gripper_closed: true,
-                servos_enabled: faults == 0,
-            },
             uploaded: None,
             exec: None,
             plan_status: None,
@@ -433,8 +382,6 @@ impl Controller {
                 to_store: None,
                 store_keeps_key: false,
             },
-            profile_to_store: None,
-            store_keeps_profile: false,
             tx: TxQueue::new(),
             defer_events: false,
             deferred: Vec::new(),
@@ -507,7 +454,7 @@ impl Controller {
         self.link.entropy = self.link.entropy.rotate_left(3) ^ u32::from(inputs.pressure_raw);
         self.on_pressure(inputs.pressure_raw);
         self.on_buttons(inputs.buttons);
-        self.joystick.raw = inputs.joystick_raw;
+        self.panel.joystick.raw = inputs.joystick_raw;
         self.update_outputs();
     }
 
@@ -535,7 +482,7 @@ impl Controller {
 
     /// The actuator commands now.
     pub fn poll_outputs(&self) -> Outputs {
-        self.outputs
+        self.act.outputs
     }
 
     /// The display content now, in priority order: the pressure while show-pressure is held;
@@ -544,14 +491,15 @@ impl Controller {
     /// plan runs and the first one lit while the state is unconfirmed.
     pub fn poll_display(&self) -> [u8; 4] {
         use crate::display;
-        if self.buttons.show_pressure {
+        if self.panel.buttons.show_pressure {
             if self.pressure_valid() {
                 return display::pressure(self.pressure.filt_kpa);
             }
             return display::text("----");
         }
-        if self.faults != 0 {
+        if self.safety.faults != 0 {
             let code = self
+                .safety
                 .last_fault
                 .filter(|f| self.fault_active(*f))
                 .or_else(|| FaultCode::ALL.into_iter().find(|f| self.fault_active(*f)));
@@ -559,7 +507,7 @@ impl Controller {
                 return display::fault(f.code());
             }
         }
-        if self.safe || self.estop_latched {
+        if self.safety.safe || self.safety.estop_latched {
             return display::text("SAFE");
         }
         if let Some(t) = self.exec.as_ref().and_then(|e| e.waiting_task()) {
@@ -573,11 +521,11 @@ impl Controller {
             }
             return seg;
         }
-        let mut seg = display::text(self.belief.state().display_text());
+        let mut seg = display::text(self.trunk.belief.state().display_text());
         if self.exec.is_some() {
             seg[3] |= display::DP;
         }
-        if !self.belief.is_confirmed() {
+        if !self.trunk.belief.is_confirmed() {
             seg[0] |= display::DP;
         }
         seg
@@ -586,9 +534,9 @@ impl Controller {
     /// The record to persist, once per change (the shell saves it, then calls
     /// [`Controller::handle_stored`]).
     pub fn poll_store(&mut self) -> Option<StoredState> {
-        let s = self.journal.pending.take();
+        let s = self.trunk.journal.pending.take();
         if s.is_some() {
-            self.journal.polled = self.journal.made;
+            self.trunk.journal.polled = self.trunk.journal.made;
         }
         s
     }
@@ -622,13 +570,13 @@ impl Controller {
         if profile.is_some() {
             self.cfg.probe_profile = profile;
         }
-        self.store_keeps_profile = store_keeps_profile;
+        self.ident.store_keeps_profile = store_keeps_profile;
     }
 
     /// A probe profile change to persist (`Some(None)`: erase it), taken once; the shell
     /// writes it to its store ([`crate::hw::StateStore::save_probe_profile`]).
     pub fn poll_probe_profile(&mut self) -> Option<Option<identify::ProbeProfile>> {
-        self.profile_to_store.take()
+        self.ident.profile_to_store.take()
     }
 
     /// The probe profile identification decides with (`None`: it asks the operator).
@@ -647,7 +595,7 @@ impl Controller {
     /// The record last taken with [`Controller::poll_store`] is persisted. A step's first
     /// actuation waits for this (the journal is written ahead of the motion).
     pub fn handle_stored(&mut self) {
-        self.journal.persisted = self.journal.polled;
+        self.trunk.journal.persisted = self.trunk.journal.polled;
     }
 
     /// What the last identification probe measured (for reports and calibration).
@@ -657,7 +605,7 @@ impl Controller {
 
     /// What the controller believes about the trunk.
     pub fn belief(&self) -> &Belief {
-        &self.belief
+        &self.trunk.belief
     }
 
     /// The next `now_ms` at which [`Controller::handle_time`] must run: one control period
@@ -665,12 +613,12 @@ impl Controller {
     /// deadline (at most one second ahead).
     pub fn poll_deadline(&self) -> u64 {
         let now = self.now_ms;
-        let moving = self.servo_deg != self.servo_target_deg;
+        let moving = self.act.servo_deg != self.act.servo_target_deg;
         let active = self.exec.is_some()
             || moving
-            || self.outputs.inlet_open
-            || self.outputs.exhaust_open
-            || self.joystick.armed;
+            || self.act.outputs.inlet_open
+            || self.act.outputs.exhaust_open
+            || self.panel.joystick.armed;
         let mut d = if active {
             now + self.cfg.control_period_ms as u64
         } else {
@@ -690,20 +638,20 @@ impl Controller {
         let stats = self.decoder.stats();
         let (state_confirmed, candidates, interrupted) = self.reported_belief();
         Status {
-            state: self.belief.state(),
+            state: self.trunk.belief.state(),
             state_confirmed,
             candidates,
             interrupted,
             mode: self.mode(),
             pressure_kpa: self.pressure.filt_kpa,
-            servo_deg: self.outputs.servo_deg,
-            inlet_open: self.outputs.inlet_open,
-            exhaust_open: self.outputs.exhaust_open,
-            gripper_closed: self.outputs.gripper_closed,
-            estop: self.estop_latched,
+            servo_deg: self.act.outputs.servo_deg,
+            inlet_open: self.act.outputs.inlet_open,
+            exhaust_open: self.act.outputs.exhaust_open,
+            gripper_closed: self.act.outputs.gripper_closed,
+            estop: self.safety.estop_latched,
             plan: self.plan_status,
             manual_task: self.exec.as_ref().and_then(|e| e.waiting_task()),
-            faults: self.faults,
+            faults: self.safety.faults,
             frames_rx: stats.frames_ok,
             frames_dropped: stats.frames_dropped,
             uptime_ms: self.uptime_ms(),
@@ -712,12 +660,12 @@ impl Controller {
 
     /// What the controller is doing.
     pub fn mode(&self) -> Mode {
-        if self.estop_latched {
+        if self.safety.estop_latched {
             Mode::EStop
-        } else if self.safe {
+        } else if self.safety.safe {
             Mode::Safe
         } else if let Some(e) = &self.exec {
-            if e.waiting_manual {
+            if e.waiting_manual() {
                 Mode::WaitingManual
             } else {
                 Mode::Running
@@ -752,226 +700,10 @@ impl Controller {
         self.now_ms.saturating_sub(self.boot_ms) as u32
     }
 
-    fn fault_active(&self, f: FaultCode) -> bool {
-        self.faults & f.bit() != 0
-    }
-
     fn pressure_valid(&self) -> bool {
         self.pressure.init
             && !self.pressure.at_rail
             && !self.fault_active(FaultCode::PressureSensor)
-    }
-
-    // -----------------------------------------------------------------------------------------
-    // State tracking
-    // -----------------------------------------------------------------------------------------
-
-    /// The trunk state now (confirmed, or the best guess).
-    fn state(&self) -> TrunkState {
-        self.belief.state()
-    }
-
-    /// Whether the trunk state is confirmed.
-    fn confirmed(&self) -> bool {
-        self.belief.is_confirmed()
-    }
-
-    /// The step of a running plan that moves the trunk to another state, if one is under way,
-    /// and its reach.
-    fn moving_step(&self) -> Option<(&protocol::Step, StateSet)> {
-        let e = self.exec.as_ref()?;
-        let step = e.plan.steps.get(usize::from(e.step))?;
-        (step.from != step.to).then_some((step, e.reach))
-    }
-
-    /// What a report says of the state: the belief, except while a step moves the trunk — then
-    /// the trunk is between the step's ends or further along its reach, and the last confirmed
-    /// state (`state`, the step's `from`) is not claimed: unconfirmed, the step's reach as
-    /// candidates, the step as the one under way (`docs/firmware.md`,
-    /// "What a state report means").
-    fn reported_belief(&self) -> (bool, StateSet, Option<protocol::Transition>) {
-        match self.moving_step() {
-            Some((step, reach)) => (
-                false,
-                reach.with(self.belief.state()),
-                Some(protocol::Transition {
-                    from: step.from,
-                    to: step.to,
-                }),
-            ),
-            None => (
-                self.belief.is_confirmed(),
-                self.belief.candidates(),
-                self.belief.interrupted(),
-            ),
-        }
-    }
-
-    /// Takes `belief` as what is known; persists and reports it when it changed.
-    fn set_belief(&mut self, belief: Belief) {
-        if belief == self.belief {
-            return;
-        }
-        if belief.state() != self.belief.state() {
-            self.max_bend_deg = max_bend_deg(&self.cfg, belief.state());
-        }
-        self.belief = belief;
-        if belief.is_confirmed() {
-            self.ident.asking = None;
-        }
-        self.store(StoredState {
-            state: belief.state(),
-            confirmed: belief.is_confirmed(),
-            candidates: belief.candidates(),
-            pending: if belief.is_confirmed() {
-                None
-            } else {
-                belief.interrupted()
-            },
-        });
-        self.emit(Event::StateReached {
-            state: belief.state(),
-            confirmed: belief.is_confirmed(),
-        });
-    }
-
-    /// Hands `record` to the shell to persist; returns its number (see
-    /// [`Controller::journal_persisted`]).
-    fn store(&mut self, record: StoredState) -> u32 {
-        self.journal.made = self.journal.made.wrapping_add(1);
-        self.journal.pending = Some(record);
-        self.journal.made
-    }
-
-    /// Whether record number `n` (or a later one) is persisted.
-    fn journal_persisted(&self, n: u32) -> bool {
-        self.journal.persisted.wrapping_sub(n) < u32::MAX / 2
-    }
-
-    /// A person or the host says the trunk is in `state`: confirmed and persisted; a
-    /// StateStorage fault (nothing was known) is cleared with it.
-    fn declare(&mut self, state: TrunkState) {
-        self.confirm_state(state);
-        if self.fault_active(FaultCode::StateStorage) {
-            self.faults &= !FaultCode::StateStorage.bit();
-            self.emit(Event::FaultCleared(FaultCode::StateStorage));
-            if self.faults == 0 && !self.estop_latched {
-                self.safe = false;
-            }
-        }
-    }
-
-    /// Asks the operator which candidate the trunk is in (display, up/down, confirm; or the
-    /// host's DeclareState).
-    fn ask_operator(&mut self) {
-        let c = self.belief.candidates();
-        let shown = if c.contains(self.state()) {
-            Some(self.state())
-        } else {
-            c.iter().next()
-        };
-        self.ident.asking = shown;
-        self.emit(Event::IdentifyNeedsOperator { candidates: c });
-    }
-
-    /// Confirms `state` (sensors, a person, the host).
-    fn confirm_state(&mut self, state: TrunkState) {
-        self.set_belief(Belief::confirmed(state));
-    }
-
-    // -----------------------------------------------------------------------------------------
-    // Faults and the safe state
-    // -----------------------------------------------------------------------------------------
-
-    /// Raises `code` (event once per activation) and goes to the safe state.
-    fn raise(&mut self, code: FaultCode) {
-        if !self.fault_active(code) {
-            self.faults |= code.bit();
-            self.emit(Event::FaultRaised(code));
-        }
-        self.last_fault = Some(code);
-        self.enter_safe(PlanPhase::Failed(code));
-    }
-
-    /// Stops whatever runs (ending its plan with `phase`), freezes the servos where they are and
-    /// closes the valves (the exhaust stays open while venting for safety).
-    fn enter_safe(&mut self, phase: PlanPhase) {
-        self.end_plan(phase);
-        self.safe = true;
-        self.freeze_servos();
-        // No position feedback: a servo may have stalled short of its command, still pushing.
-        // Limp servos push nothing; the origami holds its state without them.
-        if self.servos_enabled {
-            // The tendons may pull them back and let a compressed trunk lengthen: not a leak.
-            self.leak_quiet_until_ms = self.now_ms + LEAK_SETTLE_MS;
-        }
-        self.servos_enabled = false;
-        self.joystick.armed = false;
-        self.want_inlet = false;
-        self.want_exhaust = false;
-        self.update_outputs();
-    }
-
-    fn freeze_servos(&mut self) {
-        self.servo_target_deg = self.servo_deg;
-    }
-
-    /// Turns limp servos back on, commanded to the slack position: where a limp servo really
-    /// is is unknown (its tendon may have back-driven it toward slack), and paying tendon out
-    /// can never push the trunk, so slack is the one safe command. No-op when enabled.
-    pub(super) fn enable_servos(&mut self) {
-        if self.servos_enabled {
-            return;
-        }
-        let slack = slack_angles(&self.cfg);
-        self.servo_deg = slack;
-        self.servo_target_deg = slack;
-        self.joystick.used_raw = None;
-        self.servos_enabled = true;
-    }
-
-    /// Clears every fault whose cause is gone; leaves the safe state when none is left.
-    /// Returns whether everything cleared.
-    fn reset_faults(&mut self) -> bool {
-        if self.buttons.estop {
-            return false;
-        }
-        for f in FaultCode::ALL {
-            if !self.fault_active(f) {
-                continue;
-            }
-            let cause_present = match f {
-                FaultCode::EStop => self.buttons.estop,
-                // Until the safety vent is done.
-                FaultCode::OverPressure => {
-                    self.venting_for_safety || self.pressure.filt_kpa > self.cfg.pressure_limit_kpa
-                }
-                FaultCode::PressureSensor => self.pressure.at_rail,
-                // Until the exhaust has brought the pressure down: a still-stuck inlet holds
-                // it up against the open exhaust.
-                FaultCode::InletStuck => {
-                    !self.pressure_valid()
-                        || self.pressure.filt_kpa > self.cfg.inlet_watch.vent_min_pressure_kpa
-                }
-                _ => false,
-            };
-            if !cause_present {
-                self.faults &= !f.bit();
-                self.emit(Event::FaultCleared(f));
-            }
-        }
-        if self.fault_active(FaultCode::EStop) {
-            return false;
-        }
-        self.estop_latched = false;
-        if self.faults == 0 {
-            self.safe = false;
-            self.leak = LeakWatch::default();
-            self.enable_servos();
-            true
-        } else {
-            false
-        }
     }
 
     // -----------------------------------------------------------------------------------------
@@ -991,7 +723,7 @@ impl Controller {
                 self.raise(FaultCode::PressureSensor);
             }
             self.snap.reset();
-            self.leak = LeakWatch::default();
+            self.watch.leak = LeakWatch::default();
             return;
         }
         self.pressure.rail_since_ms = None;
@@ -1025,25 +757,24 @@ impl Controller {
             self.pressure.above_cap = 0;
         }
         if p > self.cfg.pressure_limit_kpa || self.pressure.above_cap >= OVERPRESSURE_SAMPLES {
-            self.venting_for_safety = true;
+            self.safety.venting_for_safety = true;
             if !self.fault_active(FaultCode::OverPressure) {
                 self.raise(FaultCode::OverPressure);
             }
-        } else if self.venting_for_safety {
+        } else if self.safety.venting_for_safety {
             let vent_to = self
                 .cfg
                 .overpressure_vent_to_kpa
                 .min(self.cfg.pressure_limit_kpa * 0.5);
             if p <= vent_to {
-                self.venting_for_safety = false;
+                self.safety.venting_for_safety = false;
             }
         }
 
         // Snap-throughs.
         let snapped = self.snap.feed(p, now, &self.cfg.snap);
         if let Some(s) = snapped {
-            self.last_snap_ms = Some(now);
-            self.leak = LeakWatch::default();
+            self.watch.leak = LeakWatch::default();
             self.on_snap(s.sign);
         }
         self.check_rest(p, snapped.is_some());
@@ -1052,189 +783,10 @@ impl Controller {
         self.check_inlet(p);
     }
 
-    /// A stuck-open inlet: the pressure rises although the inlet is commanded closed (the
-    /// servos still, so no tendon compresses the trunk), or a vent stops making progress.
-    /// Raises InletStuck; its fault keeps the exhaust open (`update_outputs`), which holds the
-    /// pressure at or below where it was.
-    fn check_inlet(&mut self, p: f32) {
-        let now = self.now_ms;
-        let w = self.cfg.inlet_watch;
-        let still = self.servo_deg == self.servo_target_deg;
-        // A person doing a manual step moves the trunk (packing it raises the pressure).
-        let by_hand = self.exec.as_ref().is_some_and(|e| e.waiting_manual);
-        if self.outputs.inlet_open || !still || by_hand || self.fault_active(FaultCode::InletStuck)
-        {
-            self.inlet = InletWatch::default();
-            return;
-        }
-        let since = *self.inlet.closed_since_ms.get_or_insert(now);
-        if now.saturating_sub(since) < w.closed_settle_ms as u64 {
-            self.inlet.last_ms = now;
-            return;
-        }
-        let dt_s = now.saturating_sub(self.inlet.last_ms) as f32 / 1_000.0;
-        self.inlet.last_ms = now;
-        let floor = match self.inlet.floor_kpa {
-            Some(f) => (f + w.drift_kpa_per_s * dt_s).min(p),
-            None => p,
-        };
-        self.inlet.floor_kpa = Some(floor);
-        // A rise must go on: a load pressing on the sealed trunk raises it once, then stops
-        // (accepted as the new level); gas coming in keeps raising it.
-        // The second half of the window, so a step still settling through the filter (8 ms)
-        // or the trunk's damping (≈ 50 ms) is not taken for a continuing rise.
-        let mut stuck = false;
-        let half = w.confirm_ms as u64 / 2;
-        match self.inlet.suspect {
-            None if p - floor > w.rise_kpa => self.inlet.suspect = Some((now, None)),
-            Some((t0, None)) if now.saturating_sub(t0) >= half => {
-                self.inlet.suspect = Some((t0, Some(p)));
-            }
-            Some((t0, Some(p_half))) if now.saturating_sub(t0) >= 2 * half => {
-                if p - p_half > w.confirm_rise_kpa {
-                    stuck = true;
-                } else {
-                    self.inlet.suspect = None;
-                    self.inlet.floor_kpa = Some(p);
-                }
-            }
-            _ => {}
-        }
-        if self.outputs.exhaust_open && p > w.vent_min_pressure_kpa {
-            let (t0, p0) = *self.inlet.vent_start.get_or_insert((now, p));
-            if now.saturating_sub(t0) >= w.vent_window_ms as u64 {
-                stuck |= p0 - p < w.vent_min_drop_kpa;
-                self.inlet.vent_start = Some((now, p));
-            }
-        } else {
-            self.inlet.vent_start = None;
-        }
-        if stuck {
-            self.inlet = InletWatch::default();
-            self.raise(FaultCode::InletStuck);
-        }
-    }
-
-    fn check_leak(&mut self, p: f32) {
-        let now = self.now_ms;
-        let lc = self.cfg.leak;
-        let still = self.servo_deg == self.servo_target_deg;
-        let sealed = !self.outputs.inlet_open && !self.outputs.exhaust_open;
-        let settled = now >= self.leak_quiet_until_ms;
-        if !(sealed && still && settled && p >= lc.min_pressure_kpa) {
-            self.leak = LeakWatch::default();
-            return;
-        }
-        let (t0, p0) = *self.leak.start.get_or_insert((now, p));
-        let elapsed_ms = now.saturating_sub(t0);
-        if elapsed_ms < lc.min_window_ms as u64 {
-            return;
-        }
-        let allowed = lc.allowance_kpa_per_s * elapsed_ms as f32 / 1_000.0 + lc.margin_kpa;
-        if p0 - p > allowed {
-            // A snap also drops the pressure at once: wait until the snap detector has had a
-            // full window to claim the drop before calling it a leak.
-            let since = *self.leak.suspect_since_ms.get_or_insert(now);
-            let confirm_ms = self.cfg.snap.window_ms as u64 + 2 * snap::SLOT_MS;
-            if now.saturating_sub(since) >= confirm_ms {
-                self.leak = LeakWatch::default();
-                self.raise(FaultCode::Leak);
-            }
-        } else {
-            self.leak.suspect_since_ms = None;
-        }
-    }
-
-    /// The rest watch: with no step running, a confirmed state changes only if something moved
-    /// the trunk — a snap the detector saw, or gas coming in ([`REST_RISE_KPA`]). Then the state
-    /// is unconfirmed, its candidates what a change at rest may make of it
-    /// (`transitions::rest_reach`): the swarm found valves stuck open unpacking a resting F&P and
-    /// D&P while the device held them confirmed. (Air left sealed in the trunk is let out by the
-    /// host before it identifies a state: `host::PlanRunner`.)
-    fn check_rest(&mut self, p: f32, snapped: bool) {
-        if self.exec.is_some() || !self.belief.is_confirmed() {
-            self.rest_floor_kpa = None;
-            return;
-        }
-        let floor = self.rest_floor_kpa.map_or(p, |f| f.min(p));
-        self.rest_floor_kpa = Some(floor);
-        let filling = p >= protocol::transitions::SEALED_ACTS_KPA && p - floor >= REST_RISE_KPA;
-        if snapped || filling {
-            let state = self.belief.state();
-            self.rest_floor_kpa = None;
-            self.set_belief(Belief::unconfirmed(
-                state,
-                protocol::transitions::rest_reach(state),
-                None,
-            ));
-        }
-    }
-
     fn on_snap(&mut self, sign: SnapSign) {
         let counted = self.exec.as_mut().is_some_and(|e| e.on_snap(sign));
         if counted {
             self.advance_exec();
-        }
-    }
-
-    fn on_buttons(&mut self, b: Buttons) {
-        let now = self.now_ms;
-        self.buttons = b;
-        if b.estop && !self.estop_latched {
-            self.estop_latched = true;
-            self.raise(FaultCode::EStop);
-        }
-        let raw = [b.up, b.down, b.gripper, b.confirm];
-        let mut pressed = [false; 4];
-        for (i, r) in raw.into_iter().enumerate() {
-            if r != self.debounce.raw[i] {
-                self.debounce.raw[i] = r;
-                self.debounce.since_ms[i] = now;
-            }
-            if self.debounce.stable[i] != r
-                && now.saturating_sub(self.debounce.since_ms[i]) >= DEBOUNCE_MS
-            {
-                self.debounce.stable[i] = r;
-                pressed[i] = r;
-            }
-        }
-        let [up, down, grip, confirm] = pressed;
-        if confirm {
-            if let Some(e) = self.exec.as_mut().filter(|e| e.waiting_manual) {
-                e.manual_confirmed = true;
-                self.advance_exec();
-            } else if let (Some(shown), None) = (self.ident.asking, &self.exec) {
-                // The operator says the trunk is in the state shown.
-                self.declare(shown);
-            } else if self.safe || self.estop_latched {
-                self.reset_faults();
-            }
-        }
-        let idle = self.mode() == Mode::Standalone;
-        if idle && grip {
-            self.gripper_closed = !self.gripper_closed;
-        }
-        if let (Some(shown), true) = (self.ident.asking, idle || self.safe) {
-            // Identification by the operator: up/down pick a candidate, confirm takes it.
-            if up || down {
-                let c: Vec<TrunkState, 6> = self.belief.candidates().iter().collect();
-                if let Some(i) = c.iter().position(|s| *s == shown) {
-                    let n = c.len();
-                    let j = if up { (i + 1) % n } else { (i + n - 1) % n };
-                    self.ident.asking = Some(c[j]);
-                }
-            }
-            return;
-        }
-        if idle && (up || down) && self.confirmed() {
-            let t = if up {
-                protocol::transitions::step_up(self.state())
-            } else {
-                protocol::transitions::step_down(self.state())
-            };
-            if let Some(t) = t {
-                self.start_local_step(t);
-            }
         }
     }
 
@@ -1283,91 +835,6 @@ impl Controller {
     /// The tendon shortening that takes up `state`'s slack (0 outside the flexible states).
     fn take_up_for(&self, state: TrunkState) -> f32 {
         self.take_up_mm[state.index()]
-    }
-
-    fn standalone_joystick(&mut self) {
-        if self.mode() != Mode::Standalone || !self.state().is_flexible() || !self.confirmed() {
-            self.joystick.armed = false;
-            self.joystick.used_raw = None;
-            return;
-        }
-        let raw = self.joystick.raw;
-        if self.joystick.used_raw == Some(raw) {
-            return;
-        }
-        let jc = self.cfg.joystick;
-        let x = (raw[0] as f32 - jc.center_raw[0] as f32) / jc.half_range_raw;
-        let y = (raw[1] as f32 - jc.center_raw[1] as f32) / jc.half_range_raw;
-        let m = crate::mathf::hypot(x, y);
-        if m > jc.dead_zone {
-            // The joystick takes the servos only once it has been moved: entering standalone
-            // (after a plan or an abort) never moves the tendons by itself.
-            self.joystick.armed = true;
-        }
-        if !self.joystick.armed {
-            return;
-        }
-        self.joystick.used_raw = Some(raw);
-        let dl = joystick_lengths_f32(
-            x,
-            y,
-            jc.dead_zone,
-            self.max_bend_deg,
-            self.cfg.geometry.tendon_radius_mm,
-        );
-        let take_up_mm = self.take_up_for(self.state());
-        for (i, d) in dl.iter().enumerate() {
-            // Around the state's taken-up slack: the inside tendon shortens, the others pay
-            // out. Human input is clamped silently to the limits (a plan's would fault).
-            let l = crate::clampf(take_up_mm + d, 0.0, self.cfg.max_tendon_mm);
-            self.servo_target_deg[i] = self
-                .cfg
-                .geometry
-                .winch
-                .angle_for_length(i, l)
-                .max(self.cfg.servo.min_deg)
-                .min(self.cfg.servo.max_deg);
-        }
-    }
-
-    fn slew(&mut self, dt_ms: u64) {
-        if self.safe || self.estop_latched {
-            self.freeze_servos();
-            return;
-        }
-        let max_step = self.cfg.servo.slew_deg_per_s * dt_ms as f32 / 1_000.0;
-        let (lo, hi) = (self.cfg.servo.min_deg, self.cfg.servo.max_deg);
-        for i in 0..3 {
-            let target = crate::clampf(self.servo_target_deg[i], lo, hi);
-            self.servo_target_deg[i] = target;
-            let d = target - self.servo_deg[i];
-            self.servo_deg[i] = if d.abs() <= max_step {
-                target
-            } else {
-                self.servo_deg[i] + max_step.copysign(d)
-            };
-        }
-    }
-
-    fn servos_at_target(&self) -> bool {
-        self.servo_deg == self.servo_target_deg
-    }
-
-    /// Computes the outputs from the wanted valve states and the safety overlay.
-    fn update_outputs(&mut self) {
-        let vent = self.venting_for_safety
-            || self.fault_active(FaultCode::PressureSensor)
-            || self.fault_active(FaultCode::InletStuck);
-        let running = self.exec.is_some() && !self.safe && !self.estop_latched;
-        // Never open the inlet at or above the cap, whatever asked for it.
-        let below_cap = self.pressure.filt_kpa < self.cfg.pressure_limit_kpa;
-        self.outputs = Outputs {
-            servo_deg: self.servo_deg,
-            inlet_open: running && self.want_inlet && !vent && below_cap && self.pressure_valid(),
-            exhaust_open: vent || (running && self.want_exhaust),
-            gripper_closed: self.gripper_closed,
-            servos_enabled: self.servos_enabled,
-        };
     }
 
     // -----------------------------------------------------------------------------------------
@@ -1429,9 +896,9 @@ impl Controller {
             let t = Telemetry {
                 uptime_ms: self.uptime_ms(),
                 pressure_kpa: self.pressure.filt_kpa,
-                servo_deg: self.outputs.servo_deg,
-                inlet_open: self.outputs.inlet_open,
-                exhaust_open: self.outputs.exhaust_open,
+                servo_deg: self.act.outputs.servo_deg,
+                inlet_open: self.act.outputs.inlet_open,
+                exhaust_open: self.act.outputs.exhaust_open,
                 state: self.state(),
                 state_confirmed: self.confirmed() && self.moving_step().is_none(),
             };

@@ -194,7 +194,7 @@ impl Controller {
         if self.exec.is_some() {
             return (ResultCode::Busy, ResponseBody::None);
         }
-        if !self.store_keeps_profile {
+        if !self.ident.store_keeps_profile {
             return reject(RejectReason::NotAllowed);
         }
         if schema_id != protocol::SCHEMA_ID {
@@ -212,7 +212,7 @@ impl Controller {
             ));
         }
         self.cfg.probe_profile = *profile;
-        self.profile_to_store = Some(*profile);
+        self.ident.profile_to_store = Some(*profile);
         ok()
     }
 
@@ -321,16 +321,20 @@ impl Controller {
             RequestBody::UploadPlan(ref mut plan) => self.upload(plan),
             RequestBody::StartPlan { plan_id } => self.start_uploaded(plan_id),
             RequestBody::RunStep(ref step) => self.run_step(step),
-            RequestBody::ConfirmManual => match self.exec.as_mut() {
-                Some(e) if e.waiting_manual => {
-                    e.manual_confirmed = true;
+            RequestBody::ConfirmManual => {
+                if self
+                    .exec
+                    .as_mut()
+                    .is_some_and(super::exec::Exec::confirm_manual)
+                {
                     self.advance_exec();
                     ok()
+                } else {
+                    reject(RejectReason::NoManualPending)
                 }
-                _ => reject(RejectReason::NoManualPending),
-            },
+            }
             RequestBody::ResetFaults => {
-                if self.buttons.estop {
+                if self.panel.buttons.estop {
                     return reject(RejectReason::NotAllowed);
                 }
                 if self.reset_faults() {
@@ -362,10 +366,10 @@ impl Controller {
         if self.exec.is_some() {
             return Some((ResultCode::Busy, ResponseBody::None));
         }
-        if self.estop_latched {
+        if self.safety.estop_latched {
             return Some(reject(RejectReason::EStopLatched));
         }
-        if self.faults != 0 {
+        if self.safety.faults != 0 {
             return Some(reject(RejectReason::Faulted));
         }
         None
@@ -561,10 +565,10 @@ impl Controller {
         if self.confirmed() {
             return ok();
         }
-        if self.estop_latched {
+        if self.safety.estop_latched {
             return reject(RejectReason::EStopLatched);
         }
-        if self.faults != 0 || !self.pressure_valid() || self.cfg.probe_profile.is_none() {
+        if self.safety.faults != 0 || !self.pressure_valid() || self.cfg.probe_profile.is_none() {
             // No probing with a fault active (reset it first, or a person tells), nor without a
             // profile of this trunk (the probe's readings then say nothing about it).
             self.ask_operator();

@@ -10,6 +10,7 @@ the Rust writer: channels, schemas, message counts, monotonic log times, content
 import json
 import sys
 
+from jsonschema import Draft202012Validator
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader, make_reader
 from mcap_protobuf.decoder import DecoderFactory
@@ -78,9 +79,25 @@ def common(path):
             for t, e in encodings.items()),
         "JSON schemas and messages; protobuf for the scene types",
     )
+    validators = {}
     for c in summary.channels.values():
         if c.topic not in PROTOBUF:
-            json.loads(summary.schemas[c.schema_id].data)  # every JSON schema is JSON
+            schema = json.loads(summary.schemas[c.schema_id].data)  # every JSON schema is JSON
+            Draft202012Validator.check_schema(schema)
+            validators[c.topic] = Draft202012Validator(schema)
+    invalid = [
+        (t, d, e.message)
+        for t, _, _, d in msgs
+        if t in validators
+        for e in validators[t].iter_errors(d)
+    ]
+    checked = sum(1 for t, *_ in msgs if t in validators)
+    check(
+        not invalid,
+        f"every JSON message ({checked}) validates against its channel's schema"
+        + (f"; the first that does not: {invalid[0][0]} {invalid[0][2]}: {json.dumps(invalid[0][1])[:300]}"
+           if invalid else ""),
+    )
     counts = {}
     for t, *_ in msgs:
         counts[t] = counts.get(t, 0) + 1

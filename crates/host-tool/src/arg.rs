@@ -35,6 +35,75 @@ pub fn fault(s: &str) -> Result<hil_sim::Fault, String> {
     hil_sim::Fault::from_str(s).map_err(|e| e.to_string())
 }
 
+/// A compass heading in degrees clockwise from north (`--heading`): any finite number,
+/// reduced to [0, 360).
+pub fn heading(s: &str) -> Result<geometry::orient::Heading, String> {
+    let v = s
+        .trim()
+        .parse::<f64>()
+        .map_err(|_| format!("--heading: '{s}' is not a number of degrees"))?;
+    geometry::orient::Heading::from_deg(v).map_err(|e| format!("--heading: {e}"))
+}
+
+/// A site's number as `flag`, checked by the sun's own rule (`planner::sun`): the refusal is
+/// its message.
+fn site_number(
+    flag: &str,
+    expected: &str,
+    s: &str,
+    check: impl Fn(f64) -> Result<(), planner::sun::SunError>,
+) -> Result<f64, String> {
+    let v = s
+        .trim()
+        .parse::<f64>()
+        .map_err(|_| format!("{flag}: '{s}' is not a number: expected {expected}"))?;
+    check(v).map(|()| v).map_err(|e| format!("{flag}: {e}"))
+}
+
+/// `--lat`: degrees north, [-90, 90].
+pub fn latitude(s: &str) -> Result<f64, String> {
+    site_number("--lat", "degrees in [-90°, 90°]", s, |v| {
+        planner::sun::Site::new(v, 0.0, 0.0).map(drop)
+    })
+}
+
+/// `--lon`: degrees east, [-180, 180].
+pub fn longitude(s: &str) -> Result<f64, String> {
+    site_number("--lon", "degrees in [-180°, 180°]", s, |v| {
+        planner::sun::Site::new(0.0, v, 0.0).map(drop)
+    })
+}
+
+/// `--elevation-m`: metres above sea level, [-500, 10000].
+pub fn elevation_m(s: &str) -> Result<f64, String> {
+    site_number("--elevation-m", "metres in [-500, 10000] m", s, |v| {
+        planner::sun::Site::new(0.0, 0.0, v).map(drop)
+    })
+}
+
+/// `--delta-t`: ΔT = TT − UT1 in seconds, [-10000, 10000].
+pub fn delta_t(s: &str) -> Result<f64, String> {
+    site_number("--delta-t", "seconds in [-10000, 10000] s", s, |v| {
+        planner::sun::DeltaT::seconds(v).map(drop)
+    })
+}
+
+/// A finite number in `(lo, hi]` given as `flag` in `unit`: the refusal names the flag and
+/// the range.
+pub fn above_at_most(
+    flag: &'static str,
+    unit: &'static str,
+    lo: f64,
+    hi: f64,
+) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    move |s: &str| match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > lo && v <= hi => Ok(v),
+        _ => Err(format!(
+            "{flag} must be a number in ({lo}, {hi}] {unit}, got '{s}'"
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -172,12 +172,33 @@ impl std::error::Error for DeviceError {}
 
 /// The JSON form of a device's named refusal.
 pub fn refusal_json(r: &protocol::Refusal) -> Value {
-    serde_json::json!({
-        "step": r.step.map(|s| u16::from(s) + 1),
-        "field": host::text::refused_field_name(r.field),
-        "value": crate::num::json32(r.value),
-        "limit": crate::num::json32(r.limit),
-    })
+    serde_json::to_value(Refused::of(r)).unwrap_or(Value::Null)
+}
+
+/// A device's refusal that names a field: `{"step", "field", "value", "limit"}`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+pub struct Refused {
+    /// The refused step, 1-based (none: the plan as a whole).
+    pub step: Option<u16>,
+    /// The field (`host::text::refused_field_name`).
+    pub field: String,
+    /// Its value (null: not a number).
+    pub value: Option<f64>,
+    /// The limit it broke (null: not a number).
+    pub limit: Option<f64>,
+}
+
+impl Refused {
+    /// The refusal `r`, its numbers as the `f32`s they are (`num::widen`).
+    pub fn of(r: &protocol::Refusal) -> Self {
+        let number = |x: f32| x.is_finite().then(|| crate::num::widen(x));
+        Self {
+            step: r.step.map(|s| u16::from(s) + 1),
+            field: host::text::refused_field_name(r.field).to_string(),
+            value: number(r.value),
+            limit: number(r.limit),
+        }
+    }
 }
 
 impl DeviceError {

@@ -5,6 +5,7 @@
 use geometry::TrunkState;
 use host::{text, Outcome};
 use planner::graph::kind_name;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -16,7 +17,7 @@ use crate::sim::SimTruth;
 /// `state_confirmed` says whether the device had confirmed it then — after a lost link it is
 /// `false`: the report is stale, and `candidates` (present when unconfirmed) is every state the
 /// trunk may be in since (all six: unknown).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct PlanOutcome {
     /// The run reached its target.
     pub ok: bool,
@@ -45,7 +46,7 @@ pub struct PlanOutcome {
 }
 
 /// One step of the run.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct StepOutcome {
     /// How it is actuated.
     pub kind: String,
@@ -60,7 +61,7 @@ pub struct StepOutcome {
 }
 
 /// A failed run's typed failure.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct FailureOutcome {
     /// What failed (`host::FailureKind`'s name).
     pub kind: String,
@@ -72,14 +73,14 @@ pub struct FailureOutcome {
     pub fault: Option<String>,
     /// The device's rejection reason.
     pub reject: Option<String>,
-    /// The device's refusal of a plan (`cli::refusal_json`).
-    pub refused: Option<Value>,
+    /// The device's refusal of a plan.
+    pub refused: Option<crate::cli::Refused>,
     /// The message.
     pub message: String,
 }
 
 /// Where a run failed.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct FailedStep {
     /// The step's index (0-based).
     pub index: usize,
@@ -139,7 +140,7 @@ impl PlanOutcome {
                 fault_code: f.fault.map(text::fault_code),
                 fault: f.fault.map(|c| text::fault_name(c).into()),
                 reject: f.reject.map(|r| text::reject_name(r).into()),
-                refused: f.refusal.as_ref().map(crate::cli::refusal_json),
+                refused: f.refusal.as_ref().map(crate::cli::Refused::of),
                 message: f.message.clone(),
             }),
             sim: truth.cloned(),

@@ -26,6 +26,9 @@ use serde_json::{json, Value};
 pub mod messages;
 
 use messages as msg;
+use messages::{RunDetail, RunKind};
+
+use crate::outcome::PlanOutcome;
 pub use messages::Message;
 
 /// Longest stretch of host time between closed chunks.
@@ -517,7 +520,10 @@ impl Recording {
             host_ms,
             kind,
             text: line.clone(),
-            event: serde_json::to_value(ev).unwrap_or(Value::Null),
+            event: match msg::DeviceEvent::of(ev) {
+                Some(e) => e,
+                None => return,
+            },
         };
         self.write(host_ms, device_ms, &v);
         match ev {
@@ -602,23 +608,26 @@ impl Recording {
                     plan.target(),
                     plan.steps().len()
                 );
-                ("plan", text, Value::Null)
+                (RunKind::Plan, text, RunDetail::None)
             }
             RunEvent::StepStarted { index, total } => (
-                "step-started",
+                RunKind::StepStarted,
                 format!("step {}/{} started", index + 1, total),
-                json!({"index": index, "total": total}),
+                RunDetail::StepStarted {
+                    index: *index,
+                    total: *total,
+                },
             ),
             // At the telemetry rate: the samples carry it.
             RunEvent::StepProgress { .. } => return,
             RunEvent::ManualPrompt { index, task } => (
-                "manual-prompt",
+                RunKind::ManualPrompt,
                 format!(
                     "step {}: manual task: {}",
                     index + 1,
                     planner::graph::manual_task_text(*task)
                 ),
-                json!({"index": index}),
+                RunDetail::ManualPrompt { index: *index },
             ),
             RunEvent::IdentifyPrompt {
                 believed,
@@ -634,13 +643,16 @@ impl Recording {
                 };
                 self.write(host_ms, None, &v);
                 (
-                    "identify-prompt",
+                    RunKind::IdentifyPrompt,
                     format!("state unconfirmed; candidates {}", names.join(", ")),
-                    json!({"believed": believed.name(), "candidates": names}),
+                    RunDetail::IdentifyPrompt {
+                        believed: believed.name(),
+                        candidates: names,
+                    },
                 )
             }
             RunEvent::StepFinished { index, report } => (
-                "step-finished",
+                RunKind::StepFinished,
                 format!(
                     "step {} {} → {} {}",
                     index + 1,
@@ -648,12 +660,21 @@ impl Recording {
                     report.to,
                     if report.ok { "done" } else { "FAILED" }
                 ),
-                json!({"index": index, "from": report.from.name(), "to": report.to.name(),
-                       "ok": report.ok, "duration_ms": report.duration_ms,
-                       "kind": planner::graph::kind_name(report.kind)}),
+                RunDetail::StepFinished {
+                    index: *index,
+                    from: report.from.name(),
+                    to: report.to.name(),
+                    ok: report.ok,
+                    duration_ms: report.duration_ms,
+                    kind: planner::graph::kind_name(report.kind),
+                },
             ),
-            RunEvent::Note(m) => ("note", m.clone(), Value::Null),
-            RunEvent::Finished => ("finished", "run finished".to_string(), Value::Null),
+            RunEvent::Note(m) => (RunKind::Note, m.clone(), RunDetail::None),
+            RunEvent::Finished => (
+                RunKind::Finished,
+                "run finished".to_string(),
+                RunDetail::None,
+            ),
         };
         let v = msg::Run {
             host_ms,
@@ -666,22 +687,24 @@ impl Recording {
     }
 
     /// The plan run's outcome (the `plan --json` object), on `/run` and `/log`.
-    pub fn outcome(&mut self, host_ms: u64, ok: bool, outcome: Value) {
+    pub fn outcome(&mut self, host_ms: u64, outcome: &PlanOutcome) {
+        let ok = outcome.ok;
         let line = if ok {
             "outcome: target reached".to_string()
         } else {
             format!(
                 "outcome: FAILED: {}",
-                outcome["error"]
-                    .as_str()
+                outcome
+                    .error
+                    .as_deref()
                     .unwrap_or("the target was not reached")
             )
         };
         let v = msg::Run {
             host_ms,
-            kind: "outcome",
+            kind: RunKind::Outcome,
             text: line.clone(),
-            detail: outcome,
+            detail: RunDetail::Outcome(Box::new(outcome.clone())),
         };
         self.write(host_ms, None, &v);
         let level = if ok { Level::Info } else { Level::Error };
@@ -742,7 +765,7 @@ impl Truth for crate::transport::AnyIo {
                     tip_mm: tip.position_mm.map(|v| (v * 10.0).round() / 10.0),
                     tip_axis: tip.axis.map(|v| (v * 1e4).round() / 1e4),
                     objects: (!world.objects().is_empty())
-                        .then(|| world.to_json()["objects"].clone()),
+                        .then(|| world.objects().iter().map(msg::TruthObject::of).collect()),
                     time_ms: t.time_ms,
                     true_state: t.true_state.map(|s| s.name()),
                     pressure_kpa: t.pressure_kpa,

@@ -24,16 +24,19 @@ pub struct SimConfig {
 
 /// What the simulator knows that the device can only estimate. Its serde form is the `sim`
 /// object of `plan --json` and `status --json` (a state by its name).
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct SimTruth {
     /// The trunk's physical state (None between states).
     #[serde(with = "crate::serve_protocol::state_name::option")]
+    #[schemars(with = "Option<String>")]
     pub true_state: Option<TrunkState>,
-    /// Highest pressure during the run.
+    /// Highest pressure during the run (null: not a number).
     #[serde(with = "crate::serve_protocol::f32_or_nan")]
+    #[schemars(with = "Option<f32>")]
     pub max_pressure_kpa: f32,
-    /// The pressure cap.
+    /// The pressure cap (null: not a number).
     #[serde(with = "crate::serve_protocol::f32_or_nan")]
+    #[schemars(with = "Option<f32>")]
     pub pressure_limit_kpa: f32,
     /// Valves closed and servos not driving.
     pub actuators_safe: bool,

@@ -3,32 +3,21 @@
 //! cover), `design`'s bands against the geometry's β_in/β_out, `states --crane`/`--edge-mm`,
 //! `model --states 'F&P'`.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+#[path = "support/cli.rs"]
+mod cli;
 
+use std::path::PathBuf;
+
+use cli::{host_tool, usage_error};
 use serde_json::Value;
 
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .output()
-        .expect("run host-tool")
-}
-
+/// `ARGS --json`'s document.
 fn json(args: &[&str]) -> Value {
-    let mut a = args.to_vec();
-    a.push("--json");
-    let out = run(&a);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON")
+    cli::json(&[args, &["--json"]].concat())
 }
 
 fn stdout(args: &[&str]) -> String {
-    let out = run(args);
+    let out = host_tool(args);
     assert!(
         out.status.success(),
         "{args:?}: {}",
@@ -37,20 +26,8 @@ fn stdout(args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("UTF-8")
 }
 
-fn usage_error(args: &[&str], expect: &str) {
-    let out = run(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    assert!(stderr.contains(expect), "{args:?}: {stderr}");
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-}
-
 fn temp_file(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cli_design_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let p = dir.join(name);
-    std::fs::write(&p, text).expect("write temp file");
-    p
+    cli::temp_file("cli_design", name, text)
 }
 
 fn kinds(v: &Value) -> Vec<String> {
@@ -143,7 +120,7 @@ fn the_issue_s_designs_that_cannot_bend_are_warned_in_json_and_text() {
     }
     // The figure says it too, under its header.
     let svg = temp_file("column.svg", "");
-    let out = run(&[
+    let out = host_tool(&[
         "ik",
         "--n",
         "6",
@@ -480,7 +457,7 @@ fn design_ranks_betas_by_fit_and_certifies_the_best() {
 #[test]
 fn design_draws_its_figure() {
     let svg = temp_file("bands.svg", "");
-    let out = run(&["design", "--n", "3,4", "--svg", svg.to_str().unwrap()]);
+    let out = host_tool(&["design", "--n", "3,4", "--svg", svg.to_str().unwrap()]);
     assert!(out.status.success());
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg") || text.contains("<svg"), "{text}");

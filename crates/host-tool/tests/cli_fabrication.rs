@@ -2,17 +2,15 @@
 //! and parse, defaults are printed in --help, and bad input is a usage error (exit 2) that
 //! says what is valid, checked before any file is written.
 
+#[path = "support/cli.rs"]
+mod cli;
+
+use cli::{host_tool, usage_error};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use serde_json::Value;
-
-fn host_tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .output()
-        .expect("run host-tool")
-}
 
 fn ok(args: &[&str]) -> Output {
     let out = host_tool(args);
@@ -22,14 +20,6 @@ fn ok(args: &[&str]) -> Output {
         String::from_utf8_lossy(&out.stderr)
     );
     out
-}
-
-fn usage_error(args: &[&str], expect_in_message: &str) {
-    let out = host_tool(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    assert!(stderr.contains(expect_in_message), "{args:?}: {stderr}");
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
 }
 
 struct TempDir(PathBuf);

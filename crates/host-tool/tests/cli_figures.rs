@@ -5,22 +5,18 @@
 //! its resolution recorded, not blank, the data colours present), the PDF parsed by `lopdf`
 //! (one page of the figure's size in pt, the font embedded, the labels extractable as text).
 
+#[path = "support/cli.rs"]
+mod cli;
+
+use cli::host_tool;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use resvg::usvg;
 
 const FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
 /// 8.5 cm in pt.
 const COLUMN_PT: f64 = 8.5 / 2.54 * 72.0;
-
-fn host_tool(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("host-tool runs")
-}
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("cli-figures-{}-{name}", std::process::id()));

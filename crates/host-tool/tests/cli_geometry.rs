@@ -1,34 +1,10 @@
 //! `host-tool states` and `host-tool fk` through the real binary: JSON shapes, tables, and
 //! exit code 2 with a helpful message on bad input (never a panic).
 
-use std::process::{Command, Output};
+#[path = "support/cli.rs"]
+mod cli;
 
-use serde_json::Value;
-
-fn host_tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .output()
-        .expect("run host-tool")
-}
-
-fn json(args: &[&str]) -> Value {
-    let out = host_tool(args);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON")
-}
-
-fn usage_error(args: &[&str], expect_in_message: &str) {
-    let out = host_tool(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    assert!(stderr.contains(expect_in_message), "{args:?}: {stderr}");
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-}
+use cli::{host_tool, json, usage_error};
 
 const STATE_KEYS: [&str; 8] = [
     "name",

@@ -1,45 +1,31 @@
 //! `host-tool ik` through the real binary: the JSON contract, the SVG, the table, and exit code 2
 //! with a message that says what is valid on every kind of bad input (never a panic).
 
+#[path = "support/cli.rs"]
+mod cli;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
 use serde_json::Value;
 
+/// `host-tool ik ARGS`.
 fn host_tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .arg("ik")
-        .args(args)
-        .output()
-        .expect("run host-tool")
+    cli::host_tool(&[&["ik"], args].concat())
 }
 
+/// `host-tool ik ARGS --json`'s document.
 fn json(args: &[&str]) -> Value {
-    let mut a = args.to_vec();
-    a.push("--json");
-    let out = host_tool(&a);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON")
+    cli::json(&[&["ik"], args, &["--json"]].concat())
 }
 
-fn usage_error(args: &[&str], expect_in_message: &str) {
-    let out = host_tool(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    assert!(stderr.contains(expect_in_message), "{args:?}: {stderr}");
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+/// `host-tool ik ARGS` is a usage error whose message has `expect`.
+fn usage_error(args: &[&str], expect: &str) {
+    cli::usage_error(&[&["ik"], args].concat(), expect)
 }
 
 fn temp_file(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cli_ik_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let p = dir.join(name);
-    std::fs::write(&p, text).expect("write temp file");
-    p
+    cli::temp_file("cli_ik", name, text)
 }
 
 const BOOM: [&str; 6] = ["--n", "4", "--beta", "35", "--modules", "6"];

@@ -1,18 +1,15 @@
 //! `host-tool declare` and `host-tool param` as a user runs them, against the built-in
 //! simulator (`--sim`): the real binary, the real controller behind a pseudo-terminal.
 
-use std::process::{Command, Output};
+#[path = "support/cli.rs"]
+mod cli;
+
+use cli::host_tool;
+
+use std::process::Output;
 
 use protocol::ParamId;
 use serde_json::Value;
-
-fn host_tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("host-tool runs")
-}
 
 fn stdout(out: &Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()

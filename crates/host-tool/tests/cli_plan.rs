@@ -1,23 +1,19 @@
 //! `host-tool plan` and friends as a user runs them: usage errors, dry runs, and a device that
 //! speaks another protocol version (a fake device on a pseudo-terminal).
 
+#[path = "support/cli.rs"]
+mod cli;
+
+use cli::host_tool;
+
 use std::io::{Read, Write};
 use std::os::fd::AsFd;
-use std::process::Command;
 use std::time::{Duration, Instant};
 
 use protocol::{
     Board, DeviceInfo, DeviceMessage, FrameDecoder, ModuleConfig, RejectReason, Request,
     RequestBody, ResponseBody, ResultCode, TrunkConfig, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_ID,
 };
-
-fn host_tool(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("host-tool runs")
-}
 
 #[test]
 fn an_invalid_target_is_a_usage_error_listing_the_six_states() {

@@ -2,15 +2,10 @@
 //! summarised, cut short as a crashed writer would leave it, and recovered. (The Python `mcap`
 //! reader checks the same files independently: `.ci/record-check.sh`.)
 
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
 
-fn host_tool(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("host-tool runs")
-}
+use cli::host_tool;
 
 fn stdout(out: &std::process::Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()

@@ -1,15 +1,10 @@
 //! `host-tool --sim --sim-trunk FILE --sim-trunk-scale K`: another simulated trunk, or the
 //! refusal of one the physics cannot represent (exit 2, the reason), never a panic.
 
-use std::process::Command;
+#[path = "support/cli.rs"]
+mod cli;
 
-fn host_tool(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("host-tool runs")
-}
+use cli::host_tool;
 
 #[test]
 fn a_trunk_the_physics_cannot_represent_is_refused_before_anything_runs() {

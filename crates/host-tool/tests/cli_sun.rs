@@ -1,34 +1,14 @@
 //! `host-tool sun`, `host-tool station` and `fk`'s top-face frames through the real binary:
 //! values against the library, the figure in every format, and bad input refused (exit 2).
 
-use std::process::{Command, Output};
+#[path = "support/cli.rs"]
+mod cli;
+
+use cli::{host_tool, json, usage_error};
+
+use std::process::Command;
 
 use serde_json::Value;
-
-fn host_tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-tool"))
-        .args(args)
-        .output()
-        .expect("run host-tool")
-}
-
-fn json(args: &[&str]) -> Value {
-    let out = host_tool(args);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("valid JSON")
-}
-
-fn usage_error(args: &[&str], expect_in_message: &str) {
-    let out = host_tool(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    assert!(stderr.contains(expect_in_message), "{args:?}: {stderr}");
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-}
 
 const SITE: [&str; 6] = [
     "--lat",

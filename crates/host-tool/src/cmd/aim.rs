@@ -46,10 +46,10 @@ pub struct Args {
     #[arg(long)]
     pub sun: bool,
     /// Latitude, degrees north (with --sun).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::latitude)]
     pub lat: Option<f64>,
     /// Longitude, degrees east (with --sun).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::longitude)]
     pub lon: Option<f64>,
     /// The instant, RFC 3339 with its offset (with --sun; default now).
     #[arg(long, value_parser = crate::arg::usage(super::sun::parse_time))]
@@ -60,8 +60,9 @@ pub struct Args {
           value_parser = crate::arg::trunk_state)]
     pub state: Option<TrunkState>,
     /// Compass heading of the crane base's x axis (tendon 0's side), degrees from north.
-    #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
-    pub heading: f64,
+    #[arg(long, default_value = "90", allow_hyphen_values = true,
+          value_parser = crate::arg::heading)]
+    pub heading: Heading,
     /// When another state aims closer, go there first (the planner's cheapest plan).
     #[arg(long)]
     pub change_state: bool,
@@ -347,8 +348,7 @@ pub fn truth_json(heading: Heading, truth: Option<(Vector3<f64>, f64, f64)>) -> 
 
 /// Runs `host-tool aim`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let heading =
-        Heading::from_deg(args.heading).map_err(|e| Failure::usage(format!("--heading: {e}")))?;
+    let heading = args.heading;
     let (az, el) = match (args.toward, args.sun) {
         (Some(t), false) => t,
         (None, true) => {

@@ -27,8 +27,9 @@ pub struct Args {
     #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_ns))]
     pub n: Ns,
     /// Rank βs for this built-in target curve (as `ik --target`; needs --modules).
-    #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
-    pub target: Option<String>,
+    #[arg(long, value_name = "SPEC", allow_hyphen_values = true,
+          value_parser = crate::arg::usage(super::ik::parse_target))]
+    pub target: Option<super::ik::TargetSpec>,
     /// Rank βs for this CSV target (as `ik --target-file`; needs --modules).
     #[arg(long, value_name = "FILE")]
     pub target_file: Option<PathBuf>,
@@ -256,7 +257,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 "--target/--target-file needs --modules M (the length of the boom to fit)",
             ));
         };
-        let (target, source) = read_target(args.target_file.as_ref(), args.target.as_deref())?;
+        let (target, source) = read_target(args.target_file.as_ref(), args.target.as_ref())?;
         Some(Ranking {
             target,
             label: match source {

@@ -37,8 +37,9 @@ pub struct Args {
     /// Compass heading of the base frame's x axis (towards bottom vertex 0), degrees
     /// clockwise from north; 90 puts x east and y north. Gives each top-face normal's compass
     /// azimuth and elevation.
-    #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
-    pub heading: f64,
+    #[arg(long, default_value = "90", allow_hyphen_values = true,
+          value_parser = crate::arg::heading)]
+    pub heading: geometry::orient::Heading,
 }
 
 /// Each module's top-face frame (origin, rotation matrix rows, outward normal in the base
@@ -146,8 +147,7 @@ fn modules(args: &Args) -> Result<Vec<Module>, Failure> {
 
 /// Runs `host-tool fk`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let heading = geometry::orient::Heading::from_deg(args.heading)
-        .map_err(|e| Failure::usage(format!("--heading: {e}")))?;
+    let heading = args.heading;
     let edge_mm = args.edge_mm;
     let stack = modules(&args)?;
     let tips: Vec<_> = fk::tips(stack.iter().map(|m| m.pose)).collect();

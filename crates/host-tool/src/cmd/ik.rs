@@ -49,8 +49,9 @@ pub struct Args {
     pub target_file: Option<PathBuf>,
     /// Built-in target curve: helix, sine or arc with named parameters, e.g.
     /// `helix:radius=1,pitch=4,turns=1` (see --help for every parameter).
-    #[arg(long, value_name = "SPEC", long_help = target_long_help(), allow_hyphen_values = true)]
-    pub target: Option<String>,
+    #[arg(long, value_name = "SPEC", long_help = target_long_help(), allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_target))]
+    pub target: Option<TargetSpec>,
     /// Solver: exact (proven optimum), exhaustive (every sequence), greedy, beam, window, dp.
     #[arg(long, default_value = "exact", value_parser = crate::arg::usage(parse_algo))]
     pub algo: Algo,
@@ -250,9 +251,28 @@ fn parse_dp_tolerance(text: &str) -> Result<(f64, f64), Failure> {
 }
 
 /// Reads the target from `--target-file` or `--target` (exactly one must be given).
+/// `--target SPEC`: a built-in curve, generated, with the spec it came from.
+#[derive(Debug, Clone)]
+pub struct TargetSpec {
+    /// The spec as given.
+    pub spec: String,
+    /// Its points.
+    pub target: Target,
+}
+
+/// Parses `--target SPEC` (`ik` and `design`).
+pub(crate) fn parse_target(spec: &str) -> Result<TargetSpec, Failure> {
+    let target =
+        ik::target::generate(spec).map_err(|e| Failure::usage(format!("--target: {e}")))?;
+    Ok(TargetSpec {
+        spec: spec.to_string(),
+        target,
+    })
+}
+
 pub(crate) fn read_target(
     target_file: Option<&PathBuf>,
-    target: Option<&str>,
+    target: Option<&TargetSpec>,
 ) -> Result<(Target, TargetSource), Failure> {
     Ok(match (target_file, target) {
         (Some(_), Some(_)) => {
@@ -279,11 +299,7 @@ pub(crate) fn read_target(
                 .map_err(|e| Failure::usage(format!("--target-file {}: {e}", path.display())))?;
             (t, TargetSource::File(path.clone()))
         }
-        (None, Some(spec)) => {
-            let t =
-                ik::target::generate(spec).map_err(|e| Failure::usage(format!("--target: {e}")))?;
-            (t, TargetSource::Generator(spec.to_string()))
-        }
+        (None, Some(t)) => (t.target.clone(), TargetSource::Generator(t.spec.clone())),
     })
 }
 
@@ -307,7 +323,7 @@ impl Args {
         let n = self.n;
         let m = self.modules;
         let designs = designs_from(n, &self.beta, m, &format!("--modules is {m}"))?;
-        let (target, source) = read_target(self.target_file.as_ref(), self.target.as_deref())?;
+        let (target, source) = read_target(self.target_file.as_ref(), self.target.as_ref())?;
         let metric = self.metric;
         let algorithm = match self.algo {
             Algo::Exact => Algorithm::Exact,

@@ -54,8 +54,9 @@ pub enum LogCommand {
         #[arg(long, value_name = "FIG")]
         out: PathBuf,
         /// The format (svg, png, pdf) when the extension of --out does not name one.
-        #[arg(long, value_name = "FORMAT")]
-        format: Option<String>,
+        #[arg(long, value_name = "FORMAT",
+              value_parser = |s: &str| Format::parse(s).map_err(|e| format!("--format: {e}")))]
+        format: Option<Format>,
         #[command(flatten)]
         window: Window,
     },
@@ -188,7 +189,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             out,
             format,
             window,
-        } => plot(&file, &out, format.as_deref(), window),
+        } => plot(&file, &out, format, window),
         LogCommand::Recover { file, out } => recover(&file, &out),
     }
 }
@@ -459,11 +460,10 @@ fn recover(path: &Path, out: &Path) -> Result<(), Failure> {
 }
 
 /// The format of `--out`: `--format`, else its extension; the two must agree.
-fn figure_format(out: &Path, format: Option<&str>) -> Result<Format, Failure> {
+fn figure_format(out: &Path, format: Option<Format>) -> Result<Format, Failure> {
     let by_name = Format::from_path(out);
     match format {
         Some(f) => {
-            let f = Format::parse(f).map_err(|e| Failure::usage(format!("--format: {e}")))?;
             match by_name {
                 Some(e) if e != f => Err(Failure::usage(format!(
                     "--format {} contradicts --out {} (a .{} name); give one of them",
@@ -484,7 +484,7 @@ fn figure_format(out: &Path, format: Option<&str>) -> Result<Format, Failure> {
     }
 }
 
-fn plot(path: &Path, out: &Path, format: Option<&str>, window: Window) -> Result<(), Failure> {
+fn plot(path: &Path, out: &Path, format: Option<Format>, window: Window) -> Result<(), Failure> {
     let format = figure_format(out, format)?;
     let window = window.check()?;
     let file = super::output::open_all(&[("--out", out)])?;

@@ -30,11 +30,13 @@ pub struct TrunkArgs {
     pub beta: Betas,
     /// Layers per module: one count for every module or one per module (each in [1, 1000],
     /// at most 1000 in total).
-    #[arg(long, default_value = Defaults::LAYERS, allow_hyphen_values = true)]
-    pub layers: String,
+    #[arg(long, default_value = Defaults::LAYERS, allow_hyphen_values = true,
+          value_parser = crate::arg::usage(parse_layers))]
+    pub layers: Layers,
     /// Edge length l in mm: the valley fold, the polygon side (0 < l ≤ 10000). Default 75 mm,
     /// the trunk's base length (§5.4, Table 2's L3).
-    #[arg(long, default_value_t = Defaults::EDGE_MM, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = Defaults::EDGE_MM, allow_hyphen_values = true,
+          value_parser = crate::arg::usage(super::states::parse_edge_mm))]
     pub edge_mm: f64,
     /// The trunk's description (TOML, as trunks/pdf.toml): its `[design]` table gives n, the
     /// edge length and β and layers per module, in place of --n, --beta, --layers and
@@ -44,11 +46,11 @@ pub struct TrunkArgs {
     pub trunk: Option<PathBuf>,
 }
 
-fn list_len(text: &str) -> usize {
-    text.split(',').count()
-}
+/// `--layers`: one count for every module or one per module (the list as given).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Layers(pub Vec<usize>);
 
-fn parse_layers(text: &str, m: usize) -> Result<Vec<usize>, Failure> {
+fn parse_layers(text: &str) -> Result<Layers, Failure> {
     let bad = || {
         Failure::usage(format!(
             "--layers must be one integer in [1, {}] for every module or one per module, got '{text}'",
@@ -70,11 +72,17 @@ fn parse_layers(text: &str, m: usize) -> Result<Vec<usize>, Failure> {
             }
         })
         .collect::<Result<Vec<_>, _>>()?;
-    match counts.len() {
-        1 => Ok(vec![counts[0]; m]),
-        k if k == m => Ok(counts),
-        k => Err(Failure::usage(format!(
-            "--layers has {k} values but --beta has {m} modules; give one count for all modules or one per module"
+    Ok(Layers(counts))
+}
+
+/// The layers of each of `m` modules.
+fn layers_per_module(layers: &Layers, m: usize) -> Result<Vec<usize>, Failure> {
+    match layers.0.as_slice() {
+        [one] => Ok(vec![*one; m]),
+        counts if counts.len() == m => Ok(counts.to_vec()),
+        counts => Err(Failure::usage(format!(
+            "--layers has {} values but --beta has {m} modules; give one count for all modules or one per module",
+            counts.len()
         ))),
     }
 }
@@ -82,7 +90,7 @@ fn parse_layers(text: &str, m: usize) -> Result<Vec<usize>, Failure> {
 impl TrunkArgs {
     /// Number of modules: the longer of the --beta and --layers lists.
     pub fn module_count(&self) -> usize {
-        self.beta.0.len().max(list_len(&self.layers))
+        self.beta.0.len().max(self.layers.0.len())
     }
 
     /// Validates into a trunk.
@@ -93,13 +101,7 @@ impl TrunkArgs {
         let n = self.n;
         let m = self.module_count();
         let designs = designs_from(n, &self.beta, m, &format!("the stack has {m} modules"))?;
-        let layers = parse_layers(&self.layers, m)?;
-        if !(self.edge_mm.is_finite() && self.edge_mm > 0.0 && self.edge_mm <= 10_000.0) {
-            return Err(Failure::usage(format!(
-                "--edge-mm must be a length in mm in (0, 10000], got {}",
-                self.edge_mm
-            )));
-        }
+        let layers = layers_per_module(&self.layers, m)?;
         let modules = designs
             .into_iter()
             .zip(layers)
@@ -174,8 +176,8 @@ pub struct Args {
     /// (positive, below twice the smallest facet's inradius). Default: 3,1.5 for the default
     /// crane trunk (Table 2's d4 = 2·d1 under the 35° module, d1 under the golden one), else
     /// 1.5 (d1) for every module.
-    #[arg(long, allow_hyphen_values = true)]
-    pub gap_mm: Option<String>,
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::usage(parse_gap_list))]
+    pub gap_mm: Option<Gaps>,
     /// Nylon facet thickness in mm, (0, 20] (Table 2's t1).
     #[arg(long, default_value_t = Defaults::FACET_MM, allow_hyphen_values = true)]
     pub facet_mm: f64,
@@ -190,8 +192,8 @@ pub struct Args {
     /// Lay the kit's facets on cut sheets of WIDTHxHEIGHT mm (e.g. 1220x2440): one DXF and one
     /// SVG per sheet plus nest.json in --nest-dir, each facet with its hinges' insert holes, its
     /// id and its neighbours' ids.
-    #[arg(long, value_name = "SHEET")]
-    pub nest: Option<String>,
+    #[arg(long, value_name = "SHEET", value_parser = crate::arg::usage(parse_sheet))]
+    pub nest: Option<[f64; 2]>,
     /// Directory for the cut sheets of --nest (sheet-1.dxf, sheet-1.svg, …, nest.json); created
     /// if missing.
     #[arg(long, value_name = "DIR")]
@@ -309,6 +311,24 @@ fn report(
     }
 }
 
+/// `--gap-mm`: gap widths in mm, one for all modules or one per module (the list as given;
+/// the panel checks each against its facets).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gaps(pub Vec<f64>);
+
+fn parse_gap_list(text: &str) -> Result<Gaps, Failure> {
+    text.split(',')
+        .map(|t| {
+            t.trim().parse::<f64>().map_err(|_| {
+                Failure::usage(format!(
+                    "--gap-mm must be gap widths in mm, one for all modules or one per module, got '{text}'"
+                ))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Gaps)
+}
+
 fn parse_gaps(args: &Args, trunk: &Trunk) -> Result<Vec<f64>, Failure> {
     let m = trunk.modules().len();
     let betas = Betas(
@@ -318,23 +338,13 @@ fn parse_gaps(args: &Args, trunk: &Trunk) -> Result<Vec<f64>, Failure> {
             .map(|m| m.design.beta_deg())
             .collect(),
     );
-    let text = match &args.gap_mm {
-        Some(t) => t.clone(),
+    let Gaps(gaps) = match &args.gap_mm {
+        Some(g) => g.clone(),
         None if parse_betas(Defaults::BETA).is_ok_and(|d| d == betas) => {
-            Defaults::GAP_MM_TRUNK.to_string()
+            parse_gap_list(Defaults::GAP_MM_TRUNK)?
         }
-        None => Defaults::GAP_MM.to_string(),
+        None => Gaps(vec![Defaults::GAP_MM]),
     };
-    let gaps = text
-        .split(',')
-        .map(|t| {
-            t.trim().parse::<f64>().map_err(|_| {
-                Failure::usage(format!(
-                    "--gap-mm must be gap widths in mm, one for all modules or one per module, got '{text}'"
-                ))
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
     match gaps.len() {
         1 => Ok(vec![gaps[0]; m]),
         k if k == m => Ok(gaps),
@@ -409,15 +419,18 @@ fn nest_params(args: &Args) -> Result<Option<NestParams>, Failure> {
             "--nest writes one DXF and one SVG per sheet: give --nest-dir DIR for them",
         ));
     }
-    let sheet_mm =
-        NestParams::parse_sheet(sheet).map_err(|e| Failure::usage(format!("--nest: {e}")))?;
     Ok(Some(NestParams {
-        sheet_mm,
+        sheet_mm: *sheet,
         kerf_mm: args.kerf_mm,
         margin_mm: args.margin_mm,
         spacing_mm: args.spacing_mm,
         hole_mm: args.insert_hole_mm,
     }))
+}
+
+/// `--nest`: a cut sheet's WIDTHxHEIGHT, mm.
+fn parse_sheet(text: &str) -> Result<[f64; 2], Failure> {
+    NestParams::parse_sheet(text).map_err(|e| Failure::usage(format!("--nest: {e}")))
 }
 
 /// `--legend`: where the legend goes.

@@ -317,7 +317,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     }
     let now = conn.session.io.now_ms();
     if let Some(rec) = conn.session.io.recording() {
-        rec.outcome(now, outcome.ok(), outcome_json(&outcome, None));
+        rec.outcome(now, &crate::outcome::PlanOutcome::of(&outcome, None));
     }
     let stats = conn.session.host.session().stats();
     if stats.retries > 0 || stats.frames_dropped > 0 {

@@ -548,7 +548,7 @@ impl Server {
                 let truth = self.conn.truth();
                 let doc = crate::outcome::PlanOutcome::of(&outcome, truth.as_ref());
                 if let Some(rec) = self.conn.session.io.recording() {
-                    rec.outcome(now, outcome.ok(), doc.to_json());
+                    rec.outcome(now, &doc);
                 }
                 if let Some(c) = self.plan_client.take() {
                     self.reply(

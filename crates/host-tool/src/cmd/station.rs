@@ -7,7 +7,7 @@ mod figure;
 
 use std::path::PathBuf;
 
-use geometry::orient::{self, Heading};
+use geometry::orient;
 use geometry::ShapeState;
 use nalgebra::Vector3;
 use planner::station::{self, Schedule, Station, SunDirection};
@@ -57,8 +57,9 @@ pub struct Args {
     pub max_changes: Option<usize>,
     /// Compass heading of the base's x axis (towards bottom vertex 0), degrees clockwise from
     /// north. 90: x east, y north.
-    #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
-    pub heading: f64,
+    #[arg(long, default_value = "90", allow_hyphen_values = true,
+          value_parser = crate::arg::heading)]
+    pub heading: geometry::orient::Heading,
     /// Print JSON instead of a table.
     #[arg(skip)]
     pub json: bool,
@@ -245,8 +246,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         )));
     }
     let designs = designs_from(n, &args.beta, m, &format!("--modules is {m}"))?;
-    let heading =
-        Heading::from_deg(args.heading).map_err(|e| Failure::usage(format!("--heading: {e}")))?;
+    let heading = args.heading;
     let fixed = args
         .fixed
         .as_deref()

@@ -11,23 +11,26 @@ use crate::failure::Failure;
 #[derive(Debug, Clone, clap::Args)]
 pub struct SiteArgs {
     /// Latitude in degrees north, [-90, 90] (south negative).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::latitude)]
     pub lat: f64,
     /// Longitude in degrees east, [-180, 180] (west negative).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::longitude)]
     pub lon: f64,
     /// Elevation above sea level in metres, [-500, 10000].
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true,
+          value_parser = crate::arg::elevation_m)]
     pub elevation_m: f64,
     /// ΔT = TT − UT1 in seconds, [-10000, 10000]. Default: the Espenak–Meeus estimate for the
     /// month (solar-positioning's delta_t, refitted to IERS data from 2015; about 69 s in 2025).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::delta_t)]
     pub delta_t: Option<f64>,
     /// Air pressure for the refraction correction, hPa (0, 2000]; default pvlib's 1013.25.
-    #[arg(long, default_value_t = 1013.25, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 1013.25, allow_hyphen_values = true,
+          value_parser = crate::arg::above_at_most("--pressure-hpa", "hPa", 0.0, 2000.0))]
     pub pressure_hpa: f64,
     /// Air temperature for the refraction correction, °C (-273, 100]; default pvlib's 12.
-    #[arg(long, default_value_t = 12.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 12.0, allow_hyphen_values = true,
+          value_parser = crate::arg::above_at_most("--temperature-c", "°C", -273.0, 100.0))]
     pub temperature_c: f64,
 }
 

@@ -8,7 +8,6 @@
 use std::sync::atomic::Ordering;
 
 use chrono::{DateTime, Duration, FixedOffset, NaiveTime, Utc};
-use geometry::orient::Heading;
 use planner::sun;
 use serde_json::{json, Value};
 
@@ -28,10 +27,10 @@ pub struct Args {
     #[arg(long)]
     pub sun: bool,
     /// Latitude, degrees north, [-90, 90].
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::latitude)]
     pub lat: f64,
     /// Longitude, degrees east, [-180, 180].
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg::longitude)]
     pub lon: f64,
     /// When tracking starts, RFC 3339 with its offset (default now); with --sim the virtual
     /// day starts here.
@@ -46,8 +45,9 @@ pub struct Args {
           value_parser = crate::arg::usage(|s: &str| super::sun::time_arg("--every", sun::parse_duration, s)))]
     pub every: Duration,
     /// Compass heading of the crane base's x axis (tendon 0's side), degrees from north.
-    #[arg(long, default_value_t = 90.0, allow_hyphen_values = true)]
-    pub heading: f64,
+    #[arg(long, default_value = "90", allow_hyphen_values = true,
+          value_parser = crate::arg::heading)]
+    pub heading: geometry::orient::Heading,
     /// When another state aims closer, go there first (the planner's cheapest plan).
     #[arg(long)]
     pub change_state: bool,
@@ -129,8 +129,7 @@ fn emit(json_out: bool, v: &Value, text: &str) {
 
 /// Runs `host-tool track`.
 pub fn run(args: Args) -> Result<(), Failure> {
-    let heading =
-        Heading::from_deg(args.heading).map_err(|e| Failure::usage(format!("--heading: {e}")))?;
+    let heading = args.heading;
     let (site, air) = aim::site_of(args.lat, args.lon)?;
     let start = aim::instant(args.time);
     let end = parse_until(&args.until, &start)?;

@@ -1,14 +1,21 @@
 //! The recorded messages of every JSON channel, typed: each derives `Serialize` (the bytes
 //! written to the file and to the live view) and `JsonSchema` (the channel's schema is
 //! `schemars::schema_for!` of it), and names its [`Topic`] — so a channel's messages and its
-//! schema cannot drift apart. Fields that carry a wire type as it is (a request's body, an
-//! event) are JSON values (any), as the protocol's types have no JSON schema of their own.
+//! schema cannot drift apart. A device event is typed here in the protocol's serde form
+//! ([`DeviceEvent`], built by an exhaustive match, so a new event or field does not compile
+//! until it is recorded); a request's and a response's bodies are the protocol's serde form
+//! as JSON values (any), as the protocol's types have no JSON schema of their own.
 
-use schemars::JsonSchema;
+use std::borrow::Cow;
+
+use geometry::TrunkState;
+use protocol::{FaultCode, ManualTask, Mode};
+use schemars::{JsonSchema, Schema, SchemaGenerator};
 use serde::Serialize;
 use serde_json::Value;
 
 use super::Topic;
+use crate::outcome::PlanOutcome;
 
 /// A message of one recorded channel.
 pub trait Message: Serialize + JsonSchema {
@@ -53,7 +60,219 @@ pub struct Event {
     /// Its line for people, where it has one.
     pub text: Option<String>,
     /// The event as the wire carries it (`protocol::Event`'s serde form).
-    pub event: Value,
+    pub event: DeviceEvent,
+}
+
+/// A wire value recorded in its own serde form; its schema lists the serde form of each of
+/// its values (so the words are the protocol's, never retyped).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(transparent)]
+pub struct Wire<T>(pub T);
+
+/// A wire type whose values can all be listed.
+pub trait Enumerated: Serialize + Sized + 'static {
+    /// The schema's name.
+    const NAME: &'static str;
+    /// Every value.
+    fn all() -> Vec<Self>;
+}
+
+impl<T: Enumerated> JsonSchema for Wire<T> {
+    fn schema_name() -> Cow<'static, str> {
+        T::NAME.into()
+    }
+
+    fn json_schema(_: &mut SchemaGenerator) -> Schema {
+        let values: Vec<Value> = T::all()
+            .iter()
+            .filter_map(|v| serde_json::to_value(v).ok())
+            .collect();
+        schemars::json_schema!({ "enum": values })
+    }
+}
+
+impl Enumerated for TrunkState {
+    const NAME: &'static str = "TrunkState";
+    fn all() -> Vec<Self> {
+        TrunkState::ALL.to_vec()
+    }
+}
+
+impl Enumerated for FaultCode {
+    const NAME: &'static str = "FaultCode";
+    fn all() -> Vec<Self> {
+        FaultCode::ALL.to_vec()
+    }
+}
+
+impl Enumerated for Mode {
+    const NAME: &'static str = "Mode";
+    fn all() -> Vec<Self> {
+        // A new mode fails to compile here until it is listed.
+        let listed = |m: Mode| match m {
+            Mode::Standalone | Mode::Running | Mode::WaitingManual | Mode::Safe | Mode::EStop => m,
+        };
+        [
+            Mode::Standalone,
+            Mode::Running,
+            Mode::WaitingManual,
+            Mode::Safe,
+            Mode::EStop,
+        ]
+        .map(listed)
+        .to_vec()
+    }
+}
+
+impl Enumerated for ManualTask {
+    const NAME: &'static str = "ManualTask";
+    fn all() -> Vec<Self> {
+        let listed = |t: ManualTask| match t {
+            ManualTask::PackBottomModule
+            | ManualTask::FoldTopModule
+            | ManualTask::FoldBottomModule => t,
+        };
+        [
+            ManualTask::PackBottomModule,
+            ManualTask::FoldTopModule,
+            ManualTask::FoldBottomModule,
+        ]
+        .map(listed)
+        .to_vec()
+    }
+}
+
+/// A device event in `protocol::Event`'s serde form (every event but telemetry, which has
+/// its own channel): the variants and fields are the protocol's, by name.
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
+pub enum DeviceEvent {
+    /// The device's heartbeat.
+    Heartbeat {
+        /// Its uptime, ms.
+        uptime_ms: u32,
+        /// What it is doing.
+        mode: Wire<Mode>,
+    },
+    /// A step is running.
+    StepProgress {
+        /// Plan id.
+        plan_id: u16,
+        /// Step index.
+        step: u8,
+        /// Index of the primitive running within the step.
+        primitive: u8,
+        /// Time since the step started, ms.
+        elapsed_ms: u32,
+    },
+    /// A step finished.
+    StepDone {
+        /// Plan id.
+        plan_id: u16,
+        /// Step index.
+        step: u8,
+        /// Its target state was confirmed.
+        ok: bool,
+        /// The state the device now believes.
+        state: Wire<TrunkState>,
+        /// How long the step took, ms.
+        duration_ms: u32,
+    },
+    /// The whole plan finished.
+    PlanDone {
+        /// Plan id.
+        plan_id: u16,
+        /// Every step succeeded.
+        ok: bool,
+        /// Final state.
+        state: Wire<TrunkState>,
+    },
+    /// The trunk's state changed.
+    StateReached {
+        /// The new state.
+        state: Wire<TrunkState>,
+        /// Whether it was confirmed.
+        confirmed: bool,
+    },
+    /// A manual step needs a person.
+    ManualRequired {
+        /// Plan id.
+        plan_id: u16,
+        /// Step index.
+        step: u8,
+        /// What to do.
+        task: Wire<ManualTask>,
+    },
+    /// A fault became active.
+    FaultRaised(Wire<FaultCode>),
+    /// A fault was cleared.
+    FaultCleared(Wire<FaultCode>),
+    /// A person must say which of these states the trunk is in.
+    IdentifyNeedsOperator {
+        /// The states still possible, one bit per state (bit 0 = `F&P` … bit 5 = `D&D`).
+        #[schemars(range(max = 63))]
+        candidates: u8,
+    },
+}
+
+impl DeviceEvent {
+    /// The recorded form of `ev`; `None` for telemetry (recorded on `/telemetry`).
+    pub fn of(ev: &protocol::Event) -> Option<DeviceEvent> {
+        use protocol::Event as E;
+        Some(match *ev {
+            E::Heartbeat { uptime_ms, mode } => DeviceEvent::Heartbeat {
+                uptime_ms,
+                mode: Wire(mode),
+            },
+            E::Telemetry(_) => return None,
+            E::StepProgress {
+                plan_id,
+                step,
+                primitive,
+                elapsed_ms,
+            } => DeviceEvent::StepProgress {
+                plan_id,
+                step,
+                primitive,
+                elapsed_ms,
+            },
+            E::StepDone {
+                plan_id,
+                step,
+                ok,
+                state,
+                duration_ms,
+            } => DeviceEvent::StepDone {
+                plan_id,
+                step,
+                ok,
+                state: Wire(state),
+                duration_ms,
+            },
+            E::PlanDone { plan_id, ok, state } => DeviceEvent::PlanDone {
+                plan_id,
+                ok,
+                state: Wire(state),
+            },
+            E::StateReached { state, confirmed } => DeviceEvent::StateReached {
+                state: Wire(state),
+                confirmed,
+            },
+            E::ManualRequired {
+                plan_id,
+                step,
+                task,
+            } => DeviceEvent::ManualRequired {
+                plan_id,
+                step,
+                task: Wire(task),
+            },
+            E::FaultRaised(c) => DeviceEvent::FaultRaised(Wire(c)),
+            E::FaultCleared(c) => DeviceEvent::FaultCleared(Wire(c)),
+            E::IdentifyNeedsOperator {
+                candidates: protocol::StateSet(bits),
+            } => DeviceEvent::IdentifyNeedsOperator { candidates: bits },
+        })
+    }
 }
 
 impl Message for Event {
@@ -244,13 +463,78 @@ impl Message for Plan {
 pub struct Run {
     /// The host's time, ms.
     pub host_ms: u64,
-    /// `plan`, `step-started`, `manual-prompt`, `identify-prompt`, `step-finished`, `note`,
-    /// `finished` or `outcome`.
-    pub kind: &'static str,
+    /// What happened.
+    pub kind: RunKind,
     /// Its line for people.
     pub text: String,
     /// The kind's details (`outcome`: the `plan --json` object), or null.
-    pub detail: Value,
+    pub detail: RunDetail,
+}
+
+/// What a plan-runner event is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum RunKind {
+    /// A plan was made (on `/plan`).
+    Plan,
+    /// A step started.
+    StepStarted,
+    /// A manual step asks a person.
+    ManualPrompt,
+    /// The state is unconfirmed: a person is asked which it is.
+    IdentifyPrompt,
+    /// A step finished.
+    StepFinished,
+    /// A note of the runner.
+    Note,
+    /// The run finished.
+    Finished,
+    /// The run's outcome.
+    Outcome,
+}
+
+/// The details of a plan-runner event (null for `plan`, `note` and `finished`).
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
+#[serde(untagged)]
+pub enum RunDetail {
+    /// `step-started`.
+    StepStarted {
+        /// The step's index (0-based).
+        index: usize,
+        /// Steps in the plan.
+        total: usize,
+    },
+    /// `manual-prompt`.
+    ManualPrompt {
+        /// The step's index (0-based).
+        index: usize,
+    },
+    /// `identify-prompt`.
+    IdentifyPrompt {
+        /// The state the device believes.
+        believed: &'static str,
+        /// The states it may be in.
+        candidates: Vec<&'static str>,
+    },
+    /// `step-finished`.
+    StepFinished {
+        /// The step's index (0-based).
+        index: usize,
+        /// Its start state.
+        from: &'static str,
+        /// The state it reached.
+        to: &'static str,
+        /// It completed.
+        ok: bool,
+        /// How long it took, ms, where known.
+        duration_ms: Option<u32>,
+        /// How it is actuated (`planner::graph::kind_name`).
+        kind: &'static str,
+    },
+    /// `outcome`: the `plan --json` object.
+    Outcome(Box<PlanOutcome>),
+    /// No details.
+    None,
 }
 
 impl Message for Run {
@@ -267,8 +551,8 @@ pub struct Truth {
     pub tip_mm: [f64; 3],
     /// The true tip's axis (unit vector, 1e-4).
     pub tip_axis: [f64; 3],
-    /// The world's objects, while it holds any (`hil_sim::world`'s JSON).
-    pub objects: Option<Value>,
+    /// The world's objects, while it holds any.
+    pub objects: Option<Vec<TruthObject>>,
     /// The simulator's time, ms.
     pub time_ms: u64,
     /// The trunk's physical state (null between states).
@@ -301,6 +585,37 @@ pub struct Truth {
     pub snaps: u32,
     /// Valves closed and servos not driving.
     pub actuators_safe: bool,
+}
+
+/// An object of the simulator's world.
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
+pub struct TruthObject {
+    /// Its name.
+    pub name: String,
+    /// Its grasp point, mm (base frame, 0.001 mm).
+    pub position_mm: [f64; 3],
+    /// Its mass, kg.
+    pub mass_kg: f64,
+    /// The gripper holds it.
+    pub held: bool,
+}
+
+impl TruthObject {
+    /// The recorded form of `o`.
+    pub fn of(o: &hil_sim::world::Object) -> Self {
+        let hil_sim::world::Object {
+            name,
+            position_mm,
+            mass_kg,
+            held,
+        } = o;
+        TruthObject {
+            name: name.clone(),
+            position_mm: position_mm.map(|v| (v * 1e3).round() / 1e3),
+            mass_kg: *mass_kg,
+            held: *held,
+        }
+    }
 }
 
 impl Message for Truth {
@@ -385,7 +700,13 @@ mod tests {
             host_ms: 1,
             kind: "step-done",
             text: None,
-            event: serde_json::json!({"StepDone": {"ok": true}}),
+            event: DeviceEvent::StepDone {
+                plan_id: 1,
+                step: 0,
+                ok: true,
+                state: Wire(TrunkState::ALL[1]),
+                duration_ms: 4100,
+            },
         });
         check(&Fault {
             host_ms: 1,
@@ -448,9 +769,22 @@ mod tests {
         });
         check(&Run {
             host_ms: 1,
-            kind: "note",
+            kind: RunKind::Note,
             text: "a note".into(),
-            detail: Value::Null,
+            detail: RunDetail::None,
+        });
+        check(&Run {
+            host_ms: 1,
+            kind: RunKind::StepFinished,
+            text: "step 1 F&P → F&F done".into(),
+            detail: RunDetail::StepFinished {
+                index: 0,
+                from: "F&P",
+                to: "F&F",
+                ok: true,
+                duration_ms: None,
+                kind: "pneumatic",
+            },
         });
         check(&Truth {
             host_ms: 1,
@@ -474,6 +808,98 @@ mod tests {
             snaps: 0,
             actuators_safe: true,
         });
+    }
+
+    /// One of each device event but telemetry, a fault's by every code.
+    fn every_event() -> Vec<protocol::Event> {
+        use protocol::Event as E;
+        let s = TrunkState::ALL[4];
+        let mut all = vec![
+            E::Heartbeat {
+                uptime_ms: 5,
+                mode: Mode::WaitingManual,
+            },
+            E::StepProgress {
+                plan_id: 1,
+                step: 2,
+                primitive: 1,
+                elapsed_ms: 300,
+            },
+            E::StepDone {
+                plan_id: 1,
+                step: 2,
+                ok: false,
+                state: s,
+                duration_ms: 4000,
+            },
+            E::PlanDone {
+                plan_id: 1,
+                ok: true,
+                state: s,
+            },
+            E::StateReached {
+                state: s,
+                confirmed: false,
+            },
+            E::ManualRequired {
+                plan_id: 1,
+                step: 0,
+                task: ManualTask::FoldBottomModule,
+            },
+            E::IdentifyNeedsOperator {
+                candidates: protocol::StateSet::ALL,
+            },
+        ];
+        all.extend(FaultCode::ALL.into_iter().map(E::FaultRaised));
+        all.push(E::FaultCleared(FaultCode::ALL[0]));
+        all
+    }
+
+    #[test]
+    fn a_recorded_event_is_the_protocols_serde_form_and_its_words_are_in_the_schema() {
+        let schema = schema::<Event>();
+        let text = schema.to_string();
+        for ev in every_event() {
+            let rec = DeviceEvent::of(&ev).expect("not telemetry");
+            let wire = serde_json::to_value(&ev).unwrap();
+            assert_eq!(serde_json::to_value(&rec).unwrap(), wire);
+            // The variant's name and each word it carries are the schema's.
+            let (variant, inner) = match &wire {
+                Value::Object(o) => o
+                    .iter()
+                    .next()
+                    .map(|(k, v)| (k.clone(), v.clone()))
+                    .unwrap(),
+                other => panic!("{other}"),
+            };
+            assert!(
+                text.contains(&format!("\"{variant}\"")),
+                "{variant}: {text}"
+            );
+            let words: Vec<String> = match &inner {
+                Value::String(w) => vec![w.clone()],
+                Value::Object(o) => o
+                    .values()
+                    .filter_map(|v| v.as_str().map(String::from))
+                    .collect(),
+                _ => vec![],
+            };
+            for w in words {
+                assert!(text.contains(&format!("\"{w}\"")), "{w}: {text}");
+            }
+        }
+        assert!(
+            DeviceEvent::of(&protocol::Event::Telemetry(protocol::Telemetry {
+                uptime_ms: 0,
+                pressure_kpa: 0.0,
+                servo_deg: [0.0; 3],
+                inlet_open: false,
+                exhaust_open: false,
+                state: TrunkState::AS_MANUFACTURED,
+                state_confirmed: true,
+            }))
+            .is_none()
+        );
     }
 
     #[test]

@@ -1,11 +1,56 @@
-//! Running `host-tool` in the CLI tests: each test has its own socket directory
-//! (XDG_RUNTIME_DIR), so servers of parallel tests never meet.
+//! Running `host-tool` in the CLI tests: one command run to its end ([`host_tool`], with
+//! [`json`] and [`usage_error`] on top), and, for tests that start servers, each test with its
+//! own socket directory (XDG_RUNTIME_DIR, [`cmd`]), so servers of parallel tests never meet.
 
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, Output, Stdio};
+
+use serde_json::Value;
+
+/// `host-tool ARGS` run to its end, with no stdin and without the caller's $CRANE_PORT and
+/// $COLUMNS (a developer's shell does not change what the tests see).
+pub fn host_tool(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_host-tool"))
+        .args(args)
+        .env_remove("CRANE_PORT")
+        .env_remove("COLUMNS")
+        .stdin(Stdio::null())
+        .output()
+        .expect("host-tool runs")
+}
+
+/// The one JSON document `host-tool ARGS` prints on success (a failure fails the test with
+/// its stderr).
+pub fn json(args: &[&str]) -> Value {
+    let out = host_tool(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("valid JSON")
+}
+
+/// `host-tool ARGS` is a usage error (exit 2) whose message has `expect`, and no panic.
+pub fn usage_error(args: &[&str], expect: &str) {
+    let out = host_tool(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+    assert!(stderr.contains(expect), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+}
+
+/// A file `name` holding `text` in the test binary `test`'s own directory.
+pub fn temp_file(test: &str, name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("{test}_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write temp file");
+    p
+}
 
 /// `host-tool ARGS` with its socket directory in `dir` and no stdin.
 pub fn cmd(dir: &Path, args: &[&str]) -> Command {

@@ -370,6 +370,52 @@ impl DeviceConfig {
     }
 }
 
+/// Opens the recording `path` for `command` on `device`, before anything is sent: a path that
+/// cannot be written is refused up front.
+pub fn start_recording(
+    path: &std::path::Path,
+    command: &str,
+    device: &DeviceConfig,
+) -> Result<Recording, Failure> {
+    let mut meta = std::collections::BTreeMap::new();
+    meta.insert("command".to_string(), command.to_string());
+    meta.insert(
+        "argv".to_string(),
+        std::env::args().collect::<Vec<_>>().join(" "),
+    );
+    let (device_text, clock) = match device {
+        DeviceConfig::Port(p) => (
+            format!("port {p}"),
+            "host_ms: ms since the port was opened (wall clock)",
+        ),
+        DeviceConfig::Sim(s) => (
+            format!(
+                "simulator seed {} initial {} faults [{}]",
+                s.seed,
+                s.initial,
+                s.faults
+                    .iter()
+                    .map(|f| f.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            "host_ms: the simulator's virtual clock, ms",
+        ),
+    };
+    meta.insert("device".to_string(), device_text);
+    meta.insert("host_clock".to_string(), clock.to_string());
+    meta.insert(
+        "log_time".to_string(),
+        "device uptime (ns); messages without one: host time + latest device-host offset"
+            .to_string(),
+    );
+    let unix_ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis());
+    meta.insert("started_unix_ms".to_string(), unix_ms.to_string());
+    Recording::create(path, meta).map_err(Failure::Runtime)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -153,6 +153,23 @@ impl PlanOutcome {
     }
 }
 
+/// What `status` and `stop` report: one status of the device, who the device is and, for the
+/// simulator, its ground truth.
+pub struct Snapshot {
+    /// The device's status, read after the request.
+    pub status: protocol::Status,
+    /// Who the device is (from the handshake).
+    pub info: protocol::DeviceInfo,
+    /// The simulator's ground truth, if the device is the simulator.
+    pub truth: Option<SimTruth>,
+    /// Through a server, after an abort: engine ms from the stop's arrival to the device's
+    /// answer.
+    pub abort_latency_ms: Option<u64>,
+    /// The socket of the `host-tool serve` server that answered (`None`: this process talked
+    /// to the device itself).
+    pub server: Option<std::path::PathBuf>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

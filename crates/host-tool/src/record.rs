@@ -23,6 +23,7 @@ use host::{text, RunEvent};
 use protocol::{DeviceMessage, Event, Request, ResponseBody, Telemetry};
 use serde_json::{json, Value};
 
+pub mod live;
 pub mod messages;
 
 use messages as msg;
@@ -199,7 +200,7 @@ pub struct Recording {
     last_flush_ms: u64,
     failed: Option<String>,
     /// The live view, if one is served: every message goes there too.
-    live: Option<crate::live::Live>,
+    live: Option<crate::record::live::Live>,
     /// The trunk's scene builder (from the device's handshake).
     scene: Option<crate::scene::Scene>,
     /// The last sample drawn, and when (host ms).
@@ -244,7 +245,7 @@ impl Recording {
     }
 
     /// No file: the messages go to the live view only.
-    pub fn live_only(live: crate::live::Live) -> Self {
+    pub fn live_only(live: crate::record::live::Live) -> Self {
         Self::new(PathBuf::new(), None, [0; TOPICS.len()], Some(live))
     }
 
@@ -252,7 +253,7 @@ impl Recording {
         path: PathBuf,
         writer: Option<mcap::Writer<BufWriter<File>>>,
         channels: [u16; TOPICS.len()],
-        live: Option<crate::live::Live>,
+        live: Option<crate::record::live::Live>,
     ) -> Self {
         Self {
             path,
@@ -271,7 +272,7 @@ impl Recording {
     }
 
     /// Serves every message live too.
-    pub fn attach_live(&mut self, live: crate::live::Live) {
+    pub fn attach_live(&mut self, live: crate::record::live::Live) {
         self.live = Some(live);
     }
 
@@ -889,51 +890,4 @@ impl<I: host::Io + Truth> host::Io for Recorder<I> {
         }
         Ok(())
     }
-}
-
-/// Opens the recording `path` for `command` on `device`, before anything is sent: a path that
-/// cannot be written is refused up front.
-pub fn start(
-    path: &Path,
-    command: &str,
-    device: &crate::device::DeviceConfig,
-) -> Result<Recording, crate::failure::Failure> {
-    use crate::device::DeviceConfig;
-    let mut meta = BTreeMap::new();
-    meta.insert("command".to_string(), command.to_string());
-    meta.insert(
-        "argv".to_string(),
-        std::env::args().collect::<Vec<_>>().join(" "),
-    );
-    let (device_text, clock) = match device {
-        DeviceConfig::Port(p) => (
-            format!("port {p}"),
-            "host_ms: ms since the port was opened (wall clock)",
-        ),
-        DeviceConfig::Sim(s) => (
-            format!(
-                "simulator seed {} initial {} faults [{}]",
-                s.seed,
-                s.initial,
-                s.faults
-                    .iter()
-                    .map(|f| f.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            "host_ms: the simulator's virtual clock, ms",
-        ),
-    };
-    meta.insert("device".to_string(), device_text);
-    meta.insert("host_clock".to_string(), clock.to_string());
-    meta.insert(
-        "log_time".to_string(),
-        "device uptime (ns); messages without one: host time + latest device-host offset"
-            .to_string(),
-    );
-    let unix_ms = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_millis());
-    meta.insert("started_unix_ms".to_string(), unix_ms.to_string());
-    Recording::create(path, meta).map_err(crate::failure::Failure::Runtime)
 }

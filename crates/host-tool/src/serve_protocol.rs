@@ -48,7 +48,7 @@ pub enum Request {
     /// Runs a plan to `target` (one at a time per server).
     Plan {
         /// The state to reach, by name (`D&F`).
-        #[serde(with = "state_name")]
+        #[serde(with = "crate::state_name")]
         target: TrunkState,
     },
     /// Runs the identification of an unconfirmed state.
@@ -167,7 +167,7 @@ mod wire {
     }
     #[derive(Deserialize)]
     pub struct Plan {
-        #[serde(with = "state_name")]
+        #[serde(with = "crate::state_name")]
         pub target: TrunkState,
     }
     #[derive(Deserialize)]
@@ -308,70 +308,6 @@ impl Serialize for PlanSeq<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let steps: Vec<StepSeq<'_>> = self.0.steps.iter().map(StepSeq).collect();
         (self.0.plan_id, steps).serialize(s)
-    }
-}
-
-/// A trunk state as its name (`D&F`); read with `TrunkState`'s parser (any case, `-` for `&`).
-pub mod state_name {
-    use geometry::TrunkState;
-    use serde::{de, Deserialize, Deserializer, Serializer};
-
-    /// Writes the name.
-    pub fn serialize<S: Serializer>(state: &TrunkState, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(state.name())
-    }
-
-    /// Reads a name; the error names the six states.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<TrunkState, D::Error> {
-        let name = String::deserialize(d)?;
-        name.parse().map_err(|e| {
-            de::Error::custom(format!(
-                "invalid trunk state '{name}': {e}{}",
-                hil_sim::cli::ampersand_hint(&name)
-            ))
-        })
-    }
-
-    /// The same for an optional state (`null`: none).
-    pub mod option {
-        use geometry::TrunkState;
-        use serde::{Deserialize, Deserializer, Serializer};
-
-        /// Writes the name or `null`.
-        pub fn serialize<S: Serializer>(
-            state: &Option<TrunkState>,
-            s: S,
-        ) -> Result<S::Ok, S::Error> {
-            match state {
-                Some(st) => s.serialize_some(st.name()),
-                None => s.serialize_none(),
-            }
-        }
-
-        /// Reads a name or `null`.
-        pub fn deserialize<'de, D: Deserializer<'de>>(
-            d: D,
-        ) -> Result<Option<TrunkState>, D::Error> {
-            #[derive(Deserialize)]
-            struct Name(#[serde(with = "super")] TrunkState);
-            Ok(Option::<Name>::deserialize(d)?.map(|n| n.0))
-        }
-    }
-}
-
-/// An `f32` that JSON writes as `null` when it is not a number (serde_json's form of NaN),
-/// read back as NaN.
-pub mod f32_or_nan {
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    /// Writes the number (`null` for NaN or an infinity, as serde_json does).
-    pub fn serialize<S: Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
-        v.serialize(s)
-    }
-
-    /// Reads a number, `null` as NaN.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
-        Ok(Option::<f32>::deserialize(d)?.unwrap_or(f32::NAN))
     }
 }
 

@@ -27,15 +27,15 @@ pub struct SimConfig {
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct SimTruth {
     /// The trunk's physical state (None between states).
-    #[serde(with = "crate::serve_protocol::state_name::option")]
+    #[serde(with = "crate::state_name::option")]
     #[schemars(with = "Option<String>")]
     pub true_state: Option<TrunkState>,
     /// Highest pressure during the run (null: not a number).
-    #[serde(with = "crate::serve_protocol::f32_or_nan")]
+    #[serde(with = "crate::f32_or_nan")]
     #[schemars(with = "Option<f32>")]
     pub max_pressure_kpa: f32,
     /// The pressure cap (null: not a number).
-    #[serde(with = "crate::serve_protocol::f32_or_nan")]
+    #[serde(with = "crate::f32_or_nan")]
     #[schemars(with = "Option<f32>")]
     pub pressure_limit_kpa: f32,
     /// Valves closed and servos not driving.

@@ -114,8 +114,9 @@ impl<I: Io> Driver<I> {
         self.turn_until(None)
     }
 
-    /// A turn that never waits past `cap` (the clock's ms).
-    fn turn_until(&mut self, cap: Option<u64>) -> std::io::Result<()> {
+    /// A turn that never waits past `cap` (the clock's ms): the one pump around the engine,
+    /// also for a shell that must look up between slices (host-tool's `serve`).
+    pub fn turn_until(&mut self, cap: Option<u64>) -> std::io::Result<()> {
         while let Some(frame) = self.host.poll_transmit() {
             self.io.write(&frame)?;
         }

@@ -6,9 +6,9 @@ use host::RunOptions;
 use planner::graph::Graph;
 use serde_json::json;
 
-use crate::cmd::plan::{interrupt_flag, CliShell};
 use crate::device::{Connection, DeviceArgs};
 use crate::failure::Failure;
+use crate::shell::{interrupt_flag, CliShell};
 
 /// Arguments of `host-tool identify`.
 #[derive(Debug, clap::Args)]

@@ -47,11 +47,11 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let device = args.device.validate(Some(1.0))?;
     // In range by its parser: a `Duration` holds it.
     let duration = args.duration.map(Duration::from_secs_f64);
-    let cancel = crate::cmd::plan::interrupt_flag();
+    let cancel = crate::shell::interrupt_flag();
     let recording = args
         .record
         .as_deref()
-        .map(|p| crate::record::start(p, "monitor", &device))
+        .map(|p| crate::device::start_recording(p, "monitor", &device))
         .transpose()?;
     let mut conn = device.connect_recorded(recording)?;
     let s = &mut conn.session;
@@ -201,7 +201,7 @@ fn through_server(server: &std::path::Path, args: &Args) -> Result<(), Failure> 
             "a server holds this device and records its session itself: --record is not needed",
         ));
     }
-    let cancel = crate::cmd::plan::interrupt_flag();
+    let cancel = crate::shell::interrupt_flag();
     let mut c = crate::client::Client::connect(server)?;
     c.send(&crate::serve_protocol::Request::Monitor)?;
     let start = std::time::Instant::now();

@@ -3,21 +3,17 @@
 //! Open → handshake → status → cheapest plan from the device's state → upload, start → follow
 //! (progress, manual prompts, replanning) → exit 0 only when the device reports the target.
 
-use std::io::IsTerminal;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use geometry::TrunkState;
-use host::{Io as _, Outcome, RunEvent, RunOptions, RunShell, ShellAction};
-use planner::graph::{kind_name, Graph, Plan, PrimitiveText};
+use host::{Io as _, Outcome, RunOptions};
+use planner::graph::{kind_name, Graph, PrimitiveText};
 use serde_json::{json, Value};
 
 use crate::device::{ConnectError, DeviceArgs, DeviceConfig};
 use crate::failure::Failure;
-use crate::progress::{Bars, Lines, Progress};
-use crate::record::Recorder;
+use crate::shell::{interrupt_flag, CliShell};
 use crate::sim::SimTruth;
-use crate::transport::AnyIo;
 
 /// Arguments of `host-tool plan`.
 #[derive(Debug, clap::Args)]
@@ -91,161 +87,6 @@ impl Args {
     }
 }
 
-/// Sets `flag` on SIGINT, SIGTERM and SIGHUP (a closed terminal): the run aborts on the
-/// device and waits for its safe state instead of dying with the crane mid-step.
-pub fn interrupt_flag() -> Arc<AtomicBool> {
-    // One flag for the process, set by one handler: a command of several steps (a demo, a
-    // day's tracking) asks for it at each, and a Ctrl-C during any of them must be seen.
-    static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
-    FLAG.get_or_init(|| {
-        let flag = Arc::new(AtomicBool::new(false));
-        let f = flag.clone();
-        // Fails only when another handler is installed already; the device's link watchdog
-        // still makes the crane safe then.
-        let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
-        flag
-    })
-    .clone()
-}
-
-/// The terminal side of a run: progress, the operator's Enter for manual steps, the
-/// operator's answer when the state must be identified, and the interrupt.
-pub(crate) struct CliShell {
-    ui: Box<dyn Progress>,
-    pending: Option<ShellAction>,
-    plan: Option<Plan>,
-    interrupted: Arc<AtomicBool>,
-    cancel_sent: bool,
-    /// A person can type at a terminal (Enter confirms a manual step; a state name answers
-    /// an identify prompt).
-    confirm: bool,
-    identify: Option<Vec<TrunkState>>,
-}
-
-impl CliShell {
-    /// The terminal shell of a run: bars on a terminal, plain lines otherwise; stdin lines
-    /// when stdin is a terminal; the interrupt flag.
-    pub(crate) fn new(interrupted: Arc<AtomicBool>) -> Self {
-        let ui: Box<dyn Progress> = if std::io::stderr().is_terminal() {
-            Box::new(Bars::default())
-        } else {
-            Box::new(Lines)
-        };
-        Self {
-            ui,
-            pending: None,
-            plan: None,
-            interrupted,
-            cancel_sent: false,
-            confirm: crate::keyboard::available(),
-            identify: None,
-        }
-    }
-}
-
-impl RunShell<Recorder<AnyIo>> for CliShell {
-    fn event(&mut self, event: &RunEvent, io: &mut Recorder<AnyIo>) {
-        let now = io.now_ms();
-        if let Some(rec) = io.recording() {
-            rec.run_event(now, event);
-        }
-        let io = &mut io.inner;
-        match event {
-            RunEvent::Plan { plan, replan } => {
-                self.ui.plan(plan, *replan);
-                self.plan = Some(plan.clone());
-            }
-            RunEvent::StepStarted { index, total } => {
-                if let Some(plan) = &self.plan {
-                    self.ui.step_started(*index, *total, plan);
-                }
-            }
-            RunEvent::StepProgress {
-                index,
-                elapsed_ms,
-                pressure_kpa,
-            } => self.ui.step_progress(*index, *elapsed_ms, *pressure_kpa),
-            RunEvent::ManualPrompt { index, task } => {
-                self.ui.manual_prompt(*index, *task, self.confirm)
-            }
-            RunEvent::StepFinished { index, report } => {
-                self.ui
-                    .step_finished(*index, report, self.cancel_sent && !report.ok)
-            }
-            RunEvent::Note(m) => self.ui.note(m),
-            RunEvent::IdentifyPrompt {
-                believed,
-                candidates,
-            } => {
-                let names: Vec<&str> = candidates.iter().map(|s| s.name()).collect();
-                self.ui.note(&format!(
-                    "the device has not confirmed its state (it reports {believed}, \
-                     unconfirmed); it may be any of {}",
-                    names.join(", ")
-                ));
-                if let AnyIo::Sim(sim) = io {
-                    // The simulated person at the crane looks at the simulated trunk.
-                    let truth = sim.sim.ground_truth().true_state;
-                    self.ui.note(&format!(
-                        "simulated operator: the trunk is {}",
-                        truth.map_or("between states", |s| s.name())
-                    ));
-                    self.identify = None;
-                    self.pending = Some(ShellAction::Declare(truth));
-                } else if self.confirm {
-                    self.ui.note(
-                        "look at the trunk and type its state (e.g. D&F) and Enter, or an empty \
-                         line if you cannot tell",
-                    );
-                    self.identify = Some(candidates.clone());
-                } else {
-                    self.pending = Some(ShellAction::Declare(None));
-                }
-            }
-            RunEvent::Finished => {}
-        }
-    }
-
-    fn poll(&mut self, io: &mut Recorder<AnyIo>) -> Option<ShellAction> {
-        if self.interrupted.load(Ordering::SeqCst) && !self.cancel_sent {
-            self.cancel_sent = true;
-            return Some(ShellAction::Cancel(
-                "interrupted: Ctrl-C, SIGTERM or SIGHUP".into(),
-            ));
-        }
-        if !self.cancel_sent && crate::cmd::prim::deadline_passed(io.now_ms()) {
-            self.cancel_sent = true;
-            return Some(ShellAction::Cancel(
-                crate::cmd::prim::TIME_LIMIT_ABORT.into(),
-            ));
-        }
-        if let Some(a) = self.pending.take() {
-            return Some(a);
-        }
-        let line = crate::keyboard::try_line()?;
-        match self.identify.take() {
-            Some(candidates) => {
-                let answer = line.trim();
-                if answer.is_empty() {
-                    return Some(ShellAction::Declare(None));
-                }
-                match answer.parse::<TrunkState>() {
-                    Ok(s) if candidates.contains(&s) => Some(ShellAction::Declare(Some(s))),
-                    _ => {
-                        self.ui.note(&format!(
-                            "'{answer}' is not one of the candidates; type one of them, or an \
-                             empty line"
-                        ));
-                        self.identify = Some(candidates);
-                        None
-                    }
-                }
-            }
-            None => Some(ShellAction::ConfirmManual),
-        }
-    }
-}
-
 /// Runs `host-tool plan`.
 pub fn run(args: Args) -> Result<(), Failure> {
     if !args.dry_run {
@@ -260,7 +101,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
     let recording = cfg
         .record
         .as_deref()
-        .map(|p| crate::record::start(p, "plan", &cfg.device))
+        .map(|p| crate::device::start_recording(p, "plan", &cfg.device))
         .transpose()?;
     let interrupted = interrupt_flag();
     let mut conn = match cfg.device.connect_recorded(recording) {

@@ -76,7 +76,7 @@ pub fn choose(found: &[(String, &str)], ask: Option<&mut Ask<'_>>) -> Result<Str
     match (found, ask) {
         ([], _) => {
             // A killed server leaves its socket: say so, rather than only that no board is here.
-            let dead: Vec<String> = crate::client::stale_servers()
+            let dead: Vec<String> = crate::sockets::stale_servers()
                 .into_iter()
                 .map(|(device, sock)| {
                     format!(

@@ -9,7 +9,7 @@
 //! The objects of the simulator's world (`--object`, `--tip-load-kg`) and the truth: see
 //! `crate::cmd::task`.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::Ordering;
 
 use geometry::tendon::TendonGeometry;
 use geometry::TrunkState;
@@ -21,6 +21,7 @@ use serde_json::{json, Value};
 use crate::cmd::task::{World, WorldArgs};
 use crate::device::{Connection, DeviceArgs};
 use crate::failure::Failure;
+use crate::shell::{deadline_passed, TIME_LIMIT_ABORT};
 use crate::transport::AnyIo;
 
 /// `open` or `close`.
@@ -140,7 +141,7 @@ impl Link {
             ));
         }
         let recording = record
-            .map(|p| crate::record::start(p, command, &cfg))
+            .map(|p| crate::device::start_recording(p, command, &cfg))
             .transpose()?;
         let mut conn = cfg.connect_recorded(recording)?;
         if let AnyIo::Sim(io) = &mut conn.session.io.inner {
@@ -268,29 +269,10 @@ pub struct StepEnd {
     pub error: Option<String>,
 }
 
-/// The link-clock time (ms) by which what runs now must have ended (a mission step's time
-/// limit), `u64::MAX` for none. Process-wide like the interrupt flag: a step that runs past
-/// it is aborted, the device left in its safe state ([`run_step`], and a plan's shell).
-static DEADLINE_MS: AtomicU64 = AtomicU64::new(u64::MAX);
-
-/// Sets (or with `None` clears) the time by which what runs now must end, on the link's clock.
-pub fn set_deadline(at_ms: Option<u64>) {
-    DEADLINE_MS.store(at_ms.unwrap_or(u64::MAX), Ordering::SeqCst);
-}
-
-/// Whether the time set by [`set_deadline`] has come at `now_ms`.
-pub fn deadline_passed(now_ms: u64) -> bool {
-    now_ms >= DEADLINE_MS.load(Ordering::SeqCst)
-}
-
-/// What a step aborted at its time limit reports.
-pub const TIME_LIMIT_ABORT: &str =
-    "its time limit ran out: the step was aborted, the device is in its safe state";
-
 /// Runs `step` on the device and waits for its end (Ctrl-C aborts it, and so does the time
 /// set by [`set_deadline`]: then the step ends not ok, [`TIME_LIMIT_ABORT`]).
 pub fn run_step(link: &mut Link, step: protocol::Step) -> Result<StepEnd, Failure> {
-    let interrupted = crate::cmd::plan::interrupt_flag();
+    let interrupted = crate::shell::interrupt_flag();
     link.command(RequestBody::RunStep(step))?;
     let mut aborted = false;
     let mut timed_out = false;

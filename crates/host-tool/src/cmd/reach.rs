@@ -150,8 +150,8 @@ pub fn bend_degrees(p: &ReachPlan) -> (f64, f64) {
 pub fn go_to_state(link: &mut Link, target: TrunkState) -> Result<(), Failure> {
     match link {
         Link::Direct(conn) => {
-            let interrupted = crate::cmd::plan::interrupt_flag();
-            let mut shell = crate::cmd::plan::CliShell::new(interrupted.clone());
+            let interrupted = crate::shell::interrupt_flag();
+            let mut shell = crate::shell::CliShell::new(interrupted.clone());
             let out =
                 conn.session
                     .run_plan(Graph::nominal(), target, RunOptions::default(), &mut shell);

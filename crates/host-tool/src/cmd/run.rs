@@ -201,7 +201,7 @@ fn act(
                 ));
             };
             let out = crate::cmd::identify::identify(conn);
-            if crate::cmd::plan::interrupt_flag().load(Ordering::SeqCst) {
+            if crate::shell::interrupt_flag().load(Ordering::SeqCst) {
                 return Err(Failure::Interrupted(
                     "interrupted while identifying: the device is in its safe state".into(),
                 ));
@@ -243,9 +243,9 @@ fn run_one(
     json_out: bool,
 ) -> Result<Ended, Failure> {
     let t0 = link.now_ms();
-    crate::cmd::prim::set_deadline(step.time_limit_ms.map(|l| t0 + l));
+    crate::shell::set_deadline(step.time_limit_ms.map(|l| t0 + l));
     let r = act(link, cfg, step, json_out);
-    crate::cmd::prim::set_deadline(None);
+    crate::shell::set_deadline(None);
     let duration_ms = link.now_ms().saturating_sub(t0);
     let over = step.time_limit_ms.filter(|l| duration_ms >= *l);
     let (ok, error, detail) = match r {
@@ -406,7 +406,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         return Ok(());
     }
     let mut link = Link::open_recorded(&args.device, &world, args.record.as_deref(), "run")?;
-    let interrupted = crate::cmd::plan::interrupt_flag();
+    let interrupted = crate::shell::interrupt_flag();
     let t0 = link.now_ms();
     if !args.json {
         crate::say!(

@@ -43,8 +43,8 @@ pub struct Args {
     pub rate: u32,
     /// Serve the live view to Foxglove (WebSocket, foxglove.websocket.v1) on HOST:PORT, e.g.
     /// 127.0.0.1:8765 (PORT 0: any free port; the address is printed).
-    #[arg(long, value_name = "HOST:PORT", value_parser = crate::live::parse_addr)]
-    pub foxglove: Option<crate::live::LiveAddr>,
+    #[arg(long, value_name = "HOST:PORT", value_parser = crate::record::live::parse_addr)]
+    pub foxglove: Option<crate::record::live::LiveAddr>,
 }
 
 struct Conn {
@@ -88,19 +88,18 @@ struct Server {
     /// Whether this server cancelled the running plan (a stop, a signal): its cut step is
     /// "aborted", not "FAILED".
     cancelled: bool,
-    buf: Vec<u8>,
 }
 
 /// Runs `host-tool serve`.
 pub fn run(args: Args) -> Result<(), Failure> {
     let device = args.device.validate(Some(1.0))?;
     let foxglove = args.foxglove;
-    let dir = crate::client::socket_dir_create().map_err(Failure::Runtime)?;
+    let dir = crate::sockets::socket_dir_create().map_err(Failure::Runtime)?;
     let port = match &device {
         DeviceConfig::Port(p) => Some(p.as_str()),
         DeviceConfig::Sim(_) => None,
     };
-    let sock = dir.join(crate::client::socket_name(port));
+    let sock = dir.join(crate::sockets::socket_name(port));
     if UnixStream::connect(&sock).is_ok() {
         return Err(Failure::Runtime(anyhow::anyhow!(
             "a server already serves this device ({})",
@@ -120,13 +119,13 @@ pub fn run(args: Args) -> Result<(), Failure> {
     };
     // The live view first: a port in use stops here, before a file is created.
     let live = foxglove
-        .map(|addr| crate::live::Live::start(addr, "host-tool serve"))
+        .map(|addr| crate::record::live::Live::start(addr, "host-tool serve"))
         .transpose()
         .map_err(Failure::Runtime)?;
     let live_addr = live.as_ref().map(|l| l.addr());
     let mut recording = record
         .as_deref()
-        .map(|p| crate::record::start(p, "serve", &device))
+        .map(|p| crate::device::start_recording(p, "serve", &device))
         .transpose()?;
     if let Some(live) = live {
         match recording.as_mut() {
@@ -134,7 +133,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             None => recording = Some(crate::record::Recording::live_only(live)),
         }
     }
-    let interrupted = crate::cmd::plan::interrupt_flag();
+    let interrupted = crate::shell::interrupt_flag();
     let mut conn = device.connect_recorded(recording)?;
     let _ = conn.session.command(RequestBody::SetParam {
         id: ParamId::TelemetryHz,
@@ -168,7 +167,6 @@ pub fn run(args: Args) -> Result<(), Failure> {
         pending: HashMap::new(),
         plan_client: None,
         cancelled: false,
-        buf: Vec::new(),
     };
     let result = server.serve(&listener, &interrupted);
     let _ = std::fs::remove_file(&sock);
@@ -261,33 +259,11 @@ impl Server {
             .is_some_and(|r| !r.is_finished())
     }
 
-    /// One slice: as the driver's turn, but never waiting past [`SLICE_MS`].
+    /// One slice: the driver's turn, never waiting past [`SLICE_MS`].
     fn turn(&mut self) -> std::io::Result<()> {
         let d = &mut self.conn.session;
-        while let Some(frame) = d.host.poll_transmit() {
-            d.io.write(&frame)?;
-        }
         let now = d.io.now_ms();
-        let deadline = d
-            .host
-            .poll_timeout()
-            .unwrap_or(now + SLICE_MS)
-            .min(now + SLICE_MS);
-        self.buf.clear();
-        if deadline > now {
-            d.io.read(deadline, &mut self.buf)?;
-        }
-        let now = d.io.now_ms();
-        if !self.buf.is_empty() {
-            d.host.handle_bytes(&self.buf, now);
-        }
-        if d.host.poll_timeout().is_some_and(|t| t <= now) {
-            d.host.handle_timeout(now);
-        }
-        while let Some(frame) = d.host.poll_transmit() {
-            d.io.write(&frame)?;
-        }
-        Ok(())
+        d.turn_until(Some(now + SLICE_MS))
     }
 
     fn read_clients(&mut self) {

@@ -7,6 +7,7 @@ use serde_json::{json, Value};
 use crate::device::DeviceArgs;
 use crate::failure::Failure;
 use crate::num::fixed;
+pub use crate::outcome::Snapshot;
 use crate::sim::SimTruth;
 use host::text::fault_list;
 
@@ -18,23 +19,6 @@ pub struct Args {
     /// Print one JSON object on stdout.
     #[arg(skip)]
     pub json: bool,
-}
-
-/// What `status` and `stop` report: one status of the device, who the device is and, for the
-/// simulator, its ground truth.
-pub struct Snapshot {
-    /// The device's status, read after the request.
-    pub status: Status,
-    /// Who the device is (from the handshake).
-    pub info: DeviceInfo,
-    /// The simulator's ground truth, if the device is the simulator.
-    pub truth: Option<SimTruth>,
-    /// Through a server, after an abort: engine ms from the stop's arrival to the device's
-    /// answer.
-    pub abort_latency_ms: Option<u64>,
-    /// The socket of the `host-tool serve` server that answered (`None`: this process talked
-    /// to the device itself).
-    pub server: Option<std::path::PathBuf>,
 }
 
 /// Connects to the device, sends `request` (if any), reads its status and closes the connection.

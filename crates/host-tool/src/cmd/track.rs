@@ -104,7 +104,7 @@ pub fn parse_until(
 /// Lets the link's clock reach `at_ms`, in slices that notice Ctrl-C (then the failure says
 /// `interrupted {during}: nothing was moving; …`).
 pub fn wait_until(link: &mut Link, at_ms: u64, during: &str) -> Result<(), Failure> {
-    let interrupted = crate::cmd::plan::interrupt_flag();
+    let interrupted = crate::shell::interrupt_flag();
     loop {
         if interrupted.load(Ordering::SeqCst) {
             return Err(Failure::Interrupted(format!(

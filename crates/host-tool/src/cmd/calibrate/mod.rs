@@ -25,10 +25,10 @@ use protocol::{RequestBody, ResponseBody, StepKind};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
-use crate::cmd::plan::CliShell;
 use crate::device::{DeviceArgs, DeviceConfig};
 use crate::failure::Failure;
 use crate::record::Recorder;
+use crate::shell::CliShell;
 use crate::transport::AnyIo;
 
 /// The profile file's format version: a file of another is refused, naming both.
@@ -670,7 +670,7 @@ fn calibrate(
     manual: bool,
     out: &Path,
 ) -> Result<(Profile, Option<Result<(), Failure>>), Failure> {
-    let interrupted = crate::cmd::plan::interrupt_flag();
+    let interrupted = crate::shell::interrupt_flag();
     let mut conn = device.connect()?;
     let s = &mut conn.session;
     let mut shell = CliShell::new(interrupted.clone());

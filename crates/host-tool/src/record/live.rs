@@ -14,7 +14,7 @@ use std::sync::Arc;
 use foxglove::websocket::Capability;
 use foxglove::{Context, PartialMetadata, RawChannel, Schema, WebSocketServer};
 
-use crate::record::{Topic, TOPICS};
+use super::{Topic, TOPICS};
 
 /// Where the live view listens, validated: an IP address (or `localhost`) and a port.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -21,6 +21,9 @@ pub fn task_shown(segments: [u8; 4]) -> Option<ManualTask> {
 
 /// From the task appearing to the confirm press: walking over and folding two layers of panels.
 pub const OPERATOR_DELAY_MS: u64 = 5_000;
+/// The fold itself, the last part of [`OPERATOR_DELAY_MS`]: hands move the panels over this
+/// long (the trunk's air leaves through the open exhaust meanwhile), then confirm.
+pub const FOLD_MS: u64 = 3_000;
 /// How long the confirm button is held.
 pub const CONFIRM_PRESS_MS: u64 = 200;
 
@@ -29,8 +32,14 @@ pub const CONFIRM_PRESS_MS: u64 = 200;
 pub enum OperatorAction {
     /// Nothing.
     None,
-    /// Fold the panels of this task by hand now.
-    DoTask(ManualTask),
+    /// Begin folding the panels of this task by hand, to be done `over_ms` from now (when
+    /// the confirm press comes).
+    Fold {
+        /// The task.
+        task: ManualTask,
+        /// How long the fold takes, ms.
+        over_ms: u64,
+    },
 }
 
 /// A mistake the operator will make at the next manual step (the swarm tester's scripts).
@@ -48,6 +57,8 @@ pub struct Operator {
     /// Whether the operator is there at all.
     pub enabled: bool,
     due_ms: Option<u64>,
+    /// The fold of the task due began (its hands are on the panels).
+    folding: bool,
     release_ms: Option<u64>,
     /// Manual tasks done so far.
     pub tasks_done: u32,
@@ -61,6 +72,7 @@ impl Operator {
         Self {
             enabled,
             due_ms: None,
+            folding: false,
             release_ms: None,
             tasks_done: 0,
             mistake: None,
@@ -82,25 +94,39 @@ impl Operator {
         }
         match (shown, self.due_ms) {
             (Some(_), None) => self.due_ms = Some(now_ms + OPERATOR_DELAY_MS),
-            (None, Some(_)) => self.due_ms = None,
-            (Some(asked), Some(due)) if now_ms >= due => {
-                let task = match self.mistake {
-                    Some(Mistake::Refuse) => {
-                        // Stays away; the step's time limit ends the wait.
-                        self.mistake = None;
-                        self.due_ms = Some(u64::MAX);
-                        return (action, false);
-                    }
-                    Some(Mistake::WrongFold(t)) => {
-                        self.mistake = None;
-                        t
-                    }
-                    None => asked,
-                };
-                action = OperatorAction::DoTask(task);
-                self.tasks_done += 1;
+            (None, Some(_)) => {
+                // The prompt went away: the person stops there (a fold begun is finished: its
+                // panels are not left halfway), and confirms nothing.
                 self.due_ms = None;
-                self.release_ms = Some(now_ms + CONFIRM_PRESS_MS);
+                self.folding = false;
+            }
+            (Some(asked), Some(due)) => {
+                if !self.folding && now_ms.saturating_add(FOLD_MS) >= due {
+                    let task = match self.mistake {
+                        Some(Mistake::Refuse) => {
+                            // Stays away; the step's time limit ends the wait.
+                            self.mistake = None;
+                            self.due_ms = Some(u64::MAX);
+                            return (action, false);
+                        }
+                        Some(Mistake::WrongFold(t)) => {
+                            self.mistake = None;
+                            t
+                        }
+                        None => asked,
+                    };
+                    action = OperatorAction::Fold {
+                        task,
+                        over_ms: due - now_ms,
+                    };
+                    self.tasks_done += 1;
+                    self.folding = true;
+                }
+                if now_ms >= due {
+                    self.due_ms = None;
+                    self.folding = false;
+                    self.release_ms = Some(now_ms + CONFIRM_PRESS_MS);
+                }
             }
             _ => {}
         }
@@ -118,14 +144,25 @@ mod tests {
     fn acts_after_the_delay_and_holds_confirm() {
         let mut o = Operator::new(true);
         assert_eq!(o.tick(0, TOP), (OperatorAction::None, false));
+        let begin = OPERATOR_DELAY_MS - FOLD_MS;
+        assert_eq!(o.tick(begin - 1, TOP), (OperatorAction::None, false));
+        assert_eq!(
+            o.tick(begin, TOP),
+            (
+                OperatorAction::Fold {
+                    task: ManualTask::FoldTopModule,
+                    over_ms: FOLD_MS
+                },
+                false
+            )
+        );
+        assert_eq!(o.tasks_done, 1);
+        // Folding: no second fold, no confirm before the fold is done.
         assert_eq!(
             o.tick(OPERATOR_DELAY_MS - 1, TOP),
             (OperatorAction::None, false)
         );
-        assert_eq!(
-            o.tick(OPERATOR_DELAY_MS, TOP),
-            (OperatorAction::DoTask(ManualTask::FoldTopModule), true)
-        );
+        assert_eq!(o.tick(OPERATOR_DELAY_MS, TOP), (OperatorAction::None, true));
         assert!(o.tick(OPERATOR_DELAY_MS + 100, TOP).1);
         assert!(!o.tick(OPERATOR_DELAY_MS + CONFIRM_PRESS_MS, TOP).1);
         assert_eq!(o.tasks_done, 1);
@@ -161,5 +198,24 @@ mod tests {
         o.tick(0, TOP);
         o.tick(10, None);
         assert_eq!(o.tick(OPERATOR_DELAY_MS + 1, TOP).0, OperatorAction::None);
+    }
+
+    #[test]
+    fn a_prompt_that_goes_away_mid_fold_is_not_confirmed() {
+        let mut o = Operator::new(true);
+        o.tick(0, TOP);
+        assert!(matches!(
+            o.tick(OPERATOR_DELAY_MS - FOLD_MS, TOP).0,
+            OperatorAction::Fold { .. }
+        ));
+        assert_eq!(
+            o.tick(OPERATOR_DELAY_MS - 10, None),
+            (OperatorAction::None, false)
+        );
+        assert_eq!(
+            o.tick(OPERATOR_DELAY_MS, None),
+            (OperatorAction::None, false)
+        );
+        assert_eq!(o.tasks_done, 1);
     }
 }

@@ -123,13 +123,14 @@ pub fn pair(opts: SimOptions) -> Pair {
 pub struct SimShell {
     /// Every run event, in order.
     pub events: Vec<host::RunEvent>,
-    answer: Option<host::ShellAction>,
+    /// Asked the trunk's state, not answered yet.
+    asked: bool,
 }
 
 impl SimShell {
-    fn on_event(&mut self, event: &host::RunEvent, io: &SimIo) {
+    fn on_event(&mut self, event: &host::RunEvent) {
         if let host::RunEvent::IdentifyPrompt { .. } = event {
-            self.answer = Some(host::ShellAction::Declare(io.sim.safety().true_state));
+            self.asked = true;
         }
         self.events.push(event.clone());
     }
@@ -143,11 +144,14 @@ impl AsMut<SimIo> for SimIo {
 
 /// For the simulator owned by a driver, or borrowed by one (`Driver<&mut SimIo>`).
 impl<I: AsMut<SimIo>> host::RunShell<I> for SimShell {
-    fn event(&mut self, event: &host::RunEvent, io: &mut I) {
-        self.on_event(event, io.as_mut());
+    fn event(&mut self, event: &host::RunEvent, _io: &mut I) {
+        self.on_event(event);
     }
 
-    fn poll(&mut self, _io: &mut I) -> Option<host::ShellAction> {
-        self.answer.take()
+    fn poll(&mut self, io: &mut I) -> Option<host::ShellAction> {
+        // The person answers once their hands are off the trunk.
+        let truth = io.as_mut().sim.person_names().filter(|_| self.asked)?;
+        self.asked = false;
+        Some(host::ShellAction::Declare(truth))
     }
 }

@@ -675,8 +675,8 @@ impl Sim {
         }
         let shown = self.shown.1;
         let (action, confirm_held) = self.operator.tick(now, shown);
-        if let OperatorAction::DoTask(task) = action {
-            self.do_manual(task);
+        if let OperatorAction::Fold { task, over_ms } = action {
+            self.do_manual(task, over_ms);
         }
         let held = self.held;
         let inputs = &mut self.shell.inputs;
@@ -837,18 +837,27 @@ impl Sim {
         }
     }
 
+    /// What the person at the crane names when asked the trunk's state: `None` while their
+    /// hands are still folding it (they finish the fold, then look), else the true state
+    /// (`Some(None)`: between states, which they say they cannot tell).
+    pub fn person_names(&self) -> Option<Option<TrunkState>> {
+        (!self.trunk.folding_by_hand()).then(|| self.trunk.state())
+    }
+
     /// A person moves one module into a well of its force curve by hand (the operator's tasks;
     /// a test's way to leave the bottom half-packed, well 1).
     pub fn move_module_by_hand(&mut self, module: Module, well: usize) {
         self.trunk.set_module_well(module, well);
     }
 
-    fn do_manual(&mut self, task: ManualTask) {
-        match task {
-            ManualTask::PackBottomModule => self.move_module_by_hand(Module::Bottom, 0),
-            ManualTask::FoldTopModule => self.move_module_by_hand(Module::Top, 0),
-            ManualTask::FoldBottomModule => self.move_module_by_hand(Module::Bottom, 2),
-        }
+    /// The operator's task, folded over `over_ms`.
+    fn do_manual(&mut self, task: ManualTask, over_ms: u64) {
+        let (module, well) = match task {
+            ManualTask::PackBottomModule => (Module::Bottom, 0),
+            ManualTask::FoldTopModule => (Module::Top, 0),
+            ManualTask::FoldBottomModule => (Module::Bottom, 2),
+        };
+        self.trunk.fold_by_hand(module, well, over_ms as f64 * 1e-3);
         if let Some(tr) = self.trace.as_mut() {
             let _ = writeln!(tr.text, "{:>8} operator {task:?}", self.now_ms);
         }

@@ -982,6 +982,8 @@ fn play_target(
         d.host.connect(start);
     }
     let mut opened = false;
+    // The person was asked the trunk's state and has not answered yet (their hands are on it).
+    let mut asked = false;
     loop {
         if *crash.borrow() {
             *crash.borrow_mut() = false;
@@ -1001,6 +1003,19 @@ fn play_target(
             );
             return Played::Failed;
         }
+        if let Some(truth) = d.io.sim.person_names().filter(|_| asked) {
+            // The person at the crane looks at the trunk.
+            asked = false;
+            let now = d.io.sim.now_ms();
+            checker.borrow_mut().note(
+                now,
+                &format!(
+                    "operator identifies {}",
+                    truth.map_or("nothing (between states)", |s| s.name())
+                ),
+            );
+            d.host.declare(truth, now);
+        }
         while let Some(ev) = d.host.poll_event() {
             let now = d.io.sim.now_ms();
             match ev {
@@ -1018,18 +1033,7 @@ fn play_target(
                         .note(now, &format!("handshake failed: {e}"));
                     return Played::Failed;
                 }
-                HostEvent::Run(RunEvent::IdentifyPrompt { .. }) => {
-                    // The person at the crane looks at the trunk.
-                    let truth = d.io.sim.ground_truth().true_state;
-                    checker.borrow_mut().note(
-                        now,
-                        &format!(
-                            "operator identifies {}",
-                            truth.map_or("nothing (between states)", |s| s.name())
-                        ),
-                    );
-                    d.host.declare(truth, now);
-                }
+                HostEvent::Run(RunEvent::IdentifyPrompt { .. }) => asked = true,
                 HostEvent::Run(RunEvent::Plan { plan, .. }) => {
                     bound_ms += plan
                         .steps()

@@ -44,6 +44,9 @@ pub(crate) struct CliShell {
     /// an identify prompt).
     confirm: bool,
     identify: Option<Vec<TrunkState>>,
+    /// The simulated person was asked the trunk's state and answers once their hands are off
+    /// it.
+    sim_asked: bool,
 }
 
 impl CliShell {
@@ -58,6 +61,7 @@ impl CliShell {
         Self {
             ui,
             pending: None,
+            sim_asked: false,
             plan: None,
             interrupted,
             cancel_sent: false,
@@ -107,15 +111,9 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
                      unconfirmed); it may be any of {}",
                     names.join(", ")
                 ));
-                if let AnyIo::Sim(sim) = io {
-                    // The simulated person at the crane looks at the simulated trunk.
-                    let truth = sim.sim.ground_truth().true_state;
-                    self.ui.note(&format!(
-                        "simulated operator: the trunk is {}",
-                        truth.map_or("between states", |s| s.name())
-                    ));
+                if let AnyIo::Sim(_) = io {
                     self.identify = None;
-                    self.pending = Some(ShellAction::Declare(truth));
+                    self.sim_asked = true;
                 } else if self.confirm {
                     self.ui.note(
                         "look at the trunk and type its state (e.g. D&F) and Enter, or an empty \
@@ -143,6 +141,17 @@ impl RunShell<Recorder<AnyIo>> for CliShell {
         }
         if let Some(a) = self.pending.take() {
             return Some(a);
+        }
+        if let (true, AnyIo::Sim(sim)) = (self.sim_asked, &io.inner) {
+            // The simulated person at the crane looks at the simulated trunk, once their
+            // hands are off it.
+            let truth = sim.sim.person_names()?;
+            self.sim_asked = false;
+            self.ui.note(&format!(
+                "simulated operator: the trunk is {}",
+                truth.map_or("between states", |s| s.name())
+            ));
+            return Some(ShellAction::Declare(truth));
         }
         let line = crate::keyboard::try_line()?;
         match self.identify.take() {

@@ -82,6 +82,10 @@ pub const PROGRESS_PERIOD_MS: u64 = 100;
 /// a snap may complete after the valves closed; both drop a sealed trunk's pressure without
 /// any leak.
 pub const LEAK_SETTLE_MS: u64 = 5_000;
+/// A person's hands may still be on the trunk this long after a manual step stopped waiting
+/// (aborted, timed out, or a boot into an unconfirmed state): a fold they began is finished,
+/// and it compresses the trunk as gas coming in would; the stuck-open inlet watch allows it.
+pub const HANDS_MS: u64 = 5_000;
 /// At rest, a confirmed state stops being vouched for when the air in the trunk rises this much
 /// above the lowest it held since, with [`protocol::transitions::SEALED_ACTS_KPA`] or more in it:
 /// gas is coming in (a valve stuck open), and it may snap a module up. A load pressing on the
@@ -328,6 +332,11 @@ impl Controller {
                     now_ms + LEAK_SETTLE_MS
                 },
                 rest_floor_kpa: None,
+                hands_until_ms: if belief.is_confirmed() {
+                    now_ms
+                } else {
+                    now_ms + HANDS_MS
+                },
                 leak: LeakWatch::default(),
                 inlet: InletWatch::default(),
             },

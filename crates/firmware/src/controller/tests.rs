@@ -1026,6 +1026,38 @@ fn a_load_pressing_on_the_sealed_trunk_is_not_a_stuck_inlet() {
 }
 
 #[test]
+fn a_fold_finished_after_its_manual_step_was_aborted_is_not_a_stuck_inlet() {
+    // A person packing the bottom when the step is aborted finishes the fold: the trunk is
+    // squeezed (4 kPa/s for 1.5 s, as the simulator's sealed trunk packed over 3 s) with the
+    // inlet shut. For HANDS_MS
+    // that is their hands, not gas coming in; after it, gas coming in is a stuck inlet again.
+    let mut r = Rig::connected_profiled(DF);
+    r.keepalive();
+    r.upload_and_start(Rig::plan(4, &[DF, DP]));
+    r.run(100);
+    assert_eq!(r.ctl.mode(), Mode::WaitingManual);
+    r.run(2_000);
+    assert_eq!(r.request(RequestBody::Abort).0, ResultCode::Ok);
+    r.run(50);
+    assert_ne!(r.ctl.mode(), Mode::WaitingManual);
+    for _ in 0..1_500 {
+        r.plant.p_kpa += 0.004;
+        r.run(1);
+    }
+    assert!(
+        !r.faults_raised().contains(&FaultCode::InletStuck),
+        "{:?}",
+        r.faults_raised()
+    );
+    r.run(super::HANDS_MS.saturating_sub(1_500));
+    r.plant.inlet_stuck_open = true;
+    r.run_until(1_000, |r| {
+        r.faults_raised().contains(&FaultCode::InletStuck)
+    })
+    .expect("a stuck inlet after the person's hands are off the trunk");
+}
+
+#[test]
 fn a_stuck_open_inlet_is_vented_and_never_pushes_the_trunk_on() {
     // Idle and sealed: gas coming in is a stuck inlet; the exhaust opens and stays open.
     let mut r = Rig::connected(FF);

@@ -16,6 +16,9 @@ pub(super) struct Watches {
     pub(super) leak_quiet_until_ms: u64,
     /// At rest with the state confirmed: the lowest pressure since (the rest watch's floor).
     pub(super) rest_floor_kpa: Option<f32>,
+    /// A person may be folding the trunk until then ([`super::HANDS_MS`] after a manual
+    /// step's wait).
+    pub(super) hands_until_ms: u64,
     pub(super) leak: LeakWatch,
     pub(super) inlet: InletWatch,
 }
@@ -51,8 +54,12 @@ impl Controller {
         let now = self.now_ms;
         let w = self.cfg.inlet_watch;
         let still = self.act.servo_deg == self.act.servo_target_deg;
-        // A person doing a manual step moves the trunk (packing it raises the pressure).
-        let by_hand = self.exec.as_ref().is_some_and(Exec::waiting_manual);
+        // A person doing a manual step moves the trunk (packing it raises the pressure), and
+        // finishes a fold begun after the step stopped waiting.
+        if self.exec.as_ref().is_some_and(Exec::waiting_manual) {
+            self.watch.hands_until_ms = now + super::HANDS_MS;
+        }
+        let by_hand = now < self.watch.hands_until_ms;
         if self.act.outputs.inlet_open
             || !still
             || by_hand

@@ -77,8 +77,22 @@ pub struct Trunk {
     /// Last well each module was settled in.
     last_well: [usize; 2],
     tensions_n: [f64; 3],
+    /// A fold by hand under way.
+    hand: Option<Hand>,
     /// What every step derives from the parameters alone, computed once.
     derived: Derived,
+}
+
+/// A person's hands moving one module into a well ([`Trunk::fold_by_hand`]): its height goes
+/// from where it was to the well's, evenly over the fold's time, whatever the forces on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Hand {
+    module: Module,
+    well: usize,
+    from_mm: f64,
+    to_mm: f64,
+    over_s: f64,
+    done_s: f64,
 }
 
 /// Values every step needs that depend on the parameters only (the same expressions, evaluated
@@ -154,6 +168,7 @@ impl Trunk {
             wells: [None; 2],
             last_well: [0; 2],
             tensions_n: [0.0; 3],
+            hand: None,
         };
         t.place(state);
         t.pv_j = P_ATM_PA * t.volume_m3();
@@ -167,7 +182,39 @@ impl Trunk {
         self.set_module_well(Module::Bottom, bottom_well(state.bottom));
     }
 
-    /// Moves one module into `well` by hand.
+    /// A person begins to fold one module into `well`, done `over_s` from now: each step
+    /// moves it evenly toward the well (the gas flows as the volume changes: through the
+    /// exhaust when it is open), and the last one leaves it there. A fold in zero time is
+    /// [`Trunk::set_module_well`]. A fold already under way is finished first.
+    pub fn fold_by_hand(&mut self, module: Module, well: usize, over_s: f64) {
+        if let Some(h) = self.hand.take() {
+            self.set_module_well(h.module, h.well);
+        }
+        let (curve, i) = match module {
+            Module::Top => (&self.params.top, 0),
+            Module::Bottom => (&self.params.bottom, 1),
+        };
+        let well = well.min(curve.wells().len() - 1);
+        if over_s.is_nan() || over_s <= 0.0 {
+            self.set_module_well(module, well);
+            return;
+        }
+        self.hand = Some(Hand {
+            module,
+            well,
+            from_mm: self.heights_mm[i],
+            to_mm: curve.wells()[well].height_mm,
+            over_s,
+            done_s: 0.0,
+        });
+    }
+
+    /// Whether a fold by hand is under way.
+    pub fn folding_by_hand(&self) -> bool {
+        self.hand.is_some()
+    }
+
+    /// Moves one module into `well` by hand, at once.
     pub fn set_module_well(&mut self, module: Module, well: usize) {
         let (curve, i) = match module {
             Module::Top => (&self.params.top, 0),
@@ -378,6 +425,20 @@ impl Trunk {
         self.heights_mm[1] += dx[1];
         self.bend[0] += dx[2];
         self.bend[1] += dx[3];
+        let mut hand_done = None;
+        if let Some(h) = self.hand.as_mut() {
+            // The hands set the module's height, whatever the forces.
+            h.done_s += dt_s;
+            let i = match h.module {
+                Module::Top => 0,
+                Module::Bottom => 1,
+            };
+            let f = (h.done_s / h.over_s).min(1.0);
+            self.heights_mm[i] = h.from_mm + (h.to_mm - h.from_mm) * f;
+            if f >= 1.0 {
+                hand_done = Some((h.module, h.well));
+            }
+        }
 
         // Gas: flows at the new volume.
         let volume = self.volume_m3();
@@ -413,6 +474,10 @@ impl Trunk {
                 }
             }
             self.wells[mi] = now;
+        }
+        if let Some((module, well)) = hand_done {
+            self.hand = None;
+            self.set_module_well(module, well);
         }
         snaps
     }

@@ -95,7 +95,14 @@ impl PlanRunner {
                     next_poll_ms: now_ms + self.options.poll_ms,
                 };
             }
-            Err(e) => self.finish(Some(RunFailure::from_session("starting the plan", &e))),
+            Err(e) => {
+                // The refusal may answer a retransmission: a first StartPlan heard before a
+                // reboot (its reply lost) started the plan, and the trunk may then be anywhere
+                // the plan reaches. Nothing fresh says otherwise: the state is unconfirmed.
+                self.out.state_confirmed = false;
+                self.out.candidates = self.stale_candidates(Some(&run));
+                self.finish(Some(RunFailure::from_session("starting the plan", &e)))
+            }
         }
     }
 

@@ -40,10 +40,11 @@ impl PlanRunner {
         let identifying = before.identification().filter(|_| !st.state_confirmed);
         // Air left sealed in the resting trunk (an interrupted pull compresses it: 37 kPa in the
         // swarm) may still change its state once the tendons let go — popping a folded top
-        // after the state was identified. It is let out first (venting changes no state), once.
+        // after the state was identified. It is let out first (venting changes no state), once;
+        // also from the safe state an aborted pull leaves (the tendons holding the fold).
         if !self.memory.vented_first
             && identifying.is_none()
-            && st.mode == Mode::Standalone
+            && matches!(st.mode, Mode::Standalone | Mode::Safe)
             && st.faults == 0
             && st.pressure_kpa >= protocol::transitions::SEALED_ACTS_KPA
         {

@@ -117,7 +117,7 @@ impl Operator {
                     };
                     action = OperatorAction::Fold {
                         task,
-                        over_ms: due - now_ms,
+                        over_ms: due.saturating_sub(now_ms),
                     };
                     self.tasks_done += 1;
                     self.folding = true;

@@ -178,6 +178,7 @@ impl Trunk {
     /// Moves both modules into the wells of `state` (what a person folding by hand does), at
     /// the same gas amount.
     pub fn place(&mut self, state: TrunkState) {
+        self.hand = None;
         self.set_module_well(Module::Top, top_well(state.top));
         self.set_module_well(Module::Bottom, bottom_well(state.bottom));
     }
@@ -433,7 +434,8 @@ impl Trunk {
                 Module::Top => 0,
                 Module::Bottom => 1,
             };
-            let f = (h.done_s / h.over_s).min(1.0);
+            // (1e-9: the sum of a thousand 1 ms steps is not exactly 1 s.)
+            let f = (h.done_s / h.over_s + 1e-9).min(1.0);
             self.heights_mm[i] = h.from_mm + (h.to_mm - h.from_mm) * f;
             if f >= 1.0 {
                 hand_done = Some((h.module, h.well));
@@ -611,6 +613,49 @@ mod tests {
                 t.pressure_kpa()
             );
         }
+    }
+
+    #[test]
+    fn a_fold_by_hand_moves_evenly_and_the_open_exhaust_lets_its_air_out() {
+        // Packing the bottom under a deployed top (D&F → D&P) over 3 s: sealed, the gas is
+        // squeezed as at once (Boyle); with the exhaust open it stays near ambient.
+        let peak = |exhaust_open: bool| {
+            let mut t = trunk("D&F");
+            let h0 = t.heights_mm()[1];
+            let p_at_once = {
+                let mut u = t.clone();
+                u.set_module_well(Module::Bottom, 0);
+                u.pressure_kpa()
+            };
+            t.fold_by_hand(Module::Bottom, 0, 3.0);
+            let act = Actuation {
+                exhaust_open,
+                ..Actuation::default()
+            };
+            let mut peak = 0.0_f64;
+            for ms in 1..=3_000 {
+                t.step(1e-3, &act);
+                peak = peak.max(t.pressure_kpa());
+                if ms == 1_500 {
+                    // Half-way in time, half-way in height.
+                    let h = t.heights_mm()[1];
+                    let half = (h0 + t.params().bottom.wells()[0].height_mm) / 2.0;
+                    assert!((h - half).abs() < 0.1, "{h} vs {half} mm");
+                    assert!(t.folding_by_hand());
+                }
+            }
+            assert!(!t.folding_by_hand());
+            assert_eq!(t.state(), Some(st("D&P")));
+            (peak, p_at_once)
+        };
+        let (sealed, at_once) = peak(false);
+        assert!(
+            (sealed - at_once).abs() < 0.05 * at_once,
+            "{sealed} vs {at_once} kPa"
+        );
+        assert!(at_once > 5.0, "{at_once} kPa");
+        let (open, _) = peak(true);
+        assert!(open < 1.0, "{open} kPa with the exhaust open");
     }
 
     #[test]

@@ -467,7 +467,7 @@ impl PlanRunner {
     /// plan the device may be running), widened by the air the last report saw sealed in the
     /// trunk, from the first step not reported done to the end (a step's end may have gone
     /// unheard, and a device that lost its host aborts the step it is in).
-    pub(super) fn stale_candidates(&self, running: Option<&Following>) -> StateSet {
+    fn stale_candidates(&self, running: Option<&Following>) -> StateSet {
         let mut set = match &self.out.last_status {
             Some(_) => self.out.candidates,
             None => StateSet::ALL,

@@ -97,14 +97,14 @@ const EDGES: &[Edge] = &[
             "--lon",
             "0",
             "--time",
-            "2025-06-21T00:00:00Z",
+            "2025-06-21T12:00:00Z",
         ],
         flag: "--temperature-c",
-        ok: &["-272.999", "100"],
+        ok: &["-90", "60"],
         ok_exit: 0,
         ok_says: "",
-        refused: &["-273", "100.001", "inf"],
-        why: "--temperature-c must be a number in (-273, 100] °C",
+        refused: &["-90.001", "60.001", "-272.999", "inf"],
+        why: "--temperature-c must be a number in [-90, 60] °C",
     },
     Edge {
         line: &[

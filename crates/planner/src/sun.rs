@@ -35,8 +35,8 @@ pub enum SunError {
     /// ΔT not finite or outside ±10 000 s.
     #[error("ΔT {0} s is outside [-10000, 10000] s")]
     DeltaT(f64),
-    /// Pressure not in (0, 2000] hPa or temperature not in (−273, 100] °C.
-    #[error("atmosphere {0} hPa, {1} °C is outside (0, 2000] hPa × (-273, 100] °C")]
+    /// Pressure not in (0, 2000] hPa or temperature not in [−90, 60] °C.
+    #[error("atmosphere {0} hPa, {1} °C is outside (0, 2000] hPa × [-90, 60] °C")]
     Atmosphere(f64, f64),
     /// A time that does not parse or does not exist.
     #[error("{0}")]
@@ -116,8 +116,19 @@ impl Default for Atmosphere {
     }
 }
 
+/// The air temperatures a site can have, °C: Earth's surface records are −89.2 °C (Vostok,
+/// 1983) and 56.7 °C (Death Valley, 1913). SPA's refraction term scales with 283 / (273 + T):
+/// solar-positioning accepts (−273, 100] °C, but toward −273 °C the term diverges (at
+/// −272.999 °C it lifts a sun 18° from the zenith past it, and SPA fails), so the range is the
+/// physical one.
+pub const TEMPERATURE_RANGE_C: (f64, f64) = (-90.0, 60.0);
+
 impl Atmosphere {
     fn correction(&self) -> Result<RefractionCorrection, SunError> {
+        let (lo, hi) = TEMPERATURE_RANGE_C;
+        if !(lo..=hi).contains(&self.temperature_c) {
+            return Err(SunError::Atmosphere(self.pressure_hpa, self.temperature_c));
+        }
         RefractionCorrection::new(self.pressure_hpa, self.temperature_c)
             .map_err(|_| SunError::Atmosphere(self.pressure_hpa, self.temperature_c))
     }

@@ -177,3 +177,50 @@ fn the_default_delta_t_is_the_documented_estimate() {
     assert!((dt - solar_positioning::delta_t::estimate_from_date(2025, 6).unwrap()).abs() < 1e-12);
     assert!((60.0..80.0).contains(&dt), "{dt}");
 }
+
+/// Every atmosphere the range admits gives a position at every minute of a day with the sun
+/// overhead at noon and of a polar day (the refraction term is largest near the horizon and
+/// changes sign near the zenith), and the temperatures past the range are refused up front.
+#[test]
+fn every_admitted_atmosphere_gives_a_position_all_day_and_the_rest_is_refused() {
+    let (lo, hi) = sun::TEMPERATURE_RANGE_C;
+    let dt = DeltaT::seconds(69.0).unwrap();
+    for (lat, lon) in [(23.44, 0.0), (-23.44, 0.0), (80.0, 0.0), (0.0, 0.0)] {
+        let site = Site::new(lat, lon, 0.0).unwrap();
+        for temperature_c in [lo, 12.0, hi] {
+            for pressure_hpa in [1e-3, 1013.25, 2000.0] {
+                let air = Atmosphere {
+                    pressure_hpa,
+                    temperature_c,
+                };
+                for day in ["2025-06-21", "2025-12-21"] {
+                    let t0 = utc(&format!("{day}T00:00:00Z"));
+                    for minute in 0..24 * 60 {
+                        let t = t0 + Duration::minutes(minute);
+                        let p = sun::position(&site, &t, dt, &air).unwrap_or_else(|e| {
+                            panic!("{lat}° {pressure_hpa} hPa {temperature_c} °C {t}: {e}")
+                        });
+                        assert!((0.0..=180.0).contains(&p.zenith_deg), "{p:?}");
+                        // Refraction lifts the sun by under 3° even in the coldest, densest air.
+                        assert!(p.geometric_zenith_deg - p.zenith_deg < 3.0, "{p:?}");
+                    }
+                }
+            }
+        }
+    }
+    let site = Site::new(23.44, 0.0, 0.0).unwrap();
+    let t = utc("2025-06-21T12:00:00Z");
+    for temperature_c in [lo - 0.001, hi + 0.001, -272.999, f64::NAN] {
+        let air = Atmosphere {
+            pressure_hpa: 1013.25,
+            temperature_c,
+        };
+        assert!(
+            matches!(
+                sun::position(&site, &t, dt, &air),
+                Err(SunError::Atmosphere(..))
+            ),
+            "{temperature_c} °C"
+        );
+    }
+}

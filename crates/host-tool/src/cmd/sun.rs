@@ -28,9 +28,10 @@ pub struct SiteArgs {
     #[arg(long, default_value_t = 1013.25, allow_hyphen_values = true,
           value_parser = crate::arg::above_at_most("--pressure-hpa", "hPa", 0.0, 2000.0))]
     pub pressure_hpa: f64,
-    /// Air temperature for the refraction correction, °C (-273, 100]; default pvlib's 12.
+    /// Air temperature for the refraction correction, °C [-90, 60] (Earth's surface records);
+    /// default pvlib's 12.
     #[arg(long, default_value_t = 12.0, allow_hyphen_values = true,
-          value_parser = crate::arg::above_at_most("--temperature-c", "°C", -273.0, 100.0))]
+          value_parser = crate::arg::within("--temperature-c", "°C", planner::sun::TEMPERATURE_RANGE_C))]
     pub temperature_c: f64,
 }
 
@@ -95,12 +96,11 @@ impl SiteArgs {
         let ok = self.pressure_hpa.is_finite()
             && self.pressure_hpa > 0.0
             && self.pressure_hpa <= 2000.0
-            && self.temperature_c.is_finite()
-            && self.temperature_c > -273.0
-            && self.temperature_c <= 100.0;
+            && (planner::sun::TEMPERATURE_RANGE_C.0..=planner::sun::TEMPERATURE_RANGE_C.1)
+                .contains(&self.temperature_c);
         if !ok {
             return Err(Failure::usage(format!(
-                "--pressure-hpa {} / --temperature-c {}: pressure must be in (0, 2000] hPa and temperature in (-273, 100] °C",
+                "--pressure-hpa {} / --temperature-c {}: pressure must be in (0, 2000] hPa and temperature in [-90, 60] °C",
                 self.pressure_hpa, self.temperature_c
             )));
         }

@@ -88,37 +88,6 @@ pub fn delta_t(s: &str) -> Result<f64, String> {
     })
 }
 
-/// A finite number in `(lo, hi]` given as `flag` in `unit`: the refusal names the flag and
-/// the range.
-pub fn above_at_most(
-    flag: &'static str,
-    unit: &'static str,
-    lo: f64,
-    hi: f64,
-) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
-    move |s: &str| match s.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && v > lo && v <= hi => Ok(v),
-        _ => Err(format!(
-            "{flag} must be a number in ({lo}, {hi}] {unit}, got '{s}'"
-        )),
-    }
-}
-
-/// A finite number in `[lo, hi]` given as `flag` in `unit`: the refusal names the flag and
-/// the range.
-pub fn within(
-    flag: &'static str,
-    unit: &'static str,
-    (lo, hi): (f64, f64),
-) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
-    move |s: &str| match s.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
-        _ => Err(format!(
-            "{flag} must be a number in [{lo}, {hi}] {unit}, got '{s}'"
-        )),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -124,28 +124,52 @@ pub fn int_in(lo: i64, hi: i64) -> impl Fn(&str) -> Result<u32, String> + Clone 
     }
 }
 
-/// A clap parser for a finite number in `[lo, hi]`.
-pub fn number_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
-    move |s: &str| {
-        let expected = format!("expected a number from {lo} to {hi}");
-        match s.trim().parse::<f64>() {
-            Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
-            Ok(v) if v.is_finite() => Err(format!("{v} is out of range: {expected}")),
-            _ => Err(format!("'{s}' is not a finite number: {expected}")),
-        }
+/// The low end of the range a number parser accepts.
+#[derive(Debug, Clone, Copy)]
+pub enum Low {
+    /// `lo` itself is accepted.
+    From(f64),
+    /// Only numbers greater than `lo`.
+    Above(f64),
+}
+
+/// A clap parser for a finite number from `low` to `hi` (inclusive), in `unit` (`" °C"`, or
+/// `""` for a bare number): the refusal says what was given and the range expected.
+pub fn ranged(
+    low: Low,
+    hi: f64,
+    unit: &'static str,
+) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    let (inside, expected): (fn(f64, f64) -> bool, String) = match low {
+        Low::From(lo) => (|v, lo| v >= lo, format!("from {lo} to {hi}{unit}")),
+        Low::Above(lo) => (
+            |v, lo| v > lo,
+            format!("greater than {lo} and at most {hi}{unit}"),
+        ),
+    };
+    let (Low::From(lo) | Low::Above(lo)) = low;
+    move |s: &str| match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && inside(v, lo) && v <= hi => Ok(v),
+        Ok(v) if v.is_finite() => Err(format!("{v} is out of range: expected a number {expected}")),
+        _ => Err(format!(
+            "'{s}' is not a finite number: expected a number {expected}"
+        )),
     }
 }
 
+/// A clap parser for a finite number in `[lo, hi]`.
+pub fn number_in(
+    lo: f64,
+    hi: f64,
+) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    ranged(Low::From(lo), hi, "")
+}
+
 /// A clap parser for a finite number in `(0, hi]`: a duration or a rate that must be positive.
-pub fn positive_at_most(hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
-    move |s: &str| {
-        let expected = format!("expected a number greater than 0 and at most {hi}");
-        match s.trim().parse::<f64>() {
-            Ok(v) if v.is_finite() && v > 0.0 && v <= hi => Ok(v),
-            Ok(v) if v.is_finite() => Err(format!("{v} is out of range: {expected}")),
-            _ => Err(format!("'{s}' is not a finite number: {expected}")),
-        }
-    }
+pub fn positive_at_most(
+    hi: f64,
+) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    ranged(Low::Above(0.0), hi, "")
 }
 
 #[cfg(test)]

@@ -85,7 +85,7 @@ const EDGES: &[Edge] = &[
         ok_exit: 0,
         ok_says: "",
         refused: &["0", "2000.001", "nan", "-1"],
-        why: "--pressure-hpa must be a number in (0, 2000] hPa",
+        why: "expected a number greater than 0 and at most 2000 hPa",
     },
     // At midnight the sun is below the horizon, where SPA applies no refraction (at noon
     // SPA's refraction formula refuses -272.999 °C: a zenith angle outside [0°, 180°]).
@@ -104,7 +104,7 @@ const EDGES: &[Edge] = &[
         ok_exit: 0,
         ok_says: "",
         refused: &["-90.001", "60.001", "-272.999", "inf"],
-        why: "--temperature-c must be a number in [-90, 60] °C",
+        why: "expected a number from -90 to 60 °C",
     },
     Edge {
         line: &[

@@ -26,12 +26,12 @@ pub struct SiteArgs {
     pub delta_t: Option<f64>,
     /// Air pressure for the refraction correction, hPa (0, 2000]; default pvlib's 1013.25.
     #[arg(long, default_value_t = 1013.25, allow_hyphen_values = true,
-          value_parser = crate::arg::above_at_most("--pressure-hpa", "hPa", 0.0, 2000.0))]
+          value_parser = crate::num::ranged(crate::num::Low::Above(0.0), 2000.0, " hPa"))]
     pub pressure_hpa: f64,
     /// Air temperature for the refraction correction, °C [-90, 60] (Earth's surface records);
     /// default pvlib's 12.
     #[arg(long, default_value_t = 12.0, allow_hyphen_values = true,
-          value_parser = crate::arg::within("--temperature-c", "°C", planner::sun::TEMPERATURE_RANGE_C))]
+          value_parser = crate::num::ranged(crate::num::Low::From(planner::sun::TEMPERATURE_RANGE_C.0), planner::sun::TEMPERATURE_RANGE_C.1, " °C"))]
     pub temperature_c: f64,
 }
 

@@ -637,7 +637,7 @@ fn a_named_profile_shows_as_text_and_json() {
         "calibrate: sensor zero",
         "calibrate 1/8: F&P → F&F by pressure, a ramp toward 40 kPa",
         "calibrate 1/8: snap at 13.",
-        "calibrate 6/8: D&D → F&D by the tendons, a pull toward 182 mm",
+        "calibrate 6/8: D&D → F&D by the tendons, a pull toward 185 mm",
         "calibrated trunk 'bench trunk 3'",
     ] {
         assert!(t.contains(line), "{line}: {t}");

@@ -2,11 +2,13 @@
 //! device, over any [`Io`] — a serial port (`host-tool calibrate --port`), the simulator
 //! (`calibrate --sim`, and the swarm tester's calibration before each scenario).
 //!
-//! From F&P the walk takes each transition once, as a plan of one step: an inflation ramps
-//! toward the device's pressure limit and its snap pressure is the ramp's peak before its
-//! fall ([`ramp_snap`]); a pull goes toward the tendons' reach and its stroke is the tendon
-//! length at the first buckling spike ([`pull_spikes`]). The sensor's zero is read at rest
-//! first. [`targets`] turns what was measured into the thresholds plans use: the snap or
+//! The walk is a cycle through the states ([`walk`]), started where the trunk is
+//! ([`walk_at`]; from F&P when it is not on it). It takes each transition once, as a plan of
+//! one step: an inflation ramps toward the device's pressure limit and its snap pressure is
+//! the ramp's peak before its fall ([`ramp_snap`]); a pull goes toward the tendons' reach and
+//! its stroke is the tendon length at the first buckling spike ([`pull_spikes`]); the bottom's
+//! fold, which makes no spike, is searched by pulls of growing length let out sealed
+//! ([`sealed_release`]). The sensor's zero is read at rest first. [`targets`] turns what was measured into the thresholds plans use: the snap or
 //! stroke with a margin, capped by the device's limits.
 //!
 //! What the caller adds is its own: the words it shows ([`Hooks::say`]), what it measures in
@@ -32,8 +34,24 @@ pub const MARGIN: f64 = 0.15;
 /// The least a pull's length exceeds its measured stroke, mm (a top that buckles after 10 mm
 /// of pull would get 1.5 mm otherwise: under two telemetry samples of the servos' slew).
 pub const MIN_TENDON_MARGIN_MM: f64 = 3.0;
-/// The tendons' reach, mm: the longest pull the catalogue makes (within the winches' 185 mm).
+/// The tendons' reach, mm: the longest pull the catalogue makes (the winches' travel).
 pub const REACH_MM: f64 = transitions::PACK_BOTTOM_MM as f64;
+/// The bottom's fold (F&D → F&F) is searched: pulls of growing length from F&D, each let out
+/// sealed, until the trunk's volume stays smaller ([`sealed_release`]). The first pull, mm:
+/// under the shortest fold of any trunk drawn within ±25 % of the calibrated one (75 mm, with
+/// the tendons taut from ≈ 62 mm on the calibrated trunk).
+pub const SEARCH_FROM_MM: f64 = 64.0;
+/// Each pull of the search is this much longer than the one before, mm.
+pub const SEARCH_STEP_MM: f64 = 5.0;
+/// A searched fold's plans pull this much past the shortest pull that folded, mm: the search's
+/// step and 3 mm more. Not the 15 % of a spike's stroke: a longer pull half-packs the bottom
+/// on some trunks (23 mm past the fold on the closest of 300 trunks drawn within ±25 %, where
+/// 15 % of a 140 mm fold is 21 mm).
+pub const SEARCH_MARGIN_MM: f64 = SEARCH_STEP_MM + MIN_TENDON_MARGIN_MM;
+/// A sealed release this close to the pressure before its pull left the trunk's volume as it
+/// was, kPa: the sealed trunk's pressure is its volume (a fold of the bottom leaves ≥ 1.6 kPa
+/// more on trunks drawn within ±25 %; a pull that moved nothing leaves 0.04 kPa).
+pub const UNCHANGED_KPA: f64 = 0.5;
 /// The telemetry rate of a calibration, Hz (the device's highest).
 pub const TELEMETRY_HZ: u32 = 50;
 /// A fall of the pressure this far under its peak ends a ramp's peak: the snap, kPa. The
@@ -65,6 +83,9 @@ pub enum Measure {
     Snap,
     /// The stroke of the top's buckling.
     Stroke,
+    /// The shortest pull that folds the bottom, searched by sealed releases (its snap makes
+    /// no spike under the pinning tendons).
+    Search,
     /// Nothing the sensors can read: the step moves the trunk on.
     Pass,
 }
@@ -90,11 +111,19 @@ pub fn walk(manual: bool) -> Vec<(TrunkState, TrunkState, Measure)> {
             ("F&F", "D&F", Measure::Pass),
             ("D&F", "D&D", Measure::Snap),
             ("D&D", "F&D", Measure::Stroke),
-            ("F&D", "F&F", Measure::Pass),
+            ("F&D", "F&F", Measure::Search),
             ("F&F", "F&P", Measure::Pass),
         ])
         .map(|&(a, b, m)| (state(a), state(b), m))
         .collect()
+}
+
+/// [`walk`]'s cycle turned to start (and end) at `at`; `None` when `at` is not on it (D&P
+/// without `manual`).
+pub fn walk_at(manual: bool, at: TrunkState) -> Option<Vec<(TrunkState, TrunkState, Measure)>> {
+    let w = walk(manual);
+    let i = w.iter().position(|s| s.0 == at)?;
+    Some(w[i..].iter().chain(&w[..i]).copied().collect())
 }
 
 /// Which measured edge each calibrated edge of the catalogue takes its threshold from: the
@@ -120,9 +149,17 @@ pub fn source_of(
         ("D&F", "D&D") => ("D&F", "D&D"),
         ("D&D", "F&D") => ("D&D", "F&D"),
         ("D&F", "F&F") => ("D&F", "F&F"),
+        ("F&D", "F&F") => ("F&D", "F&F"),
         _ => return None,
     };
     Some((state(src.0), state(src.1)))
+}
+
+/// Whether `from` → `to` is measured by a search of sealed releases ([`Measure::Search`]).
+pub fn searched(from: TrunkState, to: TrunkState) -> bool {
+    walk(false)
+        .iter()
+        .any(|&(a, b, m)| (a, b) == (from, to) && m == Measure::Search)
 }
 
 /// Measured targets: `((from, to), value)`, kPa for a pneumatic edge, mm for a tendon edge.
@@ -210,23 +247,22 @@ pub struct Calibration {
 }
 
 impl Calibration {
-    /// The measured transition `from` → `to`.
-    pub fn measured(&self, from: TrunkState, to: TrunkState) -> Option<&Measured> {
+    /// Every measured transition `from` → `to` (the walk passes some twice, measuring once).
+    fn each(&self, from: TrunkState, to: TrunkState) -> impl Iterator<Item = &Measured> {
         self.transitions
             .iter()
-            .find(|m| m.from == from.name() && m.to == to.name())
+            .filter(move |m| m.from == from.name() && m.to == to.name())
     }
 
     /// The last snap of `from` → `to`, kPa.
     pub fn snap(&self, from: TrunkState, to: TrunkState) -> Option<f64> {
-        self.measured(from, to)
-            .and_then(|m| m.snap_kpa.last().copied())
+        self.each(from, to).find_map(|m| m.snap_kpa.last().copied())
     }
 
     /// The last stroke of `from` → `to`, mm.
     pub fn stroke(&self, from: TrunkState, to: TrunkState) -> Option<f64> {
-        self.measured(from, to)
-            .and_then(|m| m.stroke_mm.last().copied())
+        self.each(from, to)
+            .find_map(|m| m.stroke_mm.last().copied())
     }
 
     /// Refuses a calibration whose snaps are missing, out of order or outside the physical
@@ -284,16 +320,16 @@ impl Calibration {
         for (from, to, what) in walk(false) {
             let found = match what {
                 Measure::Snap => self.snap(from, to).is_some(),
-                Measure::Stroke => self.stroke(from, to).is_some(),
+                Measure::Stroke | Measure::Search => self.stroke(from, to).is_some(),
                 Measure::Pass => true,
             };
             if !found {
                 return Err(format!(
                     "{from} → {to}: no {} measured",
-                    if what == Measure::Snap {
-                        "snap pressure"
-                    } else {
-                        "buckling stroke"
+                    match what {
+                        Measure::Snap => "snap pressure",
+                        Measure::Search => "fold stroke",
+                        _ => "buckling stroke",
                     }
                 ));
             }
@@ -330,9 +366,10 @@ impl Calibration {
     }
 
     /// The measured targets of the catalogue's edges: each pneumatic step inflates toward
-    /// snap × (1 + margin), capped by `limit_kpa`; each measured tendon step pulls to
-    /// max(stroke × (1 + margin), stroke + 3 mm) within the reach. Refused when the cap is
-    /// under a measured snap or the reach under a stroke.
+    /// snap × (1 + margin), capped by `limit_kpa`; each tendon step measured by its spike pulls
+    /// to max(stroke × (1 + margin), stroke + 3 mm), the searched fold to stroke +
+    /// [`SEARCH_MARGIN_MM`], within the reach. Refused when the cap is under a measured snap or
+    /// the reach under a stroke.
     pub fn targets(&self, limit_kpa: f64) -> Result<Targets, String> {
         let mut out = Vec::new();
         for t in &transitions::TRANSITIONS {
@@ -366,9 +403,12 @@ impl Calibration {
                             t.from, t.to, self.tendon_reach_mm
                         ));
                     }
-                    (stroke * (1.0 + self.margin))
-                        .max(stroke + MIN_TENDON_MARGIN_MM)
-                        .min(self.tendon_reach_mm)
+                    let past = if searched(a, b) {
+                        stroke + SEARCH_MARGIN_MM
+                    } else {
+                        (stroke * (1.0 + self.margin)).max(stroke + MIN_TENDON_MARGIN_MM)
+                    };
+                    past.min(self.tendon_reach_mm)
                 }
                 StepKind::Manual => continue,
             };
@@ -450,13 +490,55 @@ pub fn pull_spikes(samples: &[(f64, f64)]) -> Vec<f64> {
     out
 }
 
+/// What a pull's sealed release says about the trunk's volume.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Release {
+    /// Let out sealed to where it started, the trunk came back to within [`UNCHANGED_KPA`]
+    /// of the pressure before the pull, no gas having left: it is where it was.
+    Unchanged,
+    /// Back to this much over the pressure before the pull, kPa: its volume changed (a fold
+    /// leaves it smaller), or gas left through the relief valve, or the release was not seen.
+    Changed(f64),
+}
+
+/// The sealed release of one pull, from its samples (pressure kPa, tendon length mm, exhaust
+/// open): the pressure before the tendons moved against the last one after they came back,
+/// before the exhaust opened again to vent. A relief while pulled (gas out: the pressure no
+/// longer tells the volume) or no sample back at the start is never [`Release::Unchanged`].
+pub fn sealed_release(samples: &[(f64, f64, bool)]) -> Release {
+    let moved = |s: &(f64, f64, bool)| s.1 > 0.5;
+    let Some(first_pulled) = samples.iter().position(moved) else {
+        return Release::Changed(f64::NAN);
+    };
+    // The first sample may be the pull's first: its tendons still slack (5 mm in 0.1 s).
+    let Some(before) = samples[..first_pulled]
+        .last()
+        .or(samples.first().filter(|s| s.1 < 5.0))
+        .map(|s| s.0)
+    else {
+        return Release::Changed(f64::NAN);
+    };
+    let last_pulled = samples.iter().rposition(moved).unwrap_or(first_pulled);
+    let relieved = samples[first_pulled..=last_pulled].iter().any(|s| s.2);
+    let after = samples[last_pulled + 1..]
+        .iter()
+        .take_while(|s| !s.2)
+        .last()
+        .map(|s| s.0);
+    match after {
+        Some(a) if !relieved && (a - before).abs() <= UNCHANGED_KPA => Release::Unchanged,
+        Some(a) => Release::Changed(a - before),
+        None => Release::Changed(f64::NAN),
+    }
+}
+
 /// The walk's one-step transition for `t`: toward the pressure limit with one snap, or toward
 /// the reach with the step's snaps.
 pub fn probe_transition(t: &Transition, limit_kpa: f32, what: Measure) -> Transition {
     match what {
         Measure::Snap => transition_graph::retarget(t, limit_kpa),
         Measure::Stroke => transition_graph::retarget(t, REACH_MM as f32),
-        Measure::Pass => *t,
+        Measure::Pass | Measure::Search => *t,
     }
 }
 
@@ -609,27 +691,38 @@ fn walk_from<I: Io, H: Hooks<I>>(
     let st = d
         .status()
         .map_err(|e| WalkError::Device(format!("reading the device's state: {e}")))?;
-    let first = state("F&P");
-    if !(st.state == first && st.state_confirmed) {
-        hooks.say(&format!(
-            "calibrate: the trunk is at {}{}: taking it to F&P first",
-            st.state,
-            if st.state_confirmed {
-                ""
-            } else {
-                " (unconfirmed)"
+    // The walk is a cycle: it starts where the trunk is, when that is on it, so the bottom's
+    // fold is searched before the pack needs it (a plan to F&P first folds it at the
+    // catalogue's length, which half-packs or misses the fold on trunks unlike the
+    // simulator's).
+    let on_cycle = Some(st.state)
+        .filter(|_| st.state_confirmed)
+        .and_then(|s| walk_at(manual, s).map(|w| (s, w)));
+    let (first, steps) = match on_cycle {
+        Some(start) => start,
+        None => {
+            let first = state("F&P");
+            hooks.say(&format!(
+                "calibrate: the trunk is at {}{}: taking it to F&P first",
+                st.state,
+                if st.state_confirmed {
+                    ""
+                } else {
+                    " (unconfirmed)"
+                }
+            ));
+            let out = d.run_plan(Graph::nominal(), first, RunOptions::default(), &mut shell);
+            if !out.ok() {
+                return Err(WalkError::Refused(format!(
+                    "could not start from F&P: {}",
+                    out.error().unwrap_or("not reached")
+                )));
             }
-        ));
-        let out = d.run_plan(Graph::nominal(), first, RunOptions::default(), &mut shell);
-        if !out.ok() {
-            return Err(WalkError::Refused(format!(
-                "could not start from F&P: {}",
-                out.error().unwrap_or("not reached")
-            )));
+            (first, walk(manual))
         }
-    }
-    // The sensor's zero: the trunk vented within F&P to the device's tolerance (the air a
-    // plan to F&P leaves sealed in it is let out), then one second of telemetry at rest. A
+    };
+    // The sensor's zero: the trunk vented within its state to the device's tolerance (the air
+    // a plan leaves sealed in it is let out), then one second of telemetry at rest. A
     // vent that cannot end is a sensor reading over the tolerance at ambient: its exhaust
     // stays open on the air, and the reading then is the zero.
     let interrupted = || hooks.interrupted();
@@ -685,11 +778,10 @@ fn walk_from<I: Io, H: Hooks<I>>(
             )));
         }
         return Err(WalkError::Refused(format!(
-            "the trunk could not be vented at F&P: {why}"
+            "the trunk could not be vented at {first}: {why}"
         )));
     }
     let servo = protocol::CraneGeometry::default().winch;
-    let steps = walk(manual);
     let mut measured: Vec<Measured> = Vec::new();
     hooks.at_state(d, first).map_err(WalkError::Hook)?;
     for (k, (from, to, what)) in steps.iter().copied().enumerate() {
@@ -702,12 +794,9 @@ fn walk_from<I: Io, H: Hooks<I>>(
             )));
         };
         let t = probe_transition(t, limit_kpa, what);
-        let graph = Graph::from_transitions(vec![t], CostModel::default());
-        shell.samples.clear();
+        let (n, total) = (k + 1, steps.len());
         hooks.say(&format!(
-            "calibrate {}/{}: {from} → {to} by {}{}",
-            k + 1,
-            steps.len(),
+            "calibrate {n}/{total}: {from} → {to} by {}{}",
             match t.kind {
                 StepKind::Tendon => "the tendons",
                 StepKind::Pneumatic => "pressure",
@@ -716,9 +805,49 @@ fn walk_from<I: Io, H: Hooks<I>>(
             match what {
                 Measure::Snap => format!(", a ramp toward {limit_kpa} kPa"),
                 Measure::Stroke => format!(", a pull toward {REACH_MM} mm"),
+                Measure::Search => format!(
+                    ", pulls from {SEARCH_FROM_MM} mm, {SEARCH_STEP_MM} mm longer each, each \
+                     let out sealed until the bottom stays folded"
+                ),
                 Measure::Pass => String::new(),
             }
         ));
+        if what == Measure::Search {
+            let found = search(d, &mut shell, &t, hooks, (n, total))?;
+            let m = Measured {
+                from: from.name().into(),
+                to: to.name().into(),
+                kind: kind_name(t.kind).into(),
+                snap_kpa: Vec::new(),
+                hold_kpa: None,
+                stroke_mm: vec![round(found.length, 10.0)],
+                held: found.held,
+            };
+            if found.at != Some(to) {
+                let why = match found.at {
+                    Some(at) if at == from => format!(
+                        "the bottom did not stay folded after any pull up to {:.1} mm",
+                        found.length
+                    ),
+                    Some(at) => {
+                        format!("the pull to {:.1} mm left the trunk at {at}", found.length)
+                    }
+                    None => format!(
+                        "after the pull to {:.1} mm the trunk's state is not known",
+                        found.length
+                    ),
+                };
+                return Err(WalkError::Refused(format!(
+                    "{from} → {to}: {why} (measured so far: {})",
+                    so_far(&measured)
+                )));
+            }
+            measured.push(m);
+            hooks.at_state(d, to).map_err(WalkError::Hook)?;
+            continue;
+        }
+        let graph = Graph::from_transitions(vec![t], CostModel::default());
+        shell.samples.clear();
         let out = d.run_plan(graph, to, RunOptions::default(), &mut shell);
         let samples = std::mem::take(&mut shell.samples);
         let mut m = Measured {
@@ -780,18 +909,14 @@ fn walk_from<I: Io, H: Hooks<I>>(
                     steps.len()
                 ));
             }
-            Measure::Pass => {}
+            Measure::Pass | Measure::Search => {}
         }
         if !out.ok() {
+            measured.push(m);
             return Err(WalkError::Refused(format!(
                 "{from} → {to}: {} (measured so far: {})",
                 out.error().unwrap_or("the step did not reach its target"),
-                measured
-                    .iter()
-                    .chain(std::iter::once(&m))
-                    .map(|m| format!("{} → {}: {}", m.from, m.to, m.text()))
-                    .collect::<Vec<_>>()
-                    .join("; ")
+                so_far(&measured)
             )));
         }
         measured.push(m);
@@ -814,6 +939,100 @@ fn walk_from<I: Io, H: Hooks<I>>(
     })
 }
 
+/// What a walk measured so far, in words.
+fn so_far(measured: &[Measured]) -> String {
+    measured
+        .iter()
+        .map(|m| format!("{} → {}: {}", m.from, m.to, m.text()))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// Where a [`search`] ended.
+struct Searched {
+    /// The last pull's length, mm: the fold's stroke when `at` is the step's target.
+    length: f64,
+    /// The state confirmed after it (`None`: not known).
+    at: Option<TrunkState>,
+    /// The device confirmed it from its own sensors.
+    held: bool,
+}
+
+/// The search of [`Measure::Search`]: the step of `t` on its own at growing lengths from
+/// [`SEARCH_FROM_MM`], each pull let out sealed by the device's own check, which cannot confirm
+/// a fold it sees no spike of. After each, a release that left the volume as it was
+/// ([`sealed_release`]) declares the start state, the evidence being the host's; any other is
+/// identified by the person (the simulated one under the simulator). The search ends at the
+/// first pull that reached `t.to`, with its length; without one at the reach, or at a state
+/// that is neither (the outcome says which).
+fn search<I: Io, H: Hooks<I>>(
+    d: &mut Driver<I>,
+    shell: &mut Sampling<'_, I>,
+    t: &Transition,
+    hooks: &mut H,
+    (n, total): (usize, usize),
+) -> Result<Searched, WalkError<H::Error>> {
+    let servo = protocol::CraneGeometry::default().winch;
+    let device = |e: String| WalkError::Device(format!("{} → {}: {e}", t.from, t.to));
+    let mut length = SEARCH_FROM_MM;
+    loop {
+        let pull = transition_graph::retarget(t, length as f32);
+        let step = Step {
+            kind: t.kind,
+            from: t.from,
+            to: t.to,
+            primitives: pull.primitives.iter().copied().collect(),
+            timeout_ms: t.timeout_ms,
+        };
+        let interrupted = || hooks.interrupted();
+        let samples = match run_step(d, step, &interrupted) {
+            Ok((samples, _)) => samples,
+            Err(WithinError::Interrupted) => return Err(WalkError::Interrupted),
+            Err(WithinError::Link(e)) => return Err(device(e)),
+            Err(WithinError::Failed { samples, .. }) => samples,
+        };
+        let st = d.status().map_err(|e| device(e.to_string()))?;
+        let held = st.state_confirmed;
+        let mut at = Some(st.state).filter(|_| held);
+        if !held {
+            let pulled: Vec<(f64, f64, bool)> = samples
+                .iter()
+                .map(|s| {
+                    let mm = tendon_mm(&servo, &s.servo_deg);
+                    (f64::from(s.pressure_kpa), mm, s.exhaust_open)
+                })
+                .collect();
+            if sealed_release(&pulled) == Release::Unchanged && st.candidates.contains(t.from) {
+                d.command(RequestBody::ResetFaults)
+                    .and_then(|_| d.command(RequestBody::DeclareState(t.from)))
+                    .map_err(|e| device(format!("declaring {} after the pull: {e}", t.from)))?;
+                at = Some(t.from);
+            } else {
+                let known = RunOptions {
+                    identify_only: true,
+                    ..RunOptions::default()
+                };
+                let who = d.run_plan(Graph::nominal(), t.to, known, shell);
+                at = who.final_state.filter(|_| who.state_confirmed);
+            }
+        }
+        let next = length + SEARCH_STEP_MM;
+        if at != Some(t.from) || next > REACH_MM {
+            if at == Some(t.to) {
+                hooks.say(&format!(
+                    "calibrate {n}/{total}: folds at {length:.1} mm of pull"
+                ));
+            }
+            return Ok(Searched { length, at, held });
+        }
+        hooks.say(&format!(
+            "calibrate {n}/{total}: {length:.1} mm: the sealed trunk came back as it was, not \
+             folded"
+        ));
+        length = next;
+    }
+}
+
 /// Why a step within a state ([`run_within`]) gave no reading.
 #[derive(Debug, Clone, PartialEq)]
 pub enum WithinError {
@@ -831,9 +1050,7 @@ pub enum WithinError {
     },
 }
 
-/// Runs one step of `prims` within `state` (its own plan, id 0) and waits for its end on the
-/// device's clock, up to `timeout_ms` and 2 s more: the telemetry during it and the step's
-/// duration from its `StepDone`.
+/// Runs one step of `prims` within `state` ([`run_step`]).
 pub fn run_within<I: Io>(
     d: &mut Driver<I>,
     state: TrunkState,
@@ -848,6 +1065,18 @@ pub fn run_within<I: Io>(
         primitives: prims.iter().copied().collect(),
         timeout_ms,
     };
+    run_step(d, step, interrupted)
+}
+
+/// Runs `step` on its own (plan id 0) and waits for its end on the device's clock, up to its
+/// time limit and 2 s more: the telemetry during it and the step's duration from its
+/// `StepDone`.
+pub fn run_step<I: Io>(
+    d: &mut Driver<I>,
+    step: Step,
+    interrupted: &dyn Fn() -> bool,
+) -> Result<(Vec<Telemetry>, u32), WithinError> {
+    let timeout_ms = step.timeout_ms;
     d.device_events.clear();
     d.command(RequestBody::RunStep(step))
         .map_err(|e| WithinError::Failed {
@@ -980,6 +1209,7 @@ mod tests {
                 measured("D&F", "F&F", None, Some(12.0)),
                 measured("D&F", "D&D", Some(30.0), None),
                 measured("D&D", "F&D", None, Some(14.0)),
+                measured("F&D", "F&F", None, Some(104.0)),
             ],
         }
     }
@@ -1004,6 +1234,14 @@ mod tests {
         assert!(capped.contains(&((state("D&F"), state("D&D")), 33.0)));
         // 12 × 1.15 = 13.8 over 12 + 3 = 15: the 3 mm floor wins.
         assert_eq!(get("D&F", "F&F"), Some(15.0));
+        // The searched fold: its shortest holding pull and 8 mm (not 15 %: 119.6 mm).
+        assert_eq!(get("F&D", "F&F"), Some(112.0));
+        // A walk that passed F&F → D&F first without measuring it still finds its snap.
+        let mut twice = c.clone();
+        twice
+            .transitions
+            .insert(0, measured("F&F", "D&F", None, None));
+        assert_eq!(twice.targets(40.0).unwrap(), t);
         // A cap under a snap is refused, naming it.
         let e = c.targets(25.0).unwrap_err();
         assert!(e.contains("D&F → D&D") && e.contains("30.00"), "{e}");
@@ -1022,7 +1260,93 @@ mod tests {
             "D&F → F&F: no buckling stroke measured"
         );
         let mut c = calibration();
+        c.transitions.pop();
+        assert_eq!(c.check().unwrap_err(), "F&D → F&F: no fold stroke measured");
+        let mut c = calibration();
         c.transitions[0].snap_kpa = vec![0.5];
         assert!(c.check().unwrap_err().contains("physical range"));
+    }
+
+    #[test]
+    fn the_walk_is_a_cycle_turned_to_start_where_the_trunk_is() {
+        for manual in [false, true] {
+            let w = walk(manual);
+            assert_eq!(w[0].0, state("F&P"));
+            for s in TrunkState::ALL {
+                let Some(turned) = walk_at(manual, s) else {
+                    // Only D&P is off the cycle, and only without the fold by hand.
+                    assert!(!manual && s == state("D&P"), "{s}");
+                    continue;
+                };
+                assert_eq!(turned.len(), w.len());
+                assert_eq!(turned[0].0, s);
+                assert_eq!(turned.last().unwrap().1, s, "{s}: ends where it began");
+                // Each step starts where the one before ended.
+                assert!(turned.windows(2).all(|p| p[0].1 == p[1].0), "{s}");
+                // The same steps, in the same cyclic order.
+                let mut sorted = turned.clone();
+                let mut all = w.clone();
+                let key = |x: &(TrunkState, TrunkState, Measure)| {
+                    (x.0.index(), x.1.index(), format!("{:?}", x.2))
+                };
+                sorted.sort_by_key(key);
+                all.sort_by_key(key);
+                assert_eq!(sorted, all);
+            }
+        }
+        // From D&D the bottom's fold is searched before the pack needs it.
+        let d = walk_at(false, state("D&D")).unwrap();
+        let fold = d.iter().position(|x| x.2 == Measure::Search).unwrap();
+        let pack = d
+            .iter()
+            .position(|x| (x.0, x.1) == (state("F&F"), state("F&P")))
+            .unwrap();
+        assert!(fold < pack);
+    }
+
+    #[test]
+    fn a_sealed_release_back_at_its_pressure_left_the_trunk_as_it_was() {
+        // (pressure, tendon mm, exhaust open): at rest, the pull compressing the sealed trunk,
+        // the release, at rest again, then the vent.
+        let pull = |after: f64, relief: bool| -> Vec<(f64, f64, bool)> {
+            let mut v = vec![(1.04, 0.0, false); 3];
+            v.extend((1..=10).map(|i| (1.04 + 0.5 * i as f64, 10.0 * i as f64, relief && i > 8)));
+            v.extend(
+                (0..10)
+                    .rev()
+                    .map(|i| (after + 0.3 * i as f64, 10.0 * i as f64, false)),
+            );
+            v.extend([(after, 0.0, false), (after, 0.0, false), (0.2, 0.0, true)]);
+            v
+        };
+        assert_eq!(sealed_release(&pull(1.30, false)), Release::Unchanged);
+        assert_eq!(sealed_release(&pull(0.60, false)), Release::Unchanged);
+        // A fold leaves the volume smaller: ≥ 1.6 kPa more on trunks within ±25 %.
+        let Release::Changed(rise) = sealed_release(&pull(2.70, false)) else {
+            panic!("a fold is a change");
+        };
+        assert!((rise - 1.66).abs() < 1e-9, "{rise}");
+        // Gas let out by the relief: the pressure no longer tells the volume.
+        assert!(matches!(
+            sealed_release(&pull(1.04, true)),
+            Release::Changed(_)
+        ));
+        // The release not seen (the samples end pulled), or no pull at all.
+        let cut = &pull(1.04, false)[..8];
+        assert!(matches!(sealed_release(cut), Release::Changed(_)));
+        assert!(matches!(
+            sealed_release(&[(1.0, 0.0, false); 5]),
+            Release::Changed(_)
+        ));
+        // The samples begin with the pull under way, its tendons still slack: its first is
+        // the pressure before.
+        let mut late = vec![(1.04, 2.0, false)];
+        late.extend_from_slice(&pull(1.04, false)[3..]);
+        assert_eq!(sealed_release(&late), Release::Unchanged);
+        // Not when its first is already pulled taut.
+        assert!(matches!(
+            sealed_release(&pull(1.04, false)[3..]),
+            Release::Changed(_)
+        ));
     }
 }

@@ -620,6 +620,45 @@ fn usage_errors_exit_2() {
 }
 
 #[test]
+fn the_walk_starts_where_the_trunk_is_and_a_fold_that_never_holds_is_refused() {
+    // From F&D the cycle begins with the bottom's fold. A broken tendon pulls nothing: every
+    // pull comes back to its pressure, the host declares F&D each time (the person is never
+    // asked), and at the reach the walk is refused, saying so.
+    let out = tmp("broken.toml");
+    let r = host_tool(&[
+        "calibrate",
+        "--sim",
+        "--sim-initial",
+        "F&D",
+        "--sim-fault",
+        "tendon-break",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let t = text(&r);
+    assert_eq!(r.status.code(), Some(1), "{t}");
+    assert!(
+        t.contains("calibrate 1/8: F&D → F&F by the tendons, pulls from 64 mm"),
+        "{t}"
+    );
+    assert_eq!(
+        t.matches("mm: the sealed trunk came back as it was, not folded")
+            .count(),
+        24,
+        "64 … 179 mm: {t}"
+    );
+    assert!(!t.contains("simulated operator"), "{t}");
+    assert!(
+        t.contains(
+            "calibration refused: F&D → F&F: the bottom did not stay folded after any pull up \
+             to 184.0 mm (measured so far: nothing yet)"
+        ),
+        "{t}"
+    );
+    assert!(!out.exists(), "no profile left");
+}
+
+#[test]
 fn a_named_profile_shows_as_text_and_json() {
     let path = tmp("named.toml");
     let o = host_tool(&[
@@ -638,16 +677,34 @@ fn a_named_profile_shows_as_text_and_json() {
         "calibrate 1/8: F&P → F&F by pressure, a ramp toward 40 kPa",
         "calibrate 1/8: snap at 13.",
         "calibrate 6/8: D&D → F&D by the tendons, a pull toward 185 mm",
+        "calibrate 7/8: F&D → F&F by the tendons, pulls from 64 mm, 5 mm longer each",
+        "calibrate 7/8: 99.0 mm: the sealed trunk came back as it was, not folded",
+        "calibrate 7/8: folds at 104.0 mm of pull",
         "calibrated trunk 'bench trunk 3'",
     ] {
         assert!(t.contains(line), "{line}: {t}");
     }
+    // The pulls that came back were the host's to declare: the person is asked once, at the
+    // fold (and at the pack, which the device cannot confirm either).
+    assert_eq!(
+        t.matches("simulated operator: the trunk is F&D").count(),
+        0,
+        "{t}"
+    );
+    assert!(t.contains("simulated operator: the trunk is F&F"), "{t}");
     let o = host_tool(&["calibration", "show", path.to_str().unwrap(), "-j"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["name"], "bench trunk 3");
     let targets = v["targets"].as_array().unwrap();
-    assert_eq!(targets.len(), 7, "{v}");
+    assert_eq!(targets.len(), 8, "{v}");
+    // The searched fold: the shortest holding pull (104 mm; 105 mm at 1 mm steps, the
+    // simulator's rig) and 8 mm.
+    let fold = targets
+        .iter()
+        .find(|t| t["from"] == "F&D" && t["to"] == "F&F")
+        .unwrap_or_else(|| panic!("no F&D → F&F target: {v}"));
+    assert_eq!(fold["value"], 112.0, "{v}");
     // A named profile on the simulator: another trunk's name than the simulated one's.
     let o = host_tool(&[
         "plan",

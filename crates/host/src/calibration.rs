@@ -941,6 +941,9 @@ fn walk_from<I: Io, H: Hooks<I>>(
 
 /// What a walk measured so far, in words.
 fn so_far(measured: &[Measured]) -> String {
+    if measured.is_empty() {
+        return "nothing yet".into();
+    }
     measured
         .iter()
         .map(|m| format!("{} → {}: {}", m.from, m.to, m.text()))

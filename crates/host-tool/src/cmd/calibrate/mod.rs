@@ -783,6 +783,7 @@ mod tests {
                 m("D&F", "F&F", "tendon", vec![], vec![60.0]),
                 m("D&F", "D&D", "pneumatic", vec![30.1], vec![]),
                 m("D&D", "F&D", "tendon", vec![], vec![14.8]),
+                m("F&D", "F&F", "tendon", vec![], vec![104.0]),
             ],
         }
     }

@@ -659,6 +659,40 @@ fn the_walk_starts_where_the_trunk_is_and_a_fold_that_never_holds_is_refused() {
 }
 
 #[test]
+fn a_leaking_trunk_is_never_declared_from_its_sealed_release() {
+    // A torn seam lets the air a fold squeezes out before the release could show it: the
+    // pressure falls while the pull holds its length, so the host does not declare F&D from
+    // the release; the person is asked after every pull, names the fold at 104 mm, and the
+    // walk is refused at the first inflation, which the device stops for the leak.
+    let out = tmp("leak.toml");
+    let r = host_tool(&[
+        "calibrate",
+        "--sim",
+        "--sim-initial",
+        "F&D",
+        "--sim-fault",
+        "leak",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let t = text(&r);
+    assert_eq!(r.status.code(), Some(1), "{t}");
+    assert!(!t.contains("came back as it was"), "{t}");
+    assert_eq!(
+        t.matches("mm: not folded (identified: the sealed release could not tell)")
+            .count(),
+        8,
+        "64 … 99 mm: {t}"
+    );
+    assert!(
+        t.contains("calibrate 1/8: folds at 104.0 mm of pull"),
+        "{t}"
+    );
+    assert!(t.contains("(E-08)"), "{t}");
+    assert!(!out.exists(), "no profile left");
+}
+
+#[test]
 fn a_named_profile_shows_as_text_and_json() {
     let path = tmp("named.toml");
     let o = host_tool(&[

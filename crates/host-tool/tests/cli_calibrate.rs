@@ -619,34 +619,36 @@ fn usage_errors_exit_2() {
     }
 }
 
-#[test]
-fn the_walk_starts_where_the_trunk_is_and_a_fold_that_never_holds_is_refused() {
-    // From F&D the cycle begins with the bottom's fold. A broken tendon pulls nothing: every
-    // pull comes back to its pressure, the host declares F&D each time (the person is never
-    // asked), and at the reach the walk is refused, saying so.
-    let out = tmp("broken.toml");
+/// A walk from F&D with `fault` injected, refused (exit 1, no profile left): its words.
+fn refused_from_fd(fault: &str) -> String {
+    let out = tmp(&format!("{fault}.toml"));
     let r = host_tool(&[
         "calibrate",
         "--sim",
         "--sim-initial",
         "F&D",
         "--sim-fault",
-        "tendon-break",
+        fault,
         "--out",
         out.to_str().unwrap(),
     ]);
     let t = text(&r);
     assert_eq!(r.status.code(), Some(1), "{t}");
+    assert!(!out.exists(), "no profile left: {t}");
     assert!(
         t.contains("calibrate 1/8: F&D → F&F by the tendons, pulls from 64 mm"),
-        "{t}"
+        "the cycle begins where the trunk is: {t}"
     );
-    assert_eq!(
-        t.matches("mm: the sealed trunk came back as it was, not folded")
-            .count(),
-        24,
-        "64 … 179 mm: {t}"
-    );
+    t
+}
+
+#[test]
+fn the_walk_starts_where_the_trunk_is_and_a_fold_that_never_holds_is_refused() {
+    // A broken tendon pulls nothing: every pull comes back to its pressure, the host declares
+    // F&D each time (the person is never asked), and at the reach the walk is refused.
+    let t = refused_from_fd("tendon-break");
+    let back = "mm: the sealed trunk came back as it was, not folded";
+    assert_eq!(t.matches(back).count(), 24, "64 … 179 mm: {t}");
     assert!(!t.contains("simulated operator"), "{t}");
     assert!(
         t.contains(
@@ -655,7 +657,6 @@ fn the_walk_starts_where_the_trunk_is_and_a_fold_that_never_holds_is_refused() {
         ),
         "{t}"
     );
-    assert!(!out.exists(), "no profile left");
 }
 
 #[test]
@@ -664,32 +665,15 @@ fn a_leaking_trunk_is_never_declared_from_its_sealed_release() {
     // pressure falls while the pull holds its length, so the host does not declare F&D from
     // the release; the person is asked after every pull, names the fold at 104 mm, and the
     // walk is refused at the first inflation, which the device stops for the leak.
-    let out = tmp("leak.toml");
-    let r = host_tool(&[
-        "calibrate",
-        "--sim",
-        "--sim-initial",
-        "F&D",
-        "--sim-fault",
-        "leak",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let t = text(&r);
-    assert_eq!(r.status.code(), Some(1), "{t}");
+    let t = refused_from_fd("leak");
     assert!(!t.contains("came back as it was"), "{t}");
-    assert_eq!(
-        t.matches("mm: not folded (identified: the sealed release could not tell)")
-            .count(),
-        8,
-        "64 … 99 mm: {t}"
-    );
+    let asked = "mm: not folded (identified: the sealed release could not tell)";
+    assert_eq!(t.matches(asked).count(), 8, "64 … 99 mm: {t}");
     assert!(
         t.contains("calibrate 1/8: folds at 104.0 mm of pull"),
         "{t}"
     );
     assert!(t.contains("(E-08)"), "{t}");
-    assert!(!out.exists(), "no profile left");
 }
 
 #[test]

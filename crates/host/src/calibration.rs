@@ -8,8 +8,9 @@
 //! the ramp's peak before its fall ([`ramp_snap`]); a pull goes toward the tendons' reach and
 //! its stroke is the tendon length at the first buckling spike ([`pull_spikes`]); the bottom's
 //! fold, which makes no spike, is searched by pulls of growing length let out sealed
-//! ([`sealed_release`]). The sensor's zero is read at rest first. [`targets`] turns what was measured into the thresholds plans use: the snap or
-//! stroke with a margin, capped by the device's limits.
+//! ([`sealed_release`]). The sensor's zero is read at rest first. [`targets`] turns what was
+//! measured into the thresholds plans use: the snap or stroke with a margin, capped by the
+//! device's limits.
 //!
 //! What the caller adds is its own: the words it shows ([`Hooks::say`]), what it measures in
 //! each state the walk reaches ([`Hooks::at_state`]: host-tool's probe signatures), how an
@@ -536,9 +537,9 @@ pub fn sealed_release(samples: &[(f64, f64, bool)]) -> Release {
         .filter(|s| s.1 >= longest - 0.5)
         .map(|s| s.0)
         .collect();
-    let held = at_length.first().is_some_and(|&p0| {
-        p0 - at_length.iter().fold(f64::INFINITY, |a, &b| a.min(b)) <= STILL_KPA
-    });
+    let held = at_length
+        .first()
+        .is_some_and(|&p0| p0 - lowest(&at_length) <= STILL_KPA);
     let back: Vec<f64> = samples[last_pulled + 1..]
         .iter()
         .take_while(|s| !s.2)
@@ -547,10 +548,8 @@ pub fn sealed_release(samples: &[(f64, f64, bool)]) -> Release {
     // Settled: its last samples (100 ms) within the sensor's noise; a trunk still losing
     // air (a leak that could hide a fold's rise) is no evidence.
     let tail = &back[back.len().saturating_sub(5)..];
-    let still = tail.len() >= 3
-        && tail.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
-            - tail.iter().fold(f64::INFINITY, |a, &b| a.min(b))
-            <= STILL_KPA;
+    let highest = tail.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+    let still = tail.len() >= 3 && highest - lowest(tail) <= STILL_KPA;
     match back.last() {
         Some(&a) if !relieved && held && still && (a - before).abs() <= UNCHANGED_KPA => {
             Release::Unchanged
@@ -558,6 +557,10 @@ pub fn sealed_release(samples: &[(f64, f64, bool)]) -> Release {
         Some(&a) => Release::Changed(a - before),
         None => Release::Changed(f64::NAN),
     }
+}
+
+fn lowest(v: &[f64]) -> f64 {
+    v.iter().fold(f64::INFINITY, |a, &b| a.min(b))
 }
 
 /// The walk's one-step transition for `t`: toward the pressure limit with one snap, or toward
@@ -840,16 +843,20 @@ fn walk_from<I: Io, H: Hooks<I>>(
                 Measure::Pass => String::new(),
             }
         ));
+        let record = |held: bool| Measured {
+            from: from.name().into(),
+            to: to.name().into(),
+            kind: kind_name(t.kind).into(),
+            snap_kpa: Vec::new(),
+            hold_kpa: None,
+            stroke_mm: Vec::new(),
+            held,
+        };
         if what == Measure::Search {
             let found = search(d, &mut shell, &t, hooks, (n, total))?;
             let m = Measured {
-                from: from.name().into(),
-                to: to.name().into(),
-                kind: kind_name(t.kind).into(),
-                snap_kpa: Vec::new(),
-                hold_kpa: None,
                 stroke_mm: vec![round(found.length, 10.0)],
-                held: found.held,
+                ..record(found.held)
             };
             if found.at != Some(to) {
                 let why = match found.at {
@@ -878,15 +885,7 @@ fn walk_from<I: Io, H: Hooks<I>>(
         shell.samples.clear();
         let out = d.run_plan(graph, to, RunOptions::default(), &mut shell);
         let samples = std::mem::take(&mut shell.samples);
-        let mut m = Measured {
-            from: from.name().into(),
-            to: to.name().into(),
-            kind: kind_name(t.kind).into(),
-            snap_kpa: Vec::new(),
-            hold_kpa: None,
-            stroke_mm: Vec::new(),
-            held: out.steps.first().is_some_and(|r| r.ok),
-        };
+        let mut m = record(out.steps.first().is_some_and(|r| r.ok));
         let step_error = || {
             out.error()
                 .map(|e| format!("; the step: {e}"))
